@@ -1,0 +1,65 @@
+// Types, constants and the per-dispatch parameters shared by every module.
+
+const PI: f32 = 3.14159265358979;
+const INV_PI: f32 = 0.318309886183791;
+const F32_MAX: f32 = 3.40282347e38;
+
+// Pipeline-overridable: a change rebuilds the pipeline, and the compiler folds
+// them into the code, so loops and branches on them cost nothing at run time.
+override MAX_DEPTH: u32 = 50u;
+override LIGHT_WEIGHT: f32 = 0.5;
+
+// Mirrors `gpu::layout::Params`.
+struct Params {
+    origin: vec3<f32>,
+    width: u32,
+    pixel00: vec3<f32>,
+    height: u32,
+    delta_u: vec3<f32>,
+    sample_start: u32,
+    delta_v: vec3<f32>,
+    sample_count: u32,
+    background: vec3<f32>,
+    seed: u32,
+    tile_origin: vec2<u32>,
+    tile_size: vec2<u32>,
+    // Ray origins move this far off a surface: a fixed fraction of the scene's
+    // size, so the same scene renders the same at any scale.
+    ray_offset: f32,
+    // 1: this dispatch starts the accumulation (ignore what the accumulator holds).
+    reset: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// Mirrors `gpu::layout::Counters`.
+struct Counters {
+    // Samples whose radiance was NaN or infinite, replaced by zero.
+    discarded: atomic<u32>,
+}
+
+struct Ray {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+}
+
+struct Hit {
+    t: f32,
+    p: vec3<f32>,
+    // Geometric normal on the object's outward side (not flipped toward the ray).
+    normal: vec3<f32>,
+    material: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(2) var<storage, read_write> counters: Counters;
+
+fn no_hit() -> Hit {
+    return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), 0u);
+}
+
+// Moves a point off a surface on the side `dir` leaves toward.
+fn offset_origin(p: vec3<f32>, normal: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+    let side = select(-1.0, 1.0, dot(dir, normal) >= 0.0);
+    return p + normal * (side * params.ray_offset);
+}

@@ -1,0 +1,129 @@
+// The path tracing kernel: one invocation per pixel traces `sample_count` paths
+// in sample-index order. A lane whose path ends starts its next sample at once
+// instead of idling until the longest path of its SIMD group is done.
+//
+// Running sums are compensated (Kahan): the accumulator holds each sum and its
+// compensation, so the mean stays exact to f32 rounding after any number of
+// samples, and the arithmetic per pixel does not depend on how samples are split
+// across dispatches.
+
+const LAYER_SUM: u32 = 0u;
+const LAYER_SUM_COMPENSATION: u32 = 1u;
+const LAYER_SQUARES: u32 = 2u;
+const LAYER_SQUARES_COMPENSATION: u32 = 3u;
+
+struct CompensatedSum {
+    sum: vec3<f32>,
+    compensation: vec3<f32>,
+}
+
+fn compensated_add(acc: ptr<function, CompensatedSum>, value: vec3<f32>) {
+    let y = value - (*acc).compensation;
+    let t = (*acc).sum + y;
+    (*acc).compensation = (t - (*acc).sum) - y;
+    (*acc).sum = t;
+}
+
+fn load_sum(pixel: vec2<u32>, layer: u32, compensation_layer: u32) -> CompensatedSum {
+    if params.reset != 0u {
+        return CompensatedSum(vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    return CompensatedSum(
+        accumulator_load(pixel, layer).xyz,
+        accumulator_load(pixel, compensation_layer).xyz,
+    );
+}
+
+fn store_sum(pixel: vec2<u32>, layer: u32, compensation_layer: u32, acc: CompensatedSum) {
+    accumulator_store(pixel, layer, vec4<f32>(acc.sum, 0.0));
+    accumulator_store(pixel, compensation_layer, vec4<f32>(acc.compensation, 0.0));
+}
+
+// Tested on the bits (all-ones exponent: NaN or infinity), which no
+// floating-point optimisation of the driver's compiler can assume away.
+fn all_finite(v: vec3<f32>) -> bool {
+    let exponent = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
+    return all(exponent != vec3<u32>(0x7f800000u));
+}
+
+// A camera ray through a uniformly jittered point of the pixel (box filter).
+fn camera_ray(pixel: vec2<u32>) -> Ray {
+    let jitter = vec2<f32>(rand(), rand());
+    let film = params.pixel00
+        + (f32(pixel.x) + jitter.x - 0.5) * params.delta_u
+        + (f32(pixel.y) + jitter.y - 0.5) * params.delta_v;
+    return Ray(params.origin, normalize(film - params.origin));
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn render(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.tile_size.x || id.y >= params.tile_size.y {
+        return;
+    }
+    let pixel = params.tile_origin + id.xy;
+    let pixel_index = pixel.y * params.width + pixel.x;
+
+    var radiance_sum = load_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION);
+#if VARIANCE
+    var squares_sum = load_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION);
+#endif
+
+    var samples_done = 0u;
+    rng_begin_sample(pixel_index, params.sample_start);
+    var ray = camera_ray(pixel);
+    var throughput = vec3<f32>(1.0);
+    var radiance = vec3<f32>(0.0);
+    var depth = 0u;
+    loop {
+        var path_done = false;
+        let hit = intersect_scene(ray);
+        if hit.t == F32_MAX {
+            radiance += throughput * params.background;
+            path_done = true;
+        } else {
+            let material = materials[hit.material];
+            let front_face = dot(ray.dir, hit.normal) < 0.0;
+            if front_face {
+                radiance += throughput * material.emit;
+            }
+            if depth == MAX_DEPTH {
+                path_done = true;
+            } else {
+                let n = select(-hit.normal, hit.normal, front_face);
+                let scattered = scatter(material, n, ray.dir, hit.p + n * params.ray_offset, front_face);
+                if scattered.absorbed {
+                    path_done = true;
+                } else {
+                    throughput *= scattered.weight;
+                    ray = Ray(offset_origin(hit.p, hit.normal, scattered.dir), scattered.dir);
+                    depth += 1u;
+                }
+            }
+        }
+        if path_done {
+            // A NaN or infinite sample would poison the pixel forever: count it, add zero.
+            if !all_finite(radiance) {
+                atomicAdd(&counters.discarded, 1u);
+                radiance = vec3<f32>(0.0);
+            }
+            compensated_add(&radiance_sum, radiance);
+#if VARIANCE
+            compensated_add(&squares_sum, radiance * radiance);
+#endif
+            samples_done += 1u;
+            if samples_done == params.sample_count {
+                break;
+            }
+            rng_begin_sample(pixel_index, params.sample_start + samples_done);
+            ray = camera_ray(pixel);
+            throughput = vec3<f32>(1.0);
+            radiance = vec3<f32>(0.0);
+            depth = 0u;
+        }
+    }
+
+    store_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, radiance_sum);
+#if VARIANCE
+    store_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, squares_sum);
+#endif
+}

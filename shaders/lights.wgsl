@@ -1,0 +1,57 @@
+// The light density p_light: the average of the solid-angle densities of every
+// object in the light density (emitters, and objects marked for importance).
+// Choosing one object uniformly and sampling it draws from exactly this density.
+
+#if LIGHT_QUADS
+@group(1) @binding(3) var<storage, read> light_quads: array<Quad>;
+#endif
+#if LIGHT_SPHERES
+@group(1) @binding(4) var<storage, read> light_spheres: array<Sphere>;
+#endif
+
+fn light_quad_count() -> u32 {
+#if LIGHT_QUADS
+    return arrayLength(&light_quads);
+#else
+    return 0u;
+#endif
+}
+
+fn light_sphere_count() -> u32 {
+#if LIGHT_SPHERES
+    return arrayLength(&light_spheres);
+#else
+    return 0u;
+#endif
+}
+
+fn light_sample(origin: vec3<f32>) -> vec3<f32> {
+    let quad_count = light_quad_count();
+    let count = quad_count + light_sphere_count();
+    let k = min(u32(rand() * f32(count)), count - 1u);
+#if LIGHT_QUADS
+    if k < quad_count {
+        return quad_light_sample(light_quads[k], origin);
+    }
+#endif
+#if LIGHT_SPHERES
+    return sphere_light_sample(light_spheres[k - quad_count], origin);
+#else
+    return vec3<f32>(0.0, 1.0, 0.0); // unreachable: k < quad_count
+#endif
+}
+
+fn light_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {
+    var total = 0.0;
+#if LIGHT_QUADS
+    for (var i = 0u; i < arrayLength(&light_quads); i++) {
+        total += quad_light_pdf(light_quads[i], origin, dir);
+    }
+#endif
+#if LIGHT_SPHERES
+    for (var i = 0u; i < arrayLength(&light_spheres); i++) {
+        total += sphere_light_pdf(light_spheres[i], origin, dir);
+    }
+#endif
+    return total / f32(light_quad_count() + light_sphere_count());
+}

@@ -1,0 +1,117 @@
+// Materials: how a hit emits and scatters. Only the kinds the scene uses are
+// compiled in; a material of any other kind (a light) absorbs.
+
+const MATERIAL_LAMBERTIAN: u32 = 0u;
+const MATERIAL_METAL: u32 = 1u;
+const MATERIAL_DIELECTRIC: u32 = 2u;
+const MATERIAL_LIGHT: u32 = 3u;
+
+// Mirrors `gpu::layout::Material`.
+struct Material {
+    albedo: vec3<f32>,
+    kind: u32,
+    // Radiance leaving the side the normal faces.
+    emit: vec3<f32>,
+    // Metal: fuzz. Dielectric: index of refraction.
+    param: f32,
+}
+
+@group(1) @binding(0) var<storage, read> materials: array<Material>;
+
+struct Scatter {
+    dir: vec3<f32>,
+    // Multiplies the path throughput: attenuation, times s / p for sampled directions.
+    weight: vec3<f32>,
+    absorbed: bool,
+}
+
+fn absorbed() -> Scatter {
+    return Scatter(vec3<f32>(0.0), vec3<f32>(0.0), true);
+}
+
+#if LAMBERTIAN
+// One direction from the run's density p (cosine, light or their mixture), weighted
+// by albedo * s / p with s = cos / pi, the Lambertian scattering density.
+fn scatter_lambertian(albedo: vec3<f32>, n: vec3<f32>, origin: vec3<f32>) -> Scatter {
+#if STRATEGY_COSINE
+    // s / p = 1 exactly.
+    return Scatter(sample_cosine(n), albedo, false);
+#else
+#if STRATEGY_LIGHT
+    let dir = light_sample(origin);
+    let pdf = light_pdf(origin, dir);
+#else
+    var dir: vec3<f32>;
+    if rand() < LIGHT_WEIGHT {
+        dir = light_sample(origin);
+    } else {
+        dir = sample_cosine(n);
+    }
+    // The full mixture density of the chosen direction, whichever part drew it.
+    let pdf = LIGHT_WEIGHT * light_pdf(origin, dir) + (1.0 - LIGHT_WEIGHT) * cosine_pdf(n, dir);
+#endif
+    let s = cosine_pdf(n, dir);
+    // A direction below the surface contributes exactly zero.
+    if s <= 0.0 || pdf <= 0.0 {
+        return absorbed();
+    }
+    return Scatter(dir, albedo * (s / pdf), false);
+#endif
+}
+#endif
+
+#if METAL
+fn scatter_metal(albedo: vec3<f32>, fuzz: f32, n: vec3<f32>, in_dir: vec3<f32>) -> Scatter {
+    let dir = normalize(reflect(in_dir, n) + fuzz * random_unit_vector());
+    if dot(dir, n) <= 0.0 {
+        return absorbed();
+    }
+    return Scatter(dir, albedo, false);
+}
+#endif
+
+#if DIELECTRIC
+// Schlick's approximation of Fresnel reflectance, as the book.
+fn schlick(cosine: f32, eta: f32) -> f32 {
+    var r0 = (1.0 - eta) / (1.0 + eta);
+    r0 = r0 * r0;
+    return r0 + (1.0 - r0) * pow(1.0 - cosine, 5.0);
+}
+
+fn scatter_dielectric(ior: f32, n: vec3<f32>, in_dir: vec3<f32>, front_face: bool) -> Scatter {
+    let eta = select(ior, 1.0 / ior, front_face);
+    let cos_theta = min(dot(-in_dir, n), 1.0);
+    let sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
+    var dir: vec3<f32>;
+    if eta * sin_theta > 1.0 || schlick(cos_theta, eta) > rand() {
+        dir = reflect(in_dir, n);
+    } else {
+        dir = refract(in_dir, n, eta);
+    }
+    return Scatter(normalize(dir), vec3<f32>(1.0), false);
+}
+#endif
+
+// `n` faces the incoming ray.
+fn scatter(material: Material, n: vec3<f32>, in_dir: vec3<f32>, origin: vec3<f32>, front_face: bool) -> Scatter {
+    switch material.kind {
+#if LAMBERTIAN
+        case MATERIAL_LAMBERTIAN: {
+            return scatter_lambertian(material.albedo, n, origin);
+        }
+#endif
+#if METAL
+        case MATERIAL_METAL: {
+            return scatter_metal(material.albedo, material.param, n, in_dir);
+        }
+#endif
+#if DIELECTRIC
+        case MATERIAL_DIELECTRIC: {
+            return scatter_dielectric(material.param, n, in_dir, front_face);
+        }
+#endif
+        default: {
+            return absorbed();
+        }
+    }
+}

@@ -1,0 +1,48 @@
+// Quads: points q + a u + b v for a, b in [0, 1]; normal normalize(u x v).
+
+// Mirrors `gpu::layout::Quad`. Plane and barycentric terms are precomputed on the host.
+struct Quad {
+    q: vec3<f32>,
+    material: u32,
+    u: vec3<f32>,
+    // dot(normal, q): the plane is dot(normal, x) = plane_d.
+    plane_d: f32,
+    v: vec3<f32>,
+    area: f32,
+    normal: vec3<f32>,
+    _pad0: u32,
+    // (u x v) / |u x v|^2, so a = dot(w, p x v) and b = dot(w, u x p).
+    w: vec3<f32>,
+    _pad1: u32,
+}
+
+// Distance along the ray to the quad in (0, t_max), or -1. A ray parallel to the
+// plane divides by zero; the NaN or infinity fails the range test, as it should.
+fn quad_hit_t(quad: Quad, ray: Ray, t_max: f32) -> f32 {
+    let t = (quad.plane_d - dot(quad.normal, ray.origin)) / dot(quad.normal, ray.dir);
+    if !(t > 0.0 && t < t_max) {
+        return -1.0;
+    }
+    let planar = ray.origin + t * ray.dir - quad.q;
+    let a = dot(quad.w, cross(planar, quad.v));
+    let b = dot(quad.w, cross(quad.u, planar));
+    if a < 0.0 || a > 1.0 || b < 0.0 || b > 1.0 {
+        return -1.0;
+    }
+    return t;
+}
+
+// Direction from `origin` to a uniformly chosen point on the quad.
+fn quad_light_sample(quad: Quad, origin: vec3<f32>) -> vec3<f32> {
+    let target_point = quad.q + rand() * quad.u + rand() * quad.v;
+    return normalize(target_point - origin);
+}
+
+// Solid-angle density of `quad_light_sample`: d^2 / (|cos| A) where the ray meets the quad.
+fn quad_light_pdf(quad: Quad, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let t = quad_hit_t(quad, Ray(origin, dir), F32_MAX);
+    if t < 0.0 {
+        return 0.0;
+    }
+    return (t * t) / (abs(dot(dir, quad.normal)) * quad.area);
+}

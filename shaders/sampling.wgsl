@@ -1,0 +1,32 @@
+// Direction sampling on the hemisphere and the sphere, and orthonormal bases.
+
+// Branchless basis around unit `n` (Duff et al., "Building an Orthonormal Basis, Revisited", 2017).
+fn onb_to_world(n: vec3<f32>, local: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let s = vec3<f32>(b, sign + n.y * n.y * a, -n.y);
+    return t * local.x + s * local.y + n * local.z;
+}
+
+// Cosine-weighted direction about unit `n`; density cos(theta) / pi.
+fn sample_cosine(n: vec3<f32>) -> vec3<f32> {
+    let r1 = rand();
+    let r2 = rand();
+    let phi = 2.0 * PI * r1;
+    let sin_theta = sqrt(r2);
+    let local = vec3<f32>(cos(phi) * sin_theta, sin(phi) * sin_theta, sqrt(1.0 - r2));
+    return normalize(onb_to_world(n, local));
+}
+
+fn cosine_pdf(n: vec3<f32>, dir: vec3<f32>) -> f32 {
+    return max(dot(n, dir), 0.0) * INV_PI;
+}
+
+fn random_unit_vector() -> vec3<f32> {
+    let z = 1.0 - 2.0 * rand();
+    let phi = 2.0 * PI * rand();
+    let r = sqrt(max(0.0, 1.0 - z * z));
+    return vec3<f32>(r * cos(phi), r * sin(phi), z);
+}

@@ -1,0 +1,73 @@
+// Spheres, with outward normals.
+
+// Mirrors `gpu::layout::Sphere`.
+struct Sphere {
+    center: vec3<f32>,
+    radius: f32,
+    material: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// Distance along the (unit-direction) ray to the sphere in (0, t_max), or -1.
+// The discriminant is r^2 - |perpendicular offset|^2, which keeps its precision
+// for small or distant spheres (Haines et al., Ray Tracing Gems, ch. 7).
+fn sphere_hit_t(sphere: Sphere, ray: Ray, t_max: f32) -> f32 {
+    let to_center = sphere.center - ray.origin;
+    let along = dot(ray.dir, to_center);
+    let perpendicular = to_center - along * ray.dir;
+    let disc = sphere.radius * sphere.radius - dot(perpendicular, perpendicular);
+    if disc < 0.0 {
+        return -1.0;
+    }
+    let half_chord = sqrt(disc);
+    let near = along - half_chord;
+    if near > 0.0 && near < t_max {
+        return near;
+    }
+    let far = along + half_chord;
+    if far > 0.0 && far < t_max {
+        return far;
+    }
+    return -1.0;
+}
+
+// 1 - cos(theta_max) of the cone the sphere subtends, computed without cancellation
+// so a pin-point sphere still gets a finite density.
+fn sphere_cone_one_minus_cos(radius: f32, dist2: f32) -> f32 {
+    let sin2 = radius * radius / dist2;
+    return sin2 / (1.0 + sqrt(max(0.0, 1.0 - sin2)));
+}
+
+// Uniform direction within the cone the sphere subtends from `origin`
+// (uniform over all directions when `origin` is inside the sphere).
+fn sphere_light_sample(sphere: Sphere, origin: vec3<f32>) -> vec3<f32> {
+    let to_center = sphere.center - origin;
+    let dist2 = dot(to_center, to_center);
+    if dist2 <= sphere.radius * sphere.radius {
+        return random_unit_vector();
+    }
+    let one_minus_cos_max = sphere_cone_one_minus_cos(sphere.radius, dist2);
+    let phi = 2.0 * PI * rand();
+    let one_minus_z = rand() * one_minus_cos_max;
+    let sin_theta = sqrt(one_minus_z * (2.0 - one_minus_z));
+    let local = vec3<f32>(cos(phi) * sin_theta, sin(phi) * sin_theta, 1.0 - one_minus_z);
+    return normalize(onb_to_world(to_center * inverseSqrt(dist2), local));
+}
+
+// Solid-angle density of `sphere_light_sample`.
+fn sphere_light_pdf(sphere: Sphere, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let to_center = sphere.center - origin;
+    let dist2 = dot(to_center, to_center);
+    let r2 = sphere.radius * sphere.radius;
+    if dist2 <= r2 {
+        return 1.0 / (4.0 * PI);
+    }
+    let along = dot(dir, to_center);
+    let perpendicular = to_center - along * dir;
+    if along <= 0.0 || dot(perpendicular, perpendicular) > r2 {
+        return 0.0;
+    }
+    return 1.0 / (2.0 * PI * sphere_cone_one_minus_cos(sphere.radius, dist2));
+}

@@ -1,0 +1,130 @@
+//! The running sums on the device and their readback.
+
+use super::context::GpuContext;
+use crate::kernel::AccumulatorKind;
+
+/// Bytes per pixel per layer (one `vec4<f32>`).
+const TEXEL_BYTES: u32 = 16;
+
+enum Storage {
+    Texture { texture: wgpu::Texture, view: wgpu::TextureView },
+    Buffer(wgpu::Buffer),
+}
+
+/// `layers` images of `vec4<f32>` per pixel: each running sum and its compensation.
+pub struct Accumulator {
+    pub width: u32,
+    pub height: u32,
+    pub layers: u32,
+    storage: Storage,
+}
+
+impl Accumulator {
+    pub fn new(ctx: &GpuContext, kind: AccumulatorKind, width: u32, height: u32, layers: u32) -> Accumulator {
+        let storage = match kind {
+            AccumulatorKind::Texture => {
+                let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("accumulator"),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: layers },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba32Float,
+                    usage: wgpu::TextureUsages::STORAGE_BINDING
+                        | wgpu::TextureUsages::COPY_SRC
+                        | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                });
+                let view = texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2Array),
+                    ..Default::default()
+                });
+                Storage::Texture { texture, view }
+            }
+            AccumulatorKind::Buffer => Storage::Buffer(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("accumulator"),
+                size: Self::layer_bytes(width, height) * layers as u64,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })),
+        };
+        Accumulator { width, height, layers, storage }
+    }
+
+    fn layer_bytes(width: u32, height: u32) -> u64 {
+        width as u64 * height as u64 * TEXEL_BYTES as u64
+    }
+
+    /// Row pitch of a texture copy: a multiple of 256 bytes.
+    fn padded_row_bytes(&self) -> u32 {
+        (self.width * TEXEL_BYTES).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+    }
+
+    pub fn binding(&self) -> wgpu::BindingResource<'_> {
+        match &self.storage {
+            Storage::Texture { view, .. } => wgpu::BindingResource::TextureView(view),
+            Storage::Buffer(buffer) => buffer.as_entire_binding(),
+        }
+    }
+
+    /// Every layer, row-major, top row first (`layers * width * height` texels).
+    pub fn read(&self, ctx: &GpuContext) -> Vec<[f32; 4]> {
+        let row_bytes = self.width * TEXEL_BYTES;
+        let (padded_row, rows) = match self.storage {
+            Storage::Texture { .. } => (self.padded_row_bytes(), self.height * self.layers),
+            Storage::Buffer(_) => (row_bytes, self.height * self.layers),
+        };
+        let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("accumulator readback"),
+            size: padded_row as u64 * rows as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        match &self.storage {
+            Storage::Texture { texture, .. } => encoder.copy_texture_to_buffer(
+                texture.as_image_copy(),
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &staging,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(padded_row),
+                        rows_per_image: Some(self.height),
+                    },
+                },
+                wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: self.layers },
+            ),
+            Storage::Buffer(buffer) => encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, staging.size()),
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let texels = map_read(ctx, &staging, |bytes| {
+            let mut texels = Vec::with_capacity((self.width * rows) as usize);
+            for row in bytes.chunks_exact(padded_row as usize) {
+                texels.extend_from_slice(bytemuck::cast_slice(&row[..row_bytes as usize]));
+            }
+            texels
+        });
+        staging.destroy();
+        texels
+    }
+}
+
+/// Maps `buffer` for reading, waits, and hands its bytes to `read`.
+pub fn map_read<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> T) -> T {
+    let (sender, receiver) = std::sync::mpsc::channel();
+    buffer.map_async(wgpu::MapMode::Read, .., move |result| {
+        let _ = sender.send(result);
+    });
+    ctx.device
+        .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+        .expect("device lost while reading back");
+    receiver
+        .recv()
+        .expect("map callback dropped")
+        .expect("mapping the readback buffer failed");
+    let value = read(&buffer.get_mapped_range(..).expect("mapped range"));
+    buffer.unmap();
+    value
+}

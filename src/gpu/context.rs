@@ -1,0 +1,127 @@
+//! Adapter choice and the device.
+
+use std::fmt;
+
+/// Why no device could be had, in words a user can act on.
+#[derive(Debug)]
+pub enum GpuError {
+    NoAdapter,
+    NoMatchingAdapter { wanted: String, available: Vec<String> },
+    Device(String),
+}
+
+impl fmt::Display for GpuError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            GpuError::NoAdapter => write!(
+                f,
+                "no GPU adapter found (pathmix needs Vulkan, Metal or DirectX 12). Without a GPU, \
+                 install Mesa's software Vulkan driver (lavapipe): \
+                 `sudo apt-get install mesa-vulkan-drivers libvulkan1` on Debian/Ubuntu, \
+                 `sudo dnf install mesa-vulkan-drivers` on Fedora"
+            ),
+            GpuError::NoMatchingAdapter { wanted, available } => write!(
+                f,
+                "no adapter's name contains `{wanted}` (from --adapter or PATHMIX_ADAPTER); \
+                 available: {}",
+                available.join("; ")
+            ),
+            GpuError::Device(message) => write!(f, "could not open the GPU device: {message}"),
+        }
+    }
+}
+
+impl std::error::Error for GpuError {}
+
+/// An open device and what the renderer needs to know about it.
+pub struct GpuContext {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// Read-write `rgba32float` storage textures are available (else the buffer accumulator is used).
+    pub storage_texture_accumulator: bool,
+}
+
+impl GpuContext {
+    /// Opens the best adapter, or the first whose name contains `name_filter`
+    /// (case-insensitive; `None` reads `PATHMIX_ADAPTER`).
+    pub fn new(name_filter: Option<&str>) -> Result<GpuContext, GpuError> {
+        let env_filter = std::env::var("PATHMIX_ADAPTER").ok().filter(|s| !s.is_empty());
+        let filter = name_filter.map(str::to_string).or(env_filter);
+        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if wgpu::Backends::from_env().is_none() {
+            descriptor.backends = wgpu::Backends::PRIMARY;
+        }
+        let instance = wgpu::Instance::new(descriptor);
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(descriptor_backends()));
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter);
+        }
+        // Real GPUs first, software last; the order is stable otherwise.
+        adapters.sort_by_key(|a| match a.get_info().device_type {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu => 2,
+            wgpu::DeviceType::Cpu => 3,
+            wgpu::DeviceType::Other => 4,
+        });
+        let adapter = match &filter {
+            None => adapters.swap_remove(0),
+            Some(wanted) => {
+                let wanted_lower = wanted.to_lowercase();
+                match adapters
+                    .iter()
+                    .position(|a| a.get_info().name.to_lowercase().contains(&wanted_lower))
+                {
+                    Some(index) => adapters.swap_remove(index),
+                    None => {
+                        return Err(GpuError::NoMatchingAdapter {
+                            wanted: wanted.clone(),
+                            available: adapters.iter().map(|a| describe(&a.get_info())).collect(),
+                        });
+                    }
+                }
+            }
+        };
+        Self::open(adapter)
+    }
+
+    fn open(adapter: wgpu::Adapter) -> Result<GpuContext, GpuError> {
+        let info = adapter.get_info();
+        let format = adapter.get_texture_format_features(wgpu::TextureFormat::Rgba32Float);
+        let adapter_specific = wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+        let storage_texture_accumulator = adapter.features().contains(adapter_specific)
+            && format.flags.contains(wgpu::TextureFormatFeatureFlags::STORAGE_READ_WRITE);
+        let mut required_features = wgpu::Features::empty();
+        if storage_texture_accumulator {
+            required_features |= adapter_specific;
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("pathmix"),
+            required_features,
+            // Large images need the adapter's full buffer and texture limits.
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        Ok(GpuContext { adapter, device, queue, info, storage_texture_accumulator })
+    }
+
+    /// "name (backend, device type)".
+    pub fn describe(&self) -> String {
+        describe(&self.info)
+    }
+
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+}
+
+fn descriptor_backends() -> wgpu::Backends {
+    wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY)
+}
+
+fn describe(info: &wgpu::AdapterInfo) -> String {
+    format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type)
+}

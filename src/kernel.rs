@@ -1,0 +1,300 @@
+//! What the compute kernel contains for a given scene and run: the WGSL modules
+//! and flags (code for absent features is not compiled in) and the pipeline
+//! constants. Device-free, so every variant is validated by naga in `cargo test`.
+
+use crate::gpu::layout::{
+    MATERIAL_DIELECTRIC, MATERIAL_LAMBERTIAN, MATERIAL_METAL, SceneData,
+};
+use crate::scene::Strategy;
+use crate::shader::{ComposeError, ShaderModule, compose};
+use std::collections::BTreeSet;
+
+macro_rules! shader_module {
+    ($name:literal) => {
+        ShaderModule { name: $name, source: include_str!(concat!("../shaders/", $name, ".wgsl")) }
+    };
+}
+
+pub const COMMON: ShaderModule = shader_module!("common");
+pub const RNG: ShaderModule = shader_module!("rng");
+pub const SAMPLING: ShaderModule = shader_module!("sampling");
+pub const QUAD: ShaderModule = shader_module!("quad");
+pub const SPHERE: ShaderModule = shader_module!("sphere");
+pub const SCENE: ShaderModule = shader_module!("scene");
+pub const LIGHTS: ShaderModule = shader_module!("lights");
+pub const MATERIALS: ShaderModule = shader_module!("materials");
+pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture");
+pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
+pub const KERNEL: ShaderModule = shader_module!("kernel");
+
+/// Every flag a module may test.
+pub const FLAGS: &[&str] = &[
+    "QUADS",
+    "SPHERES",
+    "LIGHT_QUADS",
+    "LIGHT_SPHERES",
+    "LAMBERTIAN",
+    "METAL",
+    "DIELECTRIC",
+    "STRATEGY_COSINE",
+    "STRATEGY_LIGHT",
+    "VARIANCE",
+];
+
+pub const ENTRY_POINT: &str = "render";
+pub const WORKGROUP_SIZE: (u32, u32) = (8, 8);
+
+/// Where the running sums live.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AccumulatorKind {
+    /// A read-write `rgba32float` storage texture array (adapter-specific feature).
+    Texture,
+    /// A storage buffer: works on every adapter.
+    Buffer,
+}
+
+/// Bindings of group 1, the scene. Present only when the kernel declares them.
+pub const BINDING_MATERIALS: u32 = 0;
+pub const BINDING_QUADS: u32 = 1;
+pub const BINDING_SPHERES: u32 = 2;
+pub const BINDING_LIGHT_QUADS: u32 = 3;
+pub const BINDING_LIGHT_SPHERES: u32 = 4;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct KernelConfig {
+    pub quads: bool,
+    pub spheres: bool,
+    pub lambertian: bool,
+    pub metal: bool,
+    pub dielectric: bool,
+    /// The light density is sampled (a Lambertian surface exists and the strategy uses it).
+    pub light_quads: bool,
+    pub light_spheres: bool,
+    pub strategy: Strategy,
+    pub max_depth: u32,
+    pub light_weight: f32,
+    pub accumulator: AccumulatorKind,
+    /// Accumulate squared samples too, for per-pixel error estimates.
+    pub variance: bool,
+}
+
+impl KernelConfig {
+    /// The kernel for `data`; `strategy` must have objects to aim at unless it is cosine.
+    pub fn for_scene(
+        data: &SceneData,
+        strategy: Strategy,
+        max_depth: u32,
+        light_weight: f32,
+        accumulator: AccumulatorKind,
+        variance: bool,
+    ) -> KernelConfig {
+        let lambertian = data.uses_material(MATERIAL_LAMBERTIAN);
+        let samples_lights = lambertian && strategy != Strategy::Cosine;
+        KernelConfig {
+            quads: !data.quads.is_empty(),
+            spheres: !data.spheres.is_empty(),
+            lambertian,
+            metal: data.uses_material(MATERIAL_METAL),
+            dielectric: data.uses_material(MATERIAL_DIELECTRIC),
+            light_quads: samples_lights && !data.light_quads.is_empty(),
+            light_spheres: samples_lights && !data.light_spheres.is_empty(),
+            strategy,
+            max_depth,
+            light_weight,
+            accumulator,
+            variance,
+        }
+    }
+
+    /// Everything compiled in: the kernel any scene could use.
+    pub fn general(strategy: Strategy, accumulator: AccumulatorKind) -> KernelConfig {
+        KernelConfig {
+            quads: true,
+            spheres: true,
+            lambertian: true,
+            metal: true,
+            dielectric: true,
+            light_quads: strategy != Strategy::Cosine,
+            light_spheres: strategy != Strategy::Cosine,
+            strategy,
+            max_depth: 50,
+            light_weight: 0.5,
+            accumulator,
+            variance: true,
+        }
+    }
+
+    pub fn samples_lights(&self) -> bool {
+        self.light_quads || self.light_spheres
+    }
+
+    pub fn flags(&self) -> BTreeSet<&'static str> {
+        let pairs = [
+            ("QUADS", self.quads),
+            ("SPHERES", self.spheres),
+            ("LIGHT_QUADS", self.light_quads),
+            ("LIGHT_SPHERES", self.light_spheres),
+            ("LAMBERTIAN", self.lambertian),
+            ("METAL", self.metal),
+            ("DIELECTRIC", self.dielectric),
+            ("STRATEGY_COSINE", self.strategy == Strategy::Cosine),
+            ("STRATEGY_LIGHT", self.strategy == Strategy::Light),
+            ("VARIANCE", self.variance),
+        ];
+        pairs.into_iter().filter(|&(_, on)| on).map(|(flag, _)| flag).collect()
+    }
+
+    pub fn modules(&self) -> Vec<ShaderModule> {
+        let mut modules = vec![COMMON, RNG, SAMPLING];
+        if self.quads || self.light_quads {
+            modules.push(QUAD);
+        }
+        if self.spheres || self.light_spheres {
+            modules.push(SPHERE);
+        }
+        modules.push(SCENE);
+        if self.samples_lights() {
+            modules.push(LIGHTS);
+        }
+        modules.push(MATERIALS);
+        modules.push(match self.accumulator {
+            AccumulatorKind::Texture => ACCUMULATE_TEXTURE,
+            AccumulatorKind::Buffer => ACCUMULATE_BUFFER,
+        });
+        modules.push(KERNEL);
+        modules
+    }
+
+    pub fn source(&self) -> Result<String, ComposeError> {
+        compose(&self.modules(), &self.flags(), FLAGS)
+    }
+
+    /// Values of the WGSL `override` constants.
+    pub fn constants(&self) -> Vec<(&'static str, f64)> {
+        vec![("MAX_DEPTH", self.max_depth as f64), ("LIGHT_WEIGHT", self.light_weight as f64)]
+    }
+
+    /// Scene bindings (group 1) the kernel declares.
+    pub fn scene_bindings(&self) -> Vec<u32> {
+        let mut bindings = vec![BINDING_MATERIALS];
+        for (binding, present) in [
+            (BINDING_QUADS, self.quads),
+            (BINDING_SPHERES, self.spheres),
+            (BINDING_LIGHT_QUADS, self.light_quads),
+            (BINDING_LIGHT_SPHERES, self.light_spheres),
+        ] {
+            if present {
+                bindings.push(binding);
+            }
+        }
+        bindings
+    }
+
+    /// Running sums the accumulator holds: each sum and its compensation.
+    pub fn accumulator_layers(&self) -> u32 {
+        if self.variance { 4 } else { 2 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::{Counters, GpuLayout, Material, Params, Quad, Sphere};
+
+    fn parse(config: &KernelConfig) -> naga::Module {
+        let source = config.source().unwrap();
+        naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("{config:?}\n{}", e.emit_to_string(&source)))
+    }
+
+    pub(crate) fn validate(config: &KernelConfig) -> naga::Module {
+        let module = parse(config);
+        let source = config.source().unwrap();
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{config:?}\n{}", e.emit_to_string(&source)));
+        module
+    }
+
+    fn all_variants() -> Vec<KernelConfig> {
+        let mut configs = Vec::new();
+        for strategy in Strategy::ALL {
+            for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
+                let general = KernelConfig::general(strategy, accumulator);
+                for mask in 0..(1 << 6) {
+                    let bit = |i: u32| mask & (1 << i) != 0;
+                    let mut config = KernelConfig {
+                        quads: bit(0),
+                        spheres: bit(1),
+                        lambertian: bit(2),
+                        metal: bit(3),
+                        dielectric: bit(4),
+                        variance: bit(5),
+                        ..general.clone()
+                    };
+                    let samples = config.lambertian && strategy != Strategy::Cosine;
+                    config.light_quads = samples && config.quads;
+                    config.light_spheres = samples && !config.quads;
+                    configs.push(config);
+                }
+            }
+        }
+        configs
+    }
+
+    #[test]
+    fn every_module_combination_validates() {
+        for config in all_variants() {
+            validate(&config);
+        }
+    }
+
+    #[test]
+    fn absent_features_are_not_compiled_in() {
+        let config = KernelConfig {
+            spheres: false,
+            dielectric: false,
+            metal: false,
+            light_spheres: false,
+            ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+        };
+        let source = config.source().unwrap();
+        for absent in ["sphere_hit_t", "scatter_dielectric", "scatter_metal", "light_spheres"] {
+            assert!(!source.contains(absent), "{absent} compiled in");
+        }
+        let cosine = KernelConfig::general(Strategy::Cosine, AccumulatorKind::Buffer).source().unwrap();
+        assert!(!cosine.contains("fn light_pdf"));
+    }
+
+    fn check_layout<T: GpuLayout>(module: &naga::Module) {
+        let (members, span) = module
+            .types
+            .iter()
+            .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
+                (Some(name), naga::TypeInner::Struct { members, span }) if name == T::WGSL_NAME => {
+                    Some((members, *span))
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("struct {} not in the WGSL", T::WGSL_NAME));
+        let wgsl: Vec<(&str, usize)> = members
+            .iter()
+            .map(|m| (m.name.as_deref().unwrap(), m.offset as usize))
+            .collect();
+        assert_eq!(wgsl, T::fields(), "field offsets of {}", T::WGSL_NAME);
+        assert_eq!(span as usize, std::mem::size_of::<T>(), "size of {}", T::WGSL_NAME);
+    }
+
+    #[test]
+    fn host_structs_match_wgsl_layouts() {
+        let module = validate(&KernelConfig::general(Strategy::Mixture, AccumulatorKind::Texture));
+        check_layout::<Params>(&module);
+        check_layout::<Counters>(&module);
+        check_layout::<Material>(&module);
+        check_layout::<Quad>(&module);
+        check_layout::<Sphere>(&module);
+    }
+}

@@ -1,0 +1,15 @@
+//! pathmix: a headless GPU path tracer (wgpu compute) with mixture-PDF
+//! importance sampling. See DESIGN.md for the estimator.
+//!
+//! `scene` turns a file into a validated `Scene`; `kernel` and `shader` decide
+//! and compose the WGSL for it; `gpu` owns the device, buffers and pipeline;
+//! `render` runs the progressive accumulation; `output` and `stats` work on
+//! plain arrays.
+
+pub mod gpu;
+pub mod kernel;
+pub mod output;
+pub mod render;
+pub mod scene;
+pub mod shader;
+pub mod stats;

@@ -1,0 +1,828 @@
+//! Tone mapping and image files (PNG for viewing, EXR for linear radiance).
+//!
+//! Every file is written atomically, so an interrupted or failed write never leaves a
+//! truncated image behind or destroys the previous one.
+
+use std::ffi::OsString;
+use std::fmt;
+use std::fs::{self, File};
+use std::io::{self, BufWriter};
+use std::path::{Path, PathBuf};
+
+use exr::meta::attribute::{AttributeValue, Text};
+use exr::prelude::{
+    Encoding, Layer, LayerAttributes, ReadChannels, ReadLayers, ReadSpecificChannel,
+    SpecificChannels, Vec2, WritableImage,
+};
+use image::codecs::png::PngEncoder;
+use image::{ExtendedColorType, ImageEncoder};
+
+/// Linear radiance, row-major, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<[f32; 3]>,
+}
+
+impl Image {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Image {
+        Image {
+            width,
+            height,
+            pixels: vec![[0.0; 3]; width as usize * height as usize],
+        }
+    }
+
+    /// Panics if `(x, y)` lies outside the image.
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        // Without this, an x past the row end would silently read the next row.
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside {}x{} image",
+            self.width,
+            self.height
+        );
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    Png,
+    Exr,
+}
+
+impl ImageFormat {
+    /// From the path's extension (case-insensitive: png, exr).
+    pub fn from_path(path: &Path) -> Result<ImageFormat, OutputError> {
+        let Some(extension) = path.extension() else {
+            return Err(OutputError::writing(
+                path,
+                "no image extension (pathmix writes .png and .exr)",
+            ));
+        };
+        let extension = extension.to_string_lossy();
+        match extension.to_ascii_lowercase().as_str() {
+            "png" => Ok(ImageFormat::Png),
+            "exr" => Ok(ImageFormat::Exr),
+            _ => Err(OutputError::writing(
+                path,
+                format!("unknown image extension `.{extension}` (pathmix writes .png and .exr)"),
+            )),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            ImageFormat::Png => "PNG",
+            ImageFormat::Exr => "EXR",
+        }
+    }
+}
+
+/// Error naming the path and the problem. `message` is the whole sentence that `Display`
+/// shows, path included (e.g. "cannot write `out.jpg`: unknown image extension ...").
+#[derive(Debug)]
+pub struct OutputError {
+    pub path: PathBuf,
+    pub message: String,
+}
+
+impl OutputError {
+    fn writing(path: &Path, problem: impl fmt::Display) -> OutputError {
+        OutputError {
+            path: path.to_owned(),
+            message: format!("cannot write `{}`: {problem}", path.display()),
+        }
+    }
+
+    fn reading(path: &Path, problem: impl fmt::Display) -> OutputError {
+        OutputError {
+            path: path.to_owned(),
+            message: format!("cannot read `{}`: {problem}", path.display()),
+        }
+    }
+}
+
+impl fmt::Display for OutputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for OutputError {}
+
+/// Checks before a render starts that `path` can be written as `expected`: the extension
+/// matches, the parent folder exists and is a folder, `path` is not a folder, and a file can
+/// be created in that folder. This way a long render does not fail at the end.
+pub fn check_output_path(path: &Path, expected: ImageFormat) -> Result<(), OutputError> {
+    let format = ImageFormat::from_path(path)?;
+    if format != expected {
+        return Err(OutputError::writing(
+            path,
+            format!(
+                "the extension makes it a {} file, but {} output was requested",
+                format.name(),
+                expected.name()
+            ),
+        ));
+    }
+    let name = file_name(path)?;
+    let folder = parent_folder(path)?;
+    if path.is_dir() {
+        return Err(OutputError::writing(path, "it is a folder"));
+    }
+    // Creating a file is the only reliable permission check (ACLs, read-only mounts).
+    let probe = hidden_sibling(folder, name, "probe");
+    File::create(&probe).map_err(|e| OutputError::writing(path, e))?;
+    fs::remove_file(&probe).map_err(|e| OutputError::writing(path, e))
+}
+
+/// Linear → 8-bit sRGB: multiply by 2^exposure, clamp to [0, 1] (NaN → 0), apply the sRGB
+/// transfer function (IEC 61966-2-1 piecewise curve), round to nearest. RGB, 3 bytes per pixel.
+pub fn to_srgb8(image: &Image, exposure: f32) -> Vec<u8> {
+    let scale = f64::from(exposure).exp2();
+    image
+        .pixels
+        .iter()
+        .flatten()
+        .map(|&v| srgb8(f64::from(v) * scale))
+        .collect()
+}
+
+fn srgb8(linear: f64) -> u8 {
+    let v = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0)
+    };
+    let encoded = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (encoded * 255.0).round() as u8
+}
+
+/// 8-bit sRGB PNG of `image` tone-mapped by [`to_srgb8`].
+pub fn write_png(path: &Path, image: &Image, exposure: f32) -> Result<(), OutputError> {
+    check_pixel_count(path, image)?;
+    let bytes = to_srgb8(image, exposure);
+    write_atomically(path, |writer| {
+        PngEncoder::new(writer)
+            .write_image(&bytes, image.width, image.height, ExtendedColorType::Rgb8)
+            .map_err(io::Error::other)
+    })
+}
+
+/// Linear float RGB EXR (f32 channels R, G, B, ZIP-compressed), with extra string attributes
+/// stored as EXR header attributes of type `string`. Names of standard EXR text attributes
+/// (`software`, `comments`, `owner`, `capDate`, ...) fill those; other standard names are
+/// rejected by the exr crate. Names and values must be Latin-1, as EXR text is bytes.
+pub fn write_exr(
+    path: &Path,
+    image: &Image,
+    attributes: &[(&str, String)],
+) -> Result<(), OutputError> {
+    check_pixel_count(path, image)?;
+    let mut layer_attributes = LayerAttributes::default();
+    for (name, value) in attributes {
+        let (Some(name_text), Some(value_text)) =
+            (Text::new_or_none(name), Text::new_or_none(value))
+        else {
+            return Err(OutputError::writing(
+                path,
+                format!("EXR attribute `{name}` is not Latin-1 text"),
+            ));
+        };
+        if let Some(field) = standard_text_attribute(&mut layer_attributes, name) {
+            *field = Some(value_text);
+        } else {
+            layer_attributes
+                .other
+                .insert(name_text, AttributeValue::Text(value_text));
+        }
+    }
+    let width = image.width as usize;
+    let channels = SpecificChannels::rgb(|position: Vec2<usize>| {
+        let [r, g, b] = image.pixels[position.y() * width + position.x()];
+        (r, g, b)
+    });
+    let layer = Layer::new(
+        (width, image.height as usize),
+        layer_attributes,
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    let exr_image = exr::prelude::Image::from_layer(layer);
+    write_atomically(path, |writer| {
+        exr_image
+            .write()
+            .to_buffered(writer)
+            .map_err(io::Error::other)
+    })
+}
+
+/// Reads the R, G, B channels (f32, f16 or u32, converted to f32) of the first layer.
+pub fn read_exr(path: &Path) -> Result<Image, OutputError> {
+    read_exr_with_attributes(path).map(|(image, _)| image)
+}
+
+/// Like [`read_exr`], also returning the file's text attributes (custom and standard ones
+/// such as `software`), sorted by name.
+pub fn read_exr_with_attributes(
+    path: &Path,
+) -> Result<(Image, Vec<(String, String)>), OutputError> {
+    let mut exr_image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .specific_channels()
+        .required("R")
+        .required("G")
+        .required("B")
+        .collect_pixels(
+            // EXR sizes come from i32 bounds, so they fit in u32.
+            |size: Vec2<usize>, _| Image::new(size.width() as u32, size.height() as u32),
+            |image: &mut Image, position: Vec2<usize>, (r, g, b): (f32, f32, f32)| {
+                let index = position.y() * image.width as usize + position.x();
+                image.pixels[index] = [r, g, b];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| OutputError::reading(path, e))?;
+
+    let layer = &mut exr_image.layer_data;
+    let mut attributes: Vec<(String, String)> = STANDARD_TEXT_ATTRIBUTES
+        .iter()
+        .filter_map(|&name| {
+            let value = standard_text_attribute(&mut layer.attributes, name)?.take()?;
+            Some((name.to_owned(), value.to_string()))
+        })
+        .collect();
+    for (name, value) in exr_image
+        .attributes
+        .other
+        .iter()
+        .chain(&layer.attributes.other)
+    {
+        if let AttributeValue::Text(value) = value {
+            attributes.push((name.to_string(), value.to_string()));
+        }
+    }
+    attributes.sort();
+    let image = std::mem::replace(&mut layer.channel_data.pixels, Image::new(0, 0));
+    Ok((image, attributes))
+}
+
+/// Text attributes that the exr crate reads into dedicated `LayerAttributes` fields instead
+/// of `other`; they must be written there too or the crate rejects them as reserved.
+const STANDARD_TEXT_ATTRIBUTES: [&str; 9] = [
+    "name",
+    "software",
+    "comments",
+    "owner",
+    "capDate",
+    "view",
+    "wrapmodes",
+    "renderingTransform",
+    "lookModTransform",
+];
+
+fn standard_text_attribute<'a>(
+    attributes: &'a mut LayerAttributes,
+    name: &str,
+) -> Option<&'a mut Option<Text>> {
+    Some(match name {
+        "name" => &mut attributes.layer_name,
+        "software" => &mut attributes.software_name,
+        "comments" => &mut attributes.comments,
+        "owner" => &mut attributes.owner,
+        "capDate" => &mut attributes.capture_date,
+        "view" => &mut attributes.view_name,
+        "wrapmodes" => &mut attributes.wrap_mode_name,
+        "renderingTransform" => &mut attributes.rendering_transform_name,
+        "lookModTransform" => &mut attributes.look_modification_transform_name,
+        _ => return None,
+    })
+}
+
+/// Writes by extension: PNG at exposure 0, or EXR without attributes.
+pub fn write_image(path: &Path, image: &Image) -> Result<(), OutputError> {
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Png => write_png(path, image, 0.0),
+        ImageFormat::Exr => write_exr(path, image, &[]),
+    }
+}
+
+/// Atomic write: writes to a temporary file `.NAME.tmp-PID` in the same folder, fsyncs it and
+/// renames it over `path`. On any error the temporary is removed and `path` is untouched (a
+/// previous file stays intact; no partial file appears).
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+) -> Result<(), OutputError> {
+    let name = file_name(path)?;
+    let folder = parent_folder(path)?;
+    // Same folder, so the rename cannot cross file systems.
+    let temporary = hidden_sibling(folder, name, &format!("tmp-{}", std::process::id()));
+    let file = File::create(&temporary).map_err(|e| OutputError::writing(path, e))?;
+    if let Err(e) = write_and_rename(file, &temporary, path, write) {
+        // The write error is the one worth reporting; a failed cleanup adds nothing to act on.
+        let _ = fs::remove_file(&temporary);
+        return Err(OutputError::writing(path, e));
+    }
+    // Makes the rename itself durable; best effort, as not every platform can open folders.
+    if let Ok(folder) = File::open(folder) {
+        let _ = folder.sync_all();
+    }
+    Ok(())
+}
+
+fn write_and_rename(
+    file: File,
+    temporary: &Path,
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+) -> io::Result<()> {
+    let mut writer = BufWriter::new(file);
+    write(&mut writer)?;
+    let file = writer
+        .into_inner()
+        .map_err(io::IntoInnerError::into_error)?;
+    // Without fsync a crash after the rename could leave an empty file under the final name.
+    file.sync_all()?;
+    drop(file);
+    fs::rename(temporary, path)
+}
+
+fn file_name(path: &Path) -> Result<&std::ffi::OsStr, OutputError> {
+    path.file_name()
+        .ok_or_else(|| OutputError::writing(path, "the path does not name a file"))
+}
+
+/// The folder that `path` goes into (`.` for a bare file name), which must exist.
+fn parent_folder(path: &Path) -> Result<&Path, OutputError> {
+    let folder = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    };
+    if !folder.exists() {
+        return Err(OutputError::writing(
+            path,
+            format!("folder `{}` does not exist", folder.display()),
+        ));
+    }
+    if !folder.is_dir() {
+        return Err(OutputError::writing(
+            path,
+            format!("`{}` is not a folder", folder.display()),
+        ));
+    }
+    Ok(folder)
+}
+
+/// `folder/.NAME.SUFFIX`: hidden, so a half-written file is not mistaken for a result.
+fn hidden_sibling(folder: &Path, name: &std::ffi::OsStr, suffix: &str) -> PathBuf {
+    let mut sibling = OsString::from(".");
+    sibling.push(name);
+    sibling.push(".");
+    sibling.push(suffix);
+    folder.join(sibling)
+}
+
+fn check_pixel_count(path: &Path, image: &Image) -> Result<(), OutputError> {
+    let expected = image.width as usize * image.height as usize;
+    if image.pixels.len() != expected {
+        return Err(OutputError::writing(
+            path,
+            format!(
+                "a {}x{} image needs {expected} pixels but has {}",
+                image.width,
+                image.height,
+                image.pixels.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    /// A fresh folder under the system temp folder, removed on drop.
+    struct TestDir(PathBuf);
+
+    impl TestDir {
+        fn new(name: &str) -> TestDir {
+            let dir =
+                std::env::temp_dir().join(format!("pathmix-output-{}-{name}", std::process::id()));
+            let _ = fs::remove_dir_all(&dir);
+            fs::create_dir_all(&dir).unwrap();
+            TestDir(dir)
+        }
+
+        fn entries(&self) -> Vec<String> {
+            let mut names: Vec<String> = fs::read_dir(&self.0)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            names.sort();
+            names
+        }
+    }
+
+    impl Drop for TestDir {
+        fn drop(&mut self) {
+            let _ = fs::remove_dir_all(&self.0);
+        }
+    }
+
+    fn gray(value: f32) -> Image {
+        Image {
+            width: 1,
+            height: 1,
+            pixels: vec![[value; 3]],
+        }
+    }
+
+    fn srgb_of(value: f32, exposure: f32) -> u8 {
+        to_srgb8(&gray(value), exposure)[0]
+    }
+
+    /// A 3x2 image with values a tone mapper or codec could mangle.
+    fn test_image() -> Image {
+        Image {
+            width: 3,
+            height: 2,
+            pixels: vec![
+                [0.0, 0.25, 1.0],
+                [0.5, 2.0, 1e-3],
+                [1e30, 1e-40, -0.0],
+                [0.1, 0.2, 0.3],
+                [f32::MAX, f32::MIN_POSITIVE, 7.0],
+                [0.999, 0.001, 0.0031308],
+            ],
+        }
+    }
+
+    #[test]
+    fn image_get_is_row_major() {
+        let image = test_image();
+        assert_eq!(image.get(0, 0), [0.0, 0.25, 1.0]);
+        assert_eq!(image.get(2, 0), [1e30, 1e-40, -0.0]);
+        assert_eq!(image.get(0, 1), [0.1, 0.2, 0.3]);
+        assert_eq!(Image::new(4, 3).pixels, vec![[0.0; 3]; 12]);
+    }
+
+    #[test]
+    #[should_panic(expected = "outside 3x2 image")]
+    fn image_get_rejects_x_past_row_end() {
+        test_image().get(3, 0);
+    }
+
+    #[test]
+    fn srgb_end_points_and_midpoint() {
+        assert_eq!(srgb_of(0.0, 0.0), 0);
+        assert_eq!(srgb_of(1.0, 0.0), 255);
+        // 1.055 * 0.5^(1/2.4) - 0.055 = 0.73536 → 187.52; a plain gamma 2.2 would give 186.
+        assert_eq!(srgb_of(0.5, 0.0), 188);
+    }
+
+    #[test]
+    fn srgb_linear_segment_below_boundary() {
+        // 12.92 * 0.0031308 * 255 = 10.31, and both pieces meet there.
+        assert_eq!(srgb_of(0.003_130_8, 0.0), 10);
+        assert_eq!(srgb_of(0.003_13, 0.0), 10);
+        assert_eq!(srgb_of(0.003_132, 0.0), 10);
+        // Linear piece: 12.92 * 0.001 * 255 = 3.29; the power piece would give 1.
+        assert_eq!(srgb_of(0.001, 0.0), 3);
+    }
+
+    #[test]
+    fn srgb_clamps_and_maps_nan_to_black() {
+        assert_eq!(srgb_of(f32::NAN, 0.0), 0);
+        assert_eq!(srgb_of(f32::NAN, 3.0), 0);
+        assert_eq!(srgb_of(-1.0, 0.0), 0);
+        assert_eq!(srgb_of(1.5, 0.0), 255);
+        assert_eq!(srgb_of(f32::INFINITY, 0.0), 255);
+    }
+
+    #[test]
+    fn srgb_exposure_scales_by_powers_of_two() {
+        assert_eq!(srgb_of(0.25, 1.0), srgb_of(0.5, 0.0));
+        assert_eq!(srgb_of(1.0, -1.0), srgb_of(0.5, 0.0));
+        assert_eq!(srgb_of(0.125, 2.0), srgb_of(0.5, 0.0));
+        assert_ne!(srgb_of(0.25, 0.0), srgb_of(0.5, 0.0));
+    }
+
+    #[test]
+    fn srgb_bytes_are_rgb_in_pixel_order() {
+        let image = Image {
+            width: 2,
+            height: 1,
+            pixels: vec![[0.0, 1.0, 0.5], [1.0, 0.0, 0.0]],
+        };
+        assert_eq!(to_srgb8(&image, 0.0), vec![0, 255, 188, 255, 0, 0]);
+    }
+
+    #[test]
+    fn format_from_extension_ignores_case() {
+        assert_eq!(
+            ImageFormat::from_path(Path::new("a/b.png")).unwrap(),
+            ImageFormat::Png
+        );
+        assert_eq!(
+            ImageFormat::from_path(Path::new("b.PNG")).unwrap(),
+            ImageFormat::Png
+        );
+        assert_eq!(
+            ImageFormat::from_path(Path::new("b.Exr")).unwrap(),
+            ImageFormat::Exr
+        );
+    }
+
+    #[test]
+    fn format_rejects_unknown_or_missing_extension() {
+        let error = ImageFormat::from_path(Path::new("out/render.jpg")).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "cannot write `out/render.jpg`: unknown image extension `.jpg` (pathmix writes .png and .exr)"
+        );
+        assert_eq!(error.path, Path::new("out/render.jpg"));
+        let error = ImageFormat::from_path(Path::new("render")).unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            "cannot write `render`: no image extension (pathmix writes .png and .exr)"
+        );
+    }
+
+    #[test]
+    fn png_round_trip_matches_tone_mapping() {
+        let dir = TestDir::new("png");
+        let path = dir.0.join("out.png");
+        let image = test_image();
+        write_png(&path, &image, 0.5).unwrap();
+        let read = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(read.dimensions(), (3, 2));
+        assert_eq!(read.into_raw(), to_srgb8(&image, 0.5));
+        assert_eq!(dir.entries(), ["out.png"]);
+    }
+
+    #[test]
+    fn exr_round_trip_is_bit_exact() {
+        let dir = TestDir::new("exr");
+        let path = dir.0.join("out.exr");
+        let mut image = test_image();
+        image.pixels[3] = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+        write_exr(&path, &image, &[]).unwrap();
+        let read = read_exr(&path).unwrap();
+        assert_eq!((read.width, read.height), (3, 2));
+        let bits = |image: &Image| {
+            image
+                .pixels
+                .iter()
+                .flatten()
+                .map(|v| v.to_bits())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&read), bits(&image));
+        assert_eq!(dir.entries(), ["out.exr"]);
+    }
+
+    #[test]
+    fn exr_attributes_round_trip() {
+        let dir = TestDir::new("exr-attributes");
+        let path = dir.0.join("out.exr");
+        let attributes = [
+            ("pathmix.samples", "1024".to_owned()),
+            ("pathmix.scene", "scenes/cornell box.toml".to_owned()),
+            ("software", "pathmix 0.1.0".to_owned()),
+            ("comments", "Latin-1 is fine: café".to_owned()),
+        ];
+        write_exr(&path, &test_image(), &attributes).unwrap();
+        let (image, read) = read_exr_with_attributes(&path).unwrap();
+        assert_eq!(image, test_image());
+        let mut expected: Vec<(String, String)> = attributes
+            .iter()
+            .map(|(n, v)| (n.to_string(), v.clone()))
+            .collect();
+        expected.sort();
+        assert_eq!(read, expected);
+    }
+
+    #[test]
+    fn exr_rejects_non_latin1_attribute_without_writing() {
+        let dir = TestDir::new("exr-bad-attribute");
+        let path = dir.0.join("out.exr");
+        let error = write_exr(&path, &test_image(), &[("note", "雪".to_owned())]).unwrap_err();
+        assert!(error.to_string().contains("out.exr"), "{error}");
+        assert!(
+            error.to_string().contains("`note` is not Latin-1"),
+            "{error}"
+        );
+        assert!(dir.entries().is_empty());
+    }
+
+    #[test]
+    fn exr_rejects_reserved_attribute_without_writing() {
+        let dir = TestDir::new("exr-reserved-attribute");
+        let path = dir.0.join("out.exr");
+        let error =
+            write_exr(&path, &test_image(), &[("compression", "none".to_owned())]).unwrap_err();
+        assert!(
+            error.message.contains("`compression` is reserved"),
+            "{error}"
+        );
+        assert!(dir.entries().is_empty());
+    }
+
+    #[test]
+    fn read_exr_errors_name_the_path() {
+        let dir = TestDir::new("exr-read-errors");
+        let missing = dir.0.join("missing.exr");
+        let error = read_exr(&missing).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .starts_with(&format!("cannot read `{}`: ", missing.display())),
+            "{error}"
+        );
+
+        let png = dir.0.join("not-exr.exr");
+        write_atomically(&png, |w| w.write_all(b"\x89PNG\r\n\x1a\n")).unwrap();
+        let error = read_exr(&png).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .starts_with(&format!("cannot read `{}`: ", png.display())),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn write_image_picks_format_by_extension() {
+        let dir = TestDir::new("write-image");
+        let image = test_image();
+        write_image(&dir.0.join("a.PNG"), &image).unwrap();
+        write_image(&dir.0.join("b.exr"), &image).unwrap();
+        assert_eq!(
+            image::open(dir.0.join("a.PNG"))
+                .unwrap()
+                .to_rgb8()
+                .into_raw(),
+            to_srgb8(&image, 0.0)
+        );
+        assert_eq!(read_exr(&dir.0.join("b.exr")).unwrap(), image);
+        assert!(
+            write_image(&dir.0.join("c.jpg"), &image)
+                .unwrap_err()
+                .message
+                .contains("unknown image extension")
+        );
+        assert_eq!(dir.entries(), ["a.PNG", "b.exr"]);
+    }
+
+    #[test]
+    fn writers_reject_inconsistent_pixel_count() {
+        let dir = TestDir::new("pixel-count");
+        let image = Image {
+            width: 2,
+            height: 2,
+            pixels: vec![[0.0; 3]; 3],
+        };
+        let error = write_image(&dir.0.join("a.png"), &image).unwrap_err();
+        assert!(
+            error
+                .message
+                .ends_with("a 2x2 image needs 4 pixels but has 3"),
+            "{error}"
+        );
+        assert!(write_image(&dir.0.join("a.exr"), &image).is_err());
+        assert!(dir.entries().is_empty());
+    }
+
+    #[test]
+    fn atomic_write_replaces_file_and_leaves_no_temporary() {
+        let dir = TestDir::new("atomic-ok");
+        let path = dir.0.join("out.txt");
+        fs::write(&path, "old").unwrap();
+        write_atomically(&path, |w| w.write_all(b"new")).unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "new");
+        assert_eq!(dir.entries(), ["out.txt"]);
+    }
+
+    #[test]
+    fn failed_atomic_write_keeps_previous_file() {
+        let dir = TestDir::new("atomic-fail");
+        let path = dir.0.join("out.png");
+        fs::write(&path, "old").unwrap();
+        let error = write_atomically(&path, |w| {
+            // Enough to spill past BufWriter's buffer into the temporary file.
+            w.write_all(&[7; 100_000])?;
+            assert!(
+                dir.entries()
+                    .contains(&format!(".out.png.tmp-{}", std::process::id()))
+            );
+            Err(io::Error::other("encoder exploded"))
+        })
+        .unwrap_err();
+        assert_eq!(
+            error.to_string(),
+            format!("cannot write `{}`: encoder exploded", path.display())
+        );
+        assert_eq!(fs::read_to_string(&path).unwrap(), "old");
+        assert_eq!(dir.entries(), ["out.png"]);
+    }
+
+    #[test]
+    fn failed_atomic_write_creates_no_file() {
+        let dir = TestDir::new("atomic-fail-new");
+        let path = dir.0.join("out.png");
+        assert!(write_atomically(&path, |_| Err(io::Error::other("no"))).is_err());
+        assert!(dir.entries().is_empty());
+    }
+
+    #[test]
+    fn atomic_write_into_missing_folder_names_the_path() {
+        let dir = TestDir::new("atomic-missing");
+        let path = dir.0.join("nowhere/out.png");
+        let error = write_atomically(&path, |w| w.write_all(b"x")).unwrap_err();
+        assert_eq!(error.path, path);
+        assert_eq!(
+            error.to_string(),
+            format!(
+                "cannot write `{}`: folder `{}` does not exist",
+                path.display(),
+                dir.0.join("nowhere").display()
+            )
+        );
+    }
+
+    #[test]
+    fn check_output_path_accepts_writable_paths() {
+        let dir = TestDir::new("check-ok");
+        check_output_path(&dir.0.join("a.png"), ImageFormat::Png).unwrap();
+        check_output_path(&dir.0.join("a.EXR"), ImageFormat::Exr).unwrap();
+        fs::write(dir.0.join("old.png"), "previous render").unwrap();
+        check_output_path(&dir.0.join("old.png"), ImageFormat::Png).unwrap();
+        // The probe file is gone and nothing was created or changed.
+        assert_eq!(dir.entries(), ["old.png"]);
+        assert_eq!(
+            fs::read_to_string(dir.0.join("old.png")).unwrap(),
+            "previous render"
+        );
+    }
+
+    #[test]
+    fn check_output_path_rejects_bad_paths() {
+        let dir = TestDir::new("check-bad");
+        let jpg = dir.0.join("a.jpg");
+        assert_eq!(
+            check_output_path(&jpg, ImageFormat::Png)
+                .unwrap_err()
+                .to_string(),
+            format!(
+                "cannot write `{}`: unknown image extension `.jpg` (pathmix writes .png and .exr)",
+                jpg.display()
+            )
+        );
+
+        let png = dir.0.join("a.png");
+        assert_eq!(
+            check_output_path(&png, ImageFormat::Exr)
+                .unwrap_err()
+                .to_string(),
+            format!(
+                "cannot write `{}`: the extension makes it a PNG file, but EXR output was requested",
+                png.display()
+            )
+        );
+
+        let missing = dir.0.join("missing/a.png");
+        assert_eq!(
+            check_output_path(&missing, ImageFormat::Png)
+                .unwrap_err()
+                .to_string(),
+            format!(
+                "cannot write `{}`: folder `{}` does not exist",
+                missing.display(),
+                dir.0.join("missing").display()
+            )
+        );
+
+        fs::write(dir.0.join("file"), "").unwrap();
+        let under_file = dir.0.join("file/a.png");
+        let error = check_output_path(&under_file, ImageFormat::Png).unwrap_err();
+        assert!(error.message.ends_with("is not a folder"), "{error}");
+
+        fs::create_dir(dir.0.join("folder.png")).unwrap();
+        let error = check_output_path(&dir.0.join("folder.png"), ImageFormat::Png).unwrap_err();
+        assert!(error.message.ends_with("it is a folder"), "{error}");
+    }
+}

@@ -1,0 +1,398 @@
+//! Progressive accumulation: dispatching samples in short submissions, reading
+//! the running sums back, and the rules that stop a run.
+
+use crate::gpu::accumulator::{Accumulator, map_read};
+use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
+use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Kernel};
+use crate::gpu::{GpuContext, GpuError};
+use crate::kernel::{
+    AccumulatorKind, BINDING_LIGHT_QUADS, BINDING_LIGHT_SPHERES, BINDING_MATERIALS, BINDING_QUADS,
+    BINDING_SPHERES, KernelConfig, WORKGROUP_SIZE,
+};
+use crate::scene::{Scene, Strategy};
+use crate::stats::Accumulation;
+use std::fmt;
+use std::time::{Duration, Instant};
+use wgpu::util::DeviceExt;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// `None`: the storage texture where the adapter has it, else the buffer.
+    pub accumulator: Option<AccumulatorKind>,
+    /// Also accumulate squared samples (per-pixel error estimates).
+    pub variance: bool,
+    /// Wall time one submission should take: short enough to report progress
+    /// and stop promptly, long enough to keep the device busy.
+    pub submission_seconds: f64,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions { accumulator: None, variance: false, submission_seconds: 0.25 }
+    }
+}
+
+#[derive(Debug)]
+pub enum RenderError {
+    Gpu(GpuError),
+    /// The run asks for something this scene or adapter cannot do.
+    Unsupported(String),
+}
+
+impl fmt::Display for RenderError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RenderError::Gpu(e) => e.fmt(f),
+            RenderError::Unsupported(message) => f.write_str(message),
+        }
+    }
+}
+
+impl std::error::Error for RenderError {}
+
+impl From<GpuError> for RenderError {
+    fn from(e: GpuError) -> Self {
+        RenderError::Gpu(e)
+    }
+}
+
+/// One scene on one device: the specialised kernel, its buffers and the sums so far.
+pub struct Renderer<'a> {
+    ctx: &'a GpuContext,
+    kernel: Kernel,
+    accumulator: Accumulator,
+    params: Params,
+    params_buffer: wgpu::Buffer,
+    counters_buffer: wgpu::Buffer,
+    frame_group: wgpu::BindGroup,
+    scene_group: wgpu::BindGroup,
+    /// Samples per pixel accumulated so far.
+    samples: u32,
+    /// Paths one submission should trace, adapted to the measured speed.
+    paths_per_submission: u64,
+    submission_seconds: f64,
+    /// Things the user should know about this run (strategy fallbacks and the like).
+    pub warnings: Vec<String>,
+}
+
+impl<'a> Renderer<'a> {
+    /// Builds the kernel for `scene` and its buffers. `scene.render` says the strategy,
+    /// depth, weight and seed; `scene.camera` the image size.
+    pub fn new(ctx: &'a GpuContext, scene: &Scene, options: &RenderOptions) -> Result<Renderer<'a>, RenderError> {
+        let data = SceneData::pack(scene);
+        let settings = &scene.render;
+        let mut warnings = Vec::new();
+        let mut strategy = settings.strategy;
+        if data.light_count() == 0 && strategy != Strategy::Cosine {
+            if strategy == Strategy::Light {
+                return Err(RenderError::Unsupported(format!(
+                    "{}: strategy `light` needs an emitting or `importance = true` object to aim at, \
+                     and the scene has none",
+                    scene.source
+                )));
+            }
+            warnings.push(format!(
+                "{}: no emitting or `importance = true` object to aim at: the mixture falls back to cosine sampling",
+                scene.source
+            ));
+            strategy = Strategy::Cosine;
+        }
+        if strategy == Strategy::Light {
+            warnings.push(
+                "strategy `light` is biased: it never samples directions that miss the lights, \
+                 so indirect light is lost (a diagnostic; use `mixture` for correct images)"
+                    .to_string(),
+            );
+        }
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let accumulator_kind = match options.accumulator {
+            Some(AccumulatorKind::Texture) if !ctx.storage_texture_accumulator => {
+                return Err(RenderError::Unsupported(format!(
+                    "adapter {} has no read-write rgba32float storage textures; use the buffer accumulator",
+                    ctx.describe()
+                )));
+            }
+            Some(kind) => kind,
+            None if ctx.storage_texture_accumulator => AccumulatorKind::Texture,
+            None => AccumulatorKind::Buffer,
+        };
+        let config = KernelConfig::for_scene(
+            &data,
+            strategy,
+            settings.max_depth,
+            settings.light_weight,
+            accumulator_kind,
+            options.variance,
+        );
+        check_size(ctx, &config, width, height)?;
+        let kernel = Kernel::new(ctx, config)
+            .map_err(|e| RenderError::Unsupported(format!("internal shader composition error: {e}")))?;
+        let accumulator =
+            Accumulator::new(ctx, accumulator_kind, width, height, kernel.config.accumulator_layers());
+
+        let frame = CameraFrame::new(&scene.camera);
+        let params = Params {
+            origin: frame.origin.to_array(),
+            width,
+            pixel00: frame.pixel00.to_array(),
+            height,
+            delta_u: frame.delta_u.to_array(),
+            delta_v: frame.delta_v.to_array(),
+            background: settings.background.to_array(),
+            seed: settings.seed,
+            ray_offset: scene.extent() * RAY_OFFSET_RELATIVE,
+            ..Params::default()
+        };
+        let device = &ctx.device;
+        let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("params"),
+            size: size_of::<Params>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let counters_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("counters"),
+            contents: bytemuck::bytes_of(&Counters::default()),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        });
+        let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &kernel.frame_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: BINDING_PARAMS, resource: params_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: BINDING_ACCUMULATOR, resource: accumulator.binding() },
+                wgpu::BindGroupEntry { binding: BINDING_COUNTERS, resource: counters_buffer.as_entire_binding() },
+            ],
+        });
+        let scene_buffers: Vec<(u32, wgpu::Buffer)> = kernel
+            .config
+            .scene_bindings()
+            .into_iter()
+            .map(|binding| {
+                let contents: &[u8] = match binding {
+                    BINDING_MATERIALS => bytemuck::cast_slice(&data.materials),
+                    BINDING_QUADS => bytemuck::cast_slice(&data.quads),
+                    BINDING_SPHERES => bytemuck::cast_slice(&data.spheres),
+                    BINDING_LIGHT_QUADS => bytemuck::cast_slice(&data.light_quads),
+                    BINDING_LIGHT_SPHERES => bytemuck::cast_slice(&data.light_spheres),
+                    _ => unreachable!("binding {binding} is not a scene binding"),
+                };
+                let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("scene"),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE,
+                });
+                (binding, buffer)
+            })
+            .collect();
+        let scene_entries: Vec<_> = scene_buffers
+            .iter()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry { binding: *binding, resource: buffer.as_entire_binding() })
+            .collect();
+        let scene_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("scene"),
+            layout: &kernel.scene_layout,
+            entries: &scene_entries,
+        });
+
+        Ok(Renderer {
+            ctx,
+            kernel,
+            accumulator,
+            params,
+            params_buffer,
+            counters_buffer,
+            frame_group,
+            scene_group,
+            samples: 0,
+            paths_per_submission: 1 << 18,
+            submission_seconds: options.submission_seconds,
+            warnings,
+        })
+    }
+
+    pub fn config(&self) -> &KernelConfig {
+        &self.kernel.config
+    }
+
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.params.width, self.params.height)
+    }
+
+    /// Traces up to `max_samples` more samples per pixel in about one submission's
+    /// time, waits for them, and returns how many were added. A very large image
+    /// takes one sample over several submissions.
+    pub fn advance(&mut self, max_samples: u32) -> u32 {
+        let (width, height) = self.size();
+        let pixels = width as u64 * height as u64;
+        let budget = self.paths_per_submission.max(1);
+        let samples = (budget / pixels).clamp(1, max_samples.max(1) as u64) as u32;
+        // Rows per dispatch: all of them unless one sample of the image is over budget.
+        let rows = ((budget / width as u64).clamp(1, height as u64) as u32)
+            .min(u16::MAX as u32 * WORKGROUP_SIZE.1);
+        let started = Instant::now();
+        let mut row = 0;
+        while row < height {
+            let tile_rows = rows.min(height - row);
+            self.dispatch([0, row], [width, tile_rows], samples);
+            row += tile_rows;
+        }
+        self.wait();
+        self.samples += samples;
+        // Aim the next submission at the target duration, changing by at most 4x.
+        let seconds = started.elapsed().as_secs_f64().max(1e-4);
+        let paths = pixels as f64 * samples as f64;
+        let wanted = paths * (self.submission_seconds / seconds).clamp(0.25, 4.0);
+        self.paths_per_submission = wanted.max(1.0) as u64;
+        samples
+    }
+
+    fn dispatch(&mut self, tile_origin: [u32; 2], tile_size: [u32; 2], samples: u32) {
+        let params = Params {
+            sample_start: self.samples,
+            sample_count: samples,
+            tile_origin,
+            tile_size,
+            reset: (self.samples == 0) as u32,
+            ..self.params
+        };
+        self.ctx.queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.kernel.pipeline);
+            pass.set_bind_group(0, &self.frame_group, &[]);
+            pass.set_bind_group(1, &self.scene_group, &[]);
+            pass.dispatch_workgroups(
+                tile_size[0].div_ceil(WORKGROUP_SIZE.0),
+                tile_size[1].div_ceil(WORKGROUP_SIZE.1),
+                1,
+            );
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    fn wait(&self) {
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .expect("device lost while rendering");
+    }
+
+    /// The sums so far, in f64 (each running sum minus its compensation).
+    pub fn accumulation(&self) -> Accumulation {
+        let (width, height) = self.size();
+        let pixels = (width * height) as usize;
+        let texels = self.accumulator.read(self.ctx);
+        let layer = |sum: usize, compensation: usize| -> Vec<[f64; 3]> {
+            let (sums, compensations) = (&texels[sum * pixels..], &texels[compensation * pixels..]);
+            (0..pixels)
+                .map(|i| std::array::from_fn(|c| sums[i][c] as f64 - compensations[i][c] as f64))
+                .collect()
+        };
+        Accumulation {
+            width,
+            height,
+            samples: self.samples as u64,
+            sum: layer(0, 1),
+            sum_sq: self.kernel.config.variance.then(|| layer(2, 3)),
+        }
+    }
+
+    /// Samples whose radiance was NaN or infinite (counted, and added as zero).
+    pub fn discarded(&self) -> u64 {
+        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("counters readback"),
+            size: size_of::<Counters>() as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&self.counters_buffer, 0, &staging, 0, staging.size());
+        self.ctx.queue.submit([encoder.finish()]);
+        map_read(self.ctx, &staging, |bytes| bytemuck::pod_read_unaligned::<Counters>(bytes).discarded as u64)
+    }
+}
+
+fn check_size(ctx: &GpuContext, config: &KernelConfig, width: u32, height: u32) -> Result<(), RenderError> {
+    let limits = ctx.limits();
+    let layers = config.accumulator_layers() as u64;
+    match config.accumulator {
+        AccumulatorKind::Texture => {
+            let max = limits.max_texture_dimension_2d;
+            if width > max || height > max {
+                return Err(RenderError::Unsupported(format!(
+                    "{width}x{height} exceeds this adapter's largest texture ({max}x{max}); \
+                     render a smaller image or use --accumulator buffer"
+                )));
+            }
+        }
+        AccumulatorKind::Buffer => {
+            let bytes = width as u64 * height as u64 * 16 * layers;
+            let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+            if bytes > max {
+                return Err(RenderError::Unsupported(format!(
+                    "{width}x{height} needs a {bytes}-byte accumulator, over this adapter's \
+                     storage buffer limit of {max} bytes; render a smaller image"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// When a progressive run stops.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopRule {
+    pub samples: u32,
+}
+
+/// Progress after each submission, for the caller to display.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Progress {
+    pub samples: u32,
+    pub target_samples: u32,
+    pub elapsed: Duration,
+    pub paths_per_second: f64,
+}
+
+/// How a run went.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunSummary {
+    pub samples: u32,
+    pub elapsed: Duration,
+    pub paths_per_second: f64,
+    pub discarded: u64,
+}
+
+/// Accumulates until `stop` holds, calling `on_progress` after each submission.
+pub fn run(renderer: &mut Renderer, stop: StopRule, mut on_progress: impl FnMut(&Progress)) -> RunSummary {
+    let started = Instant::now();
+    let start_samples = renderer.samples();
+    let (width, height) = renderer.size();
+    let pixels = width as f64 * height as f64;
+    let rate = |samples: u32, elapsed: Duration| {
+        (samples - start_samples) as f64 * pixels / elapsed.as_secs_f64().max(1e-9)
+    };
+    while renderer.samples() < stop.samples {
+        renderer.advance(stop.samples - renderer.samples());
+        let elapsed = started.elapsed();
+        on_progress(&Progress {
+            samples: renderer.samples(),
+            target_samples: stop.samples,
+            elapsed,
+            paths_per_second: rate(renderer.samples(), elapsed),
+        });
+    }
+    let elapsed = started.elapsed();
+    RunSummary {
+        samples: renderer.samples(),
+        elapsed,
+        paths_per_second: rate(renderer.samples(), elapsed),
+        discarded: renderer.discarded(),
+    }
+}

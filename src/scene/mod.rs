@@ -1,0 +1,185 @@
+//! Scene model: the TOML file format, parsed and validated into world-space
+//! primitives. Knows nothing of devices or runs.
+
+mod parse;
+
+use glam::Vec3;
+use std::fmt;
+use std::path::Path;
+
+pub use parse::SceneOverrides;
+
+/// How a diffuse bounce picks its direction (see DESIGN.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Strategy {
+    /// `w * p_light + (1 - w) * p_cosine`: unbiased, the default.
+    Mixture,
+    /// Cosine-weighted hemisphere only.
+    Cosine,
+    /// Light density only: biased (misses indirect light), a diagnostic.
+    Light,
+}
+
+impl Strategy {
+    pub const ALL: [Strategy; 3] = [Strategy::Mixture, Strategy::Cosine, Strategy::Light];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::Mixture => "mixture",
+            Strategy::Cosine => "cosine",
+            Strategy::Light => "light",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Strategy> {
+        Strategy::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
+impl fmt::Display for Strategy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The book's pinhole camera (right-handed; `vfov` is vertical, in degrees).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub lookfrom: Vec3,
+    pub lookat: Vec3,
+    pub vup: Vec3,
+    pub vfov_degrees: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub spp: u32,
+    /// Maximum number of scattering events on a path; 0 shows emission only.
+    pub max_depth: u32,
+    pub strategy: Strategy,
+    /// Weight `w` of the light density in the mixture, in [0, 1].
+    pub light_weight: f32,
+    /// Radiance of rays that escape the scene.
+    pub background: Vec3,
+    pub seed: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaterialKind {
+    Lambertian,
+    Metal { fuzz: f32 },
+    Dielectric { ior: f32 },
+    /// Emits `emit` on the side its normal faces; scatters nothing.
+    Light,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub kind: MaterialKind,
+    /// Reflectance; zero for lights and dielectrics.
+    pub albedo: Vec3,
+    /// Emitted radiance (one-sided, along the surface normal); zero for most materials.
+    pub emit: Vec3,
+}
+
+impl Material {
+    pub fn emits(&self) -> bool {
+        self.emit.max_element() > 0.0
+    }
+}
+
+/// Points `q + a u + b v`, `a, b` in [0, 1]; normal `normalize(u x v)`. World space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quad {
+    pub q: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Part of the light density (emitters always are; others when marked).
+    pub importance: bool,
+}
+
+/// World space; the normal points outwards.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub material: u32,
+    pub importance: bool,
+}
+
+/// A validated scene: world-space primitives after box expansion and transforms.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The file it came from, for messages.
+    pub source: String,
+    pub camera: Camera,
+    pub render: RenderSettings,
+    pub materials: Vec<Material>,
+    pub quads: Vec<Quad>,
+    pub spheres: Vec<Sphere>,
+}
+
+/// A problem with a scene file: which file, where in it, and what is wrong.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneError {
+    pub file: String,
+    /// A field path such as `objects[3].radius`, or `line 7, column 3`.
+    pub location: String,
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.location.is_empty() {
+            write!(f, "{}: {}", self.file, self.message)
+        } else {
+            write!(f, "{}: {}: {}", self.file, self.location, self.message)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+impl Scene {
+    /// Reads, parses and validates a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            file: file.clone(),
+            location: String::new(),
+            message: format!("cannot read the scene file: {e}"),
+        })?;
+        Scene::parse(&text, &file)
+    }
+
+    /// Parses and validates scene text; `file` names it in messages.
+    pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
+        parse::parse_scene(text, file)
+    }
+
+    /// Objects in the light density.
+    pub fn importance_count(&self) -> usize {
+        self.quads.iter().filter(|q| q.importance).count()
+            + self.spheres.iter().filter(|s| s.importance).count()
+    }
+
+    /// Largest absolute coordinate of any geometry or the camera: the scene's size,
+    /// from which ray offsets are derived (so the scene renders the same at any scale).
+    pub fn extent(&self) -> f32 {
+        let mut extent = self.camera.lookfrom.abs().max_element();
+        for q in &self.quads {
+            for corner in [q.q, q.q + q.u, q.q + q.v, q.q + q.u + q.v] {
+                extent = extent.max(corner.abs().max_element());
+            }
+        }
+        for s in &self.spheres {
+            extent = extent.max(s.center.abs().max_element() + s.radius);
+        }
+        extent
+    }
+}

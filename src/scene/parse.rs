@@ -1,0 +1,1780 @@
+//! The scene file format: TOML, parsed by hand into a validated [`Scene`].
+//!
+//! Every error names the file, the field path and the problem, e.g.
+//! `scenes/x.toml: objects[3].radius: must be > 0, got -1`. Unknown keys are errors
+//! everywhere (with a "did you mean" suggestion), integers are accepted wherever a
+//! float is expected, and every number must be finite (`nan` and `inf` are rejected)
+//! and representable as a 32-bit float. A vector `[x, y, z]` is an array of exactly
+//! three numbers.
+//!
+//! # Top level
+//!
+//! Only the tables below are allowed; any other top-level key is an error.
+//!
+//! ## `[scene]` (optional)
+//! - `scale` (float > 0, default 1): multiplies every position and length in the file
+//!   (camera `lookfrom`/`lookat`, object geometry and translations). Applied after the
+//!   object transforms, so it is exactly [`Scene::scaled`].
+//!
+//! ## `[camera]` (required)
+//! - `lookfrom` (vector, required): eye position.
+//! - `lookat` (vector, required): point looked at; must differ from `lookfrom`.
+//! - `vup` (vector, default `[0, 1, 0]`): up direction; must not be zero or parallel to
+//!   `lookat - lookfrom`.
+//! - `vfov` (float, degrees, 0 < vfov < 180, default 40): vertical field of view.
+//! - `width`, `height` (integers in 1..=65536, default 600 each): image size in pixels.
+//!
+//! ## `[render]` (optional)
+//! - `spp` (integer >= 1, default 100): samples per pixel.
+//! - `max_depth` (integer in 0..=100000, default 50): maximum number of scattering
+//!   events on a path; 0 renders emission only.
+//! - `strategy` (`"mixture"` | `"cosine"` | `"light"`, default `"mixture"`): how a
+//!   diffuse bounce picks its direction.
+//! - `light_weight` (float in [0, 1], default 0.5): weight of the light density in the
+//!   mixture.
+//! - `background` (vector, components >= 0, default `[0, 0, 0]`): radiance of rays
+//!   that escape the scene.
+//! - `seed` (integer in 0..=4294967295, default 0): random seed.
+//!
+//! ## `[materials.NAME]` (one table per material)
+//! `type` (required) is one of:
+//! - `"lambertian"`: `albedo` (vector, components in [0, 1], required); `emit` (vector,
+//!   components >= 0, default 0) lets a diffuse surface also emit (white furnace).
+//! - `"metal"`: `albedo` (vector in [0, 1], required); `fuzz` (float in [0, 1], default 0).
+//! - `"dielectric"`: `ior` (float > 0, required). Its albedo and emission are zero.
+//! - `"light"`: `emit` (vector, components >= 0, required). Its albedo is zero.
+//!   Emission is one-sided, along the surface normal.
+//!
+//! `Scene::materials` holds the materials sorted by name (deterministic whatever the
+//! TOML map's ordering); objects refer to them by index. Unused materials are fine.
+//!
+//! ## `[[objects]]` (array of tables; zero objects is a valid scene)
+//! `type` (required) is one of:
+//! - `"sphere"`: `center` (vector), `radius` (float > 0). The normal points outwards.
+//! - `"quad"`: `q` (vector, a corner), `u`, `v` (vectors, the edges): the points
+//!   `q + a u + b v`, `a, b` in [0, 1], with normal `normalize(u x v)`. `u x v` must not
+//!   be (near) zero: `|u x v| <= 1e-6 |u| |v|` is rejected as degenerate.
+//! - `"box"`: `min`, `max` (vectors, `max > min` in every axis): an axis-aligned box,
+//!   expanded into six outward-facing quads exactly like the book's `box()`.
+//!
+//! Keys common to every object:
+//! - `material` (string, required): the `NAME` of a `[materials.NAME]` table.
+//! - `rotate_y` (float, degrees, default 0): rotation about the y axis through the
+//!   origin, as the book's `rotate_y` (object to world: `(x, z)` maps to
+//!   `(cos t x + sin t z, -sin t x + cos t z)`).
+//! - `translate` (vector, default `[0, 0, 0]`): applied after the rotation.
+//! - `importance` (bool, default false): adds the object to the light density. An
+//!   object whose material emits (any `emit` component > 0) is always in it.
+//!
+//! Quads are transformed by moving `q` and rotating the edges `u`, `v`; a sphere's
+//! centre is rotated and translated.
+
+use std::fmt::{Display, LowerExp};
+
+use glam::{DVec3, Vec3};
+use toml::{Table, Value};
+
+use super::{
+    Camera, Material, MaterialKind, Quad, RenderSettings, Scene, SceneError, Sphere, Strategy,
+};
+
+/// Command-line overrides of scene settings, validated like the file's values by
+/// [`Scene::apply_overrides`].
+#[derive(Clone, Debug, Default)]
+pub struct SceneOverrides {
+    pub spp: Option<u32>,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub strategy: Option<Strategy>,
+    pub light_weight: Option<f32>,
+    pub seed: Option<u32>,
+}
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+const U32_MAX: i64 = u32::MAX as i64;
+const IMAGE_SIDE: (i64, i64) = (1, 65536);
+const SPP: (i64, i64) = (1, U32_MAX);
+const MAX_DEPTH: (i64, i64) = (0, 100_000);
+const SEED: (i64, i64) = (0, U32_MAX);
+/// `|u x v| <= DEGENERATE |u| |v|`: a quad (or camera basis) with no area.
+const DEGENERATE: f64 = 1e-6;
+
+const TOP_KEYS: &[&str] = &["scene", "camera", "render", "materials", "objects"];
+const SCENE_KEYS: &[&str] = &["scale"];
+const CAMERA_KEYS: &[&str] = &["lookfrom", "lookat", "vup", "vfov", "width", "height"];
+const RENDER_KEYS: &[&str] = &[
+    "spp",
+    "max_depth",
+    "strategy",
+    "light_weight",
+    "background",
+    "seed",
+];
+const MATERIAL_TYPES: &[&str] = &["lambertian", "metal", "dielectric", "light"];
+const ALL_MATERIAL_KEYS: &[&str] = &["type", "albedo", "emit", "fuzz", "ior"];
+const OBJECT_TYPES: &[&str] = &["sphere", "quad", "box"];
+const ALL_OBJECT_KEYS: &[&str] = &[
+    "type",
+    "material",
+    "rotate_y",
+    "translate",
+    "importance",
+    "center",
+    "radius",
+    "q",
+    "u",
+    "v",
+    "min",
+    "max",
+];
+
+// ---------------------------------------------------------------------------------
+// Entry points
+
+pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
+    let root: Table = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
+    let top = Tab {
+        file,
+        table: &root,
+        path: String::new(),
+    };
+    top.check_keys(TOP_KEYS, None)?;
+
+    let scale = match top.sub("scene")? {
+        Some(t) => {
+            t.check_keys(SCENE_KEYS, None)?;
+            t.float("scale", check_positive)?.unwrap_or(1.0)
+        }
+        None => 1.0,
+    };
+    let camera = match top.sub("camera")? {
+        Some(t) => parse_camera(&t)?,
+        None => return Err(top.err("camera", "missing required table `[camera]`")),
+    };
+    let render = match top.sub("render")? {
+        Some(t) => parse_render(&t)?,
+        None => default_render(),
+    };
+    let materials = parse_materials(&top)?;
+    let (quads, spheres) = parse_objects(&top, &materials)?;
+
+    let scene = Scene {
+        source: file.to_string(),
+        camera,
+        render,
+        materials,
+        quads,
+        spheres,
+    };
+    if scale == 1.0 {
+        return Ok(scene);
+    }
+    let scene = scene.scaled(scale);
+    // Re-check what the scale could break (overflow, underflow).
+    let problem = camera_problem(&scene.camera)
+        .map(|(_, p)| p)
+        .or_else(|| scene.quads.iter().find_map(quad_problem))
+        .or_else(|| scene.spheres.iter().find_map(sphere_problem));
+    match problem {
+        Some(p) => Err(top.err(
+            "scene.scale",
+            format!(
+                "scaling by {} makes the scene unusable: {p}",
+                fmt_num(scale)
+            ),
+        )),
+        None => Ok(scene),
+    }
+}
+
+impl Scene {
+    /// Applies command-line overrides, validated with the same rules as the file.
+    /// Nothing is changed when any override is invalid.
+    pub fn apply_overrides(&mut self, o: &SceneOverrides) -> Result<()> {
+        let err = |flag: &str, message: String| SceneError {
+            file: "command line".to_string(),
+            location: flag.to_string(),
+            message,
+        };
+        let int = |flag: &str, v: Option<u32>, range: (i64, i64)| -> Result<Option<u32>> {
+            v.map(|v| check_int(i64::from(v), range).map_err(|m| err(flag, m)))
+                .transpose()
+        };
+        let spp = int("--spp", o.spp, SPP)?;
+        let width = int("--width", o.width, IMAGE_SIDE)?;
+        let height = int("--height", o.height, IMAGE_SIDE)?;
+        let max_depth = int("--max-depth", o.max_depth, MAX_DEPTH)?;
+        let seed = int("--seed", o.seed, SEED)?;
+        if let Some(w) = o.light_weight {
+            check_finite(w)
+                .and_then(|()| check_unit(w))
+                .map_err(|m| err("--light-weight", m))?;
+        }
+
+        if let Some(v) = spp {
+            self.render.spp = v;
+        }
+        if let Some(v) = width {
+            self.camera.width = v;
+        }
+        if let Some(v) = height {
+            self.camera.height = v;
+        }
+        if let Some(v) = max_depth {
+            self.render.max_depth = v;
+        }
+        if let Some(v) = seed {
+            self.render.seed = v;
+        }
+        if let Some(v) = o.strategy {
+            self.render.strategy = v;
+        }
+        if let Some(v) = o.light_weight {
+            self.render.light_weight = v;
+        }
+        Ok(())
+    }
+
+    /// The same scene with every position and length (camera `lookfrom`/`lookat`,
+    /// quad `q`/`u`/`v`, sphere centre and radius) multiplied by `factor`.
+    pub fn scaled(&self, factor: f32) -> Scene {
+        let mut s = self.clone();
+        s.camera.lookfrom *= factor;
+        s.camera.lookat *= factor;
+        for q in &mut s.quads {
+            q.q *= factor;
+            q.u *= factor;
+            q.v *= factor;
+        }
+        for sp in &mut s.spheres {
+            sp.center *= factor;
+            sp.radius *= factor;
+        }
+        s
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Sections
+
+fn parse_camera(t: &Tab) -> Result<Camera> {
+    t.check_keys(CAMERA_KEYS, None)?;
+    let camera = Camera {
+        lookfrom: t.require("lookfrom", t.vec3("lookfrom", ok)?)?,
+        lookat: t.require("lookat", t.vec3("lookat", ok)?)?,
+        vup: t.vec3("vup", ok)?.unwrap_or(Vec3::Y),
+        vfov_degrees: t.float("vfov", check_vfov)?.unwrap_or(40.0),
+        width: t.int("width", IMAGE_SIDE)?.unwrap_or(600),
+        height: t.int("height", IMAGE_SIDE)?.unwrap_or(600),
+    };
+    if let Some((key, problem)) = camera_problem(&camera) {
+        return Err(t.err(t.at(key), problem));
+    }
+    Ok(camera)
+}
+
+fn default_render() -> RenderSettings {
+    RenderSettings {
+        spp: 100,
+        max_depth: 50,
+        strategy: Strategy::Mixture,
+        light_weight: 0.5,
+        background: Vec3::ZERO,
+        seed: 0,
+    }
+}
+
+fn parse_render(t: &Tab) -> Result<RenderSettings> {
+    t.check_keys(RENDER_KEYS, None)?;
+    let d = default_render();
+    let strategy = match t.string("strategy")? {
+        None => d.strategy,
+        Some(name) => Strategy::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
+            t.err(t.at("strategy"), unknown_name("strategy", name, &names))
+        })?,
+    };
+    Ok(RenderSettings {
+        spp: t.int("spp", SPP)?.unwrap_or(d.spp),
+        max_depth: t.int("max_depth", MAX_DEPTH)?.unwrap_or(d.max_depth),
+        strategy,
+        light_weight: t
+            .float("light_weight", check_unit)?
+            .unwrap_or(d.light_weight),
+        background: t.vec3("background", check_nonneg)?.unwrap_or(d.background),
+        seed: t.int("seed", SEED)?.unwrap_or(d.seed),
+    })
+}
+
+fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
+    let Some(mats) = top.sub("materials")? else {
+        return Ok(Vec::new());
+    };
+    let mut names: Vec<&String> = mats.table.keys().collect();
+    names.sort();
+    let mut out = Vec::with_capacity(names.len());
+    for name in names {
+        let t = mats.sub(name)?.expect("key exists");
+        let Some(ty) = t.string("type")? else {
+            t.check_keys(ALL_MATERIAL_KEYS, None)?;
+            return Err(t.err(
+                t.here(),
+                format!(
+                    "missing required key `type` (expected one of {})",
+                    list(MATERIAL_TYPES)
+                ),
+            ));
+        };
+        let (kind, albedo, emit) = match ty {
+            "lambertian" => {
+                t.check_keys(&["type", "albedo", "emit"], Some("a lambertian material"))?;
+                let albedo = t.require("albedo", t.vec3("albedo", check_unit)?)?;
+                let emit = t.vec3("emit", check_nonneg)?.unwrap_or(Vec3::ZERO);
+                (MaterialKind::Lambertian, albedo, emit)
+            }
+            "metal" => {
+                t.check_keys(&["type", "albedo", "fuzz"], Some("a metal material"))?;
+                let albedo = t.require("albedo", t.vec3("albedo", check_unit)?)?;
+                let fuzz = t.float("fuzz", check_unit)?.unwrap_or(0.0);
+                (MaterialKind::Metal { fuzz }, albedo, Vec3::ZERO)
+            }
+            "dielectric" => {
+                t.check_keys(&["type", "ior"], Some("a dielectric material"))?;
+                let ior = t.require("ior", t.float("ior", check_positive)?)?;
+                (MaterialKind::Dielectric { ior }, Vec3::ZERO, Vec3::ZERO)
+            }
+            "light" => {
+                t.check_keys(&["type", "emit"], Some("a light material"))?;
+                let emit = t.require("emit", t.vec3("emit", check_nonneg)?)?;
+                (MaterialKind::Light, Vec3::ZERO, emit)
+            }
+            other => {
+                return Err(t.err(
+                    t.at("type"),
+                    unknown_name("material type", other, MATERIAL_TYPES),
+                ));
+            }
+        };
+        out.push(Material {
+            name: name.clone(),
+            kind,
+            albedo,
+            emit,
+        });
+    }
+    Ok(out)
+}
+
+fn parse_objects(top: &Tab, materials: &[Material]) -> Result<(Vec<Quad>, Vec<Sphere>)> {
+    let mut quads = Vec::new();
+    let mut spheres = Vec::new();
+    let Some(value) = top.table.get("objects") else {
+        return Ok((quads, spheres));
+    };
+    let Value::Array(items) = value else {
+        return Err(top.err(
+            "objects",
+            format!(
+                "expected an array of tables (`[[objects]]`), got {}",
+                type_name(value)
+            ),
+        ));
+    };
+    for (i, item) in items.iter().enumerate() {
+        let path = format!("objects[{i}]");
+        let Value::Table(table) = item else {
+            return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
+        };
+        let t = Tab {
+            file: top.file,
+            table,
+            path,
+        };
+        let Some(ty) = t.string("type")? else {
+            t.check_keys(ALL_OBJECT_KEYS, None)?;
+            return Err(t.err(
+                t.here(),
+                format!(
+                    "missing required key `type` (expected one of {})",
+                    list(OBJECT_TYPES)
+                ),
+            ));
+        };
+        let (keys, what): (&[&str], &str) = match ty {
+            "sphere" => (&["center", "radius"], "a sphere"),
+            "quad" => (&["q", "u", "v"], "a quad"),
+            "box" => (&["min", "max"], "a box"),
+            other => {
+                return Err(t.err(
+                    t.at("type"),
+                    unknown_name("object type", other, OBJECT_TYPES),
+                ));
+            }
+        };
+        let known: Vec<&str> = ["type", "material", "rotate_y", "translate", "importance"]
+            .into_iter()
+            .chain(keys.iter().copied())
+            .collect();
+        t.check_keys(&known, Some(what))?;
+
+        let name = t.require("material", t.string("material")?)?;
+        let Some(material) = materials.iter().position(|m| m.name == name) else {
+            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            let message = if names.is_empty() {
+                format!("unknown material `{name}` (no `[materials.NAME]` tables are defined)")
+            } else {
+                unknown_name("material", name, &names)
+            };
+            return Err(t.err(t.at("material"), message));
+        };
+        let importance = t.boolean("importance")?.unwrap_or(false) || materials[material].emits();
+        let xf = Transform::new(
+            t.float("rotate_y", ok)?.unwrap_or(0.0),
+            t.vec3("translate", ok)?.unwrap_or(Vec3::ZERO),
+        );
+        let material = material as u32;
+
+        match ty {
+            "sphere" => {
+                let center = t.require("center", t.vec3("center", ok)?)?;
+                let radius = t.require("radius", t.float("radius", check_positive)?)?;
+                let sphere = Sphere {
+                    center: xf.point(center.as_dvec3()),
+                    radius,
+                    material,
+                    importance,
+                };
+                if let Some(p) = sphere_problem(&sphere) {
+                    return Err(t.err(t.here(), p));
+                }
+                spheres.push(sphere);
+            }
+            "quad" => {
+                let q = t.require("q", t.vec3("q", ok)?)?;
+                let u = t.require("u", t.vec3("u", ok)?)?;
+                let v = t.require("v", t.vec3("v", ok)?)?;
+                let quad = Quad {
+                    q: xf.point(q.as_dvec3()),
+                    u: xf.vector(u.as_dvec3()),
+                    v: xf.vector(v.as_dvec3()),
+                    material,
+                    importance,
+                };
+                if let Some(p) = quad_problem(&quad) {
+                    return Err(t.err(t.here(), p));
+                }
+                quads.push(quad);
+            }
+            _ => {
+                let min = t.require("min", t.vec3("min", ok)?)?;
+                let max = t.require("max", t.vec3("max", ok)?)?;
+                for (axis, (lo, hi)) in ["x", "y", "z"]
+                    .into_iter()
+                    .zip(min.to_array().into_iter().zip(max.to_array()))
+                {
+                    if hi <= lo {
+                        return Err(t.err(
+                            t.at("max"),
+                            format!(
+                                "must be greater than min in every axis, got max.{axis} = {} <= min.{axis} = {}",
+                                fmt_num(hi),
+                                fmt_num(lo)
+                            ),
+                        ));
+                    }
+                }
+                for (face, q, u, v) in box_faces(min.as_dvec3(), max.as_dvec3()) {
+                    let quad = Quad {
+                        q: xf.point(q),
+                        u: xf.vector(u),
+                        v: xf.vector(v),
+                        material,
+                        importance,
+                    };
+                    if let Some(p) = quad_problem(&quad) {
+                        return Err(t.err(t.here(), format!("{face} face of the box: {p}")));
+                    }
+                    quads.push(quad);
+                }
+            }
+        }
+    }
+    Ok((quads, spheres))
+}
+
+/// The six outward-facing sides of an axis-aligned box, as the book's `box()`.
+fn box_faces(a: DVec3, b: DVec3) -> [(&'static str, DVec3, DVec3, DVec3); 6] {
+    let dx = DVec3::new(b.x - a.x, 0.0, 0.0);
+    let dy = DVec3::new(0.0, b.y - a.y, 0.0);
+    let dz = DVec3::new(0.0, 0.0, b.z - a.z);
+    [
+        ("front", DVec3::new(a.x, a.y, b.z), dx, dy),
+        ("right", DVec3::new(b.x, a.y, b.z), -dz, dy),
+        ("back", DVec3::new(b.x, a.y, a.z), -dx, dy),
+        ("left", DVec3::new(a.x, a.y, a.z), dz, dy),
+        ("top", DVec3::new(a.x, b.y, b.z), dx, -dz),
+        ("bottom", DVec3::new(a.x, a.y, a.z), dx, dz),
+    ]
+}
+
+/// `rotate_y` then `translate`, object to world, evaluated in double precision.
+struct Transform {
+    sin: f64,
+    cos: f64,
+    translate: DVec3,
+}
+
+impl Transform {
+    fn new(degrees: f32, translate: Vec3) -> Transform {
+        // Exact values for multiples of 90 degrees keep axis-aligned geometry exact.
+        let r = f64::from(degrees).rem_euclid(360.0);
+        let (sin, cos) = match r {
+            0.0 => (0.0, 1.0),
+            90.0 => (1.0, 0.0),
+            180.0 => (0.0, -1.0),
+            270.0 => (-1.0, 0.0),
+            _ => r.to_radians().sin_cos(),
+        };
+        Transform {
+            sin,
+            cos,
+            translate: translate.as_dvec3(),
+        }
+    }
+
+    fn rotate(&self, p: DVec3) -> DVec3 {
+        DVec3::new(
+            self.cos * p.x + self.sin * p.z,
+            p.y,
+            -self.sin * p.x + self.cos * p.z,
+        )
+    }
+
+    fn point(&self, p: DVec3) -> Vec3 {
+        (self.rotate(p) + self.translate).as_vec3()
+    }
+
+    fn vector(&self, v: DVec3) -> Vec3 {
+        self.rotate(v).as_vec3()
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Geometric validation (shared by the parser and the post-scale check)
+
+/// A squared length a renderer can work with in 32-bit floats.
+fn usable_length_squared(l2: f32) -> bool {
+    l2.is_finite() && l2 >= f32::MIN_POSITIVE
+}
+
+fn quad_problem(q: &Quad) -> Option<String> {
+    if !(q.q.is_finite() && q.u.is_finite() && q.v.is_finite()) {
+        return Some("coordinates overflow a 32-bit float".to_string());
+    }
+    let (u, v) = (q.u.as_dvec3(), q.v.as_dvec3());
+    let area = u.cross(v).length();
+    if area <= DEGENERATE * u.length() * v.length() {
+        return Some(format!(
+            "degenerate quad: u x v has (near) zero length (u = {}, v = {})",
+            fmt_vec(q.u),
+            fmt_vec(q.v)
+        ));
+    }
+    if !usable_length_squared(q.u.cross(q.v).length_squared()) {
+        return Some(format!(
+            "quad area {} is out of the range 32-bit float arithmetic can handle",
+            fmt_num(area)
+        ));
+    }
+    None
+}
+
+fn sphere_problem(s: &Sphere) -> Option<String> {
+    if !s.center.is_finite() {
+        return Some("coordinates overflow a 32-bit float".to_string());
+    }
+    if !(s.radius > 0.0 && usable_length_squared(s.radius * s.radius)) {
+        return Some(format!(
+            "radius {} is out of the range 32-bit float arithmetic can handle",
+            fmt_num(s.radius)
+        ));
+    }
+    None
+}
+
+/// The offending camera key and the problem.
+fn camera_problem(c: &Camera) -> Option<(&'static str, String)> {
+    if !c.lookfrom.is_finite() {
+        return Some((
+            "lookfrom",
+            "coordinates overflow a 32-bit float".to_string(),
+        ));
+    }
+    if !c.lookat.is_finite() {
+        return Some(("lookat", "coordinates overflow a 32-bit float".to_string()));
+    }
+    let dir = c.lookat - c.lookfrom;
+    if dir == Vec3::ZERO {
+        return Some((
+            "lookat",
+            format!("must differ from lookfrom, both are {}", fmt_vec(c.lookat)),
+        ));
+    }
+    if !usable_length_squared(dir.length_squared()) {
+        return Some((
+            "lookat",
+            format!(
+                "distance from lookfrom ({}) is out of the range 32-bit float arithmetic can handle",
+                fmt_num(dir.as_dvec3().length())
+            ),
+        ));
+    }
+    if !usable_length_squared(c.vup.length_squared()) {
+        return Some((
+            "vup",
+            format!(
+                "must be a non-zero direction of moderate length, got {}",
+                fmt_vec(c.vup)
+            ),
+        ));
+    }
+    let (w, up) = (dir.as_dvec3().normalize(), c.vup.as_dvec3().normalize());
+    if w.cross(up).length() <= DEGENERATE {
+        return Some((
+            "vup",
+            format!(
+                "must not be parallel to lookat - lookfrom = {}, got {}",
+                fmt_vec(dir),
+                fmt_vec(c.vup)
+            ),
+        ));
+    }
+    None
+}
+
+// ---------------------------------------------------------------------------------
+// Value checks (shared by the parser and the command-line overrides)
+
+fn ok(_: f32) -> std::result::Result<(), String> {
+    Ok(())
+}
+
+fn check_finite(x: f32) -> std::result::Result<(), String> {
+    if x.is_finite() {
+        Ok(())
+    } else {
+        Err(format!("must be a finite number, got {}", fmt_num(x)))
+    }
+}
+
+fn check_positive(x: f32) -> std::result::Result<(), String> {
+    if x > 0.0 {
+        Ok(())
+    } else {
+        Err(format!("must be > 0, got {}", fmt_num(x)))
+    }
+}
+
+fn check_nonneg(x: f32) -> std::result::Result<(), String> {
+    if x >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("must be >= 0, got {}", fmt_num(x)))
+    }
+}
+
+fn check_unit(x: f32) -> std::result::Result<(), String> {
+    if (0.0..=1.0).contains(&x) {
+        Ok(())
+    } else {
+        Err(format!("must be in [0, 1], got {}", fmt_num(x)))
+    }
+}
+
+fn check_vfov(x: f32) -> std::result::Result<(), String> {
+    if x > 0.0 && x < 180.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be in (0, 180) degrees, exclusive, got {}",
+            fmt_num(x)
+        ))
+    }
+}
+
+fn check_int(v: i64, (lo, hi): (i64, i64)) -> std::result::Result<u32, String> {
+    if v < lo && hi == U32_MAX {
+        Err(format!("must be >= {lo}, got {v}"))
+    } else if v < lo || v > hi {
+        Err(format!("must be between {lo} and {hi}, got {v}"))
+    } else {
+        u32::try_from(v).map_err(|_| format!("must be between {lo} and {hi}, got {v}"))
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Table access with field paths
+
+/// A TOML table and its field path, for messages.
+struct Tab<'a> {
+    file: &'a str,
+    table: &'a Table,
+    /// Empty at the top level.
+    path: String,
+}
+
+impl<'a> Tab<'a> {
+    fn err(&self, location: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError {
+            file: self.file.to_string(),
+            location: location.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The path of `key` in this table.
+    fn at(&self, key: &str) -> String {
+        if self.path.is_empty() {
+            toml_key(key)
+        } else {
+            format!("{}.{}", self.path, toml_key(key))
+        }
+    }
+
+    /// This table's path, for messages about the table as a whole.
+    fn here(&self) -> String {
+        if self.path.is_empty() {
+            "top level".to_string()
+        } else {
+            self.path.clone()
+        }
+    }
+
+    /// Rejects keys not in `known`; `what` names the kind of table when the allowed keys
+    /// depend on its `type`.
+    fn check_keys(&self, known: &[&str], what: Option<&str>) -> Result<()> {
+        for key in self.table.keys() {
+            if known.contains(&key.as_str()) {
+                continue;
+            }
+            let for_what = what.map(|w| format!(" for {w}")).unwrap_or_default();
+            let message = match suggest(key, known.iter().copied()) {
+                Some(s) => format!("unknown key `{key}`{for_what} (did you mean `{s}`?)"),
+                None => format!(
+                    "unknown key `{key}`{for_what} (expected one of {})",
+                    list(known)
+                ),
+            };
+            return Err(self.err(self.here(), message));
+        }
+        Ok(())
+    }
+
+    fn require<T>(&self, key: &str, value: Option<T>) -> Result<T> {
+        value.ok_or_else(|| self.err(self.here(), format!("missing required key `{key}`")))
+    }
+
+    /// The table at `key`, if present.
+    fn sub(&self, key: &str) -> Result<Option<Tab<'a>>> {
+        match self.table.get(key) {
+            None => Ok(None),
+            Some(Value::Table(table)) => Ok(Some(Tab {
+                file: self.file,
+                table,
+                path: self.at(key),
+            })),
+            Some(other) => Err(self.err(
+                self.at(key),
+                format!("expected a table, got {}", type_name(other)),
+            )),
+        }
+    }
+
+    fn float(
+        &self,
+        key: &str,
+        check: fn(f32) -> std::result::Result<(), String>,
+    ) -> Result<Option<f32>> {
+        let Some(value) = self.table.get(key) else {
+            return Ok(None);
+        };
+        let loc = self.at(key);
+        let x = number(value).map_err(|m| self.err(&loc, m))?;
+        check(x).map_err(|m| self.err(&loc, m))?;
+        Ok(Some(x))
+    }
+
+    fn vec3(
+        &self,
+        key: &str,
+        check: fn(f32) -> std::result::Result<(), String>,
+    ) -> Result<Option<Vec3>> {
+        let Some(value) = self.table.get(key) else {
+            return Ok(None);
+        };
+        let loc = self.at(key);
+        let expected = "expected an array of 3 numbers";
+        let items = match value {
+            Value::Array(items) if items.len() == 3 => items,
+            Value::Array(items) => {
+                return Err(self.err(
+                    loc,
+                    format!("{expected}, got an array of {} elements", items.len()),
+                ));
+            }
+            other => return Err(self.err(loc, format!("{expected}, got {}", type_name(other)))),
+        };
+        let mut out = [0.0f32; 3];
+        for (i, (item, slot)) in items.iter().zip(&mut out).enumerate() {
+            let x = number(item)
+                .and_then(|x| check(x).map(|()| x))
+                .map_err(|m| self.err(format!("{loc}[{i}]"), m))?;
+            *slot = x;
+        }
+        Ok(Some(Vec3::from_array(out)))
+    }
+
+    fn int(&self, key: &str, range: (i64, i64)) -> Result<Option<u32>> {
+        match self.table.get(key) {
+            None => Ok(None),
+            Some(Value::Integer(v)) => check_int(*v, range)
+                .map(Some)
+                .map_err(|m| self.err(self.at(key), m)),
+            Some(other) => Err(self.err(
+                self.at(key),
+                format!("expected an integer, got {}", type_name(other)),
+            )),
+        }
+    }
+
+    fn string(&self, key: &str) -> Result<Option<&'a str>> {
+        match self.table.get(key) {
+            None => Ok(None),
+            Some(Value::String(s)) => Ok(Some(s)),
+            Some(other) => Err(self.err(
+                self.at(key),
+                format!("expected a string, got {}", type_name(other)),
+            )),
+        }
+    }
+
+    fn boolean(&self, key: &str) -> Result<Option<bool>> {
+        match self.table.get(key) {
+            None => Ok(None),
+            Some(Value::Boolean(b)) => Ok(Some(*b)),
+            Some(other) => Err(self.err(
+                self.at(key),
+                format!("expected a boolean, got {}", type_name(other)),
+            )),
+        }
+    }
+}
+
+/// A finite number that fits a 32-bit float (integers accepted).
+fn number(value: &Value) -> std::result::Result<f32, String> {
+    let x = match value {
+        Value::Integer(i) => *i as f64,
+        Value::Float(f) => *f,
+        other => return Err(format!("expected a number, got {}", type_name(other))),
+    };
+    if !x.is_finite() {
+        return Err(format!("must be a finite number, got {}", fmt_num(x)));
+    }
+    let y = x as f32;
+    if !y.is_finite() {
+        return Err(format!(
+            "{} is too large for a 32-bit float (max about 3.4e38)",
+            fmt_num(x)
+        ));
+    }
+    Ok(y)
+}
+
+fn type_name(value: &Value) -> &'static str {
+    match value {
+        Value::String(_) => "a string",
+        Value::Integer(_) => "an integer",
+        Value::Float(_) => "a float",
+        Value::Boolean(_) => "a boolean",
+        Value::Datetime(_) => "a date-time",
+        Value::Array(_) => "an array",
+        Value::Table(_) => "a table",
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Messages
+
+fn syntax_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError {
+    let location = match e.span() {
+        Some(span) => {
+            let (line, column) = line_col(text, span.start);
+            format!("line {line}, column {column}")
+        }
+        None => String::new(),
+    };
+    let message: Vec<&str> = e
+        .message()
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    SceneError {
+        file: file.to_string(),
+        location,
+        message: format!("invalid TOML: {}", message.join("; ")),
+    }
+}
+
+/// 1-based line and column (in characters) of a byte offset.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+    (line, column)
+}
+
+/// `unknown <what> `name` (did you mean `x`?)` or a list of the valid names.
+fn unknown_name(what: &str, name: &str, valid: &[&str]) -> String {
+    match suggest(name, valid.iter().copied()) {
+        Some(s) => format!(
+            "unknown {what} `{name}` (did you mean `{s}`?); expected one of {}",
+            list(valid)
+        ),
+        None => format!("unknown {what} `{name}`; expected one of {}", list(valid)),
+    }
+}
+
+fn list(names: &[&str]) -> String {
+    names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The closest candidate by edit distance, if it is close enough to be a typo.
+fn suggest<'k>(word: &str, candidates: impl IntoIterator<Item = &'k str>) -> Option<&'k str> {
+    let word_len = word.chars().count();
+    candidates
+        .into_iter()
+        .map(|c| (levenshtein(word, c), c))
+        .filter(|&(d, c)| d <= 2 && d < word_len.max(c.chars().count()))
+        .min_by_key(|&(d, _)| d)
+        .map(|(_, c)| c)
+}
+
+fn levenshtein(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    let mut cur = vec![0; b.len() + 1];
+    for (i, ca) in a.chars().enumerate() {
+        cur[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let substitute = prev[j] + usize::from(ca != cb);
+            cur[j + 1] = substitute.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        std::mem::swap(&mut prev, &mut cur);
+    }
+    prev[b.len()]
+}
+
+/// A key as written in a TOML path: bare when possible, quoted otherwise.
+fn toml_key(key: &str) -> String {
+    let bare = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if bare {
+        key.to_string()
+    } else {
+        format!("{key:?}")
+    }
+}
+
+fn fmt_num<T: Copy + Display + LowerExp + Into<f64>>(x: T) -> String {
+    let f: f64 = x.into();
+    if f.is_nan() {
+        "nan".to_string()
+    } else if f.is_infinite() {
+        if f > 0.0 { "inf" } else { "-inf" }.to_string()
+    } else if f != 0.0 && (f.abs() >= 1e7 || f.abs() < 1e-4) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+fn fmt_vec(v: Vec3) -> String {
+    format!("[{}, {}, {}]", fmt_num(v.x), fmt_num(v.y), fmt_num(v.z))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CORNELL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml"));
+    const BOXES: &str = include_str!(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-boxes.toml"
+    ));
+    const FURNACE: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/furnace.toml"));
+    const FILE: &str = "scenes/x.toml";
+
+    /// A small valid scene that the error tests break one field at a time.
+    const BASE: &str = r#"
+[camera]
+lookfrom = [0, 0, -5]
+lookat = [0, 0, 0]
+
+[render]
+light_weight = 0.5
+
+[materials.red]
+type = "lambertian"
+albedo = [0.5, 0.1, 0.1]
+
+[materials.white]
+type = "lambertian"
+albedo = [0.7, 0.7, 0.7]
+
+[[objects]]
+type = "sphere"
+center = [0, 0, 0]
+radius = 1
+material = "red"
+
+[[objects]]
+type = "quad"
+q = [-1, -1, 1]
+u = [2, 0, 0]
+v = [0, 2, 0]
+material = "white"
+"#;
+
+    fn parse(text: &str) -> Scene {
+        parse_scene(text, FILE).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The error for `BASE` with `from` replaced by `to`.
+    fn error(from: &str, to: &str) -> SceneError {
+        assert!(BASE.contains(from), "{from:?} not in BASE");
+        let text = BASE.replacen(from, to, 1);
+        match parse_scene(&text, FILE) {
+            Ok(_) => panic!("expected an error for {to:?}"),
+            Err(e) => e,
+        }
+    }
+
+    fn assert_error(e: &SceneError, location: &str, parts: &[&str]) {
+        let shown = e.to_string();
+        assert_eq!(e.file, FILE, "{shown}");
+        assert_eq!(e.location, location, "{shown}");
+        assert!(
+            shown.starts_with(&format!("{FILE}: {location}: ")),
+            "{shown}"
+        );
+        for part in parts {
+            assert!(e.message.contains(part), "{shown:?} lacks {part:?}");
+        }
+    }
+
+    fn normal(q: &Quad) -> Vec3 {
+        q.u.cross(q.v).normalize()
+    }
+
+    #[test]
+    fn base_parses_with_defaults() {
+        let s = parse(BASE);
+        assert_eq!(s.source, FILE);
+        assert_eq!(s.camera.vup, Vec3::Y);
+        assert_eq!(s.camera.vfov_degrees, 40.0);
+        assert_eq!((s.camera.width, s.camera.height), (600, 600));
+        assert_eq!(s.render, default_render());
+        assert_eq!(s.materials.len(), 2);
+        assert_eq!((s.quads.len(), s.spheres.len()), (1, 1));
+        assert_eq!(s.importance_count(), 0);
+    }
+
+    #[test]
+    fn cornell_parses() {
+        let s = parse(CORNELL);
+        assert_eq!(s.quads.len(), 12);
+        assert_eq!(s.spheres.len(), 1);
+        assert_eq!(s.importance_count(), 2);
+        let names: Vec<&str> = s.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(names, ["glass", "green", "light", "red", "white"]);
+        let light = s
+            .quads
+            .iter()
+            .find(|q| s.materials[q.material as usize].emits())
+            .unwrap();
+        assert!(light.importance);
+        assert_eq!(light.q, Vec3::new(213.0, 554.0, 227.0));
+        assert_eq!(normal(light), Vec3::NEG_Y, "the light must face down");
+        assert_eq!(s.materials[light.material as usize].emit, Vec3::splat(15.0));
+        assert_eq!(s.quads.iter().filter(|q| q.importance).count(), 1);
+
+        let sphere = s.spheres[0];
+        assert!(sphere.importance);
+        assert_eq!(
+            (sphere.center, sphere.radius),
+            (Vec3::new(190.0, 90.0, 190.0), 90.0)
+        );
+        let glass = &s.materials[sphere.material as usize];
+        assert_eq!(glass.kind, MaterialKind::Dielectric { ior: 1.5 });
+        assert_eq!((glass.albedo, glass.emit), (Vec3::ZERO, Vec3::ZERO));
+
+        assert_eq!(s.camera.lookfrom, Vec3::new(278.0, 278.0, -800.0));
+        assert_eq!(s.camera.lookat, Vec3::new(278.0, 278.0, 0.0));
+        assert_eq!(s.camera.vfov_degrees, 40.0);
+        assert_eq!((s.camera.width, s.camera.height), (600, 600));
+        assert_eq!((s.render.spp, s.render.max_depth), (1000, 50));
+        assert_eq!(s.render.strategy, Strategy::Mixture);
+        assert_eq!(s.render.background, Vec3::ZERO);
+
+        // Every wall faces into the room (towards its centre).
+        let centre = Vec3::splat(277.5);
+        for q in &s.quads[..5] {
+            let mid = q.q + 0.5 * (q.u + q.v);
+            assert!(normal(q).dot(centre - mid) > 0.0, "{q:?}");
+        }
+    }
+
+    /// The book's `rotate_y` object-to-world transform of a point, then `translate`.
+    fn book_rotate_translate(p: [f64; 3], degrees: f64, t: [f64; 3]) -> Vec3 {
+        let (sin_theta, cos_theta) = degrees.to_radians().sin_cos();
+        let x = cos_theta * p[0] + sin_theta * p[2];
+        let z = -sin_theta * p[0] + cos_theta * p[2];
+        Vec3::new((x + t[0]) as f32, (p[1] + t[1]) as f32, (z + t[2]) as f32)
+    }
+
+    #[test]
+    fn box_rotation_matches_the_book() {
+        let s = parse(CORNELL);
+        let tall = &s.quads[6..12];
+        // Right face: q = (max.x, min.y, max.z) = (165, 0, 165), u = -dz, v = dy.
+        let right = tall[1];
+        let expected = book_rotate_translate([165.0, 0.0, 165.0], 15.0, [265.0, 0.0, 295.0]);
+        assert!(
+            (right.q - expected).abs().max_element() < 1e-3,
+            "{right:?} vs {expected}"
+        );
+        // By hand: x = 165 (cos 15 + sin 15) + 265, z = 165 (cos 15 - sin 15) + 295.
+        assert!(
+            (right.q - Vec3::new(467.0829, 0.0, 411.6726))
+                .abs()
+                .max_element()
+                < 1e-3
+        );
+        // Its far corner q + u + v = object (165, 330, 0).
+        let far = right.q + right.u + right.v;
+        let expected = book_rotate_translate([165.0, 330.0, 0.0], 15.0, [265.0, 0.0, 295.0]);
+        assert!(
+            (far - expected).abs().max_element() < 1e-3,
+            "{far} vs {expected}"
+        );
+        // All six faces point away from the box centre.
+        let centre = book_rotate_translate([82.5, 165.0, 82.5], 15.0, [265.0, 0.0, 295.0]);
+        for q in tall {
+            let mid = q.q + 0.5 * (q.u + q.v);
+            assert!(normal(q).dot(mid - centre) > 0.0, "{q:?}");
+            assert_eq!(s.materials[q.material as usize].name, "white");
+            assert!(!q.importance);
+        }
+        // Spheres: the centre is rotated about the origin too.
+        let text = BASE.replace(
+            "radius = 1\n",
+            "radius = 1\nrotate_y = 90\ntranslate = [1, 2, 3]\n",
+        );
+        let text = text.replace("center = [0, 0, 0]", "center = [1, 0, 0]");
+        let s = parse(&text);
+        assert_eq!(s.spheres[0].center, Vec3::new(1.0, 2.0, 2.0));
+    }
+
+    #[test]
+    fn cornell_boxes_parses() {
+        let s = parse(BOXES);
+        assert_eq!(s.quads.len(), 18, "5 walls + 1 light + 2 boxes of 6");
+        assert_eq!(s.spheres.len(), 0);
+        assert_eq!(s.importance_count(), 1);
+        let short = &s.quads[12..18];
+        let expected = book_rotate_translate([165.0, 0.0, 165.0], -18.0, [130.0, 0.0, 65.0]);
+        assert!((short[1].q - expected).abs().max_element() < 1e-3);
+        assert_eq!(s.camera, parse(CORNELL).camera);
+        assert_eq!(s.render, parse(CORNELL).render);
+    }
+
+    #[test]
+    fn furnace_parses_with_inward_normals() {
+        let s = parse(FURNACE);
+        assert_eq!(s.quads.len(), 6);
+        assert_eq!(
+            s.importance_count(),
+            6,
+            "emitters are always in the light density"
+        );
+        assert_eq!(s.camera.lookfrom, Vec3::ZERO);
+        assert_eq!(
+            (s.camera.width, s.camera.height, s.camera.vfov_degrees),
+            (32, 32, 90.0)
+        );
+        assert_eq!((s.render.max_depth, s.render.spp), (4, 64));
+        let m = &s.materials[0];
+        assert_eq!((m.albedo, m.emit), (Vec3::splat(0.5), Vec3::ONE));
+        let mut axes = Vec::new();
+        for q in &s.quads {
+            let n = normal(q);
+            let mid = q.q + 0.5 * (q.u + q.v);
+            assert_eq!(mid.abs().max_element(), 1.0, "{q:?} is not a cube face");
+            assert_eq!(n, -mid, "{q:?} must face the centre");
+            assert_eq!(q.u.length() * q.v.length(), 4.0);
+            axes.push(mid.to_array().map(|c| c as i32));
+        }
+        axes.sort();
+        axes.dedup();
+        assert_eq!(axes.len(), 6, "one quad per face");
+        // The expected pixel value quoted in the file.
+        let (a, e, d) = (0.5f32, 1.0f32, 4);
+        assert_eq!((0..=d).map(|k| e * a.powi(k)).sum::<f32>(), 1.9375);
+    }
+
+    #[test]
+    fn syntax_error_has_line_and_column() {
+        let e = parse_scene("[camera]\nlookfrom = [0, 0, 1\nlookat = 1\n", FILE).unwrap_err();
+        assert!(e.location.starts_with("line "), "{e}");
+        assert!(e.message.starts_with("invalid TOML: "), "{e}");
+        let e = parse_scene("[camera]\nlookfrom = [0, 0, 1]\n  x = = 2\n", FILE).unwrap_err();
+        assert_eq!(e.location, "line 3, column 7", "{e}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("{FILE}: line 3, column 7: invalid TOML"))
+        );
+        let e = parse_scene("a = 1\na = 2\n", FILE).unwrap_err();
+        assert_eq!(e.location, "line 2, column 1", "{e}");
+        assert!(e.message.contains("duplicate"), "{e}");
+        assert_eq!(line_col("é\nαβγ", 8), (2, 3));
+        assert_eq!(line_col("é", 1), (1, 1));
+    }
+
+    #[test]
+    fn unknown_keys_suggest_the_closest() {
+        let e = error("albedo = [0.5", "albdo = [0.5");
+        assert_error(
+            &e,
+            "materials.red",
+            &["unknown key `albdo`", "did you mean `albedo`?"],
+        );
+        let e = error("radius = 1", "raduis = 1");
+        assert_error(&e, "objects[0]", &["`raduis`", "did you mean `radius`?"]);
+        let e = error("[camera]", "[camra]");
+        assert_error(&e, "top level", &["`camra`", "did you mean `camera`?"]);
+        let e = error("lookat", "vfov = 30\nfov");
+        assert_error(&e, "camera", &["`fov`", "did you mean `vfov`?"]);
+        let e = error("light_weight", "zzzzzzz");
+        assert_error(
+            &e,
+            "render",
+            &["unknown key `zzzzzzz`", "expected one of `spp`"],
+        );
+        // A key of another material type.
+        let e = error(
+            "albedo = [0.5, 0.1, 0.1]",
+            "albedo = [0.5, 0.1, 0.1]\nior = 1.5",
+        );
+        assert_error(&e, "materials.red", &["`ior` for a lambertian material"]);
+        // A typo in `type` itself.
+        let e = error("type = \"sphere\"", "tpye = \"sphere\"");
+        assert_error(&e, "objects[0]", &["`tpye`", "did you mean `type`?"]);
+        assert_eq!(levenshtein("kitten", "sitting"), 3);
+        assert_eq!(levenshtein("", "abc"), 3);
+        assert_eq!(suggest("x", ["q", "u"]), None);
+    }
+
+    #[test]
+    fn wrong_types_say_what_was_expected() {
+        let e = error("lookfrom = [0, 0, -5]", "lookfrom = \"far\"");
+        assert_error(
+            &e,
+            "camera.lookfrom",
+            &["expected an array of 3 numbers, got a string"],
+        );
+        let e = error("lookfrom = [0, 0, -5]", "lookfrom = [0, -5]");
+        assert_error(&e, "camera.lookfrom", &["got an array of 2 elements"]);
+        let e = error("lookfrom = [0, 0, -5]", "lookfrom = [0, true, -5]");
+        assert_error(
+            &e,
+            "camera.lookfrom[1]",
+            &["expected a number, got a boolean"],
+        );
+        let e = error("radius = 1", "radius = \"x\"");
+        assert_error(
+            &e,
+            "objects[0].radius",
+            &["expected a number, got a string"],
+        );
+        let e = error("light_weight = 0.5", "spp = 10.0");
+        assert_error(&e, "render.spp", &["expected an integer, got a float"]);
+        let e = error("material = \"red\"", "material = 3");
+        assert_error(
+            &e,
+            "objects[0].material",
+            &["expected a string, got an integer"],
+        );
+        let e = error("radius = 1", "radius = 1\nimportance = 1");
+        assert_error(
+            &e,
+            "objects[0].importance",
+            &["expected a boolean, got an integer"],
+        );
+        let camera = "[camera]\nlookfrom = [0, 0, 1]\nlookat = [0, 0, 0]\n";
+        let e = parse_scene(&format!("objects = 3\n{camera}"), FILE).unwrap_err();
+        assert_error(&e, "objects", &["expected an array of tables"]);
+        let e = parse_scene(&format!("objects = [1]\n{camera}"), FILE).unwrap_err();
+        assert_error(&e, "objects[0]", &["expected a table, got an integer"]);
+        let e = parse_scene(&format!("render = 3\n{camera}"), FILE).unwrap_err();
+        assert_error(&e, "render", &["expected a table, got an integer"]);
+        let e = parse_scene(&format!("{camera}[materials]\nred = 3\n"), FILE).unwrap_err();
+        assert_error(&e, "materials.red", &["expected a table, got an integer"]);
+        // Zero objects and no materials are fine.
+        let s = parse(&format!("objects = []\n{camera}"));
+        assert_eq!(
+            (s.quads.len(), s.spheres.len(), s.materials.len()),
+            (0, 0, 0)
+        );
+        // Integers are fine where floats are expected.
+        let s = parse(&BASE.replace("light_weight = 0.5", "light_weight = 1"));
+        assert_eq!(s.render.light_weight, 1.0);
+    }
+
+    #[test]
+    fn non_finite_numbers_are_rejected() {
+        let e = error("radius = 1", "radius = nan");
+        assert_error(&e, "objects[0].radius", &["finite", "nan"]);
+        let e = error("center = [0, 0, 0]", "center = [0, inf, 0]");
+        assert_error(&e, "objects[0].center[1]", &["finite", "inf"]);
+        let e = error("light_weight = 0.5", "light_weight = -inf");
+        assert_error(&e, "render.light_weight", &["finite", "-inf"]);
+        let e = error("center = [0, 0, 0]", "center = [0, 0, 1e39]");
+        assert_error(
+            &e,
+            "objects[0].center[2]",
+            &["too large for a 32-bit float"],
+        );
+        let e = error(
+            "center = [0, 0, 0]",
+            "center = [3e38, 0, 0]\ntranslate = [3e38, 0, 0]",
+        );
+        assert_error(&e, "objects[0]", &["overflow"]);
+    }
+
+    #[test]
+    fn geometry_errors() {
+        let e = error("radius = 1", "radius = -1");
+        assert_eq!(
+            e.to_string(),
+            format!("{FILE}: objects[0].radius: must be > 0, got -1")
+        );
+        let e = error("radius = 1", "radius = 0");
+        assert_error(&e, "objects[0].radius", &["must be > 0, got 0"]);
+        let e = error("v = [0, 2, 0]", "v = [4, 0, 0]");
+        assert_error(&e, "objects[1]", &["degenerate quad"]);
+        let e = error("v = [0, 2, 0]", "v = [0, 0, 0]");
+        assert_error(&e, "objects[1]", &["degenerate quad"]);
+        // Relative to |u||v|: a small but non-degenerate quad is fine.
+        parse(&BASE.replace("u = [2, 0, 0]", "u = [1e-5, 0, 0]"));
+        let e = error(
+            "type = \"quad\"",
+            "type = \"box\"\nmin = [0, 0, 0]\nmax = [1, 0, 1]\n#",
+        );
+        assert!(
+            e.location == "objects[1]" && e.message.contains("unknown key"),
+            "{e}"
+        );
+        let e = error(
+            "type = \"quad\"\nq = [-1, -1, 1]\nu = [2, 0, 0]\nv = [0, 2, 0]",
+            "type = \"box\"\nmin = [0, 0, 0]\nmax = [1, 0, 1]",
+        );
+        assert_error(&e, "objects[1].max", &["max.y = 0 <= min.y = 0"]);
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, -5]");
+        assert_error(&e, "camera.lookat", &["must differ from lookfrom"]);
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nvup = [0, 0, 2]");
+        assert_error(&e, "camera.vup", &["parallel"]);
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nvup = [0, 0, 0]");
+        assert_error(&e, "camera.vup", &["non-zero"]);
+    }
+
+    #[test]
+    fn material_errors() {
+        let e = error("material = \"red\"", "material = \"rde\"");
+        assert_error(
+            &e,
+            "objects[0].material",
+            &[
+                "unknown material `rde`",
+                "did you mean `red`?",
+                "`red`, `white`",
+            ],
+        );
+        let e = error("type = \"lambertian\"", "type = \"lambertain\"");
+        assert_error(
+            &e,
+            "materials.red.type",
+            &[
+                "unknown material type `lambertain`",
+                "did you mean `lambertian`?",
+                "`dielectric`",
+            ],
+        );
+        let e = error("type = \"lambertian\"\n", "");
+        assert_error(
+            &e,
+            "materials.red",
+            &["missing required key `type`", "`metal`"],
+        );
+        let e = error("type = \"sphere\"", "type = \"cube\"");
+        assert_error(
+            &e,
+            "objects[0].type",
+            &["unknown object type `cube`", "`box`"],
+        );
+        let e = error("[materials.red]", "[materials.\"my red\"]");
+        assert_error(&e, "objects[0].material", &["unknown material `red`"]);
+        let e = error("albedo = [0.5, 0.1, 0.1]", "albedo = 0.5");
+        assert_error(
+            &e,
+            "materials.red.albedo",
+            &["expected an array of 3 numbers, got a float"],
+        );
+        let e = error(
+            "type = \"lambertian\"\nalbedo = [0.5, 0.1, 0.1]",
+            "type = \"metal\"\nalbedo = [1, 1, 1]\nfuzz = 2",
+        );
+        assert_error(&e, "materials.red.fuzz", &["must be in [0, 1], got 2"]);
+        let e = error(
+            "type = \"lambertian\"\nalbedo = [0.5, 0.1, 0.1]",
+            "type = \"dielectric\"\nior = 0",
+        );
+        assert_error(&e, "materials.red.ior", &["must be > 0"]);
+        let e = error(
+            "type = \"lambertian\"\nalbedo = [0.5, 0.1, 0.1]",
+            "type = \"light\"\nemit = [1, -1, 1]",
+        );
+        assert_error(&e, "materials.red.emit[1]", &["must be >= 0, got -1"]);
+        let e = error("albedo = [0.5", "albedo = [1.5");
+        assert_error(
+            &e,
+            "materials.red.albedo[0]",
+            &["must be in [0, 1], got 1.5"],
+        );
+        let text = BASE
+            .replace("[materials.red]", "[materials.\"a b\"]")
+            .replace("albedo = [0.5", "albedo = [-0.5");
+        let e = parse_scene(&text, FILE).unwrap_err();
+        assert_error(&e, "materials.\"a b\".albedo[0]", &["must be in [0, 1]"]);
+        // Quoted names are referenced as written.
+        parse(
+            &BASE
+                .replace("[materials.red]", "[materials.\"a b\"]")
+                .replace("\"red\"", "\"a b\""),
+        );
+    }
+
+    #[test]
+    fn missing_required_fields() {
+        let e = error("radius = 1\n", "");
+        assert_error(&e, "objects[0]", &["missing required key `radius`"]);
+        let e = error("lookfrom = [0, 0, -5]\n", "");
+        assert_error(&e, "camera", &["missing required key `lookfrom`"]);
+        let e = error("material = \"red\"\n", "");
+        assert_error(&e, "objects[0]", &["missing required key `material`"]);
+        let e = error("type = \"sphere\"\n", "");
+        assert_error(
+            &e,
+            "objects[0]",
+            &["missing required key `type`", "`sphere`"],
+        );
+        let e = error("[camera]\nlookfrom = [0, 0, -5]\nlookat = [0, 0, 0]\n", "");
+        assert_error(&e, "camera", &["missing required table `[camera]`"]);
+        let e = parse_scene(
+            "[camera]\nlookfrom = [0, 0, 1]\nlookat = [0, 0, 0]\n[materials.l]\ntype = \"light\"\n",
+            FILE,
+        )
+        .unwrap_err();
+        assert_error(&e, "materials.l", &["missing required key `emit`"]);
+    }
+
+    #[test]
+    fn out_of_range_values() {
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nvfov = 180");
+        assert_error(&e, "camera.vfov", &["(0, 180)", "got 180"]);
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nvfov = 0");
+        assert_error(&e, "camera.vfov", &["got 0"]);
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nwidth = 0");
+        assert_error(&e, "camera.width", &["between 1 and 65536, got 0"]);
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nheight = 65537");
+        assert_error(&e, "camera.height", &["between 1 and 65536, got 65537"]);
+        let e = error("light_weight = 0.5", "light_weight = 1.5");
+        assert_error(&e, "render.light_weight", &["must be in [0, 1], got 1.5"]);
+        let e = error("light_weight = 0.5", "spp = 0");
+        assert_error(&e, "render.spp", &["must be >= 1, got 0"]);
+        let e = error("light_weight = 0.5", "max_depth = 100001");
+        assert_error(&e, "render.max_depth", &["between 0 and 100000"]);
+        let e = error("light_weight = 0.5", "seed = 4294967296");
+        assert_error(&e, "render.seed", &["4294967295"]);
+        let e = error("light_weight = 0.5", "seed = -1");
+        assert_error(&e, "render.seed", &["got -1"]);
+        let e = error("light_weight = 0.5", "background = [0, -0.5, 0]");
+        assert_error(&e, "render.background[1]", &["must be >= 0"]);
+        let e = error("light_weight = 0.5", "strategy = \"mixtrue\"");
+        assert_error(
+            &e,
+            "render.strategy",
+            &["did you mean `mixture`?", "`cosine`"],
+        );
+        let e = error("[render]", "[scene]\nscale = 0\n[render]");
+        assert_error(&e, "scene.scale", &["must be > 0"]);
+        let e = error("[render]", "[scene]\nscale = 1e30\n[render]");
+        assert_error(&e, "scene.scale", &["scaling by 1e30"]);
+        let s = parse(&BASE.replace(
+            "light_weight = 0.5",
+            "seed = 4294967295\nmax_depth = 0\nstrategy = \"light\"",
+        ));
+        assert_eq!(
+            (s.render.seed, s.render.max_depth, s.render.strategy),
+            (u32::MAX, 0, Strategy::Light)
+        );
+    }
+
+    #[test]
+    fn overrides() {
+        let mut s = parse(CORNELL);
+        let o = SceneOverrides {
+            spp: Some(16),
+            width: Some(64),
+            height: Some(48),
+            max_depth: Some(0),
+            strategy: Some(Strategy::Cosine),
+            light_weight: Some(1.0),
+            seed: Some(7),
+        };
+        s.apply_overrides(&o).unwrap();
+        assert_eq!(
+            (s.render.spp, s.camera.width, s.camera.height),
+            (16, 64, 48)
+        );
+        assert_eq!(
+            (s.render.max_depth, s.render.strategy, s.render.seed),
+            (0, Strategy::Cosine, 7)
+        );
+        assert_eq!(s.render.light_weight, 1.0);
+        s.apply_overrides(&SceneOverrides::default()).unwrap();
+        assert_eq!(s.render.spp, 16);
+
+        let before = s.clone();
+        let bad = |o: SceneOverrides, flag: &str, part: &str| {
+            let mut t = before.clone();
+            let e = t.apply_overrides(&o).unwrap_err();
+            assert_eq!(
+                (e.file.as_str(), e.location.as_str()),
+                ("command line", flag),
+                "{e}"
+            );
+            assert!(e.message.contains(part), "{e}");
+            assert!(
+                e.to_string()
+                    .starts_with(&format!("command line: {flag}: "))
+            );
+            assert_eq!(t, before, "nothing changes on error");
+        };
+        let d = SceneOverrides::default;
+        bad(
+            SceneOverrides {
+                width: Some(0),
+                spp: Some(3),
+                ..d()
+            },
+            "--width",
+            "between 1 and 65536, got 0",
+        );
+        bad(
+            SceneOverrides {
+                height: Some(70000),
+                ..d()
+            },
+            "--height",
+            "got 70000",
+        );
+        bad(
+            SceneOverrides {
+                spp: Some(0),
+                ..d()
+            },
+            "--spp",
+            "must be >= 1",
+        );
+        bad(
+            SceneOverrides {
+                max_depth: Some(100_001),
+                ..d()
+            },
+            "--max-depth",
+            "100000",
+        );
+        bad(
+            SceneOverrides {
+                light_weight: Some(1.5),
+                ..d()
+            },
+            "--light-weight",
+            "[0, 1]",
+        );
+        bad(
+            SceneOverrides {
+                light_weight: Some(f32::NAN),
+                ..d()
+            },
+            "--light-weight",
+            "finite",
+        );
+    }
+
+    #[test]
+    fn scaling() {
+        let s = parse(CORNELL);
+        let t = s.scaled(1e-3);
+        assert_eq!(t.camera.lookfrom, s.camera.lookfrom * 1e-3);
+        assert_eq!(t.camera.lookat, s.camera.lookat * 1e-3);
+        assert_eq!(t.camera.vup, s.camera.vup);
+        assert_eq!(t.spheres[0].radius, 90.0 * 1e-3);
+        assert_eq!(t.spheres[0].center, s.spheres[0].center * 1e-3);
+        for (a, b) in s.quads.iter().zip(&t.quads) {
+            assert_eq!((b.q, b.u, b.v), (a.q * 1e-3, a.u * 1e-3, a.v * 1e-3));
+            assert_eq!((b.material, b.importance), (a.material, a.importance));
+        }
+        assert!((t.extent() - s.extent() * 1e-3).abs() < 1e-6);
+        assert_eq!(
+            (t.render.clone(), t.materials.clone()),
+            (s.render.clone(), s.materials.clone())
+        );
+
+        let text = CORNELL.replace("[camera]", "[scene]\nscale = 1e-3\n\n[camera]");
+        assert_eq!(parse(&text), t, "[scene] scale = scaled()");
+        let text = CORNELL.replace("[camera]", "[scene]\nscale = 1\n\n[camera]");
+        assert_eq!(parse(&text), s);
+    }
+
+    /// A tiny deterministic RNG for the mutation test.
+    struct XorShift(u64);
+
+    impl XorShift {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0
+        }
+
+        fn below(&mut self, n: usize) -> usize {
+            (self.next() % n.max(1) as u64) as usize
+        }
+    }
+
+    fn mutate(text: &str, rng: &mut XorShift) -> String {
+        let lines: Vec<&str> = text.lines().collect();
+        match rng.below(5) {
+            0 => {
+                let i = rng.below(lines.len());
+                let mut l = lines.clone();
+                l.remove(i);
+                l.join("\n")
+            }
+            1 => {
+                let i = rng.below(lines.len());
+                let mut l = lines.clone();
+                l.insert(i, lines[i]);
+                l.join("\n")
+            }
+            2 => {
+                // Replace a number (a run starting with a digit).
+                let b = text.as_bytes();
+                let starts: Vec<usize> = (0..b.len())
+                    .filter(|&i| {
+                        b[i].is_ascii_digit()
+                            && (i == 0 || !b[i - 1].is_ascii_alphanumeric() && b[i - 1] != b'.')
+                    })
+                    .collect();
+                if starts.is_empty() {
+                    return text.to_string();
+                }
+                let start = starts[rng.below(starts.len())];
+                let end = (start..b.len())
+                    .find(|&i| {
+                        !(b[i].is_ascii_digit() || b[i] == b'.' || b[i] == b'e' || b[i] == b'-')
+                    })
+                    .unwrap_or(b.len());
+                let with = [
+                    "nan", "-1", "1e39", "\"x\"", "0", "inf", "-0", "1e-40", "true", "[]",
+                ];
+                format!(
+                    "{}{}{}",
+                    &text[..start],
+                    with[rng.below(with.len())],
+                    &text[end..]
+                )
+            }
+            3 => {
+                let mut cut = rng.below(text.len() + 1);
+                while !text.is_char_boundary(cut) {
+                    cut -= 1;
+                }
+                text[..cut].to_string()
+            }
+            _ => {
+                let mut chars: Vec<char> = text.chars().collect();
+                if chars.len() > 1 {
+                    let i = rng.below(chars.len());
+                    let j = if rng.below(2) == 0 {
+                        (i + 1) % chars.len()
+                    } else {
+                        rng.below(chars.len())
+                    };
+                    chars.swap(i, j);
+                }
+                chars.into_iter().collect()
+            }
+        }
+    }
+
+    #[test]
+    fn mutations_never_panic() {
+        let mut rng = XorShift(0x9E37_79B9_7F4A_7C15);
+        let (mut oks, mut errs) = (0, 0);
+        for source in [CORNELL, BOXES, FURNACE] {
+            for _ in 0..300 {
+                let mut text = source.to_string();
+                for _ in 0..1 + rng.below(3) {
+                    text = mutate(&text, &mut rng);
+                }
+                let result = std::panic::catch_unwind(|| parse_scene(&text, FILE));
+                match result {
+                    Err(_) => panic!("parse_scene panicked on:\n{text}"),
+                    Ok(Ok(_)) => oks += 1,
+                    Ok(Err(e)) => {
+                        errs += 1;
+                        let shown = e.to_string();
+                        assert!(shown.starts_with(&format!("{FILE}: ")), "{shown}");
+                        assert!(!e.message.is_empty(), "{shown}");
+                    }
+                }
+            }
+        }
+        assert!(oks > 0 && errs > 0, "oks {oks}, errs {errs}");
+    }
+}

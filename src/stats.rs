@@ -1,0 +1,362 @@
+//! Statistics over accumulated sample sums, for noise estimates and convergence studies.
+
+use crate::output::Image;
+
+/// Rec. 709 / sRGB luminance weights.
+const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
+
+/// Per-pixel sums of samples and of squared samples (f64), over `samples` samples per pixel.
+/// `sum` and `sum_sq` hold `width * height` pixels, row-major, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Accumulation {
+    pub width: u32,
+    pub height: u32,
+    pub samples: u64,
+    pub sum: Vec<[f64; 3]>,
+    pub sum_sq: Option<Vec<[f64; 3]>>,
+}
+
+impl Accumulation {
+    /// `sum / samples` as f32; all zeros when `samples == 0`.
+    pub fn mean(&self) -> Image {
+        let n = self.samples as f64;
+        let pixels = if self.samples == 0 {
+            vec![[0.0; 3]; self.sum.len()]
+        } else {
+            self.sum.iter().map(|s| s.map(|c| (c / n) as f32)).collect()
+        };
+        Image {
+            width: self.width,
+            height: self.height,
+            pixels,
+        }
+    }
+
+    /// Per-pixel, per-channel standard error of the mean, `SE = sqrt(s² / n)`, with the unbiased
+    /// sample variance `s² = (sum_sq - n·mean²) / (n - 1)` (clamped at 0 against rounding).
+    /// None without `sum_sq` or with fewer than 2 samples.
+    pub fn standard_error(&self) -> Option<Image> {
+        let pixels = self
+            .mean_and_standard_error()?
+            .map(|(_, se)| se.map(|c| c as f32))
+            .collect();
+        Some(Image {
+            width: self.width,
+            height: self.height,
+            pixels,
+        })
+    }
+
+    /// The image's relative standard error, defined as
+    ///
+    /// `sqrt( (1/P) Σ_p Y(SE_p)² ) / ( (1/P) Σ_p Y(mean_p) )`
+    ///
+    /// over the P pixels, where `SE_p` is pixel p's per-channel standard error (as in
+    /// [`standard_error`](Self::standard_error)), `mean_p` its mean and `Y` is [`luminance`].
+    /// So: the RMS over pixels of the luminance of the per-channel standard errors, divided by
+    /// the mean luminance of the mean image.
+    ///
+    /// `Y(SE_p)` is not the standard error of the pixel's luminance, which needs cross-channel
+    /// covariances that the sums do not hold; with positive weights it is an upper bound on it.
+    /// None without `sum_sq`, with fewer than 2 samples, or when the mean luminance is not
+    /// positive (an all-black image).
+    pub fn relative_error(&self) -> Option<f64> {
+        let (mut error_sq, mut mean_y, mut pixels) = (0.0, 0.0, 0.0);
+        for (mean, se) in self.mean_and_standard_error()? {
+            error_sq += luminance_f64(se).powi(2);
+            mean_y += luminance_f64(mean);
+            pixels += 1.0;
+        }
+        // `> 0` also rejects NaN and the 0/0 of an empty image.
+        (mean_y > 0.0).then(|| (error_sq / pixels).sqrt() / (mean_y / pixels))
+    }
+
+    /// Per pixel: the mean and the standard error of the mean, per channel, in f64.
+    fn mean_and_standard_error(&self) -> Option<impl Iterator<Item = ([f64; 3], [f64; 3])>> {
+        let sum_sq = self.sum_sq.as_ref()?;
+        if self.samples < 2 {
+            return None;
+        }
+        let n = self.samples as f64;
+        Some(self.sum.iter().zip(sum_sq).map(move |(sum, sum_sq)| {
+            let mean = sum.map(|s| s / n);
+            let se = std::array::from_fn(|c| {
+                let variance = ((sum_sq[c] - n * mean[c] * mean[c]) / (n - 1.0)).max(0.0);
+                (variance / n).sqrt()
+            });
+            (mean, se)
+        }))
+    }
+}
+
+/// Rec. 709 luminance: `Y = 0.2126 R + 0.7152 G + 0.0722 B`.
+pub fn luminance(rgb: [f32; 3]) -> f32 {
+    luminance_f64(rgb.map(f64::from)) as f32
+}
+
+fn luminance_f64(rgb: [f64; 3]) -> f64 {
+    rgb.iter().zip(LUMINANCE_WEIGHTS).map(|(c, w)| c * w).sum()
+}
+
+/// Root-mean-square difference over all pixels and channels, in f64 (NaN for empty images).
+///
+/// # Panics
+/// If the images differ in size.
+pub fn rmse(a: &Image, b: &Image) -> f64 {
+    assert_eq!(
+        (a.width, a.height),
+        (b.width, b.height),
+        "rmse of images of different sizes"
+    );
+    let squared: f64 = a
+        .pixels
+        .iter()
+        .flatten()
+        .zip(b.pixels.iter().flatten())
+        .map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2))
+        .sum();
+    (squared / (3 * a.pixels.len()) as f64).sqrt()
+}
+
+/// `rmse(image, reference)` divided by [`mean_value`] of `reference`; None if that mean is 0
+/// (or NaN, as for an empty image).
+///
+/// # Panics
+/// If the images differ in size.
+pub fn relative_rmse(image: &Image, reference: &Image) -> Option<f64> {
+    let mean = mean_value(reference);
+    if mean == 0.0 || mean.is_nan() {
+        return None;
+    }
+    Some(rmse(image, reference) / mean)
+}
+
+/// Mean over all pixels and channels, in f64 (NaN for an empty image).
+pub fn mean_value(image: &Image) -> f64 {
+    let sum: f64 = image.pixels.iter().flatten().map(|&v| f64::from(v)).sum();
+    sum / (3 * image.pixels.len()) as f64
+}
+
+/// Least-squares slope of `ln y` against `ln x`, e.g. the convergence rate of error against
+/// sample count. Points with a non-finite or non-positive coordinate are skipped. None with
+/// fewer than 2 points left, or when they all share one x.
+pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let logs: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| x.is_finite() && y.is_finite() && *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    if logs.len() < 2 {
+        return None;
+    }
+    let count = logs.len() as f64;
+    let mean_x = logs.iter().map(|p| p.0).sum::<f64>() / count;
+    let mean_y = logs.iter().map(|p| p.1).sum::<f64>() / count;
+    // Centred sums avoid the cancellation of the textbook Σxy - n·x̄ȳ form.
+    let sxx: f64 = logs.iter().map(|(x, _)| (x - mean_x).powi(2)).sum();
+    let sxy: f64 = logs.iter().map(|(x, y)| (x - mean_x) * (y - mean_y)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Accumulates `samples[k]` (one RGB value per pixel) the way the renderer's sums do.
+    fn accumulate(width: u32, height: u32, samples: &[Vec<[f64; 3]>]) -> Accumulation {
+        let pixels = (width * height) as usize;
+        let mut sum = vec![[0.0; 3]; pixels];
+        let mut sum_sq = vec![[0.0; 3]; pixels];
+        for frame in samples {
+            for (p, rgb) in frame.iter().enumerate() {
+                for c in 0..3 {
+                    sum[p][c] += rgb[c];
+                    sum_sq[p][c] += rgb[c] * rgb[c];
+                }
+            }
+        }
+        Accumulation {
+            width,
+            height,
+            samples: samples.len() as u64,
+            sum,
+            sum_sq: Some(sum_sq),
+        }
+    }
+
+    fn assert_close(actual: f64, expected: f64) {
+        assert!(
+            (actual - expected).abs() <= 1e-12 * expected.abs().max(1.0),
+            "{actual} != {expected}"
+        );
+    }
+
+    #[test]
+    fn known_variance_case() {
+        // R alternates 0, 2; G is constant; B is 1, 2, 3, 4.
+        let samples: Vec<Vec<[f64; 3]>> = [
+            [0.0, 5.0, 1.0],
+            [2.0, 5.0, 2.0],
+            [0.0, 5.0, 3.0],
+            [2.0, 5.0, 4.0],
+        ]
+        .iter()
+        .map(|s| vec![*s])
+        .collect();
+        let accumulation = accumulate(1, 1, &samples);
+        assert_eq!(accumulation.mean().pixels, vec![[1.0, 5.0, 2.5]]);
+        // R: Σx² = 8, s² = (8 - 4·1²) / 3 = 4/3, SE = sqrt(4/3 / 4) = sqrt(1/3).
+        // G: s² = 0.  B: Σx² = 30, s² = (30 - 4·2.5²) / 3 = 5/3, SE = sqrt(5/12).
+        let se = accumulation.standard_error().unwrap();
+        assert_eq!((se.width, se.height), (1, 1));
+        assert_eq!(
+            se.pixels,
+            vec![[
+                (1.0f64 / 3.0).sqrt() as f32,
+                0.0,
+                (5.0f64 / 12.0).sqrt() as f32
+            ]]
+        );
+    }
+
+    #[test]
+    fn standard_error_of_two_samples() {
+        // With n = 2, s² = (a - b)² / 2 and SE = |a - b| / 2; pixel 1 is (0.5, 1, 4) ± (0.5, 0, 1).
+        let samples = vec![
+            vec![[1.0, 2.0, 3.0], [0.0, 1.0, 3.0]],
+            vec![[1.0, 2.0, 3.0], [1.0, 1.0, 5.0]],
+        ];
+        let accumulation = accumulate(2, 1, &samples);
+        assert_eq!(
+            accumulation.mean().pixels,
+            vec![[1.0, 2.0, 3.0], [0.5, 1.0, 4.0]]
+        );
+        assert_eq!(
+            accumulation.standard_error().unwrap().pixels,
+            vec![[0.0; 3], [0.5, 0.0, 1.0]]
+        );
+    }
+
+    #[test]
+    fn standard_error_needs_squares_and_two_samples() {
+        let mut accumulation = accumulate(1, 1, &[vec![[1.0; 3]]]);
+        assert_eq!(accumulation.standard_error(), None);
+        assert_eq!(accumulation.relative_error(), None);
+        accumulation = accumulate(1, 1, &[vec![[1.0; 3]], vec![[3.0; 3]]]);
+        assert!(accumulation.standard_error().is_some());
+        accumulation.sum_sq = None;
+        assert_eq!(accumulation.standard_error(), None);
+        assert_eq!(accumulation.relative_error(), None);
+    }
+
+    #[test]
+    fn mean_without_samples_is_black() {
+        let accumulation = Accumulation {
+            width: 2,
+            height: 1,
+            samples: 0,
+            sum: vec![[0.0; 3]; 2],
+            sum_sq: None,
+        };
+        assert_eq!(accumulation.mean(), Image::new(2, 1));
+    }
+
+    #[test]
+    fn relative_error_by_hand() {
+        // n = 2. Pixel A: samples 0.75 and 1.25 in every channel → mean 1, SE 0.25 each.
+        // Pixel B: R samples 2 and 4 (SE 1), G and B samples 3 and 3 (SE 0) → mean 3.
+        let accumulation = Accumulation {
+            width: 2,
+            height: 1,
+            samples: 2,
+            sum: vec![[2.0; 3], [6.0; 3]],
+            sum_sq: Some(vec![[0.5625 + 1.5625; 3], [4.0 + 16.0, 18.0, 18.0]]),
+        };
+        // Y(SE): A → 0.25 (weights sum to 1), B → 0.2126. Mean luminance: (1 + 3) / 2 = 2.
+        let expected = ((0.25f64.powi(2) + 0.2126f64.powi(2)) / 2.0).sqrt() / 2.0;
+        assert_close(accumulation.relative_error().unwrap(), expected);
+    }
+
+    #[test]
+    fn relative_error_of_black_image_is_none() {
+        let accumulation = accumulate(1, 1, &[vec![[0.0; 3]], vec![[0.0; 3]]]);
+        assert_eq!(accumulation.relative_error(), None);
+    }
+
+    #[test]
+    fn luminance_weights() {
+        assert_eq!(luminance([1.0, 0.0, 0.0]), 0.2126);
+        assert_eq!(luminance([0.0, 1.0, 0.0]), 0.7152);
+        assert_eq!(luminance([0.0, 0.0, 1.0]), 0.0722);
+        assert_eq!(luminance([2.0, 2.0, 2.0]), 2.0);
+    }
+
+    fn image(pixels: Vec<[f32; 3]>) -> Image {
+        Image {
+            width: pixels.len() as u32,
+            height: 1,
+            pixels,
+        }
+    }
+
+    #[test]
+    fn rmse_of_identical_and_offset_images() {
+        // Binary fractions, so adding the offset in f32 is exact.
+        let a = image(vec![[0.125, 0.25, 0.75], [1.0, 2.0, 3.0]]);
+        assert_eq!(rmse(&a, &a), 0.0);
+        let shifted = image(a.pixels.iter().map(|p| p.map(|v| v + 0.5)).collect());
+        assert_close(rmse(&a, &shifted), 0.5);
+        // One channel of six off by 3: sqrt(9 / 6).
+        let mut one_off = a.clone();
+        one_off.pixels[1][2] += 3.0;
+        assert_close(rmse(&a, &one_off), 1.5f64.sqrt());
+    }
+
+    #[test]
+    #[should_panic(expected = "different sizes")]
+    fn rmse_panics_on_size_mismatch() {
+        rmse(&Image::new(2, 1), &Image::new(1, 2));
+    }
+
+    #[test]
+    fn relative_rmse_divides_by_reference_mean() {
+        let reference = image(vec![[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
+        let shifted = image(
+            reference
+                .pixels
+                .iter()
+                .map(|p| p.map(|v| v + 0.5))
+                .collect(),
+        );
+        assert_close(mean_value(&reference), 2.0);
+        assert_close(relative_rmse(&shifted, &reference).unwrap(), 0.25);
+        assert_eq!(relative_rmse(&shifted, &Image::new(2, 1)), None);
+    }
+
+    #[test]
+    fn log_log_slope_of_power_law() {
+        let points: Vec<(f64, f64)> = (0..12)
+            .map(|k| 2f64.powi(k))
+            .map(|x| (x, 3.0 * x.powf(-0.5)))
+            .collect();
+        let slope = log_log_slope(&points).unwrap();
+        assert!((slope + 0.5).abs() < 1e-12, "{slope}");
+    }
+
+    #[test]
+    fn log_log_slope_skips_unusable_points() {
+        let mut points = vec![
+            (0.0, 1.0),
+            (-1.0, 2.0),
+            (4.0, 0.0),
+            (f64::NAN, 1.0),
+            (f64::INFINITY, 1.0),
+        ];
+        assert_eq!(log_log_slope(&points), None);
+        points.push((1.0, 5.0));
+        assert_eq!(log_log_slope(&points), None);
+        points.push((100.0, 5.0 * 100f64.powi(2)));
+        assert_close(log_log_slope(&points).unwrap(), 2.0);
+        assert_eq!(log_log_slope(&[(2.0, 1.0), (2.0, 3.0)]), None);
+    }
+}
