@@ -28,7 +28,8 @@ struct Params {
     ray_offset: f32,
     // 1: this dispatch starts the accumulation (ignore what the accumulator holds).
     reset: u32,
-    _pad0: u32,
+    // Always 0; see `compensated_add`.
+    zero_bits: u32,
     _pad1: u32,
 }
 
@@ -36,6 +37,9 @@ struct Params {
 struct Counters {
     // Samples whose radiance was NaN or infinite, replaced by zero.
     discarded: atomic<u32>,
+    // Invocations that ended before their last sample: the driver cut a loop
+    // short (lavapipe stops all loops of an invocation after 65535 iterations).
+    truncated: atomic<u32>,
 }
 
 struct Ray {

@@ -17,9 +17,12 @@ struct CompensatedSum {
     compensation: vec3<f32>,
 }
 
+// Driver compilers simplify `((s + y) - s) - y` to zero, which silently turns
+// this into a plain sum; `params.zero_bits` (always 0, unknown at compile
+// time) hides that `t` is `s + y`, so the rounding error is really computed.
 fn compensated_add(acc: ptr<function, CompensatedSum>, value: vec3<f32>) {
     let y = value - (*acc).compensation;
-    let t = (*acc).sum + y;
+    let t = bitcast<vec3<f32>>(bitcast<vec3<u32>>((*acc).sum + y) ^ vec3<u32>(params.zero_bits));
     (*acc).compensation = (t - (*acc).sum) - y;
     (*acc).sum = t;
 }
@@ -122,6 +125,9 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
 
+    if samples_done != params.sample_count {
+        atomicAdd(&counters.truncated, 1u);
+    }
     store_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, radiance_sum);
 #if VARIANCE
     store_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, squares_sum);

@@ -2,16 +2,17 @@
 //! and flags (code for absent features is not compiled in) and the pipeline
 //! constants. Device-free, so every variant is validated by naga in `cargo test`.
 
-use crate::gpu::layout::{
-    MATERIAL_DIELECTRIC, MATERIAL_LAMBERTIAN, MATERIAL_METAL, SceneData,
-};
+use crate::gpu::layout::{MATERIAL_DIELECTRIC, MATERIAL_LAMBERTIAN, MATERIAL_METAL, SceneData};
 use crate::scene::Strategy;
 use crate::shader::{ComposeError, ShaderModule, compose};
 use std::collections::BTreeSet;
 
 macro_rules! shader_module {
     ($name:literal) => {
-        ShaderModule { name: $name, source: include_str!(concat!("../shaders/", $name, ".wgsl")) }
+        ShaderModule {
+            name: $name,
+            source: include_str!(concat!("../shaders/", $name, ".wgsl")),
+        }
     };
 }
 
@@ -141,7 +142,11 @@ impl KernelConfig {
             ("STRATEGY_LIGHT", self.strategy == Strategy::Light),
             ("VARIANCE", self.variance),
         ];
-        pairs.into_iter().filter(|&(_, on)| on).map(|(flag, _)| flag).collect()
+        pairs
+            .into_iter()
+            .filter(|&(_, on)| on)
+            .map(|(flag, _)| flag)
+            .collect()
     }
 
     pub fn modules(&self) -> Vec<ShaderModule> {
@@ -171,7 +176,10 @@ impl KernelConfig {
 
     /// Values of the WGSL `override` constants.
     pub fn constants(&self) -> Vec<(&'static str, f64)> {
-        vec![("MAX_DEPTH", self.max_depth as f64), ("LIGHT_WEIGHT", self.light_weight as f64)]
+        vec![
+            ("MAX_DEPTH", self.max_depth as f64),
+            ("LIGHT_WEIGHT", self.light_weight as f64),
+        ]
     }
 
     /// Scene bindings (group 1) the kernel declares.
@@ -262,10 +270,17 @@ mod tests {
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let source = config.source().unwrap();
-        for absent in ["sphere_hit_t", "scatter_dielectric", "scatter_metal", "light_spheres"] {
+        for absent in [
+            "sphere_hit_t",
+            "scatter_dielectric",
+            "scatter_metal",
+            "light_spheres",
+        ] {
             assert!(!source.contains(absent), "{absent} compiled in");
         }
-        let cosine = KernelConfig::general(Strategy::Cosine, AccumulatorKind::Buffer).source().unwrap();
+        let cosine = KernelConfig::general(Strategy::Cosine, AccumulatorKind::Buffer)
+            .source()
+            .unwrap();
         assert!(!cosine.contains("fn light_pdf"));
     }
 
@@ -285,12 +300,20 @@ mod tests {
             .map(|m| (m.name.as_deref().unwrap(), m.offset as usize))
             .collect();
         assert_eq!(wgsl, T::fields(), "field offsets of {}", T::WGSL_NAME);
-        assert_eq!(span as usize, std::mem::size_of::<T>(), "size of {}", T::WGSL_NAME);
+        assert_eq!(
+            span as usize,
+            std::mem::size_of::<T>(),
+            "size of {}",
+            T::WGSL_NAME
+        );
     }
 
     #[test]
     fn host_structs_match_wgsl_layouts() {
-        let module = validate(&KernelConfig::general(Strategy::Mixture, AccumulatorKind::Texture));
+        let module = validate(&KernelConfig::general(
+            Strategy::Mixture,
+            AccumulatorKind::Texture,
+        ));
         check_layout::<Params>(&module);
         check_layout::<Counters>(&module);
         check_layout::<Material>(&module);

@@ -28,7 +28,11 @@ pub struct RenderOptions {
 
 impl Default for RenderOptions {
     fn default() -> Self {
-        RenderOptions { accumulator: None, variance: false, submission_seconds: 0.25 }
+        RenderOptions {
+            accumulator: None,
+            variance: false,
+            submission_seconds: 0.25,
+        }
     }
 }
 
@@ -70,6 +74,8 @@ pub struct Renderer<'a> {
     samples: u32,
     /// Paths one submission should trace, adapted to the measured speed.
     paths_per_submission: u64,
+    /// Most samples one dispatch may trace per pixel (see `LOOP_ITERATION_BUDGET`).
+    max_samples_per_dispatch: u32,
     submission_seconds: f64,
     /// Things the user should know about this run (strategy fallbacks and the like).
     pub warnings: Vec<String>,
@@ -78,7 +84,11 @@ pub struct Renderer<'a> {
 impl<'a> Renderer<'a> {
     /// Builds the kernel for `scene` and its buffers. `scene.render` says the strategy,
     /// depth, weight and seed; `scene.camera` the image size.
-    pub fn new(ctx: &'a GpuContext, scene: &Scene, options: &RenderOptions) -> Result<Renderer<'a>, RenderError> {
+    pub fn new(
+        ctx: &'a GpuContext,
+        scene: &Scene,
+        options: &RenderOptions,
+    ) -> Result<Renderer<'a>, RenderError> {
         let data = SceneData::pack(scene);
         let settings = &scene.render;
         let mut warnings = Vec::new();
@@ -125,10 +135,16 @@ impl<'a> Renderer<'a> {
             options.variance,
         );
         check_size(ctx, &config, width, height)?;
-        let kernel = Kernel::new(ctx, config)
-            .map_err(|e| RenderError::Unsupported(format!("internal shader composition error: {e}")))?;
-        let accumulator =
-            Accumulator::new(ctx, accumulator_kind, width, height, kernel.config.accumulator_layers());
+        let kernel = Kernel::new(ctx, config).map_err(|e| {
+            RenderError::Unsupported(format!("internal shader composition error: {e}"))
+        })?;
+        let accumulator = Accumulator::new(
+            ctx,
+            accumulator_kind,
+            width,
+            height,
+            kernel.config.accumulator_layers(),
+        );
 
         let frame = CameraFrame::new(&scene.camera);
         let params = Params {
@@ -153,15 +169,26 @@ impl<'a> Renderer<'a> {
         let counters_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("counters"),
             contents: bytemuck::bytes_of(&Counters::default()),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
         });
         let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &kernel.frame_layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: BINDING_PARAMS, resource: params_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: BINDING_ACCUMULATOR, resource: accumulator.binding() },
-                wgpu::BindGroupEntry { binding: BINDING_COUNTERS, resource: counters_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: BINDING_PARAMS,
+                    resource: params_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: BINDING_ACCUMULATOR,
+                    resource: accumulator.binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: BINDING_COUNTERS,
+                    resource: counters_buffer.as_entire_binding(),
+                },
             ],
         });
         let scene_buffers: Vec<(u32, wgpu::Buffer)> = kernel
@@ -187,7 +214,10 @@ impl<'a> Renderer<'a> {
             .collect();
         let scene_entries: Vec<_> = scene_buffers
             .iter()
-            .map(|(binding, buffer)| wgpu::BindGroupEntry { binding: *binding, resource: buffer.as_entire_binding() })
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding: *binding,
+                resource: buffer.as_entire_binding(),
+            })
             .collect();
         let scene_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("scene"),
@@ -206,6 +236,7 @@ impl<'a> Renderer<'a> {
             scene_group,
             samples: 0,
             paths_per_submission: 1 << 18,
+            max_samples_per_dispatch: max_samples_per_dispatch(&data, settings.max_depth),
             submission_seconds: options.submission_seconds,
             warnings,
         })
@@ -230,7 +261,8 @@ impl<'a> Renderer<'a> {
         let (width, height) = self.size();
         let pixels = width as u64 * height as u64;
         let budget = self.paths_per_submission.max(1);
-        let samples = (budget / pixels).clamp(1, max_samples.max(1) as u64) as u32;
+        let cap = max_samples.clamp(1, self.max_samples_per_dispatch) as u64;
+        let samples = (budget / pixels).clamp(1, cap) as u32;
         // Rows per dispatch: all of them unless one sample of the image is over budget.
         let rows = ((budget / width as u64).clamp(1, height as u64) as u32)
             .min(u16::MAX as u32 * WORKGROUP_SIZE.1);
@@ -260,7 +292,9 @@ impl<'a> Renderer<'a> {
             reset: (self.samples == 0) as u32,
             ..self.params
         };
-        self.ctx.queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
+        self.ctx
+            .queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -279,7 +313,10 @@ impl<'a> Renderer<'a> {
     fn wait(&self) {
         self.ctx
             .device
-            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
             .expect("device lost while rendering");
     }
 
@@ -303,8 +340,9 @@ impl<'a> Renderer<'a> {
         }
     }
 
-    /// Samples whose radiance was NaN or infinite (counted, and added as zero).
-    pub fn discarded(&self) -> u64 {
+    /// The kernel's counters: samples discarded as NaN or infinite (added as
+    /// zero), and invocations cut short by the driver (must be zero).
+    pub fn counters(&self) -> Counters {
         let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("counters readback"),
             size: size_of::<Counters>() as u64,
@@ -314,11 +352,31 @@ impl<'a> Renderer<'a> {
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         encoder.copy_buffer_to_buffer(&self.counters_buffer, 0, &staging, 0, staging.size());
         self.ctx.queue.submit([encoder.finish()]);
-        map_read(self.ctx, &staging, |bytes| bytemuck::pod_read_unaligned::<Counters>(bytes).discarded as u64)
+        map_read(self.ctx, &staging, bytemuck::pod_read_unaligned::<Counters>)
     }
 }
 
-fn check_size(ctx: &GpuContext, config: &KernelConfig, width: u32, height: u32) -> Result<(), RenderError> {
+/// Loop iterations one invocation may run per dispatch, all loops together.
+/// lavapipe (gallivm) silently ends every loop of an invocation after 65535
+/// iterations in all; the kernel counts invocations that end early, and this
+/// budget, at half that limit, keeps them from happening.
+const LOOP_ITERATION_BUDGET: u64 = 32768;
+
+/// Samples per dispatch that stay within `LOOP_ITERATION_BUDGET` even if every
+/// path runs to `max_depth`: each segment loops over every primitive (closest
+/// hit) and every light (mixture density).
+fn max_samples_per_dispatch(data: &SceneData, max_depth: u32) -> u32 {
+    let loops_per_segment = (data.quads.len() + data.spheres.len() + data.light_count()) as u64 + 2;
+    let per_sample = loops_per_segment * (max_depth as u64 + 1);
+    (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
+}
+
+fn check_size(
+    ctx: &GpuContext,
+    config: &KernelConfig,
+    width: u32,
+    height: u32,
+) -> Result<(), RenderError> {
     let limits = ctx.limits();
     let layers = config.accumulator_layers() as u64;
     match config.accumulator {
@@ -333,7 +391,9 @@ fn check_size(ctx: &GpuContext, config: &KernelConfig, width: u32, height: u32) 
         }
         AccumulatorKind::Buffer => {
             let bytes = width as u64 * height as u64 * 16 * layers;
-            let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+            let max = limits
+                .max_storage_buffer_binding_size
+                .min(limits.max_buffer_size);
             if bytes > max {
                 return Err(RenderError::Unsupported(format!(
                     "{width}x{height} needs a {bytes}-byte accumulator, over this adapter's \
@@ -366,11 +426,16 @@ pub struct RunSummary {
     pub samples: u32,
     pub elapsed: Duration,
     pub paths_per_second: f64,
+    /// Samples whose radiance was NaN or infinite, counted as zero.
     pub discarded: u64,
 }
 
 /// Accumulates until `stop` holds, calling `on_progress` after each submission.
-pub fn run(renderer: &mut Renderer, stop: StopRule, mut on_progress: impl FnMut(&Progress)) -> RunSummary {
+pub fn run(
+    renderer: &mut Renderer,
+    stop: StopRule,
+    mut on_progress: impl FnMut(&Progress),
+) -> Result<RunSummary, RenderError> {
     let started = Instant::now();
     let start_samples = renderer.samples();
     let (width, height) = renderer.size();
@@ -389,10 +454,18 @@ pub fn run(renderer: &mut Renderer, stop: StopRule, mut on_progress: impl FnMut(
         });
     }
     let elapsed = started.elapsed();
-    RunSummary {
+    let counters = renderer.counters();
+    if counters.truncated > 0 {
+        return Err(RenderError::Unsupported(format!(
+            "{} pixel invocations were cut short by the driver (a loop limit): the image would \
+             be wrong. Use a smaller --max-depth or a simpler scene on this adapter",
+            counters.truncated
+        )));
+    }
+    Ok(RunSummary {
         samples: renderer.samples(),
         elapsed,
         paths_per_second: rate(renderer.samples(), elapsed),
-        discarded: renderer.discarded(),
-    }
+        discarded: counters.discarded as u64,
+    })
 }

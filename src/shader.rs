@@ -23,7 +23,11 @@ pub struct ComposeError {
 
 impl fmt::Display for ComposeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "shaders/{}.wgsl:{}: {}", self.module, self.line, self.message)
+        write!(
+            f,
+            "shaders/{}.wgsl:{}: {}",
+            self.module, self.line, self.message
+        )
     }
 }
 
@@ -83,7 +87,10 @@ fn preprocess(
             }
         } else if trimmed.starts_with('#') {
             return Err(error(number, format!("unknown directive `{trimmed}`")));
-        } else if open.iter().all(|&(_, condition, in_else)| condition != in_else) {
+        } else if open
+            .iter()
+            .all(|&(_, condition, in_else)| condition != in_else)
+        {
             out.push_str(line);
             out.push('\n');
         }
@@ -102,7 +109,10 @@ mod tests {
 
     fn run(source: &'static str, flags: &[&'static str]) -> Result<String, ComposeError> {
         let flags: BTreeSet<&str> = flags.iter().copied().collect();
-        let module = ShaderModule { name: "test", source };
+        let module = ShaderModule {
+            name: "test",
+            source,
+        };
         preprocess(&module, &flags, KNOWN)
     }
 
@@ -130,20 +140,35 @@ mod tests {
     #[test]
     fn errors_name_module_and_line() {
         let err = run("ok\n#if C\n#endif\n", &[]).unwrap_err();
-        assert_eq!((err.line, err.message.as_str()), (2, "unknown flag `C` in `#if`"));
-        assert_eq!(err.to_string(), "shaders/test.wgsl:2: unknown flag `C` in `#if`");
+        assert_eq!(
+            (err.line, err.message.as_str()),
+            (2, "unknown flag `C` in `#if`")
+        );
+        assert_eq!(
+            err.to_string(),
+            "shaders/test.wgsl:2: unknown flag `C` in `#if`"
+        );
         assert_eq!(run("#if A\n", &[]).unwrap_err().line, 1);
         assert_eq!(run("\n#endif\n", &[]).unwrap_err().line, 2);
         assert_eq!(run("#else\n", &[]).unwrap_err().line, 1);
-        assert_eq!(run("#if A\n#else\n#else\n#endif\n", &[]).unwrap_err().line, 3);
+        assert_eq!(
+            run("#if A\n#else\n#else\n#endif\n", &[]).unwrap_err().line,
+            3
+        );
         assert_eq!(run("#ifdef A\n", &[]).unwrap_err().line, 1);
     }
 
     #[test]
     fn compose_concatenates_in_order() {
         let modules = [
-            ShaderModule { name: "one", source: "1\n" },
-            ShaderModule { name: "two", source: "#if A\n2\n#endif\n" },
+            ShaderModule {
+                name: "one",
+                source: "1\n",
+            },
+            ShaderModule {
+                name: "two",
+                source: "#if A\n2\n#endif\n",
+            },
         ];
         let flags: BTreeSet<&str> = ["A"].into_iter().collect();
         assert_eq!(

@@ -35,12 +35,18 @@ pub struct Failure {
 impl Failure {
     /// Bad input (scene file, flags, output path): exit code 2.
     pub fn input(message: impl ToString) -> Failure {
-        Failure { message: message.to_string(), code: 2 }
+        Failure {
+            message: message.to_string(),
+            code: 2,
+        }
     }
 
     /// The run itself failed (no adapter, device error, write error): exit code 1.
     pub fn runtime(message: impl ToString) -> Failure {
-        Failure { message: message.to_string(), code: 1 }
+        Failure {
+            message: message.to_string(),
+            code: 1,
+        }
     }
 }
 

@@ -28,7 +28,10 @@ impl ProgressDisplay {
         } else {
             Mode::Periodic
         };
-        ProgressDisplay { mode, last_line: None }
+        ProgressDisplay {
+            mode,
+            last_line: None,
+        }
     }
 
     pub fn update(&mut self, progress: &Progress) {
@@ -47,7 +50,10 @@ impl ProgressDisplay {
                 let _ = std::io::stderr().flush();
             }
             Mode::Periodic => {
-                if self.last_line.is_none_or(|t| t.elapsed() >= PERIODIC_INTERVAL) {
+                if self
+                    .last_line
+                    .is_none_or(|t| t.elapsed() >= PERIODIC_INTERVAL)
+                {
                     eprintln!("{line}");
                     self.last_line = Some(Instant::now());
                 }

@@ -109,7 +109,10 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
     }
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
-    let options = RenderOptions { accumulator: args.accumulator.map(AccumulatorKind::from), ..Default::default() };
+    let options = RenderOptions {
+        accumulator: args.accumulator.map(AccumulatorKind::from),
+        ..Default::default()
+    };
     let mut renderer = Renderer::new(&ctx, &scene, &options).map_err(Failure::input)?;
     for warning in &renderer.warnings {
         eprintln!("pathmix: warning: {warning}");
@@ -124,8 +127,15 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
         scene.render.max_depth
     );
     let mut display = ProgressDisplay::new(args.quiet);
-    let summary = render::run(&mut renderer, StopRule { samples: scene.render.spp }, |p| display.update(p));
+    let summary = render::run(
+        &mut renderer,
+        StopRule {
+            samples: scene.render.spp,
+        },
+        |p| display.update(p),
+    );
     display.finish();
+    let summary = summary.map_err(Failure::runtime)?;
 
     let mean = renderer.accumulation().mean();
     output::write_png(&args.output, &mean, 0.0).map_err(Failure::runtime)?;
@@ -141,7 +151,10 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
         summary.paths_per_second / 1e6
     );
     if summary.discarded > 0 {
-        eprintln!("pathmix: warning: {} samples were NaN or infinite and counted as zero", summary.discarded);
+        eprintln!(
+            "pathmix: warning: {} samples were NaN or infinite and counted as zero",
+            summary.discarded
+        );
     }
     println!("wrote {}", args.output.display());
     if let Some(exr) = &args.exr {

@@ -7,7 +7,10 @@ use crate::kernel::AccumulatorKind;
 const TEXEL_BYTES: u32 = 16;
 
 enum Storage {
-    Texture { texture: wgpu::Texture, view: wgpu::TextureView },
+    Texture {
+        texture: wgpu::Texture,
+        view: wgpu::TextureView,
+    },
     Buffer(wgpu::Buffer),
 }
 
@@ -20,12 +23,22 @@ pub struct Accumulator {
 }
 
 impl Accumulator {
-    pub fn new(ctx: &GpuContext, kind: AccumulatorKind, width: u32, height: u32, layers: u32) -> Accumulator {
+    pub fn new(
+        ctx: &GpuContext,
+        kind: AccumulatorKind,
+        width: u32,
+        height: u32,
+        layers: u32,
+    ) -> Accumulator {
         let storage = match kind {
             AccumulatorKind::Texture => {
                 let texture = ctx.device.create_texture(&wgpu::TextureDescriptor {
                     label: Some("accumulator"),
-                    size: wgpu::Extent3d { width, height, depth_or_array_layers: layers },
+                    size: wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: layers,
+                    },
                     mip_level_count: 1,
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
@@ -41,16 +54,23 @@ impl Accumulator {
                 });
                 Storage::Texture { texture, view }
             }
-            AccumulatorKind::Buffer => Storage::Buffer(ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("accumulator"),
-                size: Self::layer_bytes(width, height) * layers as u64,
-                usage: wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })),
+            AccumulatorKind::Buffer => {
+                Storage::Buffer(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("accumulator"),
+                    size: Self::layer_bytes(width, height) * layers as u64,
+                    usage: wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::COPY_SRC
+                        | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }))
+            }
         };
-        Accumulator { width, height, layers, storage }
+        Accumulator {
+            width,
+            height,
+            layers,
+            storage,
+        }
     }
 
     fn layer_bytes(width: u32, height: u32) -> u64 {
@@ -94,9 +114,15 @@ impl Accumulator {
                         rows_per_image: Some(self.height),
                     },
                 },
-                wgpu::Extent3d { width: self.width, height: self.height, depth_or_array_layers: self.layers },
+                wgpu::Extent3d {
+                    width: self.width,
+                    height: self.height,
+                    depth_or_array_layers: self.layers,
+                },
             ),
-            Storage::Buffer(buffer) => encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, staging.size()),
+            Storage::Buffer(buffer) => {
+                encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, staging.size())
+            }
         }
         ctx.queue.submit([encoder.finish()]);
         let texels = map_read(ctx, &staging, |bytes| {
@@ -118,7 +144,10 @@ pub fn map_read<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[
         let _ = sender.send(result);
     });
     ctx.device
-        .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+        .poll(wgpu::PollType::Wait {
+            submission_index: None,
+            timeout: None,
+        })
         .expect("device lost while reading back");
     receiver
         .recv()

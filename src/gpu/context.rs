@@ -6,7 +6,10 @@ use std::fmt;
 #[derive(Debug)]
 pub enum GpuError {
     NoAdapter,
-    NoMatchingAdapter { wanted: String, available: Vec<String> },
+    NoMatchingAdapter {
+        wanted: String,
+        available: Vec<String>,
+    },
     Device(String),
 }
 
@@ -47,14 +50,16 @@ impl GpuContext {
     /// Opens the best adapter, or the first whose name contains `name_filter`
     /// (case-insensitive; `None` reads `PATHMIX_ADAPTER`).
     pub fn new(name_filter: Option<&str>) -> Result<GpuContext, GpuError> {
-        let env_filter = std::env::var("PATHMIX_ADAPTER").ok().filter(|s| !s.is_empty());
+        let env_filter = std::env::var("PATHMIX_ADAPTER")
+            .ok()
+            .filter(|s| !s.is_empty());
         let filter = name_filter.map(str::to_string).or(env_filter);
+        // WGPU_BACKEND may name backends; otherwise the native ones (not GL).
+        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        if wgpu::Backends::from_env().is_none() {
-            descriptor.backends = wgpu::Backends::PRIMARY;
-        }
+        descriptor.backends = backends;
         let instance = wgpu::Instance::new(descriptor);
-        let mut adapters = pollster::block_on(instance.enumerate_adapters(descriptor_backends()));
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
         if adapters.is_empty() {
             return Err(GpuError::NoAdapter);
         }
@@ -92,7 +97,9 @@ impl GpuContext {
         let format = adapter.get_texture_format_features(wgpu::TextureFormat::Rgba32Float);
         let adapter_specific = wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
         let storage_texture_accumulator = adapter.features().contains(adapter_specific)
-            && format.flags.contains(wgpu::TextureFormatFeatureFlags::STORAGE_READ_WRITE);
+            && format
+                .flags
+                .contains(wgpu::TextureFormatFeatureFlags::STORAGE_READ_WRITE);
         let mut required_features = wgpu::Features::empty();
         if storage_texture_accumulator {
             required_features |= adapter_specific;
@@ -105,7 +112,13 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
-        Ok(GpuContext { adapter, device, queue, info, storage_texture_accumulator })
+        Ok(GpuContext {
+            adapter,
+            device,
+            queue,
+            info,
+            storage_texture_accumulator,
+        })
     }
 
     /// "name (backend, device type)".
@@ -116,10 +129,6 @@ impl GpuContext {
     pub fn limits(&self) -> wgpu::Limits {
         self.device.limits()
     }
-}
-
-fn descriptor_backends() -> wgpu::Backends {
-    wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY)
 }
 
 fn describe(info: &wgpu::AdapterInfo) -> String {

@@ -45,7 +45,7 @@ gpu_struct! {
         pub tile_size: [u32; 2],
         pub ray_offset: f32,
         pub reset: u32,
-        pub _pad0: u32,
+        pub zero_bits: u32,
         pub _pad1: u32,
     }
 }
@@ -53,6 +53,7 @@ gpu_struct! {
 gpu_struct! {
     pub struct Counters {
         pub discarded: u32,
+        pub truncated: u32,
     }
 }
 
@@ -116,10 +117,11 @@ impl SceneData {
         let materials = scene.materials.iter().map(pack_material).collect();
         // A dielectric of ior 1 bends and reflects nothing: it is left out of the
         // geometry (it may still guide sampling if marked for importance).
-        let invisible = |material: u32| {
-            matches!(scene.materials[material as usize].kind, MaterialKind::Dielectric { ior } if ior == 1.0)
+        let invisible = |material: u32| matches!(scene.materials[material as usize].kind, MaterialKind::Dielectric { ior } if ior == 1.0);
+        let mut data = SceneData {
+            materials,
+            ..SceneData::default()
         };
-        let mut data = SceneData { materials, ..SceneData::default() };
         for quad in &scene.quads {
             let packed = pack_quad(quad.q, quad.u, quad.v, quad.material);
             if !invisible(quad.material) {
@@ -164,7 +166,12 @@ fn pack_material(material: &crate::scene::Material) -> Material {
         MaterialKind::Dielectric { ior } => (MATERIAL_DIELECTRIC, ior),
         MaterialKind::Light => (MATERIAL_LIGHT, 0.0),
     };
-    Material { albedo: material.albedo.to_array(), kind, emit: material.emit.to_array(), param }
+    Material {
+        albedo: material.albedo.to_array(),
+        kind,
+        emit: material.emit.to_array(),
+        param,
+    }
 }
 
 fn pack_quad(q: Vec3, u: Vec3, v: Vec3, material: u32) -> Quad {

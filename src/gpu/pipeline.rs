@@ -18,7 +18,12 @@ pub struct Kernel {
 }
 
 fn compute_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry { binding, visibility: wgpu::ShaderStages::COMPUTE, ty, count: None }
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty,
+        count: None,
+    }
 }
 
 fn storage_buffer(read_only: bool) -> wgpu::BindingType {
@@ -32,10 +37,12 @@ fn storage_buffer(read_only: bool) -> wgpu::BindingType {
 impl Kernel {
     pub fn new(ctx: &GpuContext, config: KernelConfig) -> Result<Kernel, ComposeError> {
         let source = config.source()?;
-        let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("pathmix kernel"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
+        let module = ctx
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("pathmix kernel"),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
         let accumulator = match config.accumulator {
             AccumulatorKind::Texture => wgpu::BindingType::StorageTexture {
                 access: wgpu::StorageTextureAccess::ReadWrite,
@@ -44,47 +51,60 @@ impl Kernel {
             },
             AccumulatorKind::Buffer => storage_buffer(false),
         };
-        let frame_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame"),
-            entries: &[
-                compute_entry(
-                    BINDING_PARAMS,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                ),
-                compute_entry(BINDING_ACCUMULATOR, accumulator),
-                compute_entry(BINDING_COUNTERS, storage_buffer(false)),
-            ],
-        });
+        let frame_layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("frame"),
+                entries: &[
+                    compute_entry(
+                        BINDING_PARAMS,
+                        wgpu::BindingType::Buffer {
+                            ty: wgpu::BufferBindingType::Uniform,
+                            has_dynamic_offset: false,
+                            min_binding_size: None,
+                        },
+                    ),
+                    compute_entry(BINDING_ACCUMULATOR, accumulator),
+                    compute_entry(BINDING_COUNTERS, storage_buffer(false)),
+                ],
+            });
         let scene_entries: Vec<_> = config
             .scene_bindings()
             .into_iter()
             .map(|binding| compute_entry(binding, storage_buffer(true)))
             .collect();
-        let scene_layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("scene"),
-            entries: &scene_entries,
-        });
-        let layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("pathmix"),
-            bind_group_layouts: &[Some(&frame_layout), Some(&scene_layout)],
-            immediate_size: 0,
-        });
+        let scene_layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("scene"),
+                entries: &scene_entries,
+            });
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("pathmix"),
+                bind_group_layouts: &[Some(&frame_layout), Some(&scene_layout)],
+                immediate_size: 0,
+            });
         let constants = config.constants();
-        let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("pathmix kernel"),
-            layout: Some(&layout),
-            module: &module,
-            entry_point: Some(ENTRY_POINT),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: None,
-        });
-        Ok(Kernel { config, pipeline, frame_layout, scene_layout })
+        let pipeline = ctx
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("pathmix kernel"),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some(ENTRY_POINT),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            });
+        Ok(Kernel {
+            config,
+            pipeline,
+            frame_layout,
+            scene_layout,
+        })
     }
 }

@@ -69,8 +69,12 @@ pub struct RenderSettings {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
     Lambertian,
-    Metal { fuzz: f32 },
-    Dielectric { ior: f32 },
+    Metal {
+        fuzz: f32,
+    },
+    Dielectric {
+        ior: f32,
+    },
     /// Emits `emit` on the side its normal faces; scatters nothing.
     Light,
 }

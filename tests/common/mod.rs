@@ -1,0 +1,88 @@
+//! Shared by the GPU test files: one device per test process, and small helpers.
+#![allow(dead_code)] // each test file uses a different subset
+
+use pathmix::gpu::GpuContext;
+use pathmix::render::{RenderOptions, Renderer};
+use pathmix::scene::Scene;
+use pathmix::stats::Accumulation;
+use std::sync::OnceLock;
+
+/// The device shared by every test of this process, or `None` (test skipped)
+/// when there is none and `PATHMIX_REQUIRE_GPU` is not `1`.
+pub fn gpu() -> Option<&'static GpuContext> {
+    static CONTEXT: OnceLock<Option<GpuContext>> = OnceLock::new();
+    CONTEXT
+        .get_or_init(|| match GpuContext::new(None) {
+            Ok(ctx) => Some(ctx),
+            Err(e) if std::env::var("PATHMIX_REQUIRE_GPU").as_deref() == Ok("1") => {
+                panic!("PATHMIX_REQUIRE_GPU=1 but no adapter: {e}")
+            }
+            Err(e) => {
+                eprintln!("skipping GPU tests: {e}");
+                None
+            }
+        })
+        .as_ref()
+}
+
+/// Returns from the test (skipping it) when there is no device.
+#[macro_export]
+macro_rules! gpu_or_skip {
+    () => {
+        match common::gpu() {
+            Some(ctx) => ctx,
+            None => return,
+        }
+    };
+}
+
+pub fn scene_file(name: &str) -> Scene {
+    Scene::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name),
+    )
+    .unwrap()
+}
+
+pub fn scene_text(text: &str) -> Scene {
+    Scene::parse(text, "test.toml").unwrap()
+}
+
+/// Renders `scene.render.spp` samples and returns the sums.
+pub fn render(ctx: &GpuContext, scene: &Scene, options: &RenderOptions) -> Accumulation {
+    let mut renderer = Renderer::new(ctx, scene, options).unwrap();
+    while renderer.samples() < scene.render.spp {
+        renderer.advance(scene.render.spp - renderer.samples());
+    }
+    let counters = renderer.counters();
+    assert_eq!(counters.discarded, 0, "NaN or infinite samples");
+    assert_eq!(counters.truncated, 0, "invocations cut short");
+    renderer.accumulation()
+}
+
+pub fn with_variance() -> RenderOptions {
+    RenderOptions {
+        variance: true,
+        ..RenderOptions::default()
+    }
+}
+
+/// Mean over the image of the per-pixel luminance-free channel mean, and its standard
+/// error from the per-pixel sample variances (pixels are independent).
+pub fn image_mean_and_error(acc: &Accumulation) -> (f64, f64) {
+    let n = acc.samples as f64;
+    let sum_sq = acc.sum_sq.as_ref().expect("render with variance");
+    let pixels = acc.sum.len() as f64;
+    let mut mean = 0.0;
+    let mut variance_of_mean = 0.0;
+    for (sum, sq) in acc.sum.iter().zip(sum_sq) {
+        for c in 0..3 {
+            let m = sum[c] / n;
+            let sample_variance = (sq[c] - n * m * m).max(0.0) / (n - 1.0);
+            mean += m / (3.0 * pixels);
+            variance_of_mean += sample_variance / n / (3.0 * pixels).powi(2);
+        }
+    }
+    (mean, variance_of_mean.sqrt())
+}

@@ -1,0 +1,243 @@
+//! Renders on the device (lavapipe in CI) with answers known in advance.
+
+mod common;
+
+use pathmix::kernel::AccumulatorKind;
+use pathmix::render::{RenderOptions, Renderer};
+use pathmix::scene::{SceneOverrides, Strategy};
+use pathmix::stats;
+
+/// Every pixel of the white furnace converges to E * sum_{k=0}^{D} a^k.
+fn furnace_value(emit: f64, albedo: f64, max_depth: u32) -> f64 {
+    (0..=max_depth).map(|k| emit * albedo.powi(k as i32)).sum()
+}
+
+fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scene {
+    let mut scene = common::scene_file("furnace.toml");
+    scene
+        .apply_overrides(&SceneOverrides {
+            strategy: Some(strategy),
+            spp: Some(spp),
+            max_depth: Some(max_depth),
+            ..Default::default()
+        })
+        .unwrap();
+    scene
+}
+
+#[test]
+fn furnace_cosine_is_exact() {
+    let ctx = gpu_or_skip!();
+    // Cosine sampling weighs each bounce by exactly the albedo, so every path is exact.
+    for depth in [0, 1, 4] {
+        let acc = common::render(
+            ctx,
+            &furnace(Strategy::Cosine, 8, depth),
+            &common::with_variance(),
+        );
+        let expected = furnace_value(1.0, 0.5, depth) as f32;
+        for pixel in acc.mean().pixels {
+            for channel in pixel {
+                assert!(
+                    (channel - expected).abs() <= 1e-6 * expected,
+                    "{channel} != {expected}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn furnace_mixture_and_light_are_unbiased() {
+    let ctx = gpu_or_skip!();
+    let expected = furnace_value(1.0, 0.5, 4);
+    for strategy in [Strategy::Mixture, Strategy::Light] {
+        let acc = common::render(ctx, &furnace(strategy, 256, 4), &common::with_variance());
+        let (mean, error) = common::image_mean_and_error(&acc);
+        eprintln!("furnace {strategy}: {mean:.6} ± {error:.6} (expected {expected})");
+        assert!(
+            error > 0.0 && error < 0.01 * expected,
+            "{strategy}: error estimate {error}"
+        );
+        assert!(
+            (mean - expected).abs() < 4.0 * error,
+            "{strategy}: {mean} ± {error}, expected {expected}"
+        );
+    }
+}
+
+#[test]
+fn samples_split_across_dispatches_give_identical_sums() {
+    let ctx = gpu_or_skip!();
+    let mut scene = common::scene_file("cornell.toml");
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(24),
+            height: Some(16),
+            spp: Some(6),
+            ..Default::default()
+        })
+        .unwrap();
+    let options = common::with_variance();
+    let mut one_at_a_time = Renderer::new(ctx, &scene, &options).unwrap();
+    for _ in 0..6 {
+        assert_eq!(one_at_a_time.advance(1), 1);
+    }
+    // Whatever split the adaptive sizing picks, capped at 2 or 4 per dispatch.
+    let mut uneven = Renderer::new(ctx, &scene, &options).unwrap();
+    uneven.advance(2);
+    while uneven.samples() < 6 {
+        uneven.advance(4.min(6 - uneven.samples()));
+    }
+    let all_at_once = common::render(ctx, &scene, &options);
+    assert_eq!(one_at_a_time.accumulation(), all_at_once);
+    assert_eq!(uneven.accumulation(), all_at_once);
+}
+
+#[test]
+fn buffer_accumulator_matches_texture_accumulator() {
+    let ctx = gpu_or_skip!();
+    if !ctx.storage_texture_accumulator {
+        eprintln!("adapter has no read-write storage textures: only the buffer path runs");
+    }
+    let mut scene = common::scene_file("cornell.toml");
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(20),
+            height: Some(30),
+            spp: Some(3),
+            ..Default::default()
+        })
+        .unwrap();
+    let buffer = common::render(
+        ctx,
+        &scene,
+        &RenderOptions {
+            accumulator: Some(AccumulatorKind::Buffer),
+            variance: true,
+            ..Default::default()
+        },
+    );
+    let default = common::render(ctx, &scene, &common::with_variance());
+    assert_eq!(buffer, default);
+    assert!(buffer.sum.iter().any(|p| p[0] > 0.0), "the image is black");
+}
+
+#[test]
+fn seed_changes_the_noise_not_the_picture() {
+    let ctx = gpu_or_skip!();
+    let mut scene = common::scene_file("cornell-boxes.toml");
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(16),
+            height: Some(16),
+            spp: Some(4),
+            ..Default::default()
+        })
+        .unwrap();
+    let a = common::render(ctx, &scene, &RenderOptions::default());
+    scene
+        .apply_overrides(&SceneOverrides {
+            seed: Some(7),
+            ..Default::default()
+        })
+        .unwrap();
+    let b = common::render(ctx, &scene, &RenderOptions::default());
+    assert_ne!(a, b);
+}
+
+/// Cornell box at a small size: mixture beats cosine at equal samples, against
+/// a high-sample reference of pathmix's own, and no sample is NaN or infinite.
+#[test]
+fn mixture_has_lower_error_than_cosine_on_the_cornell_box() {
+    let ctx = gpu_or_skip!();
+    let size = SceneOverrides {
+        width: Some(48),
+        height: Some(48),
+        max_depth: Some(8),
+        ..Default::default()
+    };
+    let render = |strategy, spp, seed| {
+        let mut scene = common::scene_file("cornell-boxes.toml");
+        scene.apply_overrides(&size).unwrap();
+        scene
+            .apply_overrides(&SceneOverrides {
+                strategy: Some(strategy),
+                spp: Some(spp),
+                seed: Some(seed),
+                ..Default::default()
+            })
+            .unwrap();
+        common::render(ctx, &scene, &RenderOptions::default()).mean()
+    };
+    let reference = render(Strategy::Mixture, 2048, 1);
+    let mixture = stats::rmse(&render(Strategy::Mixture, 16, 2), &reference);
+    let cosine = stats::rmse(&render(Strategy::Cosine, 16, 2), &reference);
+    eprintln!("16 spp RMSE: mixture {mixture:.5}, cosine {cosine:.5}");
+    assert!(
+        mixture < 0.8 * cosine,
+        "mixture {mixture} vs cosine {cosine}"
+    );
+}
+
+#[test]
+fn glass_cornell_box_renders_finite_values() {
+    let ctx = gpu_or_skip!();
+    let mut scene = common::scene_file("cornell.toml");
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(32),
+            height: Some(32),
+            spp: Some(16),
+            ..Default::default()
+        })
+        .unwrap();
+    // `common::render` also checks that the kernel discarded no sample.
+    let mean = common::render(ctx, &scene, &RenderOptions::default()).mean();
+    assert!(
+        mean.pixels
+            .iter()
+            .flatten()
+            .all(|v| v.is_finite() && *v >= 0.0)
+    );
+}
+
+/// A camera looking straight into an emitter of radiance 0.1: every sample is
+/// 0.1, so the mean after 2^25 samples must still read 0.1 (a plain f32 running
+/// sum stalls at 2^21 and reads far too low).
+#[test]
+fn accumulation_stays_exact_past_two_to_the_24_samples() {
+    let ctx = gpu_or_skip!();
+    let scene = common::scene_text(
+        r#"
+        [camera]
+        lookfrom = [0, 0, 0]
+        lookat = [0, 0, 1]
+        vfov = 10
+        width = 1
+        height = 1
+        [render]
+        spp = 33554432
+        max_depth = 0
+        [materials.glow]
+        type = "light"
+        emit = [0.1, 0.1, 0.1]
+        [[objects]]
+        type = "quad"
+        q = [-1, -1, 1]
+        u = [0, 2, 0]
+        v = [2, 0, 0]
+        material = "glow"
+        "#,
+    );
+    let acc = common::render(ctx, &scene, &common::with_variance());
+    assert_eq!(acc.samples, 1 << 25);
+    let mean = acc.sum[0][0] / acc.samples as f64;
+    let mean_square = acc.sum_sq.as_ref().unwrap()[0][0] / acc.samples as f64;
+    let value = 0.1f32 as f64;
+    assert!((mean / value - 1.0).abs() < 1e-6, "mean {mean}");
+    assert!(
+        (mean_square / (value * value) - 1.0).abs() < 1e-6,
+        "mean square {mean_square}"
+    );
+}
