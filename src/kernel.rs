@@ -261,6 +261,33 @@ mod tests {
     }
 
     #[test]
+    fn every_shipped_scene_specialisation_validates() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut scenes = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let scene = crate::scene::Scene::load(&entry.unwrap().path()).unwrap();
+            let data = SceneData::pack(&scene);
+            for strategy in Strategy::ALL {
+                for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
+                    for variance in [false, true] {
+                        let config = KernelConfig::for_scene(
+                            &data,
+                            strategy,
+                            50,
+                            0.5,
+                            accumulator,
+                            variance,
+                        );
+                        validate(&config);
+                    }
+                }
+            }
+            scenes += 1;
+        }
+        assert!(scenes >= 3);
+    }
+
+    #[test]
     fn absent_features_are_not_compiled_in() {
         let config = KernelConfig {
             spheres: false,

@@ -1,0 +1,180 @@
+//! The `pathmix` binary as a user runs it.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn pathmix(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pathmix"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn scene(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pathmix-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+#[test]
+fn help_explains_every_render_flag() {
+    let output = pathmix(&["render", "--help"]);
+    assert!(output.status.success());
+    let help = String::from_utf8_lossy(&output.stdout);
+    for flag in [
+        "--spp",
+        "--width",
+        "--height",
+        "--max-depth",
+        "--strategy",
+        "--light-weight",
+        "--seed",
+        "--exr",
+        "--adapter",
+        "--output",
+        "--accumulator",
+        "PATHMIX_ADAPTER",
+    ] {
+        assert!(help.contains(flag), "render --help lacks {flag}");
+    }
+    assert!(pathmix(&["--help"]).status.success());
+}
+
+#[test]
+fn bad_scene_is_refused_naming_file_and_field_and_writes_nothing() {
+    let dir = temp_dir("bad-scene");
+    let scene_path = dir.join("broken.toml");
+    let text = std::fs::read_to_string(scene("cornell.toml"))
+        .unwrap()
+        .replace("\"white\"", "\"whit\"");
+    std::fs::write(&scene_path, text).unwrap();
+    let png = dir.join("out.png");
+    let output = pathmix(&[
+        "render",
+        scene_path.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    let message = stderr(&output);
+    assert!(
+        message.contains("broken.toml") && message.contains("objects[") && message.contains("whit"),
+        "{message}"
+    );
+    assert!(!png.exists());
+}
+
+#[test]
+fn unwritable_outputs_are_refused_before_rendering() {
+    let dir = temp_dir("outputs");
+    let missing = dir.join("no-such-folder").join("out.png");
+    let output = pathmix(&[
+        "render",
+        &scene("furnace.toml"),
+        "-o",
+        missing.to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("no-such-folder"),
+        "{}",
+        stderr(&output)
+    );
+
+    let jpg = dir.join("out.jpg");
+    let output = pathmix(&[
+        "render",
+        &scene("furnace.toml"),
+        "-o",
+        jpg.to_str().unwrap(),
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains(".jpg"), "{}", stderr(&output));
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "something was written"
+    );
+}
+
+#[test]
+fn bad_flag_values_are_refused() {
+    let output = pathmix(&["render", &scene("furnace.toml"), "--width", "0"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("--width"), "{}", stderr(&output));
+}
+
+#[test]
+fn renders_png_and_exr_and_reports_speed() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("render");
+    let (png, exr) = (dir.join("box.png"), dir.join("box.exr"));
+    let output = pathmix(&[
+        "render",
+        &scene("cornell-boxes.toml"),
+        "--spp",
+        "2",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "-o",
+        png.to_str().unwrap(),
+        "--exr",
+        exr.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("paths/s") && stdout.contains("24x16") && stdout.contains("2 spp"),
+        "{stdout}"
+    );
+    assert!(stderr(&output).contains("adapter:"));
+    let decoded = image::open(&png).unwrap();
+    assert_eq!((decoded.width(), decoded.height()), (24, 16));
+    let linear = pathmix::output::read_exr(&exr).unwrap();
+    assert_eq!((linear.width, linear.height), (24, 16));
+}
+
+#[test]
+fn light_strategy_warns_that_it_is_biased() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("light");
+    let png = dir.join("light.png");
+    let output = pathmix(&[
+        "render",
+        &scene("cornell-boxes.toml"),
+        "--strategy",
+        "light",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stderr(&output).contains("biased"), "{}", stderr(&output));
+}
