@@ -123,7 +123,13 @@ impl<'a> Renderer<'a> {
                 )));
             }
             Some(kind) => kind,
-            None if ctx.storage_texture_accumulator => AccumulatorKind::Texture,
+            // The buffer has no per-dimension limit, so it takes images wider or
+            // taller than the adapter's largest texture.
+            None if ctx.storage_texture_accumulator
+                && width.max(height) <= ctx.limits().max_texture_dimension_2d =>
+            {
+                AccumulatorKind::Texture
+            }
             None => AccumulatorKind::Buffer,
         };
         let config = KernelConfig::for_scene(
