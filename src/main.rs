@@ -7,6 +7,7 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    let process_start = std::time::Instant::now();
     // Mesa's device-select Vulkan layer probes for a Wayland display and prints
     // an error on headless machines; pathmix chooses the adapter itself.
     if std::env::var_os("NODEVICE_SELECT").is_none() {
@@ -14,7 +15,7 @@ fn main() -> ExitCode {
         unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
     let args = cli::Cli::parse();
-    match cli::run(args) {
+    match cli::run(args, process_start) {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
             eprintln!("pathmix: error: {}", failure.message);

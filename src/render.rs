@@ -411,19 +411,53 @@ fn check_size(
     Ok(())
 }
 
-/// When a progressive run stops.
+/// When a progressive run stops: at `max_samples` per pixel, or earlier when the
+/// time budget is spent or the estimated relative error reaches the target.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StopRule {
-    pub samples: u32,
+    pub max_samples: u32,
+    pub time_budget: Option<Duration>,
+    /// Target for `Accumulation::relative_error` (needs `RenderOptions::variance`).
+    pub target_error: Option<f64>,
 }
+
+impl StopRule {
+    pub fn samples(max_samples: u32) -> StopRule {
+        StopRule {
+            max_samples,
+            time_budget: None,
+            target_error: None,
+        }
+    }
+}
+
+/// Which rule ended a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StopReason {
+    Samples,
+    TimeBudget,
+    /// The estimated relative error fell to or below the target.
+    TargetError,
+}
+
+/// The error estimate is not trusted before this many samples per pixel.
+pub const MIN_SAMPLES_FOR_ERROR: u32 = 8;
+
+/// How often the error estimate is read back while running toward a target
+/// (a readback copies the whole accumulator).
+const ERROR_CHECK_INTERVAL: Duration = Duration::from_secs(1);
 
 /// Progress after each submission, for the caller to display.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Progress {
     pub samples: u32,
-    pub target_samples: u32,
+    pub max_samples: u32,
     pub elapsed: Duration,
     pub paths_per_second: f64,
+    /// The latest relative error estimate, when variance is accumulated.
+    pub relative_error: Option<f64>,
+    /// Estimated time left under the rule most likely to stop the run.
+    pub eta: Option<Duration>,
 }
 
 /// How a run went.
@@ -434,6 +468,8 @@ pub struct RunSummary {
     pub paths_per_second: f64,
     /// Samples whose radiance was NaN or infinite, counted as zero.
     pub discarded: u64,
+    pub reason: StopReason,
+    pub relative_error: Option<f64>,
 }
 
 /// Accumulates until `stop` holds, calling `on_progress` after each submission.
@@ -442,6 +478,11 @@ pub fn run(
     stop: StopRule,
     mut on_progress: impl FnMut(&Progress),
 ) -> Result<RunSummary, RenderError> {
+    if stop.target_error.is_some() && !renderer.config().variance {
+        return Err(RenderError::Unsupported(
+            "a target error needs the variance sums: render with variance on".into(),
+        ));
+    }
     let started = Instant::now();
     let start_samples = renderer.samples();
     let (width, height) = renderer.size();
@@ -449,16 +490,45 @@ pub fn run(
     let rate = |samples: u32, elapsed: Duration| {
         (samples - start_samples) as f64 * pixels / elapsed.as_secs_f64().max(1e-9)
     };
-    while renderer.samples() < stop.samples {
-        renderer.advance(stop.samples - renderer.samples());
+    let mut relative_error = None;
+    let mut last_error_check: Option<Instant> = None;
+    let reason = loop {
+        if renderer.samples() >= stop.max_samples {
+            break StopReason::Samples;
+        }
+        if stop
+            .time_budget
+            .is_some_and(|budget| started.elapsed() >= budget)
+        {
+            break StopReason::TimeBudget;
+        }
+        if let (Some(target), Some(error)) = (stop.target_error, relative_error) {
+            if error <= target {
+                break StopReason::TargetError;
+            }
+        }
+        renderer.advance(stop.max_samples - renderer.samples());
         let elapsed = started.elapsed();
+        let wants_error = renderer.config().variance && renderer.samples() >= MIN_SAMPLES_FOR_ERROR;
+        if wants_error && last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL) {
+            relative_error = renderer.accumulation().relative_error();
+            last_error_check = Some(Instant::now());
+        }
         on_progress(&Progress {
             samples: renderer.samples(),
-            target_samples: stop.samples,
+            max_samples: stop.max_samples,
             elapsed,
             paths_per_second: rate(renderer.samples(), elapsed),
+            relative_error,
+            eta: eta(
+                &stop,
+                renderer.samples() - start_samples,
+                elapsed,
+                renderer.samples(),
+                relative_error,
+            ),
         });
-    }
+    };
     let elapsed = started.elapsed();
     let counters = renderer.counters();
     if counters.truncated > 0 {
@@ -468,10 +538,39 @@ pub fn run(
             counters.truncated
         )));
     }
+    if renderer.config().variance && reason != StopReason::TargetError {
+        relative_error = renderer.accumulation().relative_error();
+    }
     Ok(RunSummary {
         samples: renderer.samples(),
         elapsed,
         paths_per_second: rate(renderer.samples(), elapsed),
         discarded: counters.discarded as u64,
+        reason,
+        relative_error,
     })
+}
+
+/// Time left: the soonest of the sample cap, the time budget, and the samples
+/// the error target needs (error falls as 1/sqrt(samples)).
+fn eta(
+    stop: &StopRule,
+    traced: u32,
+    elapsed: Duration,
+    samples: u32,
+    error: Option<f64>,
+) -> Option<Duration> {
+    if traced == 0 {
+        return None;
+    }
+    let per_sample = elapsed.as_secs_f64() / traced as f64;
+    let mut left = per_sample * stop.max_samples.saturating_sub(samples) as f64;
+    if let Some(budget) = stop.time_budget {
+        left = left.min(budget.saturating_sub(elapsed).as_secs_f64());
+    }
+    if let (Some(target), Some(error)) = (stop.target_error, error) {
+        let needed = samples as f64 * (error / target).powi(2);
+        left = left.min(per_sample * (needed - samples as f64).max(0.0));
+    }
+    left.is_finite().then(|| Duration::from_secs_f64(left))
 }

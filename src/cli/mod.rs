@@ -4,6 +4,7 @@ mod progress;
 mod render;
 
 use clap::{Parser, Subcommand};
+use std::time::Instant;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -50,8 +51,8 @@ impl Failure {
     }
 }
 
-pub fn run(cli: Cli) -> Result<(), Failure> {
+pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
     match cli.command {
-        Command::Render(args) => render::render(args),
+        Command::Render(args) => render::render(args, process_start),
     }
 }

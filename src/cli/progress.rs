@@ -35,14 +35,22 @@ impl ProgressDisplay {
     }
 
     pub fn update(&mut self, progress: &Progress) {
-        let line = format!(
-            "{}/{} spp  {:.1} s  {:.2} M paths/s  ETA {}",
-            progress.samples,
-            progress.target_samples,
+        let mut line = if progress.max_samples == u32::MAX {
+            format!("{} spp", progress.samples)
+        } else {
+            format!("{}/{} spp", progress.samples, progress.max_samples)
+        };
+        line += &format!(
+            "  {:.1} s  {:.2} M paths/s",
             progress.elapsed.as_secs_f64(),
-            progress.paths_per_second / 1e6,
-            eta(progress),
+            progress.paths_per_second / 1e6
         );
+        if let Some(error) = progress.relative_error {
+            line += &format!("  error {error:.4}");
+        }
+        if let Some(eta) = progress.eta {
+            line += &format!("  ETA {:.0} s", eta.as_secs_f64());
+        }
         match self.mode {
             Mode::Quiet => {}
             Mode::Live => {
@@ -67,13 +75,4 @@ impl ProgressDisplay {
             eprint!("\r\x1b[2K");
         }
     }
-}
-
-fn eta(progress: &Progress) -> String {
-    if progress.samples == 0 {
-        return "?".into();
-    }
-    let per_sample = progress.elapsed.as_secs_f64() / progress.samples as f64;
-    let left = per_sample * progress.target_samples.saturating_sub(progress.samples) as f64;
-    format!("{left:.0} s")
 }

@@ -6,9 +6,10 @@ use clap::{Args, ValueEnum};
 use pathmix::gpu::GpuContext;
 use pathmix::kernel::AccumulatorKind;
 use pathmix::output::{self, ImageFormat};
-use pathmix::render::{self, RenderOptions, Renderer, StopRule};
+use pathmix::render::{self, RenderOptions, Renderer, StopReason, StopRule};
 use pathmix::scene::{Scene, SceneOverrides, Strategy};
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -20,9 +21,21 @@ pub struct RenderArgs {
     /// Also write the mean radiance as linear float RGB OpenEXR.
     #[arg(long, value_name = "FILE")]
     pub exr: Option<PathBuf>,
-    /// Samples per pixel [scene: render.spp].
+    /// Samples per pixel [scene: render.spp]. With --time or --target-error, an
+    /// upper bound (without it those run until their own rule stops them).
     #[arg(long, value_name = "N")]
     pub spp: Option<u32>,
+    /// Stop when this much render time is spent: 90s, 2m, 1.5h or plain seconds.
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    pub time: Option<Duration>,
+    /// Stop when the image's estimated relative standard error falls to this
+    /// (e.g. 0.01): the RMS over pixels of the per-pixel standard error of the mean
+    /// luminance, divided by the image's mean luminance (docs/statistics.md).
+    #[arg(long, value_name = "E")]
+    pub target_error: Option<f64>,
+    /// Also write the per-pixel standard error of the mean (linear RGB OpenEXR).
+    #[arg(long, value_name = "FILE")]
+    pub variance: Option<PathBuf>,
     /// Image width in pixels [scene: camera.width].
     #[arg(long, value_name = "W")]
     pub width: Option<u32>,
@@ -89,7 +102,14 @@ impl From<AccumulatorArg> for AccumulatorKind {
     }
 }
 
-pub fn render(args: RenderArgs) -> Result<(), Failure> {
+pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
+    if let Some(target) = args.target_error {
+        if !(target.is_finite() && target > 0.0) {
+            return Err(Failure::input(format!(
+                "--target-error: must be a number > 0, got {target}"
+            )));
+        }
+    }
     let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
     scene
         .apply_overrides(&SceneOverrides {
@@ -104,13 +124,23 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
         .map_err(Failure::input)?;
     // Refuse unwritable outputs before spending the render time.
     output::check_output_path(&args.output, ImageFormat::Png).map_err(Failure::input)?;
-    if let Some(exr) = &args.exr {
+    for exr in [&args.exr, &args.variance].into_iter().flatten() {
         output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
     }
+    let open_ended = args.time.is_some() || args.target_error.is_some();
+    let stop = StopRule {
+        max_samples: match args.spp {
+            None if open_ended => u32::MAX,
+            _ => scene.render.spp,
+        },
+        time_budget: args.time,
+        target_error: args.target_error,
+    };
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let options = RenderOptions {
         accumulator: args.accumulator.map(AccumulatorKind::from),
+        variance: args.variance.is_some() || args.target_error.is_some(),
         ..Default::default()
     };
     let mut renderer = Renderer::new(&ctx, &scene, &options).map_err(Failure::input)?;
@@ -120,45 +150,128 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
     let (width, height) = renderer.size();
     eprintln!("adapter: {}", ctx.describe());
     eprintln!(
-        "scene: {}  {width}x{height}  {} spp  strategy {}  max depth {}",
+        "scene: {}  {width}x{height}  strategy {}  max depth {}  stop: {}",
         scene.source,
-        scene.render.spp,
         renderer.config().strategy,
-        scene.render.max_depth
+        scene.render.max_depth,
+        describe_stop(&stop),
     );
     let mut display = ProgressDisplay::new(args.quiet);
-    let summary = render::run(
-        &mut renderer,
-        StopRule {
-            samples: scene.render.spp,
-        },
-        |p| display.update(p),
-    );
+    let mut first_sample = None;
+    let summary = render::run(&mut renderer, stop, |p| {
+        first_sample.get_or_insert_with(|| process_start.elapsed());
+        display.update(p)
+    });
     display.finish();
     let summary = summary.map_err(Failure::runtime)?;
 
-    let mean = renderer.accumulation().mean();
+    let accumulation = renderer.accumulation();
+    let mean = accumulation.mean();
     output::write_png(&args.output, &mean, 0.0).map_err(Failure::runtime)?;
     if let Some(exr) = &args.exr {
         output::write_exr(exr, &mean, &[]).map_err(Failure::runtime)?;
     }
+    if let Some(path) = &args.variance {
+        let error = accumulation.standard_error().ok_or_else(|| {
+            Failure::runtime("--variance: a standard error needs at least 2 samples per pixel")
+        })?;
+        output::write_exr(path, &error, &[]).map_err(Failure::runtime)?;
+    }
+    let stopped = match summary.reason {
+        StopReason::Samples => "sample count reached".to_string(),
+        StopReason::TimeBudget => "time budget spent".to_string(),
+        StopReason::TargetError => "target error reached".to_string(),
+    };
     println!(
-        "rendered {}x{} at {} spp in {:.2} s: {:.2} M paths/s",
-        width,
-        height,
+        "rendered {width}x{height} at {} spp in {:.2} s: {:.2} M paths/s ({stopped})",
         summary.samples,
         summary.elapsed.as_secs_f64(),
         summary.paths_per_second / 1e6
     );
+    if let Some(error) = summary.relative_error {
+        println!("estimated relative error: {error:.5}");
+    }
+    if let Some(first) = first_sample {
+        println!(
+            "first samples done {:.0} ms after start",
+            first.as_secs_f64() * 1e3
+        );
+    }
     if summary.discarded > 0 {
         eprintln!(
             "pathmix: warning: {} samples were NaN or infinite and counted as zero",
             summary.discarded
         );
     }
-    println!("wrote {}", args.output.display());
-    if let Some(exr) = &args.exr {
-        println!("wrote {}", exr.display());
+    for path in [
+        Some(&args.output),
+        args.exr.as_ref(),
+        args.variance.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+fn describe_stop(stop: &StopRule) -> String {
+    let mut rules = Vec::new();
+    if stop.max_samples != u32::MAX {
+        rules.push(format!("{} spp", stop.max_samples));
+    }
+    if let Some(budget) = stop.time_budget {
+        rules.push(format!("{:.1} s", budget.as_secs_f64()));
+    }
+    if let Some(target) = stop.target_error {
+        rules.push(format!("relative error {target}"));
+    }
+    rules.join(" or ")
+}
+
+/// `90s`, `2m`, `1.5h`, `500ms` or plain seconds.
+pub fn parse_duration(text: &str) -> Result<Duration, String> {
+    let text = text.trim();
+    let split = text
+        .find(|c: char| c.is_ascii_alphabetic())
+        .unwrap_or(text.len());
+    let (number, unit) = text.split_at(split);
+    let value: f64 = number
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a duration (examples: 90s, 2m, 1.5h)"))?;
+    let seconds = match unit.trim() {
+        "" | "s" => value,
+        "ms" => value / 1e3,
+        "m" | "min" => value * 60.0,
+        "h" => value * 3600.0,
+        other => {
+            return Err(format!(
+                "unknown unit `{other}` in `{text}` (use ms, s, m or h)"
+            ));
+        }
+    };
+    if !(seconds.is_finite() && seconds > 0.0) {
+        return Err(format!("`{text}`: a duration must be > 0"));
+    }
+    Ok(Duration::from_secs_f64(seconds))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_duration;
+    use std::time::Duration;
+
+    #[test]
+    fn durations() {
+        assert_eq!(parse_duration("90s"), Ok(Duration::from_secs(90)));
+        assert_eq!(parse_duration("2m"), Ok(Duration::from_secs(120)));
+        assert_eq!(parse_duration("1.5h"), Ok(Duration::from_secs(5400)));
+        assert_eq!(parse_duration("250ms"), Ok(Duration::from_millis(250)));
+        assert_eq!(parse_duration("3"), Ok(Duration::from_secs(3)));
+        assert!(parse_duration("0s").is_err());
+        assert!(parse_duration("5 parsecs").is_err());
+        assert!(parse_duration("soon").is_err());
+    }
 }
