@@ -40,6 +40,9 @@ struct Counters {
     // Invocations that ended before their last sample: the driver cut a loop
     // short (lavapipe stops all loops of an invocation after 65535 iterations).
     truncated: atomic<u32>,
+    // Ray segments traced (closest-hit queries), as a 64-bit count in two words.
+    segments_low: atomic<u32>,
+    segments_high: atomic<u32>,
 }
 
 struct Ray {

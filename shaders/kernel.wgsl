@@ -72,6 +72,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
 #endif
 
     var samples_done = 0u;
+    var segments = 0u;
     rng_begin_sample(pixel_index, params.sample_start);
     var ray = camera_ray(pixel);
     var throughput = vec3<f32>(1.0);
@@ -80,6 +81,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     loop {
         var path_done = false;
         let hit = intersect_scene(ray);
+        segments += 1u;
         if hit.t == F32_MAX {
             radiance += throughput * params.background;
             path_done = true;
@@ -127,6 +129,10 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
 
     if samples_done != params.sample_count {
         atomicAdd(&counters.truncated, 1u);
+    }
+    let before = atomicAdd(&counters.segments_low, segments);
+    if before > 0xffffffffu - segments {
+        atomicAdd(&counters.segments_high, 1u);
     }
     store_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, radiance_sum);
 #if VARIANCE

@@ -107,6 +107,20 @@ impl KernelConfig {
         }
     }
 
+    /// This kernel with every primitive and material kind compiled in, as a kernel
+    /// not specialised to the scene would be (for measuring what specialising saves).
+    /// The light density stays as the scene needs it: it changes the estimator.
+    pub fn generalized(self) -> KernelConfig {
+        KernelConfig {
+            quads: true,
+            spheres: true,
+            lambertian: true,
+            metal: true,
+            dielectric: true,
+            ..self
+        }
+    }
+
     /// Everything compiled in: the kernel any scene could use.
     pub fn general(strategy: Strategy, accumulator: AccumulatorKind) -> KernelConfig {
         KernelConfig {

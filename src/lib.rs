@@ -6,6 +6,7 @@
 //! `render` runs the progressive accumulation; `output` and `stats` work on
 //! plain arrays.
 
+pub mod bench;
 pub mod gpu;
 pub mod kernel;
 pub mod output;

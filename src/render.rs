@@ -2,7 +2,9 @@
 //! the running sums back, and the rules that stop a run.
 
 use crate::gpu::accumulator::{Accumulator, map_read};
-use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
+use crate::gpu::layout::{
+    CameraFrame, Counters, Params, Quad, RAY_OFFSET_RELATIVE, SceneData, Sphere,
+};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Kernel};
 use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{
@@ -24,6 +26,9 @@ pub struct RenderOptions {
     /// Wall time one submission should take: short enough to report progress
     /// and stop promptly, long enough to keep the device busy.
     pub submission_seconds: f64,
+    /// Compile every primitive and material kind in, not only the scene's
+    /// (`KernelConfig::generalized`): for benchmarks.
+    pub general_kernel: bool,
 }
 
 impl Default for RenderOptions {
@@ -32,6 +37,7 @@ impl Default for RenderOptions {
             accumulator: None,
             variance: false,
             submission_seconds: 0.25,
+            general_kernel: false,
         }
     }
 }
@@ -91,47 +97,9 @@ impl<'a> Renderer<'a> {
     ) -> Result<Renderer<'a>, RenderError> {
         let data = SceneData::pack(scene);
         let settings = &scene.render;
-        let mut warnings = Vec::new();
-        let mut strategy = settings.strategy;
-        if data.light_count() == 0 && strategy != Strategy::Cosine {
-            if strategy == Strategy::Light {
-                return Err(RenderError::Unsupported(format!(
-                    "{}: strategy `light` needs an emitting or `importance = true` object to aim at, \
-                     and the scene has none",
-                    scene.source
-                )));
-            }
-            warnings.push(format!(
-                "{}: no emitting or `importance = true` object to aim at: the mixture falls back to cosine sampling",
-                scene.source
-            ));
-            strategy = Strategy::Cosine;
-        }
-        if strategy == Strategy::Light {
-            warnings.push(
-                "strategy `light` is biased: it never samples directions that miss the lights, \
-                 so indirect light is lost (a diagnostic; use `mixture` for correct images)"
-                    .to_string(),
-            );
-        }
+        let (strategy, warnings) = effective_strategy(scene, &data, settings.strategy)?;
         let (width, height) = (scene.camera.width, scene.camera.height);
-        let accumulator_kind = match options.accumulator {
-            Some(AccumulatorKind::Texture) if !ctx.storage_texture_accumulator => {
-                return Err(RenderError::Unsupported(format!(
-                    "adapter {} has no read-write rgba32float storage textures; use the buffer accumulator",
-                    ctx.describe()
-                )));
-            }
-            Some(kind) => kind,
-            // The buffer has no per-dimension limit, so it takes images wider or
-            // taller than the adapter's largest texture.
-            None if ctx.storage_texture_accumulator
-                && width.max(height) <= ctx.limits().max_texture_dimension_2d =>
-            {
-                AccumulatorKind::Texture
-            }
-            None => AccumulatorKind::Buffer,
-        };
+        let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
         let config = KernelConfig::for_scene(
             &data,
             strategy,
@@ -140,6 +108,11 @@ impl<'a> Renderer<'a> {
             accumulator_kind,
             options.variance,
         );
+        let config = if options.general_kernel {
+            config.generalized()
+        } else {
+            config
+        };
         check_size(ctx, &config, width, height)?;
         let kernel = Kernel::new(ctx, config).map_err(|e| {
             RenderError::Unsupported(format!("internal shader composition error: {e}"))
@@ -202,9 +175,13 @@ impl<'a> Renderer<'a> {
             .scene_bindings()
             .into_iter()
             .map(|binding| {
+                // A general kernel may declare kinds the scene lacks; bindings cannot be empty.
+                let (no_quad, no_sphere) = ([Quad::never_hit()], [Sphere::never_hit()]);
                 let contents: &[u8] = match binding {
                     BINDING_MATERIALS => bytemuck::cast_slice(&data.materials),
+                    BINDING_QUADS if data.quads.is_empty() => bytemuck::cast_slice(&no_quad),
                     BINDING_QUADS => bytemuck::cast_slice(&data.quads),
+                    BINDING_SPHERES if data.spheres.is_empty() => bytemuck::cast_slice(&no_sphere),
                     BINDING_SPHERES => bytemuck::cast_slice(&data.spheres),
                     BINDING_LIGHT_QUADS => bytemuck::cast_slice(&data.light_quads),
                     BINDING_LIGHT_SPHERES => bytemuck::cast_slice(&data.light_spheres),
@@ -362,6 +339,66 @@ impl<'a> Renderer<'a> {
     }
 }
 
+/// The strategy a run really uses, with what the user should be told: a mixture
+/// with nothing to aim at falls back to cosine sampling, `light` is refused there
+/// and warned about everywhere (it is biased).
+pub fn effective_strategy(
+    scene: &Scene,
+    data: &SceneData,
+    wanted: Strategy,
+) -> Result<(Strategy, Vec<String>), RenderError> {
+    let mut warnings = Vec::new();
+    let mut strategy = wanted;
+    if data.light_count() == 0 && strategy != Strategy::Cosine {
+        if strategy == Strategy::Light {
+            return Err(RenderError::Unsupported(format!(
+                "{}: strategy `light` needs an emitting or `importance = true` object to aim at, \
+                 and the scene has none",
+                scene.source
+            )));
+        }
+        warnings.push(format!(
+            "{}: no emitting or `importance = true` object to aim at: the mixture falls back to cosine sampling",
+            scene.source
+        ));
+        strategy = Strategy::Cosine;
+    }
+    if strategy == Strategy::Light {
+        warnings.push(
+            "strategy `light` is biased: it never samples directions that miss the lights, \
+             so indirect light is lost (a diagnostic; use `mixture` for correct images)"
+                .to_string(),
+        );
+    }
+    Ok((strategy, warnings))
+}
+
+/// The accumulator asked for, or the best the adapter offers for this size.
+pub fn choose_accumulator(
+    ctx: &GpuContext,
+    wanted: Option<AccumulatorKind>,
+    width: u32,
+    height: u32,
+) -> Result<AccumulatorKind, RenderError> {
+    Ok(match wanted {
+        Some(AccumulatorKind::Texture) if !ctx.storage_texture_accumulator => {
+            return Err(RenderError::Unsupported(format!(
+                "adapter {} has no read-write rgba32float storage textures; use the buffer accumulator",
+                ctx.describe()
+            )));
+        }
+        Some(kind) => kind,
+        // The buffer has no per-dimension limit, so it takes images wider or
+        // taller than the adapter's largest texture.
+        None if ctx.storage_texture_accumulator
+            && width.max(height) <= ctx.limits().max_texture_dimension_2d =>
+        {
+            AccumulatorKind::Texture
+        }
+        None => AccumulatorKind::Buffer,
+    })
+}
+
 /// Loop iterations one invocation may run per dispatch, all loops together.
 /// lavapipe (gallivm) silently ends every loop of an invocation after 65535
 /// iterations in all; the kernel counts invocations that end early, and this
@@ -371,7 +408,7 @@ const LOOP_ITERATION_BUDGET: u64 = 32768;
 /// Samples per dispatch that stay within `LOOP_ITERATION_BUDGET` even if every
 /// path runs to `max_depth`: each segment loops over every primitive (closest
 /// hit) and every light (mixture density).
-fn max_samples_per_dispatch(data: &SceneData, max_depth: u32) -> u32 {
+pub fn max_samples_per_dispatch(data: &SceneData, max_depth: u32) -> u32 {
     let loops_per_segment = (data.quads.len() + data.spheres.len() + data.light_count()) as u64 + 2;
     let per_sample = loops_per_segment * (max_depth as u64 + 1);
     (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
@@ -466,6 +503,8 @@ pub struct RunSummary {
     pub samples: u32,
     pub elapsed: Duration,
     pub paths_per_second: f64,
+    /// Ray segments (closest-hit queries) per second.
+    pub segments_per_second: f64,
     /// Samples whose radiance was NaN or infinite, counted as zero.
     pub discarded: u64,
     pub reason: StopReason,
@@ -483,6 +522,7 @@ pub fn run(
             "a target error needs the variance sums: render with variance on".into(),
         ));
     }
+    let start_segments = renderer.counters().segments();
     let started = Instant::now();
     let start_samples = renderer.samples();
     let (width, height) = renderer.size();
@@ -545,6 +585,8 @@ pub fn run(
         samples: renderer.samples(),
         elapsed,
         paths_per_second: rate(renderer.samples(), elapsed),
+        segments_per_second: (counters.segments() - start_segments) as f64
+            / elapsed.as_secs_f64().max(1e-9),
         discarded: counters.discarded as u64,
         reason,
         relative_error,

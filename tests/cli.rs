@@ -178,3 +178,48 @@ fn light_strategy_warns_that_it_is_biased() {
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(stderr(&output).contains("biased"), "{}", stderr(&output));
 }
+
+#[test]
+fn info_shows_what_the_kernel_contains() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let output = pathmix(&["info", &scene("cornell-boxes.toml")]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let flags = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("flags:"))
+        .unwrap();
+    assert!(
+        flags.contains("QUADS") && flags.contains("LAMBERTIAN"),
+        "{flags}"
+    );
+    assert!(
+        !flags.contains("SPHERES") && !flags.contains("DIELECTRIC"),
+        "{flags}"
+    );
+    assert!(
+        stdout.contains("18 quads") && stdout.contains("max texture dimension"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn bench_prints_speed_figures() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let output = pathmix(&["bench", "--quick", "--no-startup"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let rows: Vec<&str> = stdout
+        .lines()
+        .filter(|l| l.starts_with("| cornell"))
+        .collect();
+    assert!(rows.len() >= 6, "{stdout}");
+    assert!(
+        stdout.contains("general kernel") && stdout.contains("M paths/s"),
+        "{stdout}"
+    );
+}

@@ -241,3 +241,31 @@ fn accumulation_stays_exact_past_two_to_the_24_samples() {
         "mean square {mean_square}"
     );
 }
+
+/// The general kernel (every primitive and material kind compiled in, absent
+/// kinds bound to never-hit dummies) traces exactly the same paths.
+#[test]
+fn general_kernel_matches_specialised_kernel() {
+    let ctx = gpu_or_skip!();
+    for name in ["cornell-boxes.toml", "furnace.toml"] {
+        let mut scene = common::scene_file(name);
+        scene
+            .apply_overrides(&SceneOverrides {
+                width: Some(16),
+                height: Some(16),
+                spp: Some(4),
+                ..Default::default()
+            })
+            .unwrap();
+        let specialised = common::render(ctx, &scene, &RenderOptions::default());
+        let general = common::render(
+            ctx,
+            &scene,
+            &RenderOptions {
+                general_kernel: true,
+                ..Default::default()
+            },
+        );
+        assert_eq!(specialised, general, "{name}");
+    }
+}

@@ -1,5 +1,7 @@
 //! Command definitions and dispatch.
 
+mod bench;
+mod info;
 mod progress;
 mod render;
 
@@ -25,6 +27,10 @@ pub struct Cli {
 enum Command {
     /// Render a scene file to an image.
     Render(render::RenderArgs),
+    /// Print what a scene uses, what its kernel contains, buffer sizes and adapter limits.
+    Info(info::InfoArgs),
+    /// Measure rendering speed on the shipped scenes (paths/s, segments/s, start-up time).
+    Bench(bench::BenchArgs),
 }
 
 /// A failed command: what to tell the user, and the exit code.
@@ -54,5 +60,7 @@ impl Failure {
 pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
     match cli.command {
         Command::Render(args) => render::render(args, process_start),
+        Command::Info(args) => info::info(args),
+        Command::Bench(args) => bench::bench(args),
     }
 }

@@ -54,6 +54,15 @@ gpu_struct! {
     pub struct Counters {
         pub discarded: u32,
         pub truncated: u32,
+        pub segments_low: u32,
+        pub segments_high: u32,
+    }
+}
+
+impl Counters {
+    /// Ray segments traced so far.
+    pub fn segments(&self) -> u64 {
+        (self.segments_high as u64) << 32 | self.segments_low as u64
     }
 }
 
@@ -89,6 +98,35 @@ gpu_struct! {
         pub _pad0: u32,
         pub _pad1: u32,
         pub _pad2: u32,
+    }
+}
+
+impl Quad {
+    /// Binds where a kernel declares quads but the scene has none: with NaN
+    /// geometry every hit test fails.
+    pub fn never_hit() -> Quad {
+        let nan = [f32::NAN; 3];
+        Quad {
+            q: nan,
+            u: nan,
+            plane_d: f32::NAN,
+            v: nan,
+            area: f32::NAN,
+            normal: nan,
+            w: nan,
+            ..Quad::default()
+        }
+    }
+}
+
+impl Sphere {
+    /// As `Quad::never_hit`.
+    pub fn never_hit() -> Sphere {
+        Sphere {
+            center: [f32::NAN; 3],
+            radius: f32::NAN,
+            ..Sphere::default()
+        }
     }
 }
 

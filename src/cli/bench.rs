@@ -1,0 +1,194 @@
+//! `pathmix bench`: the speed figures used to track performance.
+
+use super::Failure;
+use clap::Args;
+use pathmix::bench::{self, Measurement};
+use pathmix::gpu::GpuContext;
+use pathmix::kernel::AccumulatorKind;
+use pathmix::render::RenderOptions;
+use pathmix::scene::{Scene, SceneOverrides};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Fewer samples and repetitions: a smoke test of the figures, not a measurement.
+    #[arg(long)]
+    pub quick: bool,
+    /// Repetitions per configuration (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub repetitions: usize,
+    /// Skip the time-to-first-sample measurement (it starts child processes).
+    #[arg(long)]
+    pub no_startup: bool,
+    /// Use the first adapter whose name contains NAME [env: PATHMIX_ADAPTER].
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+}
+
+struct Case {
+    scene: &'static str,
+    width: u32,
+    height: u32,
+    samples: u32,
+    quick_samples: u32,
+}
+
+/// The shipped scenes at fixed sizes.
+const CASES: [Case; 3] = [
+    Case {
+        scene: "cornell-boxes.toml",
+        width: 256,
+        height: 256,
+        samples: 64,
+        quick_samples: 4,
+    },
+    Case {
+        scene: "cornell.toml",
+        width: 600,
+        height: 600,
+        samples: 8,
+        quick_samples: 1,
+    },
+    Case {
+        scene: "furnace.toml",
+        width: 256,
+        height: 256,
+        samples: 64,
+        quick_samples: 4,
+    },
+];
+
+fn scenes_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
+
+pub fn bench(args: BenchArgs) -> Result<(), Failure> {
+    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
+    let repetitions = if args.quick {
+        1
+    } else {
+        args.repetitions.max(1)
+    };
+    println!("adapter: {}", ctx.describe());
+    println!("median of {repetitions} warm runs (pipeline built and run once before timing)\n");
+    println!(
+        "| scene | size | spp | configuration | median s | M paths/s | M segments/s | vs specialised |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let default_accumulator = if ctx.storage_texture_accumulator {
+        AccumulatorKind::Texture
+    } else {
+        AccumulatorKind::Buffer
+    };
+    let configurations = [
+        ("specialised", RenderOptions::default()),
+        (
+            "general kernel",
+            RenderOptions {
+                general_kernel: true,
+                ..RenderOptions::default()
+            },
+        ),
+        (
+            "+ variance sums",
+            RenderOptions {
+                variance: true,
+                ..RenderOptions::default()
+            },
+        ),
+        (
+            "buffer accumulator",
+            RenderOptions {
+                accumulator: Some(AccumulatorKind::Buffer),
+                ..RenderOptions::default()
+            },
+        ),
+    ];
+    for case in &CASES {
+        let mut scene = Scene::load(&scenes_dir().join(case.scene)).map_err(Failure::runtime)?;
+        scene
+            .apply_overrides(&SceneOverrides {
+                width: Some(case.width),
+                height: Some(case.height),
+                ..Default::default()
+            })
+            .map_err(Failure::runtime)?;
+        let samples = if args.quick {
+            case.quick_samples
+        } else {
+            case.samples
+        };
+        let mut baseline: Option<Measurement> = None;
+        for (name, options) in &configurations {
+            if *name == "buffer accumulator" && default_accumulator == AccumulatorKind::Buffer {
+                continue;
+            }
+            let m = bench::measure(&ctx, &scene, options, samples, repetitions)
+                .map_err(Failure::runtime)?;
+            let ratio = baseline
+                .as_ref()
+                .map_or(1.0, |b| m.paths_per_second / b.paths_per_second);
+            println!(
+                "| {} | {}x{} | {} | {} | {:.3} | {:.2} | {:.2} | {:.2}x |",
+                case.scene,
+                case.width,
+                case.height,
+                samples,
+                name,
+                m.median_seconds,
+                m.paths_per_second / 1e6,
+                m.segments_per_second / 1e6,
+                ratio
+            );
+            baseline.get_or_insert(m);
+        }
+    }
+    if !args.no_startup {
+        startup(args.adapter.as_deref())?;
+    }
+    Ok(())
+}
+
+/// Time from process start to the first full sample of the Cornell box, with an
+/// empty driver shader cache (cold) and again with it filled (warm).
+fn startup(adapter: Option<&str>) -> Result<(), Failure> {
+    let cache = std::env::temp_dir().join(format!("pathmix-bench-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&cache);
+    let image = cache.join("first-sample.png");
+    std::fs::create_dir_all(&cache)
+        .map_err(|e| Failure::runtime(format!("{}: {e}", cache.display())))?;
+    let exe = std::env::current_exe().map_err(Failure::runtime)?;
+    let scene = scenes_dir().join("cornell.toml");
+    println!("\ntime to first sample (scenes/cornell.toml, 600x600, 1 spp, whole process):");
+    for label in ["cold shader cache", "warm shader cache"] {
+        let mut command = Command::new(&exe);
+        command
+            .arg("render")
+            .arg(&scene)
+            .args(["--spp", "1", "--quiet", "-o"])
+            .arg(&image);
+        if let Some(name) = adapter {
+            command.args(["--adapter", name]);
+        }
+        // Mesa keeps compiled pipelines here; a fresh folder is a cold cache.
+        let output = command
+            .env("MESA_SHADER_CACHE_DIR", &cache)
+            .output()
+            .map_err(Failure::runtime)?;
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        let first = stdout
+            .lines()
+            .find_map(|line| line.strip_prefix("first samples done "))
+            .and_then(|rest| rest.split_whitespace().next())
+            .ok_or_else(|| {
+                Failure::runtime(format!(
+                    "child render failed: {}",
+                    String::from_utf8_lossy(&output.stderr)
+                ))
+            })?;
+        println!("  {label}: {first} ms");
+    }
+    let _ = std::fs::remove_dir_all(&cache);
+    Ok(())
+}
