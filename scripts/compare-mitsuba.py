@@ -1,0 +1,232 @@
+#!/usr/bin/env python3
+"""Side-by-side speed and error: pathmix against Mitsuba 3's CPU backend.
+
+Renders the same scene (default scenes/cornell-boxes.toml) at the same size and
+samples with both renderers (box pixel filter, same maximum depth), measures each
+one's RMSE against a common high-sample pathmix reference, and prints seconds,
+paths/s, RMSE and the efficiency 1 / (MSE x seconds) of both, with their ratio.
+
+Run by hand, not in CI:
+
+    python3 scripts/compare-mitsuba.py [--scene scenes/cornell-boxes.toml]
+        [--size 256] [--spp 256] [--reference-spp 4096]
+
+It creates a virtual environment in .venv-mitsuba with `mitsuba` and `numpy` from
+PyPI and re-runs itself there. Mitsuba's LLVM backend needs LLVM 19 (LLVM 15
+crashes it): `sudo apt-get install libllvm19` on Debian 12.
+
+Mitsuba's `max_depth` counts path vertices including the camera's first hit, so
+pathmix's max_depth D (scattering events) is Mitsuba's D + 1. Mitsuba's path
+integrator does next-event estimation with MIS and Russian roulette from depth 5
+(its defaults): a different, also unbiased, estimator of the same image.
+"""
+
+import argparse
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+VENV = ROOT / ".venv-mitsuba"
+LIBLLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
+
+
+def ensure_environment():
+    """Re-runs this script inside a venv that has mitsuba and numpy."""
+    if os.environ.get("PATHMIX_COMPARE_VENV") == "1":
+        return
+    python = VENV / "bin" / "python"
+    if not python.exists():
+        print(f"creating {VENV} with mitsuba and numpy", file=sys.stderr)
+        subprocess.check_call([sys.executable, "-m", "venv", str(VENV)])
+        subprocess.check_call([str(python), "-m", "pip", "install", "-q", "mitsuba", "numpy"])
+    if not Path(LIBLLVM).exists():
+        sys.exit(f"{LIBLLVM} not found: install LLVM 19 (sudo apt-get install libllvm19)")
+    env = dict(os.environ, PATHMIX_COMPARE_VENV="1", DRJIT_LIBLLVM_PATH=LIBLLVM)
+    os.execve(str(python), [str(python), *sys.argv], env)
+
+
+def rotate_y(p, degrees):
+    """The book's rotate_y, object to world (as pathmix's scene parser)."""
+    t = math.radians(degrees)
+    c, s = math.cos(t), math.sin(t)
+    return [c * p[0] + s * p[2], p[1], -s * p[0] + c * p[2]]
+
+
+def add(a, b):
+    return [x + y for x, y in zip(a, b)]
+
+
+def cross(a, b):
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def box_quads(lo, hi):
+    """Six outward quads (q, u, v), as the book's box() and pathmix's parser."""
+    dx, dy, dz = [hi[0] - lo[0], 0, 0], [0, hi[1] - lo[1], 0], [0, 0, hi[2] - lo[2]]
+    neg = lambda v: [-x for x in v]
+    return [
+        ([lo[0], lo[1], hi[2]], dx, dy),
+        ([hi[0], lo[1], hi[2]], neg(dz), dy),
+        ([hi[0], lo[1], lo[2]], neg(dx), dy),
+        ([lo[0], lo[1], lo[2]], dz, dy),
+        ([lo[0], hi[1], hi[2]], dx, neg(dz)),
+        ([lo[0], lo[1], lo[2]], dx, dz),
+    ]
+
+
+def mitsuba_scene(mi, scene, size, spp, max_depth):
+    """The pathmix scene file as a Mitsuba scene dictionary."""
+    T = mi.ScalarTransform4f
+    materials = {}
+    for name, m in scene.get("materials", {}).items():
+        kind = m["type"]
+        if kind == "lambertian":
+            materials[name] = ({"type": "diffuse", "reflectance": {"type": "rgb", "value": m["albedo"]}}, m.get("emit"))
+        elif kind == "light":
+            materials[name] = ({"type": "diffuse", "reflectance": {"type": "rgb", "value": [0, 0, 0]}}, m["emit"])
+        elif kind == "dielectric":
+            materials[name] = ({"type": "dielectric", "int_ior": m["ior"], "ext_ior": 1.0}, None)
+        else:
+            sys.exit(f"material type {kind} has no Mitsuba equivalent in this script")
+
+    shapes = {}
+
+    def quad(q, u, v, material):
+        bsdf, emit = materials[material]
+        n = cross(u, v)
+        length = math.sqrt(sum(x * x for x in n))
+        n = [x / length for x in n]
+        centre = add(q, [0.5 * (a + b) for a, b in zip(u, v)])
+        # The rectangle [-1, 1]^2 x {0} with normal +z, onto q + a u + b v.
+        matrix = [
+            [u[0] / 2, v[0] / 2, n[0], centre[0]],
+            [u[1] / 2, v[1] / 2, n[1], centre[1]],
+            [u[2] / 2, v[2] / 2, n[2], centre[2]],
+            [0, 0, 0, 1],
+        ]
+        shape = {"type": "rectangle", "to_world": T(matrix), "bsdf": bsdf}
+        if emit and max(emit) > 0:
+            shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": emit}}
+        shapes[f"shape{len(shapes)}"] = shape
+
+    for obj in scene.get("objects", []):
+        angle, offset = obj.get("rotate_y", 0.0), obj.get("translate", [0, 0, 0])
+        place = lambda p: add(rotate_y(p, angle), offset)
+        turn = lambda v: rotate_y(v, angle)
+        if obj["type"] == "quad":
+            quad(place(obj["q"]), turn(obj["u"]), turn(obj["v"]), obj["material"])
+        elif obj["type"] == "box":
+            for q, u, v in box_quads(obj["min"], obj["max"]):
+                quad(place(q), turn(u), turn(v), obj["material"])
+        elif obj["type"] == "sphere":
+            bsdf, emit = materials[obj["material"]]
+            shape = {"type": "sphere", "center": place(obj["center"]), "radius": obj["radius"], "bsdf": bsdf}
+            if emit and max(emit) > 0:
+                shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": emit}}
+            shapes[f"shape{len(shapes)}"] = shape
+
+    camera = scene["camera"]
+    return {
+        "type": "scene",
+        "integrator": {"type": "path", "max_depth": max_depth + 1},
+        "sensor": {
+            "type": "perspective",
+            "fov_axis": "y",
+            "fov": camera.get("vfov", 40),
+            # look_at gives the same right-handed view as the book's camera.
+            "to_world": T().look_at(
+                origin=camera["lookfrom"], target=camera["lookat"], up=camera.get("vup", [0, 1, 0])
+            ),
+            "sampler": {"type": "independent", "sample_count": spp},
+            "film": {
+                "type": "hdrfilm",
+                "width": size,
+                "height": size,
+                "pixel_format": "rgb",
+                "rfilter": {"type": "box"},
+            },
+        },
+        **shapes,
+    }
+
+
+def pathmix(args, spp, out, seed):
+    """Renders with the release binary; returns the seconds it reports."""
+    cmd = [
+        str(ROOT / "target" / "release" / "pathmix"), "render", str(args.scene),
+        "--width", str(args.size), "--height", str(args.size), "--spp", str(spp),
+        "--max-depth", str(args.max_depth), "--seed", str(seed), "--quiet",
+        "-o", str(out.with_suffix(".png")), "--exr", str(out),
+    ]
+    result = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    return float(re.search(r"in ([0-9.]+) s", result.stdout).group(1))
+
+
+def main():
+    ensure_environment()
+    import mitsuba as mi
+    import numpy as np
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scene", type=Path, default=ROOT / "scenes" / "cornell-boxes.toml")
+    parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--spp", type=int, default=256)
+    parser.add_argument("--max-depth", type=int, default=50)
+    parser.add_argument("--reference-spp", type=int, default=4096)
+    parser.add_argument("--out", type=Path, default=ROOT / "compare-out")
+    args = parser.parse_args()
+    args.out.mkdir(exist_ok=True)
+
+    subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+    mi.set_variant("llvm_ad_rgb")
+    scene = tomllib.loads(args.scene.read_text())
+
+    reference_path = args.out / f"reference-{args.size}-{args.reference_spp}.exr"
+    if not reference_path.exists():
+        print(f"rendering the reference with pathmix ({args.reference_spp} spp)...", file=sys.stderr)
+        pathmix(args, args.reference_spp, reference_path, seed=12345)
+    reference = np.array(mi.Bitmap(str(reference_path)), dtype=np.float64)[..., :3]
+
+    paths = args.size * args.size * args.spp
+    rows = []
+
+    # pathmix: the reported time excludes start-up; warm the pipeline cache first.
+    pathmix(args, 1, args.out / "pathmix-warm.exr", seed=1)
+    seconds = pathmix(args, args.spp, args.out / "pathmix.exr", seed=1)
+    image = np.array(mi.Bitmap(str(args.out / "pathmix.exr")), dtype=np.float64)[..., :3]
+    rows.append(("pathmix (mixture)", seconds, image))
+
+    # Mitsuba: the first render JIT-compiles its kernels; time a second one.
+    mitsuba = mi.load_dict(mitsuba_scene(mi, scene, args.size, args.spp, args.max_depth))
+    mi.render(mitsuba, spp=1, seed=0)
+    started = time.perf_counter()
+    result = mi.render(mitsuba, spp=args.spp, seed=1)
+    image = np.array(result, dtype=np.float64)[..., :3]
+    rows.append(("Mitsuba 3 llvm_ad_rgb (path, NEE+MIS)", time.perf_counter() - started, image))
+    mi.Bitmap(result).write(str(args.out / "mitsuba.exr"))
+
+    print(f"\n{args.scene.name}, {args.size}x{args.size}, {args.spp} spp, max depth {args.max_depth}; "
+          f"reference: pathmix {args.reference_spp} spp\n")
+    print("| renderer | seconds | M paths/s | RMSE | efficiency 1/(MSE s) |")
+    print("|---|---|---|---|---|")
+    efficiencies = []
+    for name, seconds, image in rows:
+        mse = float(np.mean((image - reference) ** 2))
+        efficiency = 1.0 / (mse * seconds)
+        efficiencies.append(efficiency)
+        print(f"| {name} | {seconds:.2f} | {paths / seconds / 1e6:.2f} | {math.sqrt(mse):.4f} | {efficiency:.0f} |")
+    print(f"\nefficiency ratio pathmix / Mitsuba: {efficiencies[0] / efficiencies[1]:.2f}")
+    mean_ratio = float(np.mean(rows[1][2])) / float(np.mean(reference))
+    mirrored = math.sqrt(float(np.mean((rows[1][2][:, ::-1] - reference) ** 2)))
+    print(f"Mitsuba mean / reference mean: {mean_ratio:.4f}; RMSE of Mitsuba mirrored: {mirrored:.4f} "
+          "(the scenes match when the ratio is 1 and the mirrored RMSE is much larger)")
+
+
+if __name__ == "__main__":
+    main()
