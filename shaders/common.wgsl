@@ -8,6 +8,8 @@ const F32_MAX: f32 = 3.40282347e38;
 // them into the code, so loops and branches on them cost nothing at run time.
 override MAX_DEPTH: u32 = 50u;
 override LIGHT_WEIGHT: f32 = 0.5;
+// Russian roulette from this depth on; the maximum value turns it off.
+override RR_DEPTH: u32 = 0xffffffffu;
 
 // Mirrors `gpu::layout::Params`.
 struct Params {

@@ -78,18 +78,50 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     var throughput = vec3<f32>(1.0);
     var radiance = vec3<f32>(0.0);
     var depth = 0u;
+#if STRATEGY_NEE
+    // Densities of the last bounce's direction; bsdf 0: camera ray or specular bounce.
+    var last_bsdf_pdf = 0.0;
+    var last_light_pdf = 0.0;
+    // A shadow ray is traced by the same closest-hit query as path segments, at the
+    // top of the loop, so every lane runs it together instead of in a divergent branch.
+    var tracing_shadow = false;
+    var shadow_weight = vec3<f32>(0.0);
+    var continuation = ray;
+    var continuation_ended = false;
+#endif
     loop {
         var path_done = false;
         let hit = intersect_scene(ray);
         segments += 1u;
+#if STRATEGY_NEE
+        if tracing_shadow {
+            // Unoccluded emitter facing the shading point: the light sample's contribution.
+            if hit.t < F32_MAX && dot(ray.dir, hit.normal) < 0.0 {
+                radiance += shadow_weight * materials[hit.material].emit;
+            }
+            tracing_shadow = false;
+            ray = continuation;
+            path_done = continuation_ended;
+        } else if hit.t == F32_MAX {
+#else
         if hit.t == F32_MAX {
+#endif
             radiance += throughput * params.background;
             path_done = true;
         } else {
             let material = materials[hit.material];
             let front_face = dot(ray.dir, hit.normal) < 0.0;
             if front_face {
+#if STRATEGY_NEE
+                // After a diffuse bounce the shadow ray could have found this emitter too.
+                var mis = 1.0;
+                if last_bsdf_pdf > 0.0 {
+                    mis = power_heuristic(last_bsdf_pdf, last_light_pdf);
+                }
+                radiance += throughput * material.emit * mis;
+#else
                 radiance += throughput * material.emit;
+#endif
             }
             if depth == MAX_DEPTH {
                 path_done = true;
@@ -99,9 +131,33 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
                 if scattered.absorbed {
                     path_done = true;
                 } else {
+#if STRATEGY_NEE
+                    let vertex_throughput = throughput;
+#endif
                     throughput *= scattered.weight;
                     ray = Ray(offset_origin(hit.p, hit.normal, scattered.dir), scattered.dir);
                     depth += 1u;
+                    // Russian roulette: end dim paths early, reweighting survivors (unbiased).
+                    if depth >= RR_DEPTH {
+                        let survive = clamp(max(throughput.x, max(throughput.y, throughput.z)), 0.05, 1.0);
+                        if rand() >= survive {
+                            path_done = true;
+                        } else {
+                            throughput /= survive;
+                        }
+                    }
+#if STRATEGY_NEE
+                    last_bsdf_pdf = scattered.bsdf_pdf;
+                    last_light_pdf = scattered.light_pdf;
+                    if any(scattered.shadow_weight > vec3<f32>(0.0)) {
+                        shadow_weight = vertex_throughput * scattered.shadow_weight;
+                        continuation = ray;
+                        continuation_ended = path_done;
+                        ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir), scattered.shadow_dir);
+                        tracing_shadow = true;
+                        path_done = false;
+                    }
+#endif
                 }
             }
         }
@@ -124,6 +180,9 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             throughput = vec3<f32>(1.0);
             radiance = vec3<f32>(0.0);
             depth = 0u;
+#if STRATEGY_NEE
+            last_bsdf_pdf = 0.0;
+#endif
         }
     }
 

@@ -23,10 +23,29 @@ struct Scatter {
     // Multiplies the path throughput: attenuation, times s / p for sampled directions.
     weight: vec3<f32>,
     absorbed: bool,
+    // Next-event estimation only: the light sample's direction, and what the emission
+    // its shadow ray finds is multiplied by (with the throughput): the BSDF, the MIS
+    // weight, over the light density. Zero: no shadow ray.
+    shadow_dir: vec3<f32>,
+    shadow_weight: vec3<f32>,
+    // Densities of `dir` under BSDF and light sampling, for the MIS weight of an emitter
+    // the continuation hits; bsdf_pdf = 0 marks a specular bounce (counted fully).
+    bsdf_pdf: f32,
+    light_pdf: f32,
 }
 
 fn absorbed() -> Scatter {
-    return Scatter(vec3<f32>(0.0), vec3<f32>(0.0), true);
+    return Scatter(vec3<f32>(0.0), vec3<f32>(0.0), true, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
+}
+
+fn specular(dir: vec3<f32>, weight: vec3<f32>) -> Scatter {
+    return Scatter(dir, weight, false, vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0.0);
+}
+
+// The power heuristic a^2 / (a^2 + b^2), written so huge densities cannot overflow.
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let ratio = b / a;
+    return 1.0 / (1.0 + ratio * ratio);
 }
 
 #if LAMBERTIAN
@@ -35,7 +54,21 @@ fn absorbed() -> Scatter {
 fn scatter_lambertian(albedo: vec3<f32>, n: vec3<f32>, origin: vec3<f32>) -> Scatter {
 #if STRATEGY_COSINE
     // s / p = 1 exactly.
-    return Scatter(sample_cosine(n), albedo, false);
+    return specular(sample_cosine(n), albedo);
+#else
+#if STRATEGY_NEE
+    // Light sample; the kernel traces its shadow ray.
+    var shadow_weight = vec3<f32>(0.0);
+    let light_dir = light_sample(origin);
+    let light_cos = dot(n, light_dir);
+    let light_density = light_pdf(origin, light_dir);
+    if light_cos > 0.0 && light_density > 0.0 {
+        let s = light_cos * INV_PI;
+        shadow_weight = albedo * (s * power_heuristic(light_density, s) / light_density);
+    }
+    // BSDF sample: the continuation, s / p = 1; its emitter hit is weighted in the kernel.
+    let dir = sample_cosine(n);
+    return Scatter(dir, albedo, false, light_dir, shadow_weight, cosine_pdf(n, dir), light_pdf(origin, dir));
 #else
 #if STRATEGY_LIGHT
     let dir = light_sample(origin);
@@ -55,7 +88,8 @@ fn scatter_lambertian(albedo: vec3<f32>, n: vec3<f32>, origin: vec3<f32>) -> Sca
     if s <= 0.0 || pdf <= 0.0 {
         return absorbed();
     }
-    return Scatter(dir, albedo * (s / pdf), false);
+    return specular(dir, albedo * (s / pdf));
+#endif
 #endif
 }
 #endif
@@ -66,7 +100,7 @@ fn scatter_metal(albedo: vec3<f32>, fuzz: f32, n: vec3<f32>, in_dir: vec3<f32>) 
     if dot(dir, n) <= 0.0 {
         return absorbed();
     }
-    return Scatter(dir, albedo, false);
+    return specular(dir, albedo);
 }
 #endif
 
@@ -88,7 +122,7 @@ fn scatter_dielectric(ior: f32, n: vec3<f32>, in_dir: vec3<f32>, front_face: boo
     } else {
         dir = refract(in_dir, n, eta);
     }
-    return Scatter(normalize(dir), vec3<f32>(1.0), false);
+    return specular(normalize(dir), vec3<f32>(1.0));
 }
 #endif
 

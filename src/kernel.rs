@@ -3,7 +3,7 @@
 //! constants. Device-free, so every variant is validated by naga in `cargo test`.
 
 use crate::gpu::layout::{MATERIAL_DIELECTRIC, MATERIAL_LAMBERTIAN, MATERIAL_METAL, SceneData};
-use crate::scene::Strategy;
+use crate::scene::{RenderSettings, Strategy};
 use crate::shader::{ComposeError, ShaderModule, compose};
 use std::collections::BTreeSet;
 
@@ -39,6 +39,7 @@ pub const FLAGS: &[&str] = &[
     "DIELECTRIC",
     "STRATEGY_COSINE",
     "STRATEGY_LIGHT",
+    "STRATEGY_NEE",
     "VARIANCE",
 ];
 
@@ -74,6 +75,8 @@ pub struct KernelConfig {
     pub strategy: Strategy,
     pub max_depth: u32,
     pub light_weight: f32,
+    /// Russian roulette from this depth on, or never.
+    pub rr_depth: Option<u32>,
     pub accumulator: AccumulatorKind,
     /// Accumulate squared samples too, for per-pixel error estimates.
     pub variance: bool,
@@ -84,8 +87,7 @@ impl KernelConfig {
     pub fn for_scene(
         data: &SceneData,
         strategy: Strategy,
-        max_depth: u32,
-        light_weight: f32,
+        settings: &RenderSettings,
         accumulator: AccumulatorKind,
         variance: bool,
     ) -> KernelConfig {
@@ -100,8 +102,9 @@ impl KernelConfig {
             light_quads: samples_lights && !data.light_quads.is_empty(),
             light_spheres: samples_lights && !data.light_spheres.is_empty(),
             strategy,
-            max_depth,
-            light_weight,
+            max_depth: settings.max_depth,
+            light_weight: settings.light_weight,
+            rr_depth: settings.rr_depth,
             accumulator,
             variance,
         }
@@ -134,6 +137,7 @@ impl KernelConfig {
             strategy,
             max_depth: 50,
             light_weight: 0.5,
+            rr_depth: Some(5),
             accumulator,
             variance: true,
         }
@@ -154,6 +158,7 @@ impl KernelConfig {
             ("DIELECTRIC", self.dielectric),
             ("STRATEGY_COSINE", self.strategy == Strategy::Cosine),
             ("STRATEGY_LIGHT", self.strategy == Strategy::Light),
+            ("STRATEGY_NEE", self.strategy == Strategy::NeeMis),
             ("VARIANCE", self.variance),
         ];
         pairs
@@ -193,6 +198,7 @@ impl KernelConfig {
         vec![
             ("MAX_DEPTH", self.max_depth as f64),
             ("LIGHT_WEIGHT", self.light_weight as f64),
+            ("RR_DEPTH", self.rr_depth.unwrap_or(u32::MAX) as f64),
         ]
     }
 
@@ -280,15 +286,15 @@ mod tests {
         let mut scenes = 0;
         for entry in std::fs::read_dir(dir).unwrap() {
             let scene = crate::scene::Scene::load(&entry.unwrap().path()).unwrap();
-            let data = SceneData::pack(&scene);
             for strategy in Strategy::ALL {
                 for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
                     for variance in [false, true] {
+                        let (data, strategy, _) =
+                            crate::render::prepare_scene(&scene, strategy).unwrap();
                         let config = KernelConfig::for_scene(
                             &data,
                             strategy,
-                            50,
-                            0.5,
+                            &scene.render,
                             accumulator,
                             variance,
                         );

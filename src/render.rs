@@ -95,16 +95,14 @@ impl<'a> Renderer<'a> {
         scene: &Scene,
         options: &RenderOptions,
     ) -> Result<Renderer<'a>, RenderError> {
-        let data = SceneData::pack(scene);
         let settings = &scene.render;
-        let (strategy, warnings) = effective_strategy(scene, &data, settings.strategy)?;
+        let (data, strategy, warnings) = prepare_scene(scene, settings.strategy)?;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
         let config = KernelConfig::for_scene(
             &data,
             strategy,
-            settings.max_depth,
-            settings.light_weight,
+            settings,
             accumulator_kind,
             options.variance,
         );
@@ -219,7 +217,7 @@ impl<'a> Renderer<'a> {
             scene_group,
             samples: 0,
             paths_per_submission: 1 << 18,
-            max_samples_per_dispatch: max_samples_per_dispatch(&data, settings.max_depth),
+            max_samples_per_dispatch: max_samples_per_dispatch(&data, settings.max_depth, strategy),
             submission_seconds: options.submission_seconds,
             warnings,
         })
@@ -339,14 +337,19 @@ impl<'a> Renderer<'a> {
     }
 }
 
-/// The strategy a run really uses, with what the user should be told: a mixture
-/// with nothing to aim at falls back to cosine sampling, `light` is refused there
-/// and warned about everywhere (it is biased).
-pub fn effective_strategy(
+/// The scene packed for a run with the `wanted` strategy, the strategy the run
+/// really uses, and what the user should be told. Next-event estimation aims only
+/// at emitters (a shadow ray toward a non-emitting importance object finds no
+/// light). A strategy with nothing to aim at falls back to cosine sampling, except
+/// `light`, which is refused there and warned about everywhere (it is biased).
+pub fn prepare_scene(
     scene: &Scene,
-    data: &SceneData,
     wanted: Strategy,
-) -> Result<(Strategy, Vec<String>), RenderError> {
+) -> Result<(SceneData, Strategy, Vec<String>), RenderError> {
+    let mut data = SceneData::pack(scene);
+    if wanted == Strategy::NeeMis {
+        data.keep_emitting_lights();
+    }
     let mut warnings = Vec::new();
     let mut strategy = wanted;
     if data.light_count() == 0 && strategy != Strategy::Cosine {
@@ -358,7 +361,7 @@ pub fn effective_strategy(
             )));
         }
         warnings.push(format!(
-            "{}: no emitting or `importance = true` object to aim at: the mixture falls back to cosine sampling",
+            "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to cosine sampling",
             scene.source
         ));
         strategy = Strategy::Cosine;
@@ -370,7 +373,7 @@ pub fn effective_strategy(
                 .to_string(),
         );
     }
-    Ok((strategy, warnings))
+    Ok((data, strategy, warnings))
 }
 
 /// The accumulator asked for, or the best the adapter offers for this size.
@@ -407,9 +410,14 @@ const LOOP_ITERATION_BUDGET: u64 = 32768;
 
 /// Samples per dispatch that stay within `LOOP_ITERATION_BUDGET` even if every
 /// path runs to `max_depth`: each segment loops over every primitive (closest
-/// hit) and every light (mixture density).
-pub fn max_samples_per_dispatch(data: &SceneData, max_depth: u32) -> u32 {
-    let loops_per_segment = (data.quads.len() + data.spheres.len() + data.light_count()) as u64 + 2;
+/// hit) and every light (light density).
+pub fn max_samples_per_dispatch(data: &SceneData, max_depth: u32, strategy: Strategy) -> u32 {
+    let mut loops_per_segment =
+        (data.quads.len() + data.spheres.len() + data.light_count()) as u64 + 2;
+    if strategy == Strategy::NeeMis {
+        // A shadow ray (closest hit) and a second light density per vertex.
+        loops_per_segment *= 2;
+    }
     let per_sample = loops_per_segment * (max_depth as u64 + 1);
     (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
 }

@@ -48,10 +48,10 @@ fn furnace_cosine_is_exact() {
 }
 
 #[test]
-fn furnace_mixture_and_light_are_unbiased() {
+fn furnace_mixture_light_and_nee_are_unbiased() {
     let ctx = gpu_or_skip!();
     let expected = furnace_value(1.0, 0.5, 4);
-    for strategy in [Strategy::Mixture, Strategy::Light] {
+    for strategy in [Strategy::Mixture, Strategy::Light, Strategy::NeeMis] {
         let acc = common::render(ctx, &furnace(strategy, 256, 4), &common::with_variance());
         let (mean, error) = common::image_mean_and_error(&acc);
         eprintln!("furnace {strategy}: {mean:.6} ± {error:.6} (expected {expected})");
@@ -267,5 +267,70 @@ fn general_kernel_matches_specialised_kernel() {
             },
         );
         assert_eq!(specialised, general, "{name}");
+    }
+}
+
+/// Russian roulette ends paths early and reweights the survivors: the furnace
+/// keeps its analytic value for every strategy.
+#[test]
+fn russian_roulette_is_unbiased_in_the_furnace() {
+    let ctx = gpu_or_skip!();
+    let expected = furnace_value(1.0, 0.5, 6);
+    for strategy in [Strategy::Cosine, Strategy::Mixture, Strategy::NeeMis] {
+        let mut scene = furnace(strategy, 256, 6);
+        scene
+            .apply_overrides(&SceneOverrides {
+                rr_depth: Some(Some(1)),
+                ..Default::default()
+            })
+            .unwrap();
+        let acc = common::render(ctx, &scene, &common::with_variance());
+        let (mean, error) = common::image_mean_and_error(&acc);
+        eprintln!("furnace {strategy} with roulette: {mean:.6} ± {error:.6} (expected {expected})");
+        // Cosine paths are exact without roulette; with it they must have variance.
+        assert!(error > 0.0, "{strategy}: roulette did not act");
+        assert!(
+            (mean - expected).abs() < 4.0 * error,
+            "{strategy}: {mean} ± {error}, expected {expected}"
+        );
+    }
+}
+
+/// Different estimators, one answer: on a small Cornell box the image means of
+/// next-event estimation and the mixture agree within their combined standard error.
+#[test]
+fn nee_mis_and_mixture_agree_on_the_cornell_box() {
+    let ctx = gpu_or_skip!();
+    let mut results = Vec::new();
+    for (strategy, rr) in [
+        (Strategy::Mixture, None),
+        (Strategy::NeeMis, None),
+        (Strategy::NeeMis, Some(3)),
+    ] {
+        let mut scene = common::scene_file("cornell.toml");
+        scene
+            .apply_overrides(&SceneOverrides {
+                width: Some(16),
+                height: Some(16),
+                spp: Some(512),
+                max_depth: Some(6),
+                strategy: Some(strategy),
+                rr_depth: Some(rr),
+                ..Default::default()
+            })
+            .unwrap();
+        let acc = common::render(ctx, &scene, &common::with_variance());
+        results.push((strategy, rr, common::image_mean_and_error(&acc)));
+    }
+    let (_, _, (reference, reference_error)) = results[0];
+    for &(strategy, rr, (mean, error)) in &results[1..] {
+        let combined = (error * error + reference_error * reference_error).sqrt();
+        eprintln!(
+            "{strategy} rr {rr:?}: {mean:.5} ± {error:.5}; mixture {reference:.5} ± {reference_error:.5}"
+        );
+        assert!(
+            (mean - reference).abs() < 4.0 * combined,
+            "{strategy} rr {rr:?}: {mean} vs {reference} ± {combined}"
+        );
     }
 }

@@ -4,9 +4,9 @@ use super::Failure;
 use super::render::StrategyArg;
 use clap::Args;
 use pathmix::gpu::GpuContext;
-use pathmix::gpu::layout::{Material, Quad, SceneData, Sphere};
+use pathmix::gpu::layout::{Material, Quad, Sphere};
 use pathmix::kernel::KernelConfig;
-use pathmix::render::{choose_accumulator, effective_strategy, max_samples_per_dispatch};
+use pathmix::render::{choose_accumulator, max_samples_per_dispatch, prepare_scene};
 use pathmix::scene::{MaterialKind, Scene, Strategy};
 use std::path::PathBuf;
 
@@ -35,8 +35,8 @@ fn bytes<T>(count: usize) -> String {
 
 pub fn info(args: InfoArgs) -> Result<(), Failure> {
     let scene = Scene::load(&args.scene).map_err(Failure::input)?;
-    let data = SceneData::pack(&scene);
     let strategy = args.strategy.map_or(scene.render.strategy, Strategy::from);
+    let (data, effective, warnings) = prepare_scene(&scene, strategy).map_err(Failure::input)?;
     let (width, height) = (scene.camera.width, scene.camera.height);
 
     println!("scene: {}", scene.source);
@@ -75,16 +75,8 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let accumulator = choose_accumulator(&ctx, None, width, height).map_err(Failure::input)?;
-    let (effective, warnings) =
-        effective_strategy(&scene, &data, strategy).map_err(Failure::input)?;
-    let config = KernelConfig::for_scene(
-        &data,
-        effective,
-        scene.render.max_depth,
-        scene.render.light_weight,
-        accumulator,
-        args.variance,
-    );
+    let config =
+        KernelConfig::for_scene(&data, effective, &scene.render, accumulator, args.variance);
     println!("kernel:");
     for warning in warnings {
         println!("  note: {warning}");
@@ -107,7 +99,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     );
     println!(
         "  at most {} samples per pixel per dispatch (driver loop-limit budget)",
-        max_samples_per_dispatch(&data, scene.render.max_depth)
+        max_samples_per_dispatch(&data, scene.render.max_depth, effective)
     );
     println!("buffers:");
     println!("  materials: {}", bytes::<Material>(data.materials.len()));

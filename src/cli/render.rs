@@ -51,6 +51,10 @@ pub struct RenderArgs {
     /// Mixture weight of the light density, in [0, 1] (default 0.5) [scene: render.light_weight].
     #[arg(long, value_name = "W")]
     pub light_weight: Option<f32>,
+    /// Russian roulette from this many bounces on, or `off` (paths end only at
+    /// --max-depth) [scene: render.rr_depth; default off].
+    #[arg(long, value_name = "N|off", value_parser = parse_rr_depth)]
+    pub rr_depth: Option<RrDepth>,
     /// Random seed: the same seed gives the same image [scene: render.seed].
     #[arg(long, value_name = "S")]
     pub seed: Option<u32>,
@@ -75,6 +79,8 @@ pub enum StrategyArg {
     Cosine,
     /// Light density only: biased, misses indirect light (diagnostic).
     Light,
+    /// Next-event estimation (shadow rays to emitters) with multiple importance sampling.
+    NeeMis,
 }
 
 impl From<StrategyArg> for Strategy {
@@ -83,6 +89,7 @@ impl From<StrategyArg> for Strategy {
             StrategyArg::Mixture => Strategy::Mixture,
             StrategyArg::Cosine => Strategy::Cosine,
             StrategyArg::Light => Strategy::Light,
+            StrategyArg::NeeMis => Strategy::NeeMis,
         }
     }
 }
@@ -120,6 +127,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             strategy: args.strategy.map(Strategy::from),
             light_weight: args.light_weight,
             seed: args.seed,
+            rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
         })
         .map_err(Failure::input)?;
     // Refuse unwritable outputs before spending the render time.
@@ -228,6 +236,20 @@ fn describe_stop(stop: &StopRule) -> String {
         rules.push(format!("relative error {target}"));
     }
     rules.join(" or ")
+}
+
+/// A Russian roulette depth, or none.
+#[derive(Clone, Copy, Debug)]
+pub struct RrDepth(Option<u32>);
+
+fn parse_rr_depth(text: &str) -> Result<RrDepth, String> {
+    match text {
+        "off" => Ok(RrDepth(None)),
+        _ => text
+            .parse()
+            .map(|depth| RrDepth(Some(depth)))
+            .map_err(|_| format!("`{text}`: give a depth or `off`")),
+    }
 }
 
 /// `90s`, `2m`, `1.5h`, `500ms` or plain seconds.

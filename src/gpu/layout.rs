@@ -186,6 +186,14 @@ impl SceneData {
         data
     }
 
+    /// Drops non-emitting objects from the light density.
+    pub fn keep_emitting_lights(&mut self) {
+        let materials = &self.materials;
+        let emits = |material: u32| materials[material as usize].emit.iter().any(|&e| e > 0.0);
+        self.light_quads.retain(|q| emits(q.material));
+        self.light_spheres.retain(|s| emits(s.material));
+    }
+
     pub fn light_count(&self) -> usize {
         self.light_quads.len() + self.light_spheres.len()
     }

@@ -18,16 +18,26 @@ pub enum Strategy {
     Cosine,
     /// Light density only: biased (misses indirect light), a diagnostic.
     Light,
+    /// Next-event estimation: at each diffuse vertex a shadow ray to a point sampled
+    /// on an emitter and a cosine-sampled continuation, combined by the power
+    /// heuristic (multiple importance sampling, Veach & Guibas 1995).
+    NeeMis,
 }
 
 impl Strategy {
-    pub const ALL: [Strategy; 3] = [Strategy::Mixture, Strategy::Cosine, Strategy::Light];
+    pub const ALL: [Strategy; 4] = [
+        Strategy::Mixture,
+        Strategy::Cosine,
+        Strategy::Light,
+        Strategy::NeeMis,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Mixture => "mixture",
             Strategy::Cosine => "cosine",
             Strategy::Light => "light",
+            Strategy::NeeMis => "nee-mis",
         }
     }
 
@@ -64,6 +74,8 @@ pub struct RenderSettings {
     /// Radiance of rays that escape the scene.
     pub background: Vec3,
     pub seed: u32,
+    /// Russian roulette from this many bounces on (`None`: paths end only at `max_depth`).
+    pub rr_depth: Option<u32>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

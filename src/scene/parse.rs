@@ -28,13 +28,18 @@
 //! - `spp` (integer >= 1, default 100): samples per pixel.
 //! - `max_depth` (integer in 0..=100000, default 50): maximum number of scattering
 //!   events on a path; 0 renders emission only.
-//! - `strategy` (`"mixture"` | `"cosine"` | `"light"`, default `"mixture"`): how a
-//!   diffuse bounce picks its direction.
+//! - `strategy` (`"mixture"` | `"cosine"` | `"light"` | `"nee-mis"`, default
+//!   `"mixture"`): how a diffuse bounce picks its direction (`nee-mis`: next-event
+//!   estimation with multiple importance sampling).
 //! - `light_weight` (float in [0, 1], default 0.5): weight of the light density in the
 //!   mixture.
 //! - `background` (vector, components >= 0, default `[0, 0, 0]`): radiance of rays
 //!   that escape the scene.
 //! - `seed` (integer in 0..=4294967295, default 0): random seed.
+//! - `rr_depth` (integer in 0..=100000, default: off): Russian roulette from this many
+//!   bounces on; a path survives with probability min(1, max(0.05, largest throughput
+//!   component)) and is reweighted, so the estimate stays unbiased. Off, paths end only at
+//!   `max_depth`.
 //!
 //! ## `[materials.NAME]` (one table per material)
 //! `type` (required) is one of:
@@ -89,6 +94,8 @@ pub struct SceneOverrides {
     pub strategy: Option<Strategy>,
     pub light_weight: Option<f32>,
     pub seed: Option<u32>,
+    /// `Some(None)` turns Russian roulette off.
+    pub rr_depth: Option<Option<u32>>,
 }
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -111,6 +118,7 @@ const RENDER_KEYS: &[&str] = &[
     "light_weight",
     "background",
     "seed",
+    "rr_depth",
 ];
 const MATERIAL_TYPES: &[&str] = &["lambertian", "metal", "dielectric", "light"];
 const ALL_MATERIAL_KEYS: &[&str] = &["type", "albedo", "emit", "fuzz", "ior"];
@@ -207,6 +215,10 @@ impl Scene {
         let height = int("--height", o.height, IMAGE_SIDE)?;
         let max_depth = int("--max-depth", o.max_depth, MAX_DEPTH)?;
         let seed = int("--seed", o.seed, SEED)?;
+        let rr_depth = match o.rr_depth {
+            Some(Some(depth)) => Some(int("--rr-depth", Some(depth), MAX_DEPTH)?),
+            other => other,
+        };
         if let Some(w) = o.light_weight {
             check_finite(w)
                 .and_then(|()| check_unit(w))
@@ -233,6 +245,9 @@ impl Scene {
         }
         if let Some(v) = o.light_weight {
             self.render.light_weight = v;
+        }
+        if let Some(v) = rr_depth {
+            self.render.rr_depth = v;
         }
         Ok(())
     }
@@ -283,6 +298,7 @@ fn default_render() -> RenderSettings {
         light_weight: 0.5,
         background: Vec3::ZERO,
         seed: 0,
+        rr_depth: None,
     }
 }
 
@@ -305,6 +321,7 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
             .unwrap_or(d.light_weight),
         background: t.vec3("background", check_nonneg)?.unwrap_or(d.background),
         seed: t.int("seed", SEED)?.unwrap_or(d.seed),
+        rr_depth: t.int("rr_depth", MAX_DEPTH)?.or(d.rr_depth),
     })
 }
 
@@ -1563,6 +1580,7 @@ material = "white"
             strategy: Some(Strategy::Cosine),
             light_weight: Some(1.0),
             seed: Some(7),
+            rr_depth: None,
         };
         s.apply_overrides(&o).unwrap();
         assert_eq!(
