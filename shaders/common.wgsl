@@ -15,7 +15,9 @@ override RR_DEPTH: u32 = 0xffffffffu;
 struct Params {
     origin: vec3<f32>,
     width: u32,
-    pixel00: vec3<f32>,
+    // From `origin` to the centre of pixel (0, 0): relative, so the pixel grid
+    // keeps its precision however far the camera is from the world's origin.
+    to_pixel00: vec3<f32>,
     height: u32,
     delta_u: vec3<f32>,
     sample_start: u32,

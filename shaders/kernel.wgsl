@@ -52,10 +52,10 @@ fn all_finite(v: vec3<f32>) -> bool {
 // A camera ray through a uniformly jittered point of the pixel (box filter).
 fn camera_ray(pixel: vec2<u32>) -> Ray {
     let jitter = vec2<f32>(rand(), rand());
-    let film = params.pixel00
+    let to_film = params.to_pixel00
         + (f32(pixel.x) + jitter.x - 0.5) * params.delta_u
         + (f32(pixel.y) + jitter.y - 0.5) * params.delta_v;
-    return Ray(params.origin, normalize(film - params.origin));
+    return Ray(params.origin, normalize(to_film));
 }
 
 @compute @workgroup_size(8, 8, 1)

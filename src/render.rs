@@ -127,7 +127,7 @@ impl<'a> Renderer<'a> {
         let params = Params {
             origin: frame.origin.to_array(),
             width,
-            pixel00: frame.pixel00.to_array(),
+            to_pixel00: frame.to_pixel00.to_array(),
             height,
             delta_u: frame.delta_u.to_array(),
             delta_v: frame.delta_v.to_array(),

@@ -223,3 +223,120 @@ fn bench_prints_speed_figures() {
         "{stdout}"
     );
 }
+
+/// Each bad input exits with code 2 before rendering, with a message that names the
+/// file (or flag) and the field or line, and leaves nothing behind.
+#[test]
+fn bad_inputs_exit_2_naming_the_problem_and_write_nothing() {
+    let base = std::fs::read_to_string(scene("furnace.toml")).unwrap();
+    let edit = |from: &str, to: &str| {
+        assert!(base.contains(from), "furnace.toml lacks {from:?}");
+        base.replacen(from, to, 1)
+    };
+    // (case, scene text, extra arguments, fragments the message must contain)
+    let cases: Vec<(&str, String, Vec<&str>, Vec<&str>)> = vec![
+        (
+            "malformed TOML",
+            edit("[camera]", "[camera"),
+            vec![],
+            vec!["case.toml", "line ", "invalid TOML"],
+        ),
+        (
+            "wrong type",
+            edit("width = 32", "width = \"wide\""),
+            vec![],
+            vec!["case.toml", "camera.width", "expected an integer"],
+        ),
+        (
+            "unknown key",
+            edit("albedo =", "albdo ="),
+            vec![],
+            vec![
+                "case.toml",
+                "materials.wall",
+                "`albdo`",
+                "did you mean `albedo`",
+            ],
+        ),
+        (
+            "NaN",
+            edit("vfov = 90", "vfov = nan"),
+            vec![],
+            vec!["case.toml", "camera.vfov", "finite"],
+        ),
+        (
+            "negative size in the file",
+            edit("width = 32", "width = -5"),
+            vec![],
+            vec!["case.toml", "camera.width", "-5"],
+        ),
+        (
+            "negative size flag",
+            base.clone(),
+            vec!["--width", "-5"],
+            vec!["--width", "-5"],
+        ),
+        (
+            "negative weight flag",
+            base.clone(),
+            vec!["--light-weight", "-0.5"],
+            vec!["--light-weight", "-0.5"],
+        ),
+        (
+            "unknown material",
+            edit("material = \"wall\"", "material = \"wal\""),
+            vec![],
+            vec!["case.toml", "objects[0].material", "`wal`"],
+        ),
+        (
+            "output in a missing folder",
+            base.clone(),
+            vec!["-o", "MISSING/out.png"],
+            vec!["MISSING", "does not exist"],
+        ),
+        (
+            "unknown output extension",
+            base.clone(),
+            vec!["-o", "OUT/out.bmp"],
+            vec!["out.bmp", ".bmp"],
+        ),
+        (
+            "EXR flag naming a PNG",
+            base.clone(),
+            vec!["--exr", "OUT/out2.png"],
+            vec!["out2.png", "EXR"],
+        ),
+    ];
+    for (case, text, extra, fragments) in cases {
+        let dir = temp_dir("bad-input");
+        let scene_path = dir.join("case.toml");
+        std::fs::write(&scene_path, text).unwrap();
+        let out = dir.join("out.png");
+        let missing = dir.join("no-such-folder");
+        let substitute = |arg: &str| {
+            arg.replace("MISSING", missing.to_str().unwrap())
+                .replace("OUT", dir.to_str().unwrap())
+        };
+        let mut args = vec!["render".to_string(), scene_path.display().to_string()];
+        if !extra.contains(&"-o") {
+            args.extend(["-o".to_string(), out.display().to_string()]);
+        }
+        args.extend(extra.iter().map(|a| substitute(a)));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let output = pathmix(&args);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{case}: {message}");
+        for fragment in fragments {
+            let fragment = substitute(fragment);
+            assert!(
+                message.contains(&fragment),
+                "{case}: the message lacks {fragment:?}: {message}"
+            );
+        }
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left, ["case.toml"], "{case}: something was written");
+    }
+}

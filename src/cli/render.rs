@@ -23,7 +23,7 @@ pub struct RenderArgs {
     pub exr: Option<PathBuf>,
     /// Samples per pixel [scene: render.spp]. With --time or --target-error, an
     /// upper bound (without it those run until their own rule stops them).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub spp: Option<u32>,
     /// Stop when this much render time is spent: 90s, 2m, 1.5h or plain seconds.
     #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
@@ -37,26 +37,26 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     pub variance: Option<PathBuf>,
     /// Image width in pixels [scene: camera.width].
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", allow_negative_numbers = true)]
     pub width: Option<u32>,
     /// Image height in pixels [scene: camera.height].
-    #[arg(long, value_name = "H")]
+    #[arg(long, value_name = "H", allow_negative_numbers = true)]
     pub height: Option<u32>,
     /// Most scattering events on a path; 0 shows emitters only [scene: render.max_depth].
-    #[arg(long, value_name = "D")]
+    #[arg(long, value_name = "D", allow_negative_numbers = true)]
     pub max_depth: Option<u32>,
     /// Direction sampling at diffuse surfaces [scene: render.strategy].
     #[arg(long, value_enum)]
     pub strategy: Option<StrategyArg>,
     /// Mixture weight of the light density, in [0, 1] (default 0.5) [scene: render.light_weight].
-    #[arg(long, value_name = "W")]
+    #[arg(long, value_name = "W", allow_negative_numbers = true)]
     pub light_weight: Option<f32>,
     /// Russian roulette from this many bounces on, or `off` (paths end only at
     /// --max-depth) [scene: render.rr_depth; default off].
     #[arg(long, value_name = "N|off", value_parser = parse_rr_depth)]
     pub rr_depth: Option<RrDepth>,
     /// Random seed: the same seed gives the same image [scene: render.seed].
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub seed: Option<u32>,
     /// Use the first adapter whose name contains NAME (case-insensitive) [env: PATHMIX_ADAPTER].
     #[arg(long, value_name = "NAME")]

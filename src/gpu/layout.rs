@@ -33,7 +33,8 @@ gpu_struct! {
     pub struct Params {
         pub origin: [f32; 3],
         pub width: u32,
-        pub pixel00: [f32; 3],
+        /// From `origin` to the centre of pixel (0, 0) (see `CameraFrame`).
+        pub to_pixel00: [f32; 3],
         pub height: u32,
         pub delta_u: [f32; 3],
         pub sample_start: u32,
@@ -239,7 +240,11 @@ fn pack_quad(q: Vec3, u: Vec3, v: Vec3, material: u32) -> Quad {
 /// Camera terms of `Params`: the book's camera, focus distance 1.
 pub struct CameraFrame {
     pub origin: Vec3,
-    pub pixel00: Vec3,
+    /// From `origin` to the centre of pixel (0, 0) on the image plane. Relative, not
+    /// a point: the image plane is 1 from the eye whatever the scene's scale, and
+    /// a point there, next to a large `origin`, would lose the pixel grid to
+    /// rounding (at `lookfrom` 8e6 the f32 spacing is 0.5, coarser than the pixels).
+    pub to_pixel00: Vec3,
     pub delta_u: Vec3,
     pub delta_v: Vec3,
 }
@@ -255,10 +260,10 @@ impl CameraFrame {
         let viewport_v = -viewport_height * v;
         let delta_u = viewport_u / camera.width as f32;
         let delta_v = viewport_v / camera.height as f32;
-        let upper_left = camera.lookfrom - w - viewport_u / 2.0 - viewport_v / 2.0;
+        let to_upper_left = -w - viewport_u / 2.0 - viewport_v / 2.0;
         CameraFrame {
             origin: camera.lookfrom,
-            pixel00: upper_left + 0.5 * (delta_u + delta_v),
+            to_pixel00: to_upper_left + 0.5 * (delta_u + delta_v),
             delta_u,
             delta_v,
         }

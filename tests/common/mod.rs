@@ -68,8 +68,14 @@ pub fn with_variance() -> RenderOptions {
     }
 }
 
-/// Mean over the image of the per-pixel luminance-free channel mean, and its standard
-/// error from the per-pixel sample variances (pixels are independent).
+/// Mean over the image of the per-pixel channel mean, and its standard error from
+/// the per-pixel sample variances (pixels are independent).
+///
+/// The channels of one sample are not independent (in a grey scene they are
+/// equal), and the sums hold no cross-channel covariances, so a pixel's variance
+/// is bounded by Cauchy-Schwarz: `Var(mean of channels) <= mean of channel
+/// variances`, with equality when the channels are equal. (Summing the channel
+/// variances as if independent understates the error by up to sqrt(3).)
 pub fn image_mean_and_error(acc: &Accumulation) -> (f64, f64) {
     let n = acc.samples as f64;
     let sum_sq = acc.sum_sq.as_ref().expect("render with variance");
@@ -81,7 +87,7 @@ pub fn image_mean_and_error(acc: &Accumulation) -> (f64, f64) {
             let m = sum[c] / n;
             let sample_variance = (sq[c] - n * m * m).max(0.0) / (n - 1.0);
             mean += m / (3.0 * pixels);
-            variance_of_mean += sample_variance / n / (3.0 * pixels).powi(2);
+            variance_of_mean += sample_variance / 3.0 / n / (pixels * pixels);
         }
     }
     (mean, variance_of_mean.sqrt())
