@@ -7,7 +7,7 @@ use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS
 use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{
     AccumulatorKind, BINDING_LIGHT_QUADS, BINDING_LIGHT_SPHERES, BINDING_MATERIALS, BINDING_QUADS,
-    BINDING_SPHERES, KernelConfig, WORKGROUP_SIZE,
+    BINDING_SPHERES, KernelConfig, SceneStorage, WORKGROUP_SIZE,
 };
 use crate::scene::{Scene, Strategy};
 use crate::stats::Accumulation;
@@ -21,6 +21,8 @@ pub struct RenderOptions {
     pub accumulator: Option<AccumulatorKind>,
     /// Also accumulate squared samples (per-pixel error estimates).
     pub variance: bool,
+    /// `None`: baked into the kernel for small scenes (`SceneStorage::auto`).
+    pub scene_storage: Option<SceneStorage>,
     /// Wall time one submission should take: short enough to report progress
     /// and stop promptly, long enough to keep the device busy.
     pub submission_seconds: f64,
@@ -31,6 +33,7 @@ impl Default for RenderOptions {
         RenderOptions {
             accumulator: None,
             variance: false,
+            scene_storage: None,
             submission_seconds: 0.25,
         }
     }
@@ -132,6 +135,16 @@ impl<'a> Renderer<'a> {
             }
             None => AccumulatorKind::Buffer,
         };
+        let scene_storage = options
+            .scene_storage
+            .unwrap_or_else(|| SceneStorage::auto(&data));
+        if scene_storage == SceneStorage::Baked && !data.is_finite() {
+            return Err(RenderError::Unsupported(format!(
+                "{}: a scene with non-finite numbers cannot be baked into the kernel; \
+                 use --scene-storage buffers",
+                scene.source
+            )));
+        }
         let config = KernelConfig::for_scene(
             &data,
             strategy,
@@ -139,6 +152,7 @@ impl<'a> Renderer<'a> {
             settings.light_weight,
             accumulator_kind,
             options.variance,
+            scene_storage,
         );
         check_size(ctx, &config, width, height)?;
         let kernel = Kernel::new(ctx, config).map_err(|e| {

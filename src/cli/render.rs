@@ -4,7 +4,7 @@ use super::Failure;
 use super::progress::ProgressDisplay;
 use clap::{Args, ValueEnum};
 use pathmix::gpu::GpuContext;
-use pathmix::kernel::AccumulatorKind;
+use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::output::{self, ImageFormat};
 use pathmix::render::{self, RenderOptions, Renderer, StopRule};
 use pathmix::scene::{Scene, SceneOverrides, Strategy};
@@ -49,6 +49,11 @@ pub struct RenderArgs {
     /// when available.
     #[arg(long, value_enum)]
     pub accumulator: Option<AccumulatorArg>,
+    /// Where the kernel reads the scene: compiled into it as constants (fastest
+    /// on CPU drivers) or from storage buffers. Default: baked for scenes of up
+    /// to 64 objects.
+    #[arg(long, value_enum)]
+    pub scene_storage: Option<SceneStorageArg>,
     /// No progress output.
     #[arg(short, long)]
     pub quiet: bool,
@@ -89,6 +94,21 @@ impl From<AccumulatorArg> for AccumulatorKind {
     }
 }
 
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SceneStorageArg {
+    Baked,
+    Buffers,
+}
+
+impl From<SceneStorageArg> for SceneStorage {
+    fn from(arg: SceneStorageArg) -> SceneStorage {
+        match arg {
+            SceneStorageArg::Baked => SceneStorage::Baked,
+            SceneStorageArg::Buffers => SceneStorage::Buffers,
+        }
+    }
+}
+
 pub fn render(args: RenderArgs) -> Result<(), Failure> {
     let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
     scene
@@ -111,6 +131,7 @@ pub fn render(args: RenderArgs) -> Result<(), Failure> {
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let options = RenderOptions {
         accumulator: args.accumulator.map(AccumulatorKind::from),
+        scene_storage: args.scene_storage.map(SceneStorage::from),
         ..Default::default()
     };
     let mut renderer = Renderer::new(&ctx, &scene, &options).map_err(Failure::input)?;
