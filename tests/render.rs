@@ -29,19 +29,21 @@ fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scen
 fn furnace_cosine_is_exact() {
     let ctx = gpu_or_skip!();
     // Cosine sampling weighs each bounce by exactly the albedo, so every path is exact.
-    for depth in [0, 1, 4] {
-        let acc = common::render(
-            ctx,
-            &furnace(Strategy::Cosine, 8, depth),
-            &common::with_variance(),
-        );
-        let expected = furnace_value(1.0, 0.5, depth) as f32;
-        for pixel in acc.mean().pixels {
-            for channel in pixel {
-                assert!(
-                    (channel - expected).abs() <= 1e-6 * expected,
-                    "{channel} != {expected}"
-                );
+    for storage in [SceneStorage::Baked, SceneStorage::Buffers] {
+        let options = RenderOptions {
+            scene_storage: Some(storage),
+            ..common::with_variance()
+        };
+        for depth in [0, 1, 4] {
+            let acc = common::render(ctx, &furnace(Strategy::Cosine, 8, depth), &options);
+            let expected = furnace_value(1.0, 0.5, depth) as f32;
+            for pixel in acc.mean().pixels {
+                for channel in pixel {
+                    assert!(
+                        (channel - expected).abs() <= 1e-6 * expected,
+                        "{storage:?}: {channel} != {expected}"
+                    );
+                }
             }
         }
     }

@@ -50,8 +50,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum)]
     pub accumulator: Option<AccumulatorArg>,
     /// Where the kernel reads the scene: compiled into it as constants (fastest
-    /// on CPU drivers) or from storage buffers. Default: baked for scenes of up
-    /// to 64 objects.
+    /// on CPU drivers, slower to compile) or from storage buffers. Default: baked
+    /// for scenes of up to 32 objects.
     #[arg(long, value_enum)]
     pub scene_storage: Option<SceneStorageArg>,
     /// No progress output.
