@@ -2,16 +2,22 @@
 // object in the light density (emitters, and objects marked for importance).
 // Choosing one object uniformly and sampling it draws from exactly this density.
 
+#if !BAKED_SCENE
 #if LIGHT_QUADS
 @group(1) @binding(3) var<storage, read> light_quads: array<Quad>;
 #endif
 #if LIGHT_SPHERES
 @group(1) @binding(4) var<storage, read> light_spheres: array<Sphere>;
 #endif
+#endif
 
 fn light_quad_count() -> u32 {
 #if LIGHT_QUADS
+#if BAKED_SCENE
+    return LIGHT_QUAD_COUNT;
+#else
     return arrayLength(&light_quads);
+#endif
 #else
     return 0u;
 #endif
@@ -19,7 +25,11 @@ fn light_quad_count() -> u32 {
 
 fn light_sphere_count() -> u32 {
 #if LIGHT_SPHERES
+#if BAKED_SCENE
+    return LIGHT_SPHERE_COUNT;
+#else
     return arrayLength(&light_spheres);
+#endif
 #else
     return 0u;
 #endif
@@ -44,12 +54,12 @@ fn light_sample(origin: vec3<f32>) -> vec3<f32> {
 fn light_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {
     var total = 0.0;
 #if LIGHT_QUADS
-    for (var i = 0u; i < arrayLength(&light_quads); i++) {
+    for (var i = 0u; i < light_quad_count(); i++) {
         total += quad_light_pdf(light_quads[i], origin, dir);
     }
 #endif
 #if LIGHT_SPHERES
-    for (var i = 0u; i < arrayLength(&light_spheres); i++) {
+    for (var i = 0u; i < light_sphere_count(); i++) {
         total += sphere_light_pdf(light_spheres[i], origin, dir);
     }
 #endif

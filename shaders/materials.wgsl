@@ -16,7 +16,9 @@ struct Material {
     param: f32,
 }
 
+#if !BAKED_SCENE
 @group(1) @binding(0) var<storage, read> materials: array<Material>;
+#endif
 
 struct Scatter {
     dir: vec3<f32>,

@@ -9,7 +9,7 @@ use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS
 use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{
     AccumulatorKind, BINDING_LIGHT_QUADS, BINDING_LIGHT_SPHERES, BINDING_MATERIALS, BINDING_QUADS,
-    BINDING_SPHERES, KernelConfig, WORKGROUP_SIZE,
+    BINDING_SPHERES, KernelConfig, SceneStorage, WORKGROUP_SIZE,
 };
 use crate::scene::{Scene, Strategy};
 use crate::stats::Accumulation;
@@ -23,6 +23,8 @@ pub struct RenderOptions {
     pub accumulator: Option<AccumulatorKind>,
     /// Also accumulate squared samples (per-pixel error estimates).
     pub variance: bool,
+    /// `None`: baked into the kernel for small scenes (`SceneStorage::auto`).
+    pub scene_storage: Option<SceneStorage>,
     /// Wall time one submission should take: short enough to report progress
     /// and stop promptly, long enough to keep the device busy.
     pub submission_seconds: f64,
@@ -36,6 +38,7 @@ impl Default for RenderOptions {
         RenderOptions {
             accumulator: None,
             variance: false,
+            scene_storage: None,
             submission_seconds: 0.25,
             general_kernel: false,
         }
@@ -99,12 +102,27 @@ impl<'a> Renderer<'a> {
         let (data, strategy, warnings) = prepare_scene(scene, settings.strategy)?;
         let (width, height) = (scene.camera.width, scene.camera.height);
         let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
+        // The general kernel reads the scene from buffers, as a kernel not specialised
+        // to any scene would.
+        let scene_storage = match options.scene_storage {
+            _ if options.general_kernel => SceneStorage::Buffers,
+            Some(storage) => storage,
+            None => SceneStorage::auto(&data),
+        };
+        if scene_storage == SceneStorage::Baked && !data.is_finite() {
+            return Err(RenderError::Unsupported(format!(
+                "{}: a scene with non-finite numbers cannot be baked into the kernel; \
+                 use --scene-storage buffers",
+                scene.source
+            )));
+        }
         let config = KernelConfig::for_scene(
             &data,
             strategy,
             settings,
             accumulator_kind,
             options.variance,
+            scene_storage,
         );
         let config = if options.general_kernel {
             config.generalized()

@@ -48,6 +48,7 @@ fn help_explains_every_render_flag() {
         "--adapter",
         "--output",
         "--accumulator",
+        "--scene-storage",
         "PATHMIX_ADAPTER",
     ] {
         assert!(help.contains(flag), "render --help lacks {flag}");

@@ -2,7 +2,7 @@
 
 mod common;
 
-use pathmix::kernel::AccumulatorKind;
+use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{SceneOverrides, Strategy};
 use pathmix::stats;
@@ -29,19 +29,21 @@ fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scen
 fn furnace_cosine_is_exact() {
     let ctx = gpu_or_skip!();
     // Cosine sampling weighs each bounce by exactly the albedo, so every path is exact.
-    for depth in [0, 1, 4] {
-        let acc = common::render(
-            ctx,
-            &furnace(Strategy::Cosine, 8, depth),
-            &common::with_variance(),
-        );
-        let expected = furnace_value(1.0, 0.5, depth) as f32;
-        for pixel in acc.mean().pixels {
-            for channel in pixel {
-                assert!(
-                    (channel - expected).abs() <= 1e-6 * expected,
-                    "{channel} != {expected}"
-                );
+    for storage in [SceneStorage::Baked, SceneStorage::Buffers] {
+        let options = RenderOptions {
+            scene_storage: Some(storage),
+            ..common::with_variance()
+        };
+        for depth in [0, 1, 4] {
+            let acc = common::render(ctx, &furnace(Strategy::Cosine, 8, depth), &options);
+            let expected = furnace_value(1.0, 0.5, depth) as f32;
+            for pixel in acc.mean().pixels {
+                for channel in pixel {
+                    assert!(
+                        (channel - expected).abs() <= 1e-6 * expected,
+                        "{storage:?}: {channel} != {expected}"
+                    );
+                }
             }
         }
     }
@@ -121,6 +123,51 @@ fn buffer_accumulator_matches_texture_accumulator() {
     let default = common::render(ctx, &scene, &common::with_variance());
     assert_eq!(buffer, default);
     assert!(buffer.sum.iter().any(|p| p[0] > 0.0), "the image is black");
+}
+
+/// The scene baked into the kernel as constants renders bit for bit what the
+/// storage buffers render: same data, same arithmetic.
+#[test]
+fn baked_scene_matches_scene_buffers() {
+    let ctx = gpu_or_skip!();
+    for (file, strategy) in [
+        ("cornell.toml", Strategy::Mixture),
+        ("cornell-boxes.toml", Strategy::Mixture),
+        ("cornell-boxes.toml", Strategy::Cosine),
+        ("furnace.toml", Strategy::Light),
+    ] {
+        let mut scene = common::scene_file(file);
+        scene
+            .apply_overrides(&SceneOverrides {
+                width: Some(24),
+                height: Some(20),
+                spp: Some(4),
+                strategy: Some(strategy),
+                ..Default::default()
+            })
+            .unwrap();
+        let render = |storage| {
+            let options = RenderOptions {
+                scene_storage: Some(storage),
+                ..common::with_variance()
+            };
+            assert_eq!(
+                Renderer::new(ctx, &scene, &options)
+                    .unwrap()
+                    .config()
+                    .scene_storage(),
+                storage
+            );
+            common::render(ctx, &scene, &options)
+        };
+        let baked = render(SceneStorage::Baked);
+        let buffers = render(SceneStorage::Buffers);
+        assert!(baked.sum.iter().any(|p| p[0] > 0.0), "{file}: black image");
+        assert!(
+            baked == buffers,
+            "{file} {strategy}: baked and buffers differ"
+        );
+    }
 }
 
 #[test]

@@ -5,7 +5,7 @@ use super::render::StrategyArg;
 use clap::Args;
 use pathmix::gpu::GpuContext;
 use pathmix::gpu::layout::{Material, Quad, Sphere};
-use pathmix::kernel::KernelConfig;
+use pathmix::kernel::{KernelConfig, SceneStorage};
 use pathmix::render::{choose_accumulator, max_samples_per_dispatch, prepare_scene};
 use pathmix::scene::{MaterialKind, Scene, Strategy};
 use std::path::PathBuf;
@@ -75,8 +75,15 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let accumulator = choose_accumulator(&ctx, None, width, height).map_err(Failure::input)?;
-    let config =
-        KernelConfig::for_scene(&data, effective, &scene.render, accumulator, args.variance);
+    let storage = SceneStorage::auto(&data);
+    let config = KernelConfig::for_scene(
+        &data,
+        effective,
+        &scene.render,
+        accumulator,
+        args.variance,
+        storage,
+    );
     println!("kernel:");
     for warning in warnings {
         println!("  note: {warning}");
@@ -101,7 +108,13 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         "  at most {} samples per pixel per dispatch (driver loop-limit budget)",
         max_samples_per_dispatch(&data, scene.render.max_depth, effective)
     );
-    println!("buffers:");
+    match storage {
+        SceneStorage::Baked => println!(
+            "scene data: compiled into the kernel as constants (at most {} objects are baked)",
+            SceneStorage::MAX_BAKED_OBJECTS
+        ),
+        SceneStorage::Buffers => println!("scene data: storage buffers"),
+    }
     println!("  materials: {}", bytes::<Material>(data.materials.len()));
     if config.quads {
         println!("  quads: {}", bytes::<Quad>(data.quads.len()));

@@ -4,7 +4,7 @@ use super::Failure;
 use super::progress::ProgressDisplay;
 use clap::{Args, ValueEnum};
 use pathmix::gpu::GpuContext;
-use pathmix::kernel::AccumulatorKind;
+use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::output::{self, ImageFormat};
 use pathmix::render::{self, RenderOptions, Renderer, StopReason, StopRule};
 use pathmix::scene::{Scene, SceneOverrides, Strategy};
@@ -66,6 +66,11 @@ pub struct RenderArgs {
     /// when available.
     #[arg(long, value_enum)]
     pub accumulator: Option<AccumulatorArg>,
+    /// Where the kernel reads the scene: compiled into it as constants (fastest
+    /// on CPU drivers, slower to compile) or from storage buffers. Default: baked
+    /// for scenes of up to 32 objects.
+    #[arg(long, value_enum)]
+    pub scene_storage: Option<SceneStorageArg>,
     /// No progress output.
     #[arg(short, long)]
     pub quiet: bool,
@@ -105,6 +110,21 @@ impl From<AccumulatorArg> for AccumulatorKind {
         match arg {
             AccumulatorArg::Texture => AccumulatorKind::Texture,
             AccumulatorArg::Buffer => AccumulatorKind::Buffer,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SceneStorageArg {
+    Baked,
+    Buffers,
+}
+
+impl From<SceneStorageArg> for SceneStorage {
+    fn from(arg: SceneStorageArg) -> SceneStorage {
+        match arg {
+            SceneStorageArg::Baked => SceneStorage::Baked,
+            SceneStorageArg::Buffers => SceneStorage::Buffers,
         }
     }
 }
@@ -149,6 +169,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     let options = RenderOptions {
         accumulator: args.accumulator.map(AccumulatorKind::from),
         variance: args.variance.is_some() || args.target_error.is_some(),
+        scene_storage: args.scene_storage.map(SceneStorage::from),
         ..Default::default()
     };
     let mut renderer = Renderer::new(&ctx, &scene, &options).map_err(Failure::input)?;

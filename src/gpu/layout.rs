@@ -10,6 +10,38 @@ pub trait GpuLayout: Pod {
     const WGSL_NAME: &'static str;
     /// Field names and byte offsets, for the layout test.
     fn fields() -> Vec<(&'static str, usize)>;
+    /// This value as a WGSL constant expression: the struct's constructor with
+    /// every field in declaration order, bit-exact (see `WgslValue`).
+    fn wgsl_value(&self) -> String;
+}
+
+/// A field value written as an exact WGSL constant expression, so the kernel
+/// sees exactly what a buffer would hold. Floats use Rust's shortest
+/// round-trip form with the `f` suffix (parsed as f32 directly, not rounded
+/// twice through an abstract float); they must be finite.
+pub trait WgslValue {
+    fn wgsl_value(&self) -> String;
+}
+
+impl WgslValue for u32 {
+    fn wgsl_value(&self) -> String {
+        format!("{self}u")
+    }
+}
+
+impl WgslValue for f32 {
+    fn wgsl_value(&self) -> String {
+        assert!(self.is_finite(), "{self} has no WGSL literal");
+        format!("{self:?}f")
+    }
+}
+
+impl<T: WgslValue, const N: usize> WgslValue for [T; N] {
+    fn wgsl_value(&self) -> String {
+        let components: Vec<String> = self.iter().map(WgslValue::wgsl_value).collect();
+        let scalar = std::any::type_name::<T>();
+        format!("vec{N}<{scalar}>({})", components.join(", "))
+    }
 }
 
 macro_rules! gpu_struct {
@@ -23,6 +55,10 @@ macro_rules! gpu_struct {
             const WGSL_NAME: &'static str = stringify!($name);
             fn fields() -> Vec<(&'static str, usize)> {
                 vec![$((stringify!($field), std::mem::offset_of!($name, $field)),)*]
+            }
+            fn wgsl_value(&self) -> String {
+                let fields: Vec<String> = vec![$(WgslValue::wgsl_value(&self.$field),)*];
+                format!("{}({})", stringify!($name), fields.join(", "))
             }
         }
     };
@@ -193,6 +229,20 @@ impl SceneData {
         let emits = |material: u32| materials[material as usize].emit.iter().any(|&e| e > 0.0);
         self.light_quads.retain(|q| emits(q.material));
         self.light_spheres.retain(|s| emits(s.material));
+    }
+
+    /// Whether every float is finite (has a WGSL literal, so it can be baked).
+    pub fn is_finite(&self) -> bool {
+        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
+        let quad = |q: &Quad| {
+            finite(&[q.plane_d, q.area]) && [q.q, q.u, q.v, q.normal, q.w].iter().all(|v| finite(v))
+        };
+        let sphere = |s: &Sphere| finite(&s.center) && s.radius.is_finite();
+        self.materials
+            .iter()
+            .all(|m| finite(&m.albedo) && finite(&m.emit) && m.param.is_finite())
+            && self.quads.iter().chain(&self.light_quads).all(quad)
+            && self.spheres.iter().chain(&self.light_spheres).all(sphere)
     }
 
     pub fn light_count(&self) -> usize {
