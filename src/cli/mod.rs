@@ -1,5 +1,6 @@
 //! Command definitions and dispatch.
 
+mod converge;
 mod progress;
 mod render;
 
@@ -24,6 +25,8 @@ pub struct Cli {
 enum Command {
     /// Render a scene file to an image.
     Render(render::RenderArgs),
+    /// Measure each strategy's error against time and samples (table, CSV, plot).
+    Converge(converge::ConvergeArgs),
 }
 
 /// A failed command: what to tell the user, and the exit code.
@@ -53,5 +56,6 @@ impl Failure {
 pub fn run(cli: Cli) -> Result<(), Failure> {
     match cli.command {
         Command::Render(args) => render::render(args),
+        Command::Converge(args) => converge::converge(args),
     }
 }
