@@ -4,9 +4,10 @@
 //! `scene` turns a file into a validated `Scene`; `kernel` and `shader` decide
 //! and compose the WGSL for it; `gpu` owns the device, buffers and pipeline;
 //! `render` runs the progressive accumulation; `output` and `stats` work on
-//! plain arrays.
+//! plain arrays; `converge` measures the strategies' speed/accuracy trade.
 
 pub mod bench;
+pub mod converge;
 pub mod gpu;
 pub mod kernel;
 pub mod output;

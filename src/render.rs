@@ -253,6 +253,14 @@ impl<'a> Renderer<'a> {
         (self.params.width, self.params.height)
     }
 
+    /// Starts the accumulation over at zero samples, keeping the kernel and the tuned
+    /// submission size: after a warm-up run, the next samples are timed without the
+    /// pipeline's first-use cost. The next dispatch overwrites the sums, and the run
+    /// then matches a fresh renderer's sample for sample.
+    pub fn reset(&mut self) {
+        self.samples = 0;
+    }
+
     /// Traces up to `max_samples` more samples per pixel in about one submission's
     /// time, waits for them, and returns how many were added. A very large image
     /// takes one sample over several submissions.

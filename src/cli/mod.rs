@@ -1,6 +1,7 @@
 //! Command definitions and dispatch.
 
 mod bench;
+mod converge;
 mod info;
 mod progress;
 mod render;
@@ -31,6 +32,8 @@ enum Command {
     Info(info::InfoArgs),
     /// Measure rendering speed on the shipped scenes (paths/s, segments/s, start-up time).
     Bench(bench::BenchArgs),
+    /// Measure each strategy's error against time and samples (table, CSV, plot).
+    Converge(converge::ConvergeArgs),
 }
 
 /// A failed command: what to tell the user, and the exit code.
@@ -62,5 +65,6 @@ pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
         Command::Render(args) => render::render(args, process_start),
         Command::Info(args) => info::info(args),
         Command::Bench(args) => bench::bench(args),
+        Command::Converge(args) => converge::converge(args),
     }
 }

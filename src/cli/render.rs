@@ -261,9 +261,9 @@ fn describe_stop(stop: &StopRule) -> String {
 
 /// A Russian roulette depth, or none.
 #[derive(Clone, Copy, Debug)]
-pub struct RrDepth(Option<u32>);
+pub struct RrDepth(pub Option<u32>);
 
-fn parse_rr_depth(text: &str) -> Result<RrDepth, String> {
+pub fn parse_rr_depth(text: &str) -> Result<RrDepth, String> {
     match text {
         "off" => Ok(RrDepth(None)),
         _ => text

@@ -1,0 +1,180 @@
+//! `pathmix converge`: the speed/accuracy trade of each strategy, measured.
+
+use super::Failure;
+use super::progress::ProgressDisplay;
+use clap::Args;
+use pathmix::converge::{
+    self, ConvergeError, Event, ReferenceChoice, ReferenceSource, Study, Variant,
+};
+use pathmix::gpu::GpuContext;
+use pathmix::scene::{Scene, SceneOverrides};
+use std::path::PathBuf;
+
+/// Longest image side when neither --width nor --height is given.
+const DEFAULT_SIDE: u32 = 128;
+
+#[derive(Args, Debug)]
+pub struct ConvergeArgs {
+    /// Scene file (TOML; see docs/scene-format.md).
+    pub scene: PathBuf,
+    /// Output folder (created if missing): converge.md, converge.csv, converge.png and
+    /// the cached reference.
+    #[arg(long, value_name = "DIR", default_value = "converge-out")]
+    pub out: PathBuf,
+    /// Image width. Default: the longest side is 128 pixels, with the scene's aspect
+    /// ratio (or the --reference image's size).
+    #[arg(long, value_name = "W")]
+    pub width: Option<u32>,
+    /// Image height. Default: as for --width.
+    #[arg(long, value_name = "H")]
+    pub height: Option<u32>,
+    /// Most scattering events on a path [scene: render.max_depth].
+    #[arg(long, value_name = "D")]
+    pub max_depth: Option<u32>,
+    /// Russian roulette from this many bounces on, or `off`, for every variant
+    /// [scene: render.rr_depth].
+    #[arg(long, value_name = "N|off", value_parser = super::render::parse_rr_depth)]
+    pub rr_depth: Option<super::render::RrDepth>,
+    /// Seed of the measured runs [scene: render.seed]. The rendered reference uses its
+    /// own seed.
+    #[arg(long, value_name = "S")]
+    pub seed: Option<u32>,
+    /// Last rung of the sample ladder 1, 4, 16, ... (added if not a power of 4).
+    #[arg(long, value_name = "N", default_value_t = 256,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_spp: u32,
+    /// Reference image (linear EXR of the measured size) instead of a rendered one.
+    #[arg(long, value_name = "EXR")]
+    pub reference: Option<PathBuf>,
+    /// Samples per pixel of the rendered reference (mixture strategy), cached in the
+    /// output folder as reference-<hash>.exr and reused while scene file, size, depth
+    /// and this count are the same.
+    #[arg(long, value_name = "N", default_value_t = 4096,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub reference_spp: u32,
+    /// Comma-separated strategies to measure: cosine, light, mixture (weight 0.5),
+    /// mixture:W. Default: cosine,light,mixture:0.25,mixture:0.5,mixture:0.75.
+    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = Variant::parse)]
+    pub variants: Option<Vec<Variant>>,
+    /// Use the first adapter whose name contains NAME (case-insensitive) [env: PATHMIX_ADAPTER].
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+}
+
+/// `(width, height)`: what was given, the other side from the scene's aspect ratio, or
+/// a longest side of `DEFAULT_SIDE`.
+fn measured_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
+    let (w, h) = (scene.camera.width as f64, scene.camera.height as f64);
+    let side = |v: f64| (v.round() as u32).max(1);
+    match (width, height) {
+        (Some(width), Some(height)) => (width, height),
+        (Some(width), None) => (width, side(width as f64 * h / w)),
+        (None, Some(height)) => (side(height as f64 * w / h), height),
+        (None, None) => {
+            let scale = DEFAULT_SIDE as f64 / w.max(h);
+            (side(w * scale), side(h * scale))
+        }
+    }
+}
+
+fn failure(e: ConvergeError) -> Failure {
+    match e {
+        ConvergeError::Input(_) => Failure::input(e),
+        _ => Failure::runtime(e),
+    }
+}
+
+pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
+    let scene_bytes = std::fs::read(&args.scene)
+        .map_err(|e| Failure::input(format!("{}: {e}", args.scene.display())))?;
+    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
+    let (mut width, mut height) = (args.width, args.height);
+    let mut size_note = "";
+    if let (Some(path), None, None) = (&args.reference, width, height) {
+        let image = pathmix::output::read_exr(path).map_err(Failure::input)?;
+        (width, height) = (Some(image.width), Some(image.height));
+        size_note = " (the reference's size)";
+    } else if width.is_none() && height.is_none() {
+        size_note = " (converge's default; --width/--height to change)";
+    }
+    let (width, height) = measured_size(&scene, width, height);
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(width),
+            height: Some(height),
+            max_depth: args.max_depth,
+            seed: args.seed,
+            rr_depth: args.rr_depth.map(|rr| rr.0),
+            ..Default::default()
+        })
+        .map_err(Failure::input)?;
+    // Checked before the device starts.
+    let reference = match &args.reference {
+        Some(path) => {
+            ReferenceChoice::Given(converge::given_reference(path, width, height).map_err(failure)?)
+        }
+        None => ReferenceChoice::Render {
+            spp: args.reference_spp,
+        },
+    };
+    let variants = args.variants.unwrap_or_else(Variant::defaults);
+    if args.reference.is_none() && (args.reference_spp as u64) < 16 * args.max_spp as u64 {
+        eprintln!(
+            "pathmix: warning: a reference at {} spp has more than 1/16 of the variance of the \
+             last rung ({} spp): its own noise will flatten the curves",
+            args.reference_spp, args.max_spp
+        );
+    }
+
+    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
+    eprintln!("adapter: {}", ctx.describe());
+    eprintln!(
+        "scene: {}  {width}x{height}{size_note}  max depth {}  seed {}  ladder {:?}",
+        scene.source,
+        scene.render.max_depth,
+        scene.render.seed,
+        converge::ladder(args.max_spp)
+    );
+    let study = Study {
+        scene: &scene,
+        scene_bytes: &scene_bytes,
+        out_dir: &args.out,
+        variants: &variants,
+        max_spp: args.max_spp,
+        reference,
+    };
+    let mut display = ProgressDisplay::new(false);
+    let report = converge::run_study(&ctx, &study, |event| match event {
+        Event::ReferenceProgress(progress) => display.update(progress),
+        Event::Reference(reference) => {
+            display.finish();
+            let verb = match reference.source {
+                ReferenceSource::Given => "using given reference",
+                ReferenceSource::Rendered => "rendered reference",
+                ReferenceSource::Cached => "reused cached reference",
+            };
+            println!("{verb} {}", reference.path.display());
+        }
+        Event::VariantStarted(variant) => eprintln!("measuring {variant}"),
+        Event::Rung(row) => eprintln!(
+            "  {:>6} spp  {:>8.3} s  {:>6.2} M paths/s  RMSE {:.5}  (noise estimate {})",
+            row.spp,
+            row.seconds,
+            row.paths_per_second / 1e6,
+            row.rmse,
+            row.estimated_error
+                .map_or_else(|| "–".to_string(), |e| format!("{e:.5}"))
+        ),
+        Event::Warning(warning) => eprintln!("pathmix: warning: {warning}"),
+    })
+    .map_err(failure)?;
+    let files = converge::write_report(&args.out, &report).map_err(Failure::runtime)?;
+
+    println!();
+    print!("{}", converge::summary_markdown(&report.summaries));
+    println!();
+    for path in [&files.markdown, &files.csv, &files.plot] {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
