@@ -3,14 +3,17 @@
 //!
 //! `scene` turns a file into a validated `Scene`; `kernel` and `shader` decide
 //! and compose the WGSL for it; `gpu` owns the device, buffers and pipeline;
-//! `render` runs the progressive accumulation; `output` and `stats` work on
+//! `render` runs the progressive accumulation; `checkpoint` saves and restores
+//! it; `shard` writes and merges partial results; `output` and `stats` work on
 //! plain arrays.
 
 pub mod bench;
+pub mod checkpoint;
 pub mod gpu;
 pub mod kernel;
 pub mod output;
 pub mod render;
 pub mod scene;
 pub mod shader;
+pub mod shard;
 pub mod stats;
