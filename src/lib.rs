@@ -3,10 +3,12 @@
 //!
 //! `scene` turns a file into a validated `Scene`; `kernel` and `shader` decide
 //! and compose the WGSL for it; `gpu` owns the device, buffers and pipeline;
-//! `render` runs the progressive accumulation; `output` and `stats` work on
+//! `render` runs the progressive accumulation; `checkpoint` saves and restores
+//! it; `shard` writes and merges partial results; `output` and `stats` work on
 //! plain arrays; `converge` measures the strategies' speed/accuracy trade.
 
 pub mod bench;
+pub mod checkpoint;
 pub mod converge;
 pub mod gpu;
 pub mod kernel;
@@ -14,4 +16,5 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod shader;
+pub mod shard;
 pub mod stats;

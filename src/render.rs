@@ -14,6 +14,7 @@ use crate::kernel::{
 use crate::scene::{Scene, Strategy};
 use crate::stats::Accumulation;
 use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
 
@@ -81,6 +82,8 @@ pub struct Renderer<'a> {
     scene_group: wgpu::BindGroup,
     /// Samples per pixel accumulated so far.
     samples: u32,
+    /// Sample index of the first sample accumulated (see `set_first_sample`).
+    first_sample: u32,
     /// Paths one submission should trace, adapted to the measured speed.
     paths_per_submission: u64,
     /// Most samples one dispatch may trace per pixel (see `LOOP_ITERATION_BUDGET`).
@@ -234,6 +237,7 @@ impl<'a> Renderer<'a> {
             frame_group,
             scene_group,
             samples: 0,
+            first_sample: 0,
             paths_per_submission: 1 << 18,
             max_samples_per_dispatch: max_samples_per_dispatch(&data, settings.max_depth, strategy),
             submission_seconds: options.submission_seconds,
@@ -292,7 +296,7 @@ impl<'a> Renderer<'a> {
 
     fn dispatch(&mut self, tile_origin: [u32; 2], tile_size: [u32; 2], samples: u32) {
         let params = Params {
-            sample_start: self.samples,
+            sample_start: self.first_sample.saturating_add(self.samples),
             sample_count: samples,
             tile_origin,
             tile_size,
@@ -347,6 +351,71 @@ impl<'a> Renderer<'a> {
         }
     }
 
+    /// Index of the first sample this renderer accumulates: sample indices
+    /// `first_sample()..first_sample() + samples()` are in the sums.
+    pub fn first_sample(&self) -> u32 {
+        self.first_sample
+    }
+
+    /// Makes the accumulation start at sample index `first` instead of 0, so that
+    /// separate runs can render disjoint sample ranges of one image (shards).
+    /// Only before the first sample is traced.
+    pub fn set_first_sample(&mut self, first: u32) -> Result<(), RenderError> {
+        if self.samples > 0 {
+            return Err(RenderError::Unsupported(
+                "the first sample index can only be set before rendering".into(),
+            ));
+        }
+        self.first_sample = first;
+        Ok(())
+    }
+
+    /// The raw device sums (each running sum and its compensation, every layer)
+    /// and the samples they hold: with `import_state`, a run continues bit-exactly.
+    pub fn export_state(&self) -> AccumulatorState {
+        let (width, height) = self.size();
+        AccumulatorState {
+            width,
+            height,
+            layers: self.accumulator.layers,
+            first_sample: self.first_sample,
+            samples: self.samples,
+            texels: self.accumulator.read(self.ctx),
+        }
+    }
+
+    /// Replaces the sums with `state` (from `export_state`, maybe of another
+    /// process): the next sample traced is `state.first_sample + state.samples`,
+    /// added to the saved sums and compensations.
+    pub fn import_state(&mut self, state: &AccumulatorState) -> Result<(), RenderError> {
+        let (width, height) = self.size();
+        let layers = self.accumulator.layers;
+        if (state.width, state.height) != (width, height) {
+            return Err(RenderError::Unsupported(format!(
+                "saved sums are {}x{}, this render is {width}x{height}",
+                state.width, state.height
+            )));
+        }
+        if state.layers != layers {
+            return Err(RenderError::Unsupported(format!(
+                "saved sums have {} layers, this render has {layers} (variance {})",
+                state.layers,
+                if layers > 2 { "on" } else { "off" }
+            )));
+        }
+        if state.texels.len() != (width * height * layers) as usize {
+            return Err(RenderError::Unsupported(format!(
+                "saved sums hold {} texels, expected {}",
+                state.texels.len(),
+                width * height * layers
+            )));
+        }
+        self.accumulator.write(self.ctx, &state.texels);
+        self.first_sample = state.first_sample;
+        self.samples = state.samples;
+        Ok(())
+    }
+
     /// The kernel's counters: samples discarded as NaN or infinite (added as
     /// zero), and invocations cut short by the driver (must be zero).
     pub fn counters(&self) -> Counters {
@@ -361,6 +430,20 @@ impl<'a> Renderer<'a> {
         self.ctx.queue.submit([encoder.finish()]);
         map_read(self.ctx, &staging, bytemuck::pod_read_unaligned::<Counters>)
     }
+}
+
+/// The accumulator's raw contents and the sample range they cover.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AccumulatorState {
+    pub width: u32,
+    pub height: u32,
+    /// 2 (sum, compensation) or 4 (and squares, compensation).
+    pub layers: u32,
+    pub first_sample: u32,
+    pub samples: u32,
+    /// `layers * width * height` texels, layer-major, rows top first; rgb are the
+    /// channels, w is unused (0).
+    pub texels: Vec<[f32; 4]>,
 }
 
 /// The scene packed for a run with the `wanted` strategy, the strategy the run
@@ -509,6 +592,8 @@ pub enum StopReason {
     TimeBudget,
     /// The estimated relative error fell to or below the target.
     TargetError,
+    /// The caller asked the run to stop (`run_with`'s flag).
+    Interrupted,
 }
 
 /// The error estimate is not trusted before this many samples per pixel.
@@ -551,10 +636,27 @@ pub fn run(
     stop: StopRule,
     mut on_progress: impl FnMut(&Progress),
 ) -> Result<RunSummary, RenderError> {
+    run_with(renderer, stop, &AtomicBool::new(false), |progress, _| {
+        on_progress(progress);
+        Ok::<(), RenderError>(())
+    })
+}
+
+/// Like `run`, and also stops with `StopReason::Interrupted` once
+/// `stop_requested` is set (checked between submissions, so the submission in
+/// flight completes). After each submission `between` gets the progress and the
+/// renderer, to save state or previews; an error from it ends the run.
+pub fn run_with<E: From<RenderError>>(
+    renderer: &mut Renderer,
+    stop: StopRule,
+    stop_requested: &AtomicBool,
+    mut between: impl FnMut(&Progress, &Renderer) -> Result<(), E>,
+) -> Result<RunSummary, E> {
     if stop.target_error.is_some() && !renderer.config().variance {
         return Err(RenderError::Unsupported(
             "a target error needs the variance sums: render with variance on".into(),
-        ));
+        )
+        .into());
     }
     let start_segments = renderer.counters().segments();
     let started = Instant::now();
@@ -567,6 +669,9 @@ pub fn run(
     let mut relative_error = None;
     let mut last_error_check: Option<Instant> = None;
     let reason = loop {
+        if stop_requested.load(Ordering::SeqCst) {
+            break StopReason::Interrupted;
+        }
         if renderer.samples() >= stop.max_samples {
             break StopReason::Samples;
         }
@@ -588,20 +693,23 @@ pub fn run(
             relative_error = renderer.accumulation().relative_error();
             last_error_check = Some(Instant::now());
         }
-        on_progress(&Progress {
-            samples: renderer.samples(),
-            max_samples: stop.max_samples,
-            elapsed,
-            paths_per_second: rate(renderer.samples(), elapsed),
-            relative_error,
-            eta: eta(
-                &stop,
-                renderer.samples() - start_samples,
+        between(
+            &Progress {
+                samples: renderer.samples(),
+                max_samples: stop.max_samples,
                 elapsed,
-                renderer.samples(),
+                paths_per_second: rate(renderer.samples(), elapsed),
                 relative_error,
-            ),
-        });
+                eta: eta(
+                    &stop,
+                    renderer.samples() - start_samples,
+                    elapsed,
+                    renderer.samples(),
+                    relative_error,
+                ),
+            },
+            renderer,
+        )?;
     };
     let elapsed = started.elapsed();
     let counters = renderer.counters();
@@ -610,7 +718,8 @@ pub fn run(
             "{} pixel invocations were cut short by the driver (a loop limit): the image would \
              be wrong. Use a smaller --max-depth or a simpler scene on this adapter",
             counters.truncated
-        )));
+        ))
+        .into());
     }
     if renderer.config().variance && reason != StopReason::TargetError {
         relative_error = renderer.accumulation().relative_error();

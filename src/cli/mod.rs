@@ -3,8 +3,10 @@
 mod bench;
 mod converge;
 mod info;
+mod merge;
 mod progress;
 mod render;
+mod signals;
 
 use clap::{Parser, Subcommand};
 use std::time::Instant;
@@ -30,6 +32,8 @@ enum Command {
     Render(render::RenderArgs),
     /// Print what a scene uses, what its kernel contains, buffer sizes and adapter limits.
     Info(info::InfoArgs),
+    /// Merge partial results of shards (`render --partial`) into one image.
+    Merge(merge::MergeArgs),
     /// Measure rendering speed on the shipped scenes (paths/s, segments/s, start-up time).
     Bench(bench::BenchArgs),
     /// Measure each strategy's error against time and samples (table, CSV, plot).
@@ -64,6 +68,7 @@ pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
     match cli.command {
         Command::Render(args) => render::render(args, process_start),
         Command::Info(args) => info::info(args),
+        Command::Merge(args) => merge::merge(args),
         Command::Bench(args) => bench::bench(args),
         Command::Converge(args) => converge::converge(args),
     }

@@ -2,22 +2,33 @@
 
 use super::Failure;
 use super::progress::ProgressDisplay;
+use super::signals::Signals;
 use clap::{Args, ValueEnum};
+use pathmix::checkpoint::{self, Checkpoint, SceneIdentity};
 use pathmix::gpu::GpuContext;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::output::{self, ImageFormat};
-use pathmix::render::{self, RenderOptions, Renderer, StopReason, StopRule};
+use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopReason, StopRule};
 use pathmix::scene::{Scene, SceneOverrides, Strategy};
-use std::path::PathBuf;
+use pathmix::shard::{self, Partial};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+/// How often `--checkpoint` saves when `--checkpoint-every` is not given.
+const DEFAULT_CHECKPOINT_EVERY: Duration = Duration::from_secs(60);
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML; see docs/scene-format.md).
-    pub scene: PathBuf,
-    /// Output image: 8-bit sRGB PNG (linear radiance clamped to [0, 1], then the sRGB curve).
-    #[arg(short, long, default_value = "out.png")]
-    pub output: PathBuf,
+    /// Scene file (TOML; see docs/scene-format.md). With --resume it may be left
+    /// out: the checkpoint's recorded scene file is read (give it when the file moved).
+    #[arg(required_unless_present = "resume")]
+    pub scene: Option<PathBuf>,
+    /// Output image: 8-bit sRGB PNG (linear radiance clamped to [0, 1], then the sRGB
+    /// curve). Default: out.png, except with --partial (no PNG unless asked) and
+    /// with --resume (the checkpoint's recorded outputs).
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
     /// Also write the mean radiance as linear float RGB OpenEXR.
     #[arg(long, value_name = "FILE")]
     pub exr: Option<PathBuf>,
@@ -71,6 +82,38 @@ pub struct RenderArgs {
     /// for scenes of up to 32 objects.
     #[arg(long, value_enum)]
     pub scene_storage: Option<SceneStorageArg>,
+    /// Save the accumulated state (raw sums and compensations, sample count,
+    /// scene hash, settings, outputs) to FILE every --checkpoint-every and at the
+    /// end, atomically. `--resume FILE` continues it bit-exactly.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<PathBuf>,
+    /// How often to save the checkpoint: 30s, 5m, ... [default: 60s].
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    pub checkpoint_every: Option<Duration>,
+    /// Continue the run saved in FILE. The scene file is re-read (the recorded
+    /// path, or SCENE when given) and must be unchanged. Without --spp, --time or
+    /// --target-error the recorded stopping rule applies (--spp counts all samples,
+    /// saved ones included); outputs default to the recorded ones; checkpoints go
+    /// on being saved to FILE.
+    #[arg(long, value_name = "FILE", conflicts_with_all = [
+        "width", "height", "max_depth", "strategy", "light_weight", "seed", "rr_depth", "sample_range", "shard",
+    ])]
+    pub resume: Option<PathBuf>,
+    /// Rewrite the PNG output this often while rendering (atomically), e.g. 10s.
+    #[arg(long, value_name = "DURATION", value_parser = parse_duration)]
+    pub preview_every: Option<Duration>,
+    /// Render only sample indices A..B (A included, B excluded): a shard of a
+    /// larger run, to combine with `pathmix merge`.
+    #[arg(long, value_name = "A..B", value_parser = shard::parse_range, conflicts_with_all = ["spp", "shard"])]
+    pub sample_range: Option<Range<u32>>,
+    /// Render shard INDEX (from 0) of COUNT of the --spp samples: sample indices
+    /// spp*INDEX/COUNT .. spp*(INDEX+1)/COUNT.
+    #[arg(long, value_name = "INDEX/COUNT", value_parser = shard::parse_shard)]
+    pub shard: Option<(u32, u32)>,
+    /// Write the raw sums and sums of squares with their sample range as a
+    /// partial result (OpenEXR), for `pathmix merge`.
+    #[arg(long, value_name = "FILE")]
+    pub partial: Option<PathBuf>,
     /// No progress output.
     #[arg(short, long)]
     pub quiet: bool,
@@ -129,6 +172,311 @@ impl From<SceneStorageArg> for SceneStorage {
     }
 }
 
+impl From<RenderError> for Failure {
+    fn from(e: RenderError) -> Failure {
+        Failure::runtime(e)
+    }
+}
+
+/// Where the results go.
+struct Outputs {
+    png: Option<PathBuf>,
+    exr: Option<PathBuf>,
+    variance: Option<PathBuf>,
+    partial: Option<PathBuf>,
+}
+
+/// What this invocation does: the flags, and with --resume the checkpoint.
+struct Plan {
+    scene: Scene,
+    scene_path: PathBuf,
+    /// Command-line settings over the scene file (without spp).
+    overrides: SceneOverrides,
+    identity: SceneIdentity,
+    outputs: Outputs,
+    checkpoint: Option<PathBuf>,
+    checkpoint_every: Duration,
+    preview_every: Option<Duration>,
+    /// `max_samples` counts the renderer's samples (saved ones included).
+    stop: StopRule,
+    variance: bool,
+    first_sample: u32,
+    resume: Option<Checkpoint>,
+}
+
+fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
+    let resume = match &args.resume {
+        Some(path) => Some(
+            checkpoint::read(path).map_err(|e| Failure::input(format!("cannot resume: {e}")))?,
+        ),
+        None => None,
+    };
+    let overrides = match &resume {
+        Some(c) => c.overrides.clone(),
+        None => SceneOverrides {
+            spp: None,
+            width: args.width,
+            height: args.height,
+            max_depth: args.max_depth,
+            strategy: args.strategy.map(Strategy::from),
+            light_weight: args.light_weight,
+            seed: args.seed,
+            rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
+        },
+    };
+    let scene_path = match (&args.scene, &resume) {
+        (Some(path), _) => path.clone(),
+        (None, Some(c)) => c.scene_path.clone(),
+        (None, None) => return Err(Failure::input("no scene file given")),
+    };
+    let mut scene = Scene::load(&scene_path).map_err(Failure::input)?;
+    scene
+        .apply_overrides(&SceneOverrides {
+            spp: args.spp,
+            ..overrides.clone()
+        })
+        .map_err(Failure::input)?;
+    let identity = SceneIdentity::of(&scene);
+    let open_ended = args.time.is_some() || args.target_error.is_some();
+    let recorded = |key: &str| resume.as_ref().and_then(|c| c.run.get(key));
+    let recorded_path = |key: &str| recorded(key).and_then(|v| v.as_str()).map(PathBuf::from);
+    let recorded_seconds = |key: &str| {
+        recorded(key)
+            .and_then(|v| v.as_float())
+            .map(|s| Duration::from_secs_f64(s.max(0.0)))
+    };
+
+    let (first_sample, stop, variance) = match &resume {
+        Some(c) => {
+            let differences = SceneIdentity::differences(
+                (&c.identity, "in the checkpoint"),
+                (&identity, "in the scene now"),
+            );
+            if !differences.is_empty() {
+                return Err(Failure::input(format!(
+                    "cannot resume from `{}`: the scene `{}` is not the one the checkpoint was \
+                     rendered from: {}",
+                    args.resume.as_ref().unwrap().display(),
+                    scene_path.display(),
+                    differences.join("; ")
+                )));
+            }
+            if c.pathmix_version != env!("CARGO_PKG_VERSION") {
+                eprintln!(
+                    "pathmix: warning: the checkpoint was written by pathmix {}, this is {}: \
+                     if the kernel changed, the result is not the same as one uninterrupted run",
+                    c.pathmix_version,
+                    env!("CARGO_PKG_VERSION")
+                );
+            }
+            let stop = if args.spp.is_some() || open_ended {
+                StopRule {
+                    max_samples: args.spp.unwrap_or(u32::MAX),
+                    time_budget: args.time,
+                    target_error: args.target_error,
+                }
+            } else {
+                StopRule {
+                    max_samples: recorded("spp")
+                        .and_then(|v| v.as_integer())
+                        .and_then(|v| u32::try_from(v).ok())
+                        .unwrap_or(u32::MAX),
+                    time_budget: recorded_seconds("time_left_s"),
+                    target_error: recorded("target_error").and_then(|v| v.as_float()),
+                }
+            };
+            let variance = c.state.layers >= 4;
+            if !variance && (args.variance.is_some() || stop.target_error.is_some()) {
+                return Err(Failure::input(format!(
+                    "cannot resume from `{}` with --variance or --target-error: it holds no sums \
+                     of squares (the run had neither)",
+                    args.resume.as_ref().unwrap().display()
+                )));
+            }
+            (c.state.first_sample, stop, variance)
+        }
+        None => {
+            let range = match (&args.sample_range, args.shard) {
+                (Some(range), _) => Some(range.clone()),
+                (None, Some((index, count))) => {
+                    let range = shard::shard_range(index, count, scene.render.spp);
+                    if range.is_empty() {
+                        return Err(Failure::input(format!(
+                            "--shard {index}/{count}: {} samples make no samples for this shard",
+                            scene.render.spp
+                        )));
+                    }
+                    Some(range)
+                }
+                (None, None) => None,
+            };
+            let max_samples = match &range {
+                Some(range) => range.len() as u32,
+                None if args.spp.is_none() && open_ended => u32::MAX,
+                None => scene.render.spp,
+            };
+            let stop = StopRule {
+                max_samples,
+                time_budget: args.time,
+                target_error: args.target_error,
+            };
+            // Partial results carry the sums of squares, so a merge can estimate errors.
+            let variance =
+                args.variance.is_some() || args.target_error.is_some() || args.partial.is_some();
+            (range.map_or(0, |r| r.start), stop, variance)
+        }
+    };
+
+    let outputs = Outputs {
+        png: args.output.clone().or_else(|| match &resume {
+            Some(_) => recorded_path("output"),
+            None if args.partial.is_some() => None,
+            None => Some(PathBuf::from("out.png")),
+        }),
+        exr: args.exr.clone().or_else(|| recorded_path("exr")),
+        variance: args.variance.clone().or_else(|| recorded_path("variance")),
+        partial: args.partial.clone().or_else(|| recorded_path("partial")),
+    };
+    let checkpoint = args.checkpoint.clone().or_else(|| args.resume.clone());
+    if checkpoint.is_none() && args.checkpoint_every.is_some() {
+        return Err(Failure::input(
+            "--checkpoint-every: give --checkpoint FILE to say where",
+        ));
+    }
+    let checkpoint_every = args
+        .checkpoint_every
+        .or_else(|| recorded_seconds("checkpoint_every_s"))
+        .unwrap_or(DEFAULT_CHECKPOINT_EVERY);
+    let preview_every = args
+        .preview_every
+        .or_else(|| recorded_seconds("preview_every_s"));
+    if preview_every.is_some() && outputs.png.is_none() {
+        return Err(Failure::input(
+            "--preview-every rewrites the PNG output: give -o FILE.png",
+        ));
+    }
+
+    // Refuse unwritable outputs before spending the render time.
+    if let Some(png) = &outputs.png {
+        output::check_output_path(png, ImageFormat::Png).map_err(Failure::input)?;
+    }
+    for exr in [&outputs.exr, &outputs.variance, &outputs.partial]
+        .into_iter()
+        .flatten()
+    {
+        output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
+    }
+    if let Some(path) = &checkpoint {
+        check_checkpoint_path(path)?;
+    }
+    Ok(Plan {
+        scene,
+        scene_path,
+        overrides,
+        identity,
+        outputs,
+        checkpoint,
+        checkpoint_every,
+        preview_every,
+        stop,
+        variance,
+        first_sample,
+        resume,
+    })
+}
+
+/// The checkpoint's folder must exist and take a new file; the path must not be a folder.
+fn check_checkpoint_path(path: &Path) -> Result<(), Failure> {
+    let refuse = |problem: String| {
+        Failure::input(format!(
+            "cannot write checkpoint `{}`: {problem}",
+            path.display()
+        ))
+    };
+    if path.is_dir() {
+        return Err(refuse("it is a folder".into()));
+    }
+    let Some(name) = path.file_name() else {
+        return Err(refuse("the path does not name a file".into()));
+    };
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !folder.is_dir() {
+        return Err(refuse(format!(
+            "folder `{}` does not exist",
+            folder.display()
+        )));
+    }
+    let probe = folder.join(format!(".{}.probe", name.to_string_lossy()));
+    std::fs::File::create(&probe).map_err(|e| refuse(e.to_string()))?;
+    std::fs::remove_file(&probe).map_err(|e| refuse(e.to_string()))
+}
+
+fn absolute(path: &Path) -> PathBuf {
+    std::path::absolute(path).unwrap_or_else(|_| path.to_owned())
+}
+
+/// The flags a resume needs besides the state: stopping rule and outputs.
+fn run_table(plan: &Plan, elapsed: Duration) -> toml::Table {
+    let mut run = toml::Table::new();
+    if plan.stop.max_samples != u32::MAX {
+        run.insert(
+            "spp".into(),
+            toml::Value::Integer(plan.stop.max_samples.into()),
+        );
+    }
+    if let Some(budget) = plan.stop.time_budget {
+        let left = budget.saturating_sub(elapsed).as_secs_f64();
+        run.insert("time_left_s".into(), left.into());
+    }
+    if let Some(target) = plan.stop.target_error {
+        run.insert("target_error".into(), target.into());
+    }
+    let outputs = &plan.outputs;
+    for (key, path) in [
+        ("output", &outputs.png),
+        ("exr", &outputs.exr),
+        ("variance", &outputs.variance),
+        ("partial", &outputs.partial),
+    ] {
+        if let Some(path) = path {
+            let path = absolute(path).to_string_lossy().into_owned();
+            run.insert(key.into(), path.into());
+        }
+    }
+    run.insert(
+        "checkpoint_every_s".into(),
+        plan.checkpoint_every.as_secs_f64().into(),
+    );
+    if let Some(every) = plan.preview_every {
+        run.insert("preview_every_s".into(), every.as_secs_f64().into());
+    }
+    run
+}
+
+fn save_checkpoint(
+    plan: &Plan,
+    path: &Path,
+    renderer: &Renderer,
+    discarded: u64,
+    elapsed: Duration,
+) -> Result<(), Failure> {
+    let scene_path =
+        std::fs::canonicalize(&plan.scene_path).unwrap_or_else(|_| absolute(&plan.scene_path));
+    let checkpoint = Checkpoint {
+        pathmix_version: env!("CARGO_PKG_VERSION").to_string(),
+        scene_path,
+        overrides: plan.overrides.clone(),
+        identity: plan.identity.clone(),
+        discarded,
+        run: run_table(plan, elapsed),
+        state: renderer.export_state(),
+    };
+    checkpoint::write(path, &checkpoint).map_err(Failure::runtime)
+}
+
 pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     if let Some(target) = args.target_error {
         if !(target.is_finite() && target > 0.0) {
@@ -137,42 +485,27 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             )));
         }
     }
-    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
-    scene
-        .apply_overrides(&SceneOverrides {
-            spp: args.spp,
-            width: args.width,
-            height: args.height,
-            max_depth: args.max_depth,
-            strategy: args.strategy.map(Strategy::from),
-            light_weight: args.light_weight,
-            seed: args.seed,
-            rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
-        })
-        .map_err(Failure::input)?;
-    // Refuse unwritable outputs before spending the render time.
-    output::check_output_path(&args.output, ImageFormat::Png).map_err(Failure::input)?;
-    for exr in [&args.exr, &args.variance].into_iter().flatten() {
-        output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
-    }
-    let open_ended = args.time.is_some() || args.target_error.is_some();
-    let stop = StopRule {
-        max_samples: match args.spp {
-            None if open_ended => u32::MAX,
-            _ => scene.render.spp,
-        },
-        time_budget: args.time,
-        target_error: args.target_error,
-    };
+    let plan = plan(&args)?;
+    let scene = &plan.scene;
+    let stop = plan.stop;
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let options = RenderOptions {
         accumulator: args.accumulator.map(AccumulatorKind::from),
-        variance: args.variance.is_some() || args.target_error.is_some(),
+        variance: plan.variance,
         scene_storage: args.scene_storage.map(SceneStorage::from),
         ..Default::default()
     };
-    let mut renderer = Renderer::new(&ctx, &scene, &options).map_err(Failure::input)?;
+    let mut renderer = Renderer::new(&ctx, scene, &options).map_err(Failure::input)?;
+    match &plan.resume {
+        Some(c) => renderer.import_state(&c.state).map_err(|e| {
+            Failure::input(format!(
+                "cannot resume from `{}`: {e}",
+                args.resume.as_ref().unwrap().display()
+            ))
+        })?,
+        None => renderer.set_first_sample(plan.first_sample)?,
+    }
     for warning in &renderer.warnings {
         eprintln!("pathmix: warning: {warning}");
     }
@@ -185,22 +518,70 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         scene.render.max_depth,
         describe_stop(&stop),
     );
+    if let Some(c) = &plan.resume {
+        eprintln!(
+            "resuming from {} at {} spp",
+            args.resume.as_ref().unwrap().display(),
+            c.state.samples
+        );
+    }
+    if plan.first_sample > 0 || args.sample_range.is_some() || args.shard.is_some() {
+        eprintln!(
+            "sample indices from {} (scene hash {})",
+            plan.first_sample,
+            checkpoint::hex(plan.identity.hash())
+        );
+    }
+    let signals = Signals::install().map_err(Failure::runtime)?;
+    let saved_discarded = plan.resume.as_ref().map_or(0, |c| c.discarded);
     let mut display = ProgressDisplay::new(args.quiet);
     let mut first_sample = None;
-    let summary = render::run(&mut renderer, stop, |p| {
+    let (mut last_checkpoint, mut last_preview) = (Instant::now(), Instant::now());
+    let summary = render::run_with(&mut renderer, stop, &signals.stop, |p, r| {
         first_sample.get_or_insert_with(|| process_start.elapsed());
-        display.update(p)
+        display.update(p);
+        if let Some(path) = &plan.checkpoint {
+            if last_checkpoint.elapsed() >= plan.checkpoint_every {
+                let discarded = saved_discarded + r.counters().discarded as u64;
+                save_checkpoint(&plan, path, r, discarded, p.elapsed)?;
+                last_checkpoint = Instant::now();
+            }
+        }
+        if let (Some(every), Some(png)) = (plan.preview_every, &plan.outputs.png) {
+            if last_preview.elapsed() >= every {
+                output::write_png(png, &r.accumulation().mean(), 0.0).map_err(Failure::runtime)?;
+                last_preview = Instant::now();
+            }
+        }
+        Ok::<(), Failure>(())
     });
     display.finish();
-    let summary = summary.map_err(Failure::runtime)?;
+    let summary = summary?;
+    let discarded = saved_discarded + summary.discarded;
 
+    // The state first: once it is saved, nothing of the run can be lost.
+    if let Some(path) = &plan.checkpoint {
+        save_checkpoint(&plan, path, &renderer, discarded, summary.elapsed)?;
+    }
     let accumulation = renderer.accumulation();
     let mean = accumulation.mean();
-    output::write_png(&args.output, &mean, 0.0).map_err(Failure::runtime)?;
-    if let Some(exr) = &args.exr {
+    let outputs = &plan.outputs;
+    if let Some(png) = &outputs.png {
+        output::write_png(png, &mean, 0.0).map_err(Failure::runtime)?;
+    }
+    if let Some(exr) = &outputs.exr {
         output::write_exr(exr, &mean, &[]).map_err(Failure::runtime)?;
     }
-    if let Some(path) = &args.variance {
+    if let Some(path) = &outputs.partial {
+        let partial = Partial::from_state(
+            plan.identity.clone(),
+            plan.scene_path.display().to_string(),
+            discarded,
+            renderer.export_state(),
+        );
+        shard::write_partial(path, &partial).map_err(Failure::runtime)?;
+    }
+    if let Some(path) = &outputs.variance {
         let error = accumulation.standard_error().ok_or_else(|| {
             Failure::runtime("--variance: a standard error needs at least 2 samples per pixel")
         })?;
@@ -210,6 +591,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         StopReason::Samples => "sample count reached".to_string(),
         StopReason::TimeBudget => "time budget spent".to_string(),
         StopReason::TargetError => "target error reached".to_string(),
+        StopReason::Interrupted => "interrupted".to_string(),
     };
     println!(
         "rendered {width}x{height} at {} spp in {:.2} s: {:.2} M paths/s ({stopped})",
@@ -217,6 +599,13 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         summary.elapsed.as_secs_f64(),
         summary.paths_per_second / 1e6
     );
+    if plan.first_sample > 0 || outputs.partial.is_some() {
+        println!(
+            "sample indices {}..{}",
+            renderer.first_sample(),
+            renderer.first_sample() + renderer.samples()
+        );
+    }
     if let Some(error) = summary.relative_error {
         println!("estimated relative error: {error:.5}");
     }
@@ -226,23 +615,67 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             first.as_secs_f64() * 1e3
         );
     }
-    if summary.discarded > 0 {
-        eprintln!(
-            "pathmix: warning: {} samples were NaN or infinite and counted as zero",
-            summary.discarded
-        );
+    if discarded > 0 {
+        eprintln!("pathmix: warning: {discarded} samples were NaN or infinite and counted as zero");
     }
     for path in [
-        Some(&args.output),
-        args.exr.as_ref(),
-        args.variance.as_ref(),
+        outputs.png.as_ref(),
+        outputs.exr.as_ref(),
+        outputs.variance.as_ref(),
+        outputs.partial.as_ref(),
+        plan.checkpoint.as_ref(),
     ]
     .into_iter()
     .flatten()
     {
         println!("wrote {}", path.display());
     }
+    if summary.reason == StopReason::Interrupted {
+        let (signal, code) = signals.received().unwrap_or(("an interrupt", 130));
+        match &plan.checkpoint {
+            Some(path) => {
+                eprintln!(
+                    "pathmix: {signal}: saved {} samples per pixel in {}",
+                    summary.samples,
+                    path.display()
+                );
+                eprintln!("resume with: {}", resume_command(path));
+            }
+            None => eprintln!(
+                "pathmix: {signal}: the images hold the {} samples per pixel done; without \
+                 --checkpoint FILE the run cannot be resumed",
+                summary.samples
+            ),
+        }
+        return Err(Failure {
+            message: format!("interrupted by {signal} at {} spp", summary.samples),
+            code,
+        });
+    }
     Ok(())
+}
+
+/// The command that continues from `checkpoint`: the checkpoint records the
+/// scene, settings, stopping rule and outputs.
+fn resume_command(checkpoint: &Path) -> String {
+    let program = std::env::args().next().unwrap_or_else(|| "pathmix".into());
+    format!(
+        "{} render --resume {}",
+        shell_quote(&program),
+        shell_quote(&checkpoint.to_string_lossy())
+    )
+}
+
+fn shell_quote(text: &str) -> String {
+    let plain = !text.is_empty()
+        && text
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-./:=+,@%".contains(c));
+    if plain {
+        text.to_string()
+    } else {
+        format!("'{}'", text.replace('\'', r"'\''"))
+    }
 }
 
 fn describe_stop(stop: &StopRule) -> String {

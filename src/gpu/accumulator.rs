@@ -135,6 +135,34 @@ impl Accumulator {
         staging.destroy();
         texels
     }
+
+    /// Replaces every layer with `texels` (as `read` returns them). The
+    /// queue orders this before any later dispatch.
+    pub fn write(&self, ctx: &GpuContext, texels: &[[f32; 4]]) {
+        assert_eq!(
+            texels.len(),
+            (self.width * self.height * self.layers) as usize,
+            "accumulator write of the wrong size"
+        );
+        let bytes: &[u8] = bytemuck::cast_slice(texels);
+        match &self.storage {
+            Storage::Texture { texture, .. } => ctx.queue.write_texture(
+                texture.as_image_copy(),
+                bytes,
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.width * TEXEL_BYTES),
+                    rows_per_image: Some(self.height),
+                },
+                wgpu::Extent3d {
+                    width: self.width,
+                    height: self.height,
+                    depth_or_array_layers: self.layers,
+                },
+            ),
+            Storage::Buffer(buffer) => ctx.queue.write_buffer(buffer, 0, bytes),
+        }
+    }
 }
 
 /// Maps `buffer` for reading, waits, and hands its bytes to `read`.

@@ -85,7 +85,7 @@ use super::{
 
 /// Command-line overrides of scene settings, validated like the file's values by
 /// [`Scene::apply_overrides`].
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneOverrides {
     pub spp: Option<u32>,
     pub width: Option<u32>,

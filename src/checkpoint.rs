@@ -1,0 +1,758 @@
+//! Checkpoints: a run's accumulated state in one file, so that a resumed run
+//! continues bit-exactly; and the scene identity (per-part hashes) that resumes
+//! and merges check.
+//!
+//! File layout (little-endian):
+//!
+//! | bytes | what |
+//! | --- | --- |
+//! | 8 | magic `PMXCKPT\0` |
+//! | 4 | format version (u32, [`VERSION`]) |
+//! | 4 | header length H (u32) |
+//! | H | header: UTF-8 TOML (scene, overrides, state, the caller's `[run]` table) |
+//! | 8 | number of f32 values N (u64) |
+//! | 4·N | the raw accumulator texels (`AccumulatorState::texels`, rgba f32) |
+//! | 4 | CRC-32 (IEEE) of every byte before it |
+
+use crate::output::{self, OutputError};
+use crate::render::AccumulatorState;
+use crate::scene::{MaterialKind, Scene, SceneOverrides, Strategy};
+use std::fmt;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
+pub const VERSION: u32 = 1;
+
+/// FNV-1a, 64 bits: the scene identity hash (stable across platforms and versions).
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv64(u64);
+
+impl Default for Fnv64 {
+    fn default() -> Self {
+        Fnv64(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv64 {
+    pub fn bytes(&mut self, bytes: &[u8]) -> &mut Self {
+        for &b in bytes {
+            self.0 = (self.0 ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self
+    }
+
+    pub fn u32(&mut self, v: u32) -> &mut Self {
+        self.bytes(&v.to_le_bytes())
+    }
+
+    pub fn u64(&mut self, v: u64) -> &mut Self {
+        self.bytes(&v.to_le_bytes())
+    }
+
+    pub fn f32(&mut self, v: f32) -> &mut Self {
+        self.u32(v.to_bits())
+    }
+
+    pub fn vec3(&mut self, v: glam::Vec3) -> &mut Self {
+        self.f32(v.x).f32(v.y).f32(v.z)
+    }
+
+    /// Length-prefixed, so that consecutive strings cannot run together.
+    pub fn str(&mut self, s: &str) -> &mut Self {
+        self.u64(s.len() as u64).bytes(s.as_bytes())
+    }
+
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// What a run's sums depend on, by part, with the values that messages name.
+/// Computed after command-line overrides. The sample count (`spp`) is not part
+/// of it: it only says when to stop.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneIdentity {
+    /// Position, direction, up, field of view and image size.
+    pub camera_hash: u64,
+    pub materials_hash: u64,
+    /// Quads and spheres, with their materials and importance marks.
+    pub geometry_hash: u64,
+    /// Seed, depth, strategy, light weight, background, Russian roulette depth.
+    pub settings_hash: u64,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub max_depth: u32,
+    pub strategy: Strategy,
+    pub light_weight: f32,
+    /// Russian roulette depth; `None`: off.
+    pub rr_depth: Option<u32>,
+    pub materials: u32,
+    pub quads: u32,
+    pub spheres: u32,
+}
+
+impl SceneIdentity {
+    pub fn of(scene: &Scene) -> SceneIdentity {
+        let c = &scene.camera;
+        let camera_hash = Fnv64::default()
+            .vec3(c.lookfrom)
+            .vec3(c.lookat)
+            .vec3(c.vup)
+            .f32(c.vfov_degrees)
+            .u32(c.width)
+            .u32(c.height)
+            .finish();
+        let mut materials = Fnv64::default();
+        for m in &scene.materials {
+            let (kind, param) = match m.kind {
+                MaterialKind::Lambertian => (0, 0.0),
+                MaterialKind::Metal { fuzz } => (1, fuzz),
+                MaterialKind::Dielectric { ior } => (2, ior),
+                MaterialKind::Light => (3, 0.0),
+            };
+            materials
+                .str(&m.name)
+                .u32(kind)
+                .f32(param)
+                .vec3(m.albedo)
+                .vec3(m.emit);
+        }
+        let mut geometry = Fnv64::default();
+        geometry.u64(scene.quads.len() as u64);
+        for q in &scene.quads {
+            geometry
+                .vec3(q.q)
+                .vec3(q.u)
+                .vec3(q.v)
+                .u32(q.material)
+                .u32(q.importance as u32);
+        }
+        geometry.u64(scene.spheres.len() as u64);
+        for s in &scene.spheres {
+            geometry
+                .vec3(s.center)
+                .f32(s.radius)
+                .u32(s.material)
+                .u32(s.importance as u32);
+        }
+        let r = &scene.render;
+        let settings_hash = Fnv64::default()
+            .u32(r.seed)
+            .u32(r.max_depth)
+            .str(r.strategy.name())
+            .f32(r.light_weight)
+            .vec3(r.background)
+            .u32(r.rr_depth.unwrap_or(u32::MAX))
+            .finish();
+        SceneIdentity {
+            camera_hash,
+            materials_hash: materials.finish(),
+            geometry_hash: geometry.finish(),
+            settings_hash,
+            width: c.width,
+            height: c.height,
+            seed: r.seed,
+            max_depth: r.max_depth,
+            strategy: r.strategy,
+            light_weight: r.light_weight,
+            rr_depth: r.rr_depth,
+            materials: scene.materials.len() as u32,
+            quads: scene.quads.len() as u32,
+            spheres: scene.spheres.len() as u32,
+        }
+    }
+
+    /// One hash of every part: the "scene hash" of checkpoints and partial results.
+    pub fn hash(&self) -> u64 {
+        Fnv64::default()
+            .u64(self.camera_hash)
+            .u64(self.materials_hash)
+            .u64(self.geometry_hash)
+            .u64(self.settings_hash)
+            .finish()
+    }
+
+    /// What differs between `a` and `b`, one phrase per part ("the camera
+    /// differs: ..."), naming values with the labels (`"in the checkpoint"`,
+    /// `"now"`); empty when they are the same.
+    pub fn differences(
+        (a, a_label): (&SceneIdentity, &str),
+        (b, b_label): (&SceneIdentity, &str),
+    ) -> Vec<String> {
+        let (saved, now) = (a, b);
+        let mut out = Vec::new();
+        if saved.camera_hash != now.camera_hash {
+            if (saved.width, saved.height) != (now.width, now.height) {
+                out.push(format!(
+                    "the camera differs: image size {}x{} {a_label}, {}x{} {b_label}",
+                    saved.width, saved.height, now.width, now.height
+                ));
+            } else {
+                out.push(
+                    "the camera differs (position, direction, up vector or field of view)".into(),
+                );
+            }
+        }
+        if saved.materials_hash != now.materials_hash {
+            out.push(if saved.materials != now.materials {
+                format!(
+                    "the materials differ: {} {a_label}, {} {b_label}",
+                    saved.materials, now.materials
+                )
+            } else {
+                "the materials differ (names, kinds, colours or parameters)".into()
+            });
+        }
+        if saved.geometry_hash != now.geometry_hash {
+            out.push(if (saved.quads, saved.spheres) != (now.quads, now.spheres) {
+                format!(
+                    "the geometry differs: {} quads and {} spheres {a_label}, {} and {} {b_label}",
+                    saved.quads, saved.spheres, now.quads, now.spheres
+                )
+            } else {
+                "the geometry differs (object positions, sizes, materials or importance)".into()
+            });
+        }
+        if saved.settings_hash != now.settings_hash {
+            let mut fields = Vec::new();
+            let mut field = |name: &str, a: String, b: String| {
+                if a != b {
+                    fields.push(format!("{name} {a} {a_label}, {b} {b_label}"));
+                }
+            };
+            field("seed", saved.seed.to_string(), now.seed.to_string());
+            field(
+                "max_depth",
+                saved.max_depth.to_string(),
+                now.max_depth.to_string(),
+            );
+            field(
+                "strategy",
+                saved.strategy.to_string(),
+                now.strategy.to_string(),
+            );
+            field(
+                "light_weight",
+                saved.light_weight.to_string(),
+                now.light_weight.to_string(),
+            );
+            field("rr_depth", rr_text(saved.rr_depth), rr_text(now.rr_depth));
+            if fields.is_empty() {
+                fields.push("background".into());
+            }
+            out.push(format!("the render settings differ: {}", fields.join(", ")));
+        }
+        out
+    }
+
+    /// As text pairs, for file headers (checkpoints, partial results).
+    pub fn to_pairs(&self) -> Vec<(&'static str, String)> {
+        vec![
+            ("hash", hex(self.hash())),
+            ("camera_hash", hex(self.camera_hash)),
+            ("materials_hash", hex(self.materials_hash)),
+            ("geometry_hash", hex(self.geometry_hash)),
+            ("settings_hash", hex(self.settings_hash)),
+            ("width", self.width.to_string()),
+            ("height", self.height.to_string()),
+            ("seed", self.seed.to_string()),
+            ("max_depth", self.max_depth.to_string()),
+            ("strategy", self.strategy.to_string()),
+            ("light_weight", self.light_weight.to_string()),
+            ("rr_depth", rr_text(self.rr_depth)),
+            ("materials", self.materials.to_string()),
+            ("quads", self.quads.to_string()),
+            ("spheres", self.spheres.to_string()),
+        ]
+    }
+
+    /// Reads what `to_pairs` wrote; `get` looks a key up. Checks the combined hash.
+    pub fn from_pairs(get: impl Fn(&str) -> Option<String>) -> Result<SceneIdentity, String> {
+        let text = |key: &str| get(key).ok_or_else(|| format!("missing `{key}`"));
+        fn parse<T: std::str::FromStr>(key: &str, value: String) -> Result<T, String> {
+            value
+                .parse()
+                .map_err(|_| format!("`{key}` is not valid: `{value}`"))
+        }
+        let hash = |key: &str| -> Result<u64, String> {
+            let value = text(key)?;
+            u64::from_str_radix(&value, 16).map_err(|_| format!("`{key}` is not a hash: `{value}`"))
+        };
+        let number = |key: &str| -> Result<u32, String> { parse(key, text(key)?) };
+        let strategy = text("strategy")?;
+        let identity = SceneIdentity {
+            camera_hash: hash("camera_hash")?,
+            materials_hash: hash("materials_hash")?,
+            geometry_hash: hash("geometry_hash")?,
+            settings_hash: hash("settings_hash")?,
+            width: number("width")?,
+            height: number("height")?,
+            seed: number("seed")?,
+            max_depth: number("max_depth")?,
+            strategy: Strategy::from_name(&strategy)
+                .ok_or_else(|| format!("unknown strategy `{strategy}`"))?,
+            light_weight: parse("light_weight", text("light_weight")?)?,
+            rr_depth: match text("rr_depth")?.as_str() {
+                "off" => None,
+                depth => Some(parse("rr_depth", depth.to_string())?),
+            },
+            materials: number("materials")?,
+            quads: number("quads")?,
+            spheres: number("spheres")?,
+        };
+        if hash("hash")? != identity.hash() {
+            return Err("the scene hash does not match its parts".into());
+        }
+        Ok(identity)
+    }
+}
+
+pub fn hex(v: u64) -> String {
+    format!("{v:016x}")
+}
+
+/// Everything needed to continue a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checkpoint {
+    /// The pathmix that wrote it (`CARGO_PKG_VERSION`).
+    pub pathmix_version: String,
+    /// The scene file, absolute.
+    pub scene_path: PathBuf,
+    /// Command-line settings applied over the scene file (`spp` is not kept).
+    pub overrides: SceneOverrides,
+    /// The scene after the overrides.
+    pub identity: SceneIdentity,
+    /// Samples discarded as NaN or infinite so far.
+    pub discarded: u64,
+    /// The caller's own settings (outputs, stopping rule), kept as they are.
+    pub run: toml::Table,
+    pub state: AccumulatorState,
+}
+
+/// A checkpoint that cannot be used, and why.
+#[derive(Debug)]
+pub struct CheckpointError {
+    pub path: PathBuf,
+    pub message: String,
+}
+
+impl fmt::Display for CheckpointError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "checkpoint `{}`: {}", self.path.display(), self.message)
+    }
+}
+
+impl std::error::Error for CheckpointError {}
+
+/// Writes `checkpoint` atomically (temporary file, fsync, rename).
+pub fn write(path: &Path, checkpoint: &Checkpoint) -> Result<(), OutputError> {
+    let header = header(checkpoint);
+    output::write_atomically(path, |file| {
+        let mut writer = CrcWriter {
+            inner: file,
+            crc: crc32fast::Hasher::new(),
+        };
+        encode(&mut writer, &header, &checkpoint.state.texels)?;
+        let crc = writer.crc.finalize();
+        writer.inner.write_all(&crc.to_le_bytes())
+    })
+}
+
+/// The file's bytes, as `write` writes them.
+pub fn to_bytes(checkpoint: &Checkpoint) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    encode(&mut bytes, &header(checkpoint), &checkpoint.state.texels).expect("writing to memory");
+    let crc = crc32fast::hash(&bytes);
+    bytes.extend_from_slice(&crc.to_le_bytes());
+    bytes
+}
+
+struct CrcWriter<W> {
+    inner: W,
+    crc: crc32fast::Hasher,
+}
+
+impl<W: Write> Write for CrcWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.crc.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+fn encode(out: &mut impl Write, header: &str, texels: &[[f32; 4]]) -> io::Result<()> {
+    out.write_all(&MAGIC)?;
+    out.write_all(&VERSION.to_le_bytes())?;
+    out.write_all(&(header.len() as u32).to_le_bytes())?;
+    out.write_all(header.as_bytes())?;
+    out.write_all(&(texels.len() as u64 * 4).to_le_bytes())?;
+    write_f32s(out, bytemuck::cast_slice(texels))
+}
+
+/// Little-endian f32s, in chunks.
+pub fn write_f32s(out: &mut impl Write, values: &[f32]) -> io::Result<()> {
+    if cfg!(target_endian = "little") {
+        out.write_all(bytemuck::cast_slice(values))
+    } else {
+        let mut buffer = Vec::with_capacity(4 * 4096);
+        for chunk in values.chunks(4096) {
+            buffer.clear();
+            buffer.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
+            out.write_all(&buffer)?;
+        }
+        Ok(())
+    }
+}
+
+fn header(c: &Checkpoint) -> String {
+    use toml::Value;
+    let mut root = toml::Table::new();
+    root.insert("format".into(), "pathmix checkpoint".into());
+    root.insert("pathmix_version".into(), c.pathmix_version.clone().into());
+    root.insert(
+        "scene_path".into(),
+        c.scene_path.to_string_lossy().into_owned().into(),
+    );
+    let scene: toml::Table = c
+        .identity
+        .to_pairs()
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), Value::from(v)))
+        .collect();
+    root.insert("scene".into(), scene.into());
+    let o = &c.overrides;
+    let mut overrides = toml::Table::new();
+    let mut number = |key: &str, v: Option<u32>| {
+        if let Some(v) = v {
+            overrides.insert(key.into(), Value::Integer(v.into()));
+        }
+    };
+    number("width", o.width);
+    number("height", o.height);
+    number("max_depth", o.max_depth);
+    number("seed", o.seed);
+    if let Some(s) = o.strategy {
+        overrides.insert("strategy".into(), s.name().into());
+    }
+    if let Some(w) = o.light_weight {
+        overrides.insert("light_weight".into(), Value::Float(w.into()));
+    }
+    if let Some(rr) = o.rr_depth {
+        overrides.insert("rr_depth".into(), rr_text(rr).into());
+    }
+    root.insert("overrides".into(), overrides.into());
+    let s = &c.state;
+    let mut state = toml::Table::new();
+    for (key, v) in [
+        ("width", s.width),
+        ("height", s.height),
+        ("layers", s.layers),
+        ("first_sample", s.first_sample),
+        ("samples", s.samples),
+    ] {
+        state.insert(key.into(), Value::Integer(v.into()));
+    }
+    // TOML integers are i64; a count past that is not a real case.
+    state.insert(
+        "discarded".into(),
+        Value::Integer(c.discarded.min(i64::MAX as u64) as i64),
+    );
+    root.insert("state".into(), state.into());
+    root.insert("run".into(), c.run.clone().into());
+    toml::to_string(&root).expect("a TOML table serializes")
+}
+
+/// Reads and checks a checkpoint file: magic, version, length and checksum,
+/// then the header. A truncated or corrupted file is refused.
+pub fn read(path: &Path) -> Result<Checkpoint, CheckpointError> {
+    let error = |message: String| CheckpointError {
+        path: path.to_owned(),
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|e| error(format!("cannot read it: {e}")))?;
+    from_bytes(&bytes).map_err(error)
+}
+
+/// Decodes what `to_bytes` made; the message says what is wrong.
+pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
+    const FIXED: usize = 8 + 4 + 4 + 8 + 4;
+    if bytes.len() < 8 || bytes[..8] != MAGIC {
+        if bytes.len() < 8 && MAGIC.starts_with(bytes) {
+            return Err(format!("truncated: only {} bytes", bytes.len()));
+        }
+        return Err("not a pathmix checkpoint (wrong magic bytes)".into());
+    }
+    if bytes.len() < 16 {
+        return Err(format!("truncated: only {} bytes", bytes.len()));
+    }
+    let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+    let version = u32_at(8);
+    if version != VERSION {
+        return Err(format!(
+            "checkpoint format version {version}; this pathmix ({}) reads version {VERSION}",
+            env!("CARGO_PKG_VERSION")
+        ));
+    }
+    let header_len = u32_at(12) as usize;
+    let count_at = 16 + header_len;
+    let truncated = |expected: u128| {
+        format!(
+            "truncated or corrupted: the file has {} bytes, its layout says {expected}",
+            bytes.len()
+        )
+    };
+    if bytes.len() < count_at + 8 + 4 {
+        return Err(truncated((FIXED + header_len) as u128));
+    }
+    let count = u64::from_le_bytes(bytes[count_at..count_at + 8].try_into().unwrap());
+    let expected = FIXED as u128 + header_len as u128 + 4 * count as u128;
+    if bytes.len() as u128 != expected {
+        return Err(truncated(expected));
+    }
+    let (body, crc) = bytes.split_at(bytes.len() - 4);
+    if crc32fast::hash(body) != u32::from_le_bytes(crc.try_into().unwrap()) {
+        return Err("corrupted: the checksum does not match the contents".into());
+    }
+    let header = std::str::from_utf8(&bytes[16..count_at])
+        .map_err(|_| "corrupted: the header is not UTF-8".to_string())?;
+    let data = &bytes[count_at + 8..bytes.len() - 4];
+    let texels: Vec<[f32; 4]> = data
+        .chunks_exact(16)
+        .map(|t| {
+            std::array::from_fn(|c| f32::from_le_bytes(t[4 * c..4 * c + 4].try_into().unwrap()))
+        })
+        .collect();
+    parse_header(header, texels).map_err(|e| format!("bad header: {e}"))
+}
+
+fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String> {
+    let root: toml::Table = text.parse().map_err(|e| format!("{e}"))?;
+    let table = |key: &str| -> Result<&toml::Table, String> {
+        root.get(key)
+            .and_then(|v| v.as_table())
+            .ok_or_else(|| format!("missing table `[{key}]`"))
+    };
+    let string = |key: &str| -> Result<String, String> {
+        root.get(key)
+            .and_then(|v| v.as_str())
+            .map(str::to_string)
+            .ok_or_else(|| format!("missing `{key}`"))
+    };
+    fn u32_in(table: &toml::Table, name: &str, key: &str) -> Result<Option<u32>, String> {
+        table
+            .get(key)
+            .map(|v| {
+                v.as_integer()
+                    .and_then(|i| u32::try_from(i).ok())
+                    .ok_or_else(|| format!("`{name}.{key}` is not a u32"))
+            })
+            .transpose()
+    }
+    let scene = table("scene")?;
+    let identity = SceneIdentity::from_pairs(|key| {
+        scene.get(key).and_then(|v| v.as_str()).map(str::to_string)
+    })
+    .map_err(|e| format!("[scene]: {e}"))?;
+    let o = table("overrides")?;
+    let overrides = SceneOverrides {
+        spp: None,
+        width: u32_in(o, "overrides", "width")?,
+        height: u32_in(o, "overrides", "height")?,
+        max_depth: u32_in(o, "overrides", "max_depth")?,
+        seed: u32_in(o, "overrides", "seed")?,
+        strategy: match o.get("strategy") {
+            None => None,
+            Some(v) => Some(
+                v.as_str()
+                    .and_then(Strategy::from_name)
+                    .ok_or("`overrides.strategy` is not a strategy")?,
+            ),
+        },
+        light_weight: match o.get("light_weight") {
+            None => None,
+            Some(v) => Some(
+                v.as_float()
+                    .ok_or("`overrides.light_weight` is not a number")? as f32,
+            ),
+        },
+        rr_depth: match o.get("rr_depth").map(|v| v.as_str()) {
+            None => None,
+            Some(Some("off")) => Some(None),
+            Some(depth) => Some(Some(
+                depth
+                    .and_then(|d| d.parse().ok())
+                    .ok_or("`overrides.rr_depth` is not a depth or `off`")?,
+            )),
+        },
+    };
+    let s = table("state")?;
+    let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| format!("missing `state.{key}`"));
+    let state = AccumulatorState {
+        width: need("width")?,
+        height: need("height")?,
+        layers: need("layers")?,
+        first_sample: need("first_sample")?,
+        samples: need("samples")?,
+        texels,
+    };
+    let texel_count = state.width as u64 * state.height as u64 * state.layers as u64;
+    if state.texels.len() as u64 != texel_count {
+        return Err(format!(
+            "{} texels of data for {}x{} pixels and {} layers",
+            state.texels.len(),
+            state.width,
+            state.height,
+            state.layers
+        ));
+    }
+    if (state.width, state.height) != (identity.width, identity.height) {
+        return Err("the sums' size differs from the scene's".into());
+    }
+    let discarded = s
+        .get("discarded")
+        .and_then(|v| v.as_integer())
+        .and_then(|v| u64::try_from(v).ok())
+        .ok_or("missing `state.discarded`")?;
+    Ok(Checkpoint {
+        pathmix_version: string("pathmix_version")?,
+        scene_path: PathBuf::from(string("scene_path")?),
+        overrides,
+        identity,
+        discarded,
+        run: root
+            .get("run")
+            .and_then(|v| v.as_table())
+            .cloned()
+            .unwrap_or_default(),
+        state,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(text_change: impl Fn(String) -> String) -> Scene {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml"),
+        )
+        .unwrap();
+        Scene::parse(&text_change(text), "cornell.toml").unwrap()
+    }
+
+    fn sample() -> Checkpoint {
+        let mut run = toml::Table::new();
+        run.insert("output".into(), "/tmp/out.png".into());
+        run.insert("spp".into(), toml::Value::Integer(100));
+        let (width, height, layers) = (3, 2, 4);
+        Checkpoint {
+            pathmix_version: "0.1.0".into(),
+            scene_path: "/scenes/cornell.toml".into(),
+            overrides: SceneOverrides {
+                width: Some(3),
+                height: Some(2),
+                strategy: Some(Strategy::Cosine),
+                light_weight: Some(0.3),
+                ..Default::default()
+            },
+            identity: SceneIdentity {
+                width,
+                height,
+                ..SceneIdentity::of(&scene(|t| t))
+            },
+            discarded: 2,
+            run,
+            state: AccumulatorState {
+                width,
+                height,
+                layers,
+                first_sample: 250,
+                samples: 17,
+                texels: (0..width * height * layers)
+                    .map(|i| [i as f32 * 0.1, -1e-9 * i as f32, f32::MIN_POSITIVE, 0.0])
+                    .collect(),
+            },
+        }
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let c = sample();
+        let bytes = to_bytes(&c);
+        assert_eq!(from_bytes(&bytes).unwrap(), c);
+    }
+
+    #[test]
+    fn truncated_and_flipped_files_are_refused() {
+        let bytes = to_bytes(&sample());
+        for len in [0, 5, 8, 15, 16, 40, bytes.len() / 2, bytes.len() - 1] {
+            let e = from_bytes(&bytes[..len]).unwrap_err();
+            assert!(e.contains("truncated"), "{len}: {e}");
+        }
+        // Every single bit flip anywhere is caught.
+        for at in 0..bytes.len() {
+            for bit in [0, 5] {
+                let mut b = bytes.clone();
+                b[at] ^= 1 << bit;
+                let e = from_bytes(&b).unwrap_err();
+                assert!(
+                    e.contains("corrupted")
+                        || e.contains("truncated")
+                        || e.contains("magic")
+                        || e.contains("version"),
+                    "{at}: {e}"
+                );
+            }
+        }
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert!(from_bytes(&longer).unwrap_err().contains("corrupted"));
+    }
+
+    #[test]
+    fn differences_name_the_part() {
+        let base = SceneIdentity::of(&scene(|t| t));
+        let same = SceneIdentity::of(&scene(|t| t));
+        fn differences(a: &SceneIdentity, b: &SceneIdentity) -> Vec<String> {
+            SceneIdentity::differences((a, "before"), (b, "now"))
+        }
+        assert!(differences(&base, &same).is_empty());
+        let cases: [(&str, &str, &str, &str); 4] = [
+            ("vfov = 40", "vfov = 41", "camera", "field of view"),
+            ("[0.73, 0.73, 0.73]", "[0.7, 0.73, 0.73]", "materials", ""),
+            ("radius = 90", "radius = 91", "geometry", ""),
+            (
+                "max_depth = 50",
+                "max_depth = 20",
+                "render settings",
+                "max_depth 50 before, 20 now",
+            ),
+        ];
+        for (from, to, part, detail) in cases {
+            let text = std::fs::read_to_string(
+                Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml"),
+            )
+            .unwrap();
+            assert!(text.contains(from), "{from}");
+            let changed = SceneIdentity::of(&scene(|t| t.replacen(from, to, 1)));
+            let d = differences(&base, &changed);
+            assert_eq!(d.len(), 1, "{d:?}");
+            assert!(d[0].contains(part) && d[0].contains(detail), "{d:?}");
+            assert_ne!(base.hash(), changed.hash());
+        }
+        // The sample count is not part of the identity.
+        let more = SceneIdentity::of(&scene(|t| t.replacen("spp = 1000", "spp = 5", 1)));
+        assert_eq!(base, more);
+    }
+}
+
+/// A Russian roulette depth as text: the depth, or `off`.
+fn rr_text(depth: Option<u32>) -> String {
+    depth.map_or_else(|| "off".to_string(), |d| d.to_string())
+}

@@ -1,0 +1,88 @@
+//! `pathmix merge`.
+
+use super::Failure;
+use clap::Args;
+use pathmix::output::{self, ImageFormat};
+use pathmix::shard::{self, describe_ranges};
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Partial results written by `pathmix render --partial` (any order). They
+    /// must come from the same scene (hash), seed and image size, with disjoint
+    /// sample ranges; gaps between ranges are listed, not refused.
+    #[arg(required = true, value_name = "PART.exr")]
+    pub parts: Vec<PathBuf>,
+    /// Output image: 8-bit sRGB PNG of the merged mean.
+    #[arg(short, long, default_value = "out.png")]
+    pub output: PathBuf,
+    /// Also write the merged mean radiance as linear float RGB OpenEXR.
+    #[arg(long, value_name = "FILE")]
+    pub exr: Option<PathBuf>,
+    /// Also write the per-pixel standard error of the mean (needs parts rendered
+    /// with variance).
+    #[arg(long, value_name = "FILE")]
+    pub variance: Option<PathBuf>,
+}
+
+pub fn merge(args: MergeArgs) -> Result<(), Failure> {
+    output::check_output_path(&args.output, ImageFormat::Png).map_err(Failure::input)?;
+    for exr in [&args.exr, &args.variance].into_iter().flatten() {
+        output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
+    }
+    let mut parts = Vec::new();
+    for path in &args.parts {
+        let part = shard::read_partial(path).map_err(Failure::input)?;
+        parts.push((path.display().to_string(), part));
+    }
+    let merged = shard::merge(&parts).map_err(|e| Failure::input(format!("cannot merge: {e}")))?;
+    for warning in &merged.warnings {
+        eprintln!("pathmix: warning: {warning}");
+    }
+    let acc = &merged.accumulation;
+    if acc.samples == 0 {
+        return Err(Failure::input("cannot merge: the parts hold no samples"));
+    }
+    let error = match &args.variance {
+        None => None,
+        Some(_) => Some(acc.standard_error().ok_or_else(|| {
+            Failure::input(
+                "--variance: the parts have no sums of squares (render them with --variance) \
+                 or hold fewer than 2 samples",
+            )
+        })?),
+    };
+    let mean = acc.mean();
+    output::write_png(&args.output, &mean, 0.0).map_err(Failure::runtime)?;
+    if let Some(exr) = &args.exr {
+        output::write_exr(exr, &mean, &[]).map_err(Failure::runtime)?;
+    }
+    if let (Some(path), Some(error)) = (&args.variance, &error) {
+        output::write_exr(path, error, &[]).map_err(Failure::runtime)?;
+    }
+    println!(
+        "merged {} parts: {}x{}, samples {} ({} spp)",
+        parts.len(),
+        acc.width,
+        acc.height,
+        describe_ranges(&merged.ranges),
+        acc.samples
+    );
+    if merged.discarded > 0 {
+        eprintln!(
+            "pathmix: warning: {} samples were NaN or infinite and counted as zero",
+            merged.discarded
+        );
+    }
+    for path in [
+        Some(&args.output),
+        args.exr.as_ref(),
+        args.variance.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,56 @@
+//! Ctrl-C (SIGINT) and SIGTERM during a render: the first asks the run to stop
+//! after the submission in flight, so the command can save what it has; a
+//! second one exits at once (every file is written atomically, so nothing is
+//! left half-written under its own name).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+pub struct Signals {
+    /// Set by the first signal: the engine's "stop requested" flag.
+    pub stop: Arc<AtomicBool>,
+    which: Arc<AtomicUsize>,
+}
+
+impl Signals {
+    /// Installs the handlers (Unix); elsewhere the flag is never set and
+    /// Ctrl-C ends the process as usual.
+    pub fn install() -> Result<Signals, String> {
+        let signals = Signals {
+            stop: Arc::new(AtomicBool::new(false)),
+            which: Arc::new(AtomicUsize::new(0)),
+        };
+        #[cfg(unix)]
+        {
+            use signal_hook::consts::{SIGINT, SIGTERM};
+            use signal_hook::flag;
+            let error = |e: std::io::Error| format!("cannot install signal handlers: {e}");
+            for (signal, code) in [(SIGINT, 130), (SIGTERM, 143)] {
+                // Runs before the flag is set, so only a second signal exits here.
+                flag::register_conditional_shutdown(signal, code, Arc::clone(&signals.stop))
+                    .map_err(error)?;
+                flag::register(signal, Arc::clone(&signals.stop)).map_err(error)?;
+                flag::register_usize(signal, Arc::clone(&signals.which), signal as usize)
+                    .map_err(error)?;
+            }
+        }
+        Ok(signals)
+    }
+
+    /// The signal that stopped the run, and the exit code it calls for:
+    /// 130 for SIGINT, 143 for SIGTERM (128 + the signal number).
+    pub fn received(&self) -> Option<(&'static str, u8)> {
+        #[cfg(unix)]
+        {
+            use signal_hook::consts::{SIGINT, SIGTERM};
+            match self.which.load(Ordering::SeqCst) as i32 {
+                SIGINT => return Some(("SIGINT", 130)),
+                SIGTERM => return Some(("SIGTERM", 143)),
+                _ => {}
+            }
+        }
+        self.stop
+            .load(Ordering::SeqCst)
+            .then_some(("an interrupt", 130))
+    }
+}

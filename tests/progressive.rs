@@ -1,0 +1,609 @@
+//! Progressive runs that lose nothing: checkpoints and resume, interruption,
+//! shards and merging, through the library and the binary.
+
+mod common;
+
+use pathmix::checkpoint::{self, Checkpoint, SceneIdentity};
+use pathmix::kernel::AccumulatorKind;
+use pathmix::render::{AccumulatorState, RenderOptions, Renderer};
+use pathmix::scene::{Scene, SceneOverrides};
+use pathmix::shard::{self, Partial};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn small_scene(spp: u32) -> Scene {
+    let mut scene = common::scene_file("cornell-boxes.toml");
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(16),
+            height: Some(12),
+            spp: Some(spp),
+            ..Default::default()
+        })
+        .unwrap();
+    scene
+}
+
+fn render_until(renderer: &mut Renderer, samples: u32) {
+    while renderer.samples() < samples {
+        renderer.advance(samples - renderer.samples());
+    }
+}
+
+fn bits(state: &AccumulatorState) -> Vec<[u32; 4]> {
+    state.texels.iter().map(|t| t.map(f32::to_bits)).collect()
+}
+
+#[test]
+fn resumed_renderer_continues_bit_exactly() {
+    let ctx = gpu_or_skip!();
+    let scene = small_scene(9);
+    let options = common::with_variance();
+    let mut whole = Renderer::new(ctx, &scene, &options).unwrap();
+    render_until(&mut whole, 9);
+    let expected = whole.export_state();
+
+    let mut first = Renderer::new(ctx, &scene, &options).unwrap();
+    render_until(&mut first, 4);
+    // Through the checkpoint format, into the other accumulator kind where there is one.
+    let saved = Checkpoint {
+        pathmix_version: env!("CARGO_PKG_VERSION").into(),
+        scene_path: "scene.toml".into(),
+        overrides: SceneOverrides::default(),
+        identity: SceneIdentity::of(&scene),
+        discarded: 0,
+        run: Default::default(),
+        state: first.export_state(),
+    };
+    let restored = checkpoint::from_bytes(&checkpoint::to_bytes(&saved)).unwrap();
+    assert_eq!(restored, saved);
+    let kinds = if ctx.storage_texture_accumulator {
+        vec![AccumulatorKind::Buffer, AccumulatorKind::Texture]
+    } else {
+        vec![AccumulatorKind::Buffer]
+    };
+    for kind in kinds {
+        let options = RenderOptions {
+            accumulator: Some(kind),
+            ..common::with_variance()
+        };
+        let mut second = Renderer::new(ctx, &scene, &options).unwrap();
+        second.import_state(&restored.state).unwrap();
+        assert_eq!(second.samples(), 4);
+        render_until(&mut second, 9);
+        let resumed = second.export_state();
+        assert_eq!(resumed.samples, 9);
+        assert!(bits(&resumed) == bits(&expected), "{kind:?}: sums differ");
+        assert_eq!(second.accumulation(), whole.accumulation());
+    }
+    // A state of the wrong shape is refused.
+    let mut plain = Renderer::new(ctx, &scene, &RenderOptions::default()).unwrap();
+    assert!(plain.import_state(&expected).is_err());
+}
+
+#[test]
+fn sample_offset_shards_merge_to_one_run() {
+    let ctx = gpu_or_skip!();
+    let scene = small_scene(10);
+    let identity = SceneIdentity::of(&scene);
+    let options = common::with_variance();
+    let mut parts = Vec::new();
+    for range in [0..3, 7..10, 3..7] {
+        let mut renderer = Renderer::new(ctx, &scene, &options).unwrap();
+        renderer.set_first_sample(range.start).unwrap();
+        render_until(&mut renderer, range.len() as u32);
+        assert!(renderer.set_first_sample(0).is_err());
+        let partial =
+            Partial::from_state(identity.clone(), "scene".into(), 0, renderer.export_state());
+        assert_eq!(partial.range, range);
+        parts.push((format!("{range:?}"), partial));
+    }
+    let merged = shard::merge(&parts).unwrap();
+    assert!(merged.gaps.is_empty());
+    let one = common::render(ctx, &scene, &options);
+    assert_eq!(merged.accumulation.samples, one.samples);
+    assert_close(&merged.accumulation.mean(), &one.mean(), 1e-6);
+    assert_close(
+        &merged.accumulation.standard_error().unwrap(),
+        &one.standard_error().unwrap(),
+        1e-4,
+    );
+}
+
+/// Every channel of every pixel within `relative` of the reference.
+fn assert_close(a: &pathmix::output::Image, b: &pathmix::output::Image, relative: f64) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    for (i, (x, y)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        for c in 0..3 {
+            let (x, y) = (x[c] as f64, y[c] as f64);
+            assert!(
+                (x - y).abs() <= relative * y.abs().max(1e-30),
+                "pixel {i} channel {c}: {x} vs {y}"
+            );
+        }
+    }
+}
+
+// ---- the binary ----
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_pathmix")
+}
+
+fn pathmix(args: &[&str]) -> Output {
+    Command::new(bin()).args(args).output().unwrap()
+}
+
+fn repo(path: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(path)
+        .display()
+        .to_string()
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pathmix-prog-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+fn wait_for(path: &Path, child: &mut std::process::Child) {
+    let started = Instant::now();
+    while !path.exists() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before its first checkpoint"
+        );
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no checkpoint"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+#[cfg(unix)]
+fn signal(child: &std::process::Child, signal: i32) {
+    // SAFETY: kill(2) on our own child's pid.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, signal) }, 0);
+}
+
+/// Ctrl-C mid-run saves a checkpoint; resuming it gives the same bits as one
+/// uninterrupted run of the same samples.
+#[cfg(unix)]
+#[test]
+fn interrupt_and_resume_equals_uninterrupted_bit_for_bit() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("interrupt");
+    let scene = repo("scenes/cornell-boxes.toml");
+    let (ckpt, exr, png) = (
+        dir.join("run.ckpt"),
+        dir.join("run.exr"),
+        dir.join("run.png"),
+    );
+    let spp = "2000";
+    let size = ["--width", "32", "--height", "32"];
+    let mut child = Command::new(bin())
+        .args([
+            "render",
+            &scene,
+            "--spp",
+            spp,
+            "--variance",
+            p(&dir.join("se.exr")),
+        ])
+        .args(size)
+        .args(["--checkpoint", p(&ckpt), "--checkpoint-every", "300ms"])
+        .args(["-o", p(&png), "--exr", p(&exr), "--quiet"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for(&ckpt, &mut child);
+    signal(&child, libc::SIGINT);
+    let output = child.wait_with_output().unwrap();
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    let saved: u32 = stderr
+        .split("saved ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no saved-samples message: {stderr}"));
+    assert!(saved > 0 && saved < 2000, "{stderr}");
+    assert!(stderr.contains("SIGINT"), "{stderr}");
+    assert_eq!(checkpoint::read(&ckpt).unwrap().state.samples, saved);
+    assert!(
+        png.exists() && exr.exists(),
+        "the images so far are written"
+    );
+    let resume_line = stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("resume with: "))
+        .unwrap_or_else(|| panic!("no resume command: {stderr}"));
+    assert!(
+        resume_line.ends_with(&format!("render --resume {}", p(&ckpt))),
+        "{resume_line}"
+    );
+
+    // The printed command: the checkpoint knows the scene, settings, spp and outputs.
+    let resumed = pathmix(&["render", "--resume", p(&ckpt), "--quiet"]);
+    assert!(resumed.status.success(), "{}", text(&resumed.stderr));
+    assert!(
+        text(&resumed.stdout).contains("at 2000 spp"),
+        "{}",
+        text(&resumed.stdout)
+    );
+
+    let (ref_ckpt, ref_exr) = (dir.join("ref.ckpt"), dir.join("ref.exr"));
+    let reference = Command::new(bin())
+        .args([
+            "render",
+            &scene,
+            "--spp",
+            spp,
+            "--variance",
+            p(&dir.join("ref-se.exr")),
+        ])
+        .args(size)
+        .args(["--checkpoint", p(&ref_ckpt), "-o", p(&dir.join("ref.png"))])
+        .args(["--exr", p(&ref_exr), "--quiet"])
+        .output()
+        .unwrap();
+    assert!(reference.status.success(), "{}", text(&reference.stderr));
+    let (a, b) = (
+        checkpoint::read(&ckpt).unwrap(),
+        checkpoint::read(&ref_ckpt).unwrap(),
+    );
+    assert_eq!(a.state.samples, 2000);
+    assert!(bits(&a.state) == bits(&b.state), "resumed sums differ");
+    assert_eq!(a.identity, b.identity);
+    assert_eq!(
+        std::fs::read(&exr).unwrap(),
+        std::fs::read(&ref_exr).unwrap()
+    );
+    assert_eq!(
+        std::fs::read(dir.join("se.exr")).unwrap(),
+        std::fs::read(dir.join("ref-se.exr")).unwrap()
+    );
+}
+
+/// A second Ctrl-C exits at once; whatever is on disk is whole.
+#[cfg(unix)]
+#[test]
+fn second_interrupt_exits_at_once_leaving_whole_files() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("twice");
+    let ckpt = dir.join("run.ckpt");
+    let mut child = Command::new(bin())
+        .args([
+            "render",
+            &repo("scenes/cornell-boxes.toml"),
+            "--spp",
+            "100000",
+        ])
+        .args(["--width", "32", "--height", "32", "--quiet"])
+        .args(["--checkpoint", p(&ckpt), "--checkpoint-every", "100ms"])
+        .args(["-o", p(&dir.join("out.png"))])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for(&ckpt, &mut child);
+    signal(&child, libc::SIGINT);
+    signal(&child, libc::SIGINT);
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    assert!(checkpoint::read(&ckpt).unwrap().state.samples > 0);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_saves_and_exits_143() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("term");
+    let ckpt = dir.join("run.ckpt");
+    let mut child = Command::new(bin())
+        .args(["render", &repo("scenes/furnace.toml"), "--spp", "100000"])
+        .args(["--width", "16", "--height", "16", "--quiet"])
+        .args(["--checkpoint", p(&ckpt), "--checkpoint-every", "100ms"])
+        .args(["-o", p(&dir.join("out.png"))])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for(&ckpt, &mut child);
+    signal(&child, libc::SIGTERM);
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(143), "{}", text(&output.stderr));
+    assert!(text(&output.stderr).contains("SIGTERM"));
+}
+
+/// Makes a small checkpoint and a small partial result.
+fn small_outputs(dir: &Path, scene: &str) -> (PathBuf, PathBuf) {
+    let (ckpt, part) = (dir.join("run.ckpt"), dir.join("part.exr"));
+    let output = pathmix(&[
+        "render",
+        scene,
+        "--spp",
+        "4",
+        "--width",
+        "8",
+        "--height",
+        "6",
+        "--checkpoint",
+        p(&ckpt),
+        "--partial",
+        p(&part),
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    (ckpt, part)
+}
+
+#[test]
+fn damaged_checkpoints_and_partials_are_refused() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("damaged");
+    let (ckpt, part) = small_outputs(&dir, &repo("scenes/cornell-boxes.toml"));
+    let bytes = std::fs::read(&ckpt).unwrap();
+    let damaged = dir.join("damaged.ckpt");
+    let mut flipped = bytes.clone();
+    flipped[bytes.len() * 2 / 3] ^= 0x08;
+    for (content, expected) in [
+        (bytes[..bytes.len() - 100].to_vec(), "truncated"),
+        (flipped, "corrupted"),
+        (
+            b"not a checkpoint at all".to_vec(),
+            "not a pathmix checkpoint",
+        ),
+    ] {
+        std::fs::write(&damaged, content).unwrap();
+        let output = pathmix(&[
+            "render",
+            "--resume",
+            p(&damaged),
+            "-o",
+            p(&dir.join("x.png")),
+        ]);
+        let stderr = text(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains(expected) && stderr.contains("damaged.ckpt"),
+            "{stderr}"
+        );
+    }
+    assert!(!dir.join("x.png").exists());
+
+    let bytes = std::fs::read(&part).unwrap();
+    let damaged = dir.join("damaged.exr");
+    let mut flipped = bytes.clone();
+    flipped[bytes.len() - 40] ^= 0x01;
+    for (content, expected) in [
+        (bytes[..bytes.len() - 30].to_vec(), "truncated or corrupted"),
+        (flipped, "corrupted"),
+    ] {
+        std::fs::write(&damaged, content).unwrap();
+        let output = pathmix(&["merge", p(&damaged), "-o", p(&dir.join("m.png"))]);
+        let stderr = text(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains(expected) && stderr.contains("damaged.exr"),
+            "{stderr}"
+        );
+    }
+    assert!(!dir.join("m.png").exists());
+}
+
+#[test]
+fn changed_scene_on_resume_is_refused_naming_what_differs() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("changed");
+    let original = std::fs::read_to_string(repo("scenes/cornell-boxes.toml")).unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, &original).unwrap();
+    let (ckpt, _) = small_outputs(&dir, p(&scene));
+    for (from, to, expected) in [
+        ("vfov = 40", "vfov = 35", "the camera differs"),
+        (
+            "[0.73, 0.73, 0.73]",
+            "[0.5, 0.73, 0.73]",
+            "the materials differ",
+        ),
+        (
+            "max_depth = 50",
+            "max_depth = 3",
+            "max_depth 50 in the checkpoint, 3 in the scene now",
+        ),
+    ] {
+        assert!(original.contains(from), "{from}");
+        std::fs::write(&scene, original.replacen(from, to, 1)).unwrap();
+        let output = pathmix(&["render", "--resume", p(&ckpt), "--spp", "8"]);
+        let stderr = text(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains(expected) && stderr.contains("scene.toml"),
+            "{stderr}"
+        );
+    }
+    // A moved scene file can be given again; unchanged, it resumes.
+    let moved = dir.join("moved.toml");
+    std::fs::write(&moved, &original).unwrap();
+    let output = pathmix(&[
+        "render",
+        "--resume",
+        p(&ckpt),
+        p(&moved),
+        "--spp",
+        "6",
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert_eq!(checkpoint::read(&ckpt).unwrap().state.samples, 6);
+}
+
+/// The deploy scripts as a scheduler would run them (here four local processes
+/// standing in for the Slurm array tasks), then the merge step, against one run.
+#[cfg(unix)]
+#[test]
+fn shards_from_the_deploy_scripts_merge_to_one_run() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("shards");
+    let scene = repo("scenes/cornell-boxes.toml");
+    let parts = dir.join("parts");
+    let flags = "--width 24 --height 16";
+    let env = |command: &mut Command| {
+        command
+            .env("PATHMIX", bin())
+            .env("PATHMIX_DEPLOY", repo("deploy"))
+            .env("SCENE", &scene)
+            .env("SPP", "1000")
+            .env("OUT", &parts)
+            .env("PATHMIX_FLAGS", flags)
+            .env("IMAGE", dir.join("final.png"))
+            .env("EXR", dir.join("final.exr"));
+    };
+    let children: Vec<_> = (0..4)
+        .map(|task| {
+            let mut command = Command::new("sh");
+            command
+                .arg(repo("deploy/slurm/render-shard.sh"))
+                .env("SLURM_ARRAY_TASK_ID", task.to_string())
+                .env("SLURM_ARRAY_TASK_COUNT", "4")
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped());
+            env(&mut command);
+            command.spawn().unwrap()
+        })
+        .collect();
+    for child in children {
+        let output = child.wait_with_output().unwrap();
+        assert!(output.status.success(), "{}", text(&output.stderr));
+    }
+    let ranges: Vec<_> = (0..4)
+        .map(|i| {
+            shard::read_partial(&parts.join(format!("part-{i}.exr")))
+                .unwrap()
+                .range
+        })
+        .collect();
+    assert_eq!(ranges, [0..250, 250..500, 500..750, 750..1000]);
+
+    let mut merge = Command::new("sh");
+    merge.arg(repo("deploy/slurm/merge.sh")).env("SHARDS", "4");
+    env(&mut merge);
+    let output = merge.output().unwrap();
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(
+        text(&output.stdout).contains("samples 0..1000 (1000 spp)"),
+        "{}",
+        text(&output.stdout)
+    );
+
+    let one = dir.join("one.exr");
+    let output = pathmix(&[
+        "render",
+        &scene,
+        "--spp",
+        "1000",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "-o",
+        p(&dir.join("one.png")),
+        "--exr",
+        p(&one),
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let merged = pathmix::output::read_exr(&dir.join("final.exr")).unwrap();
+    let single = pathmix::output::read_exr(&one).unwrap();
+    assert_close(&merged, &single, 1e-6);
+
+    // Gaps are listed, overlaps and other scenes refused.
+    let part = |i: u32| p(&parts.join(format!("part-{i}.exr"))).to_string();
+    let output = pathmix(&["merge", &part(0), &part(3), "-o", p(&dir.join("gap.png"))]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert!(
+        text(&output.stderr).contains("no part holds sample indices 250..750"),
+        "{}",
+        text(&output.stderr)
+    );
+    let overlap = dir.join("overlap.exr");
+    let output = pathmix(&[
+        "render",
+        &scene,
+        "--sample-range",
+        "200..300",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--partial",
+        p(&overlap),
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let output = pathmix(&[
+        "merge",
+        &part(0),
+        &part(1),
+        p(&overlap),
+        "-o",
+        p(&dir.join("o.png")),
+    ]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("part-0.exr` (samples 0..250) and `")
+            && stderr.contains("overlap.exr` (samples 200..300) overlap in 200..250"),
+        "{stderr}"
+    );
+    let other = dir.join("other.exr");
+    let output = pathmix(&[
+        "render",
+        &scene,
+        "--sample-range",
+        "1000..1010",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--seed",
+        "9",
+        "--partial",
+        p(&other),
+        "--quiet",
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let output = pathmix(&["merge", &part(0), p(&other), "-o", p(&dir.join("s.png"))]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        text(&output.stderr).contains("seed 9"),
+        "{}",
+        text(&output.stderr)
+    );
+}
