@@ -5,6 +5,9 @@ use crate::gpu::GpuContext;
 use crate::render::{self, RenderError, RenderOptions, Renderer, StopRule};
 use crate::scene::Scene;
 
+/// Rendering before timing starts.
+const WARM_UP: std::time::Duration = std::time::Duration::from_millis(500);
+
 /// One configuration measured on one scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Measurement {
@@ -18,9 +21,8 @@ pub struct Measurement {
     pub segments_per_second: f64,
 }
 
-/// Builds the renderer, warms it (the first dispatch compiles the pipeline on
-/// lazy drivers such as lavapipe), then times `repetitions` runs of `samples`
-/// samples per pixel each.
+/// Builds the renderer, warms it for `WARM_UP`, then times `repetitions` runs of
+/// `samples` samples per pixel each.
 pub fn measure(
     ctx: &GpuContext,
     scene: &Scene,
@@ -29,7 +31,12 @@ pub fn measure(
     repetitions: usize,
 ) -> Result<Measurement, RenderError> {
     let mut renderer = Renderer::new(ctx, scene, options)?;
-    renderer.advance(1);
+    // Warm up: lavapipe compiles at the first dispatch (sometimes the second too),
+    // and the dispatch sizing adapts to the measured speed over a few submissions.
+    let warm_up = std::time::Instant::now();
+    while warm_up.elapsed() < WARM_UP {
+        renderer.advance(samples);
+    }
     let (width, height) = renderer.size();
     let mut seconds = Vec::with_capacity(repetitions);
     let mut segment_rates = Vec::with_capacity(repetitions);
