@@ -26,15 +26,15 @@ fn temp_dir(name: &str) -> PathBuf {
 
 /// The Cornell box with two boxes, small and at depth 8 (as in tests/render.rs).
 fn small_cornell(size: u32) -> Scene {
-    let mut scene = common::scene_file("cornell-boxes.toml");
-    scene
-        .apply_overrides(&SceneOverrides {
+    let scene = common::scene_with(
+        "cornell-boxes.toml",
+        SceneOverrides {
             width: Some(size),
             height: Some(size),
             max_depth: Some(8),
             ..Default::default()
-        })
-        .unwrap();
+        },
+    );
     scene
 }
 

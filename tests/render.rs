@@ -13,15 +13,15 @@ fn furnace_value(emit: f64, albedo: f64, max_depth: u32) -> f64 {
 }
 
 fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scene {
-    let mut scene = common::scene_file("furnace.toml");
-    scene
-        .apply_overrides(&SceneOverrides {
+    let scene = common::scene_with(
+        "furnace.toml",
+        SceneOverrides {
             strategy: Some(strategy),
             spp: Some(spp),
             max_depth: Some(max_depth),
             ..Default::default()
-        })
-        .unwrap();
+        },
+    );
     scene
 }
 
@@ -71,15 +71,15 @@ fn furnace_mixture_light_and_nee_are_unbiased() {
 #[test]
 fn samples_split_across_dispatches_give_identical_sums() {
     let ctx = gpu_or_skip!();
-    let mut scene = common::scene_file("cornell.toml");
-    scene
-        .apply_overrides(&SceneOverrides {
+    let scene = common::scene_with(
+        "cornell.toml",
+        SceneOverrides {
             width: Some(24),
             height: Some(16),
             spp: Some(6),
             ..Default::default()
-        })
-        .unwrap();
+        },
+    );
     let options = common::with_variance();
     let mut one_at_a_time = Renderer::new(ctx, &scene, &options).unwrap();
     for _ in 0..6 {
@@ -102,15 +102,15 @@ fn buffer_accumulator_matches_texture_accumulator() {
     if !ctx.storage_texture_accumulator {
         eprintln!("adapter has no read-write storage textures: only the buffer path runs");
     }
-    let mut scene = common::scene_file("cornell.toml");
-    scene
-        .apply_overrides(&SceneOverrides {
+    let scene = common::scene_with(
+        "cornell.toml",
+        SceneOverrides {
             width: Some(20),
             height: Some(30),
             spp: Some(3),
             ..Default::default()
-        })
-        .unwrap();
+        },
+    );
     let buffer = common::render(
         ctx,
         &scene,
@@ -173,15 +173,15 @@ fn baked_scene_matches_scene_buffers() {
 #[test]
 fn seed_changes_the_noise_not_the_picture() {
     let ctx = gpu_or_skip!();
-    let mut scene = common::scene_file("cornell-boxes.toml");
-    scene
-        .apply_overrides(&SceneOverrides {
+    let mut scene = common::scene_with(
+        "cornell-boxes.toml",
+        SceneOverrides {
             width: Some(16),
             height: Some(16),
             spp: Some(4),
             ..Default::default()
-        })
-        .unwrap();
+        },
+    );
     let a = common::render(ctx, &scene, &RenderOptions::default());
     scene
         .apply_overrides(&SceneOverrides {
@@ -230,15 +230,15 @@ fn mixture_has_lower_error_than_cosine_on_the_cornell_box() {
 #[test]
 fn glass_cornell_box_renders_finite_values() {
     let ctx = gpu_or_skip!();
-    let mut scene = common::scene_file("cornell.toml");
-    scene
-        .apply_overrides(&SceneOverrides {
+    let scene = common::scene_with(
+        "cornell.toml",
+        SceneOverrides {
             width: Some(32),
             height: Some(32),
             spp: Some(16),
             ..Default::default()
-        })
-        .unwrap();
+        },
+    );
     // `common::render` also checks that the kernel discarded no sample.
     let mean = common::render(ctx, &scene, &RenderOptions::default()).mean();
     assert!(
@@ -255,27 +255,13 @@ fn glass_cornell_box_renders_finite_values() {
 #[test]
 fn accumulation_stays_exact_past_two_to_the_24_samples() {
     let ctx = gpu_or_skip!();
-    let scene = common::scene_text(
-        r#"
-        [camera]
-        lookfrom = [0, 0, 0]
-        lookat = [0, 0, 1]
-        vfov = 10
-        width = 1
-        height = 1
-        [render]
-        spp = 33554432
-        max_depth = 0
-        [materials.glow]
-        type = "light"
-        emit = [0.1, 0.1, 0.1]
-        [[objects]]
-        type = "quad"
-        q = [-1, -1, 1]
-        u = [0, 2, 0]
-        v = [2, 0, 0]
-        material = "glow"
-        "#,
+    let scene = common::camera_facing_emitter(
+        10.0,
+        33554432,
+        0.1,
+        [-1.0, -1.0, 1.0],
+        [0.0, 2.0, 0.0],
+        [2.0, 0.0, 0.0],
     );
     let acc = common::render(ctx, &scene, &common::with_variance());
     assert_eq!(acc.samples, 1 << 25);
@@ -354,9 +340,9 @@ fn nee_mis_and_mixture_agree_on_the_cornell_box() {
         (Strategy::NeeMis, None),
         (Strategy::NeeMis, Some(3)),
     ] {
-        let mut scene = common::scene_file("cornell.toml");
-        scene
-            .apply_overrides(&SceneOverrides {
+        let scene = common::scene_with(
+            "cornell.toml",
+            SceneOverrides {
                 width: Some(16),
                 height: Some(16),
                 spp: Some(512),
@@ -364,8 +350,8 @@ fn nee_mis_and_mixture_agree_on_the_cornell_box() {
                 strategy: Some(strategy),
                 rr_depth: Some(rr),
                 ..Default::default()
-            })
-            .unwrap();
+            },
+        );
         let acc = common::render(ctx, &scene, &common::with_variance());
         results.push((strategy, rr, common::image_mean_and_error(&acc)));
     }

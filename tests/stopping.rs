@@ -7,15 +7,15 @@ use pathmix::scene::SceneOverrides;
 use std::time::Duration;
 
 fn small_cornell() -> pathmix::scene::Scene {
-    let mut scene = common::scene_file("cornell-boxes.toml");
-    scene
-        .apply_overrides(&SceneOverrides {
+    let scene = common::scene_with(
+        "cornell-boxes.toml",
+        SceneOverrides {
             width: Some(16),
             height: Some(16),
             max_depth: Some(8),
             ..Default::default()
-        })
-        .unwrap();
+        },
+    );
     scene
 }
 
@@ -91,27 +91,13 @@ fn target_error_without_variance_is_refused() {
 #[test]
 fn standard_error_matches_a_known_variance() {
     let ctx = gpu_or_skip!();
-    let scene = common::scene_text(
-        r#"
-        [camera]
-        lookfrom = [0, 0, 0]
-        lookat = [0, 0, 1]
-        vfov = 20
-        width = 1
-        height = 1
-        [render]
-        spp = 16384
-        max_depth = 0
-        [materials.glow]
-        type = "light"
-        emit = [2, 2, 2]
-        [[objects]]
-        type = "quad"
-        q = [0, -1, 1]
-        u = [0, 2, 0]
-        v = [1, 0, 0]
-        material = "glow"
-        "#,
+    let scene = common::camera_facing_emitter(
+        20.0,
+        16384,
+        2.0,
+        [0.0, -1.0, 1.0],
+        [0.0, 2.0, 0.0],
+        [1.0, 0.0, 0.0],
     );
     let acc = common::render(ctx, &scene, &common::with_variance());
     let n = acc.samples as f64;

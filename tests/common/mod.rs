@@ -3,7 +3,7 @@
 
 use pathmix::gpu::GpuContext;
 use pathmix::render::{RenderOptions, Renderer};
-use pathmix::scene::Scene;
+use pathmix::scene::{Scene, SceneOverrides};
 use pathmix::stats::Accumulation;
 use std::sync::OnceLock;
 
@@ -43,6 +43,48 @@ pub fn scene_file(name: &str) -> Scene {
             .join(name),
     )
     .unwrap()
+}
+
+/// A shipped scene with some settings overridden (small sizes keep GPU tests fast).
+pub fn scene_with(name: &str, overrides: SceneOverrides) -> Scene {
+    let mut scene = scene_file(name);
+    scene.apply_overrides(&overrides).unwrap();
+    scene
+}
+
+/// A one-pixel camera at the origin looking down +z through a `vfov`-degree view at
+/// one quad of `emit` radiance (`q`, `u`, `v` as in a scene file), at depth 0:
+/// every sample is `emit` where the jittered camera ray meets the quad, else 0.
+pub fn camera_facing_emitter(
+    vfov: f32,
+    spp: u32,
+    emit: f32,
+    q: [f32; 3],
+    u: [f32; 3],
+    v: [f32; 3],
+) -> Scene {
+    scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 0, 0]
+        lookat = [0, 0, 1]
+        vfov = {vfov}
+        width = 1
+        height = 1
+        [render]
+        spp = {spp}
+        max_depth = 0
+        [materials.glow]
+        type = "light"
+        emit = [{emit}, {emit}, {emit}]
+        [[objects]]
+        type = "quad"
+        q = {q:?}
+        u = {u:?}
+        v = {v:?}
+        material = "glow"
+        "#
+    ))
 }
 
 pub fn scene_text(text: &str) -> Scene {
