@@ -634,6 +634,11 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
     })
 }
 
+/// A Russian roulette depth as text: the depth, or `off`.
+fn rr_text(depth: Option<u32>) -> String {
+    depth.map_or_else(|| "off".to_string(), |d| d.to_string())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -750,9 +755,4 @@ mod tests {
         let more = SceneIdentity::of(&scene(|t| t.replacen("spp = 1000", "spp = 5", 1)));
         assert_eq!(base, more);
     }
-}
-
-/// A Russian roulette depth as text: the depth, or `off`.
-fn rr_text(depth: Option<u32>) -> String {
-    depth.map_or_else(|| "off".to_string(), |d| d.to_string())
 }

@@ -209,10 +209,12 @@ pub fn write_partial(path: &Path, partial: &Partial) -> Result<(), OutputError> 
     let mut attributes = partial.attributes();
     let checksum = partial.checksum(&attributes);
     attributes.insert(format!("{PREFIX}checksum"), checksum);
-    let mut layer_attributes = LayerAttributes::default();
-    layer_attributes.software_name = Some(Text::from(
-        format!("pathmix {}", env!("CARGO_PKG_VERSION")).as_str(),
-    ));
+    let mut layer_attributes = LayerAttributes {
+        software_name: Some(Text::from(
+            format!("pathmix {}", env!("CARGO_PKG_VERSION")).as_str(),
+        )),
+        ..LayerAttributes::default()
+    };
     for (k, v) in &attributes {
         layer_attributes.other.insert(
             Text::from(k.as_str()),

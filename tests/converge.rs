@@ -26,7 +26,7 @@ fn temp_dir(name: &str) -> PathBuf {
 
 /// The Cornell box with two boxes, small and at depth 8 (as in tests/render.rs).
 fn small_cornell(size: u32) -> Scene {
-    let scene = common::scene_with(
+    common::scene_with(
         "cornell-boxes.toml",
         SceneOverrides {
             width: Some(size),
@@ -34,8 +34,7 @@ fn small_cornell(size: u32) -> Scene {
             max_depth: Some(8),
             ..Default::default()
         },
-    );
-    scene
+    )
 }
 
 /// One study serves every check on the command's outputs. The ladder goes to 1024 spp:

@@ -13,7 +13,7 @@ fn furnace_value(emit: f64, albedo: f64, max_depth: u32) -> f64 {
 }
 
 fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scene {
-    let scene = common::scene_with(
+    common::scene_with(
         "furnace.toml",
         SceneOverrides {
             strategy: Some(strategy),
@@ -21,8 +21,7 @@ fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scen
             max_depth: Some(max_depth),
             ..Default::default()
         },
-    );
-    scene
+    )
 }
 
 #[test]

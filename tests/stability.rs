@@ -403,8 +403,8 @@ fn depths_one_and_one_thousand_are_finite_and_consistent() {
                 ..Default::default()
             },
         );
-        let acc = common::render(ctx, &scene, &common::with_variance());
-        acc
+
+        common::render(ctx, &scene, &common::with_variance())
     };
     let (zero, one, fifty, thousand) = (depth(0), depth(1), depth(50), depth(1000));
     let m = |acc: &Accumulation| common::image_mean_and_error(acc);

@@ -7,7 +7,7 @@ use pathmix::scene::SceneOverrides;
 use std::time::Duration;
 
 fn small_cornell() -> pathmix::scene::Scene {
-    let scene = common::scene_with(
+    common::scene_with(
         "cornell-boxes.toml",
         SceneOverrides {
             width: Some(16),
@@ -15,8 +15,7 @@ fn small_cornell() -> pathmix::scene::Scene {
             max_depth: Some(8),
             ..Default::default()
         },
-    );
-    scene
+    )
 }
 
 #[test]
