@@ -318,6 +318,78 @@ pub fn write_image(path: &Path, image: &Image) -> Result<(), OutputError> {
     }
 }
 
+/// How two images of the same size differ, value by value (every channel of every pixel).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Comparison {
+    /// Values compared: pixels × 3.
+    pub values: usize,
+    /// Values whose relative difference exceeds the tolerance.
+    pub beyond: usize,
+    /// The largest relative difference, where any value differs.
+    pub largest: Option<ValueDifference>,
+}
+
+/// One value's difference: `relative` is |a − b| / max(|a|, |b|); infinite where exactly
+/// one of them is NaN or the two are infinities of opposite sign.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ValueDifference {
+    pub relative: f64,
+    pub x: u32,
+    pub y: u32,
+    pub channel: usize,
+    pub a: f32,
+    pub b: f32,
+}
+
+/// Compares `a` with `b` value by value: a value is within `tolerance` when
+/// |a − b| ≤ tolerance · max(|a|, |b|) (equal values, zeros and NaN against NaN included).
+/// `None` when the sizes differ.
+pub fn compare(a: &Image, b: &Image, tolerance: f64) -> Option<Comparison> {
+    if (a.width, a.height) != (b.width, b.height) {
+        return None;
+    }
+    let mut comparison = Comparison {
+        values: a.pixels.len() * 3,
+        beyond: 0,
+        largest: None,
+    };
+    for (i, (pa, pb)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        for channel in 0..3 {
+            let (va, vb) = (pa[channel], pb[channel]);
+            let relative = if va == vb || (va.is_nan() && vb.is_nan()) {
+                0.0
+            } else {
+                let (x, y) = (va as f64, vb as f64);
+                let relative = (x - y).abs() / x.abs().max(y.abs());
+                if relative.is_nan() {
+                    f64::INFINITY
+                } else {
+                    relative
+                }
+            };
+            if relative > tolerance {
+                comparison.beyond += 1;
+            }
+            if relative > 0.0
+                && comparison
+                    .largest
+                    .as_ref()
+                    .is_none_or(|largest| relative > largest.relative)
+            {
+                comparison.largest = Some(ValueDifference {
+                    relative,
+                    x: (i % a.width as usize) as u32,
+                    y: (i / a.width as usize) as u32,
+                    channel,
+                    a: va,
+                    b: vb,
+                });
+            }
+        }
+    }
+    Some(comparison)
+}
+
 /// Atomic write: writes to a temporary file `.NAME.tmp-PID` in the same folder, fsyncs it and
 /// renames it over `path`. On any error the temporary is removed and `path` is untouched (a
 /// previous file stays intact; no partial file appears).
@@ -471,6 +543,39 @@ mod tests {
         }
     }
 
+    #[test]
+    fn compare_measures_the_largest_relative_difference() {
+        let image = |pixels: Vec<[f32; 3]>| Image {
+            width: 2,
+            height: 1,
+            pixels,
+        };
+        let a = image(vec![[0.0, 1.0, f32::NAN], [2.0, 4.0, 1.0]]);
+        let same = compare(&a, &a.clone(), 0.0).unwrap();
+        assert_eq!((same.values, same.beyond, same.largest), (6, 0, None));
+
+        let b = image(vec![
+            [0.0, 1.0 + 1e-7, f32::NAN],
+            [2.0, 4.0 * (1.0 + 1e-5), 1.0],
+        ]);
+        let close = compare(&a, &b, 1e-6).unwrap();
+        assert_eq!(close.beyond, 1);
+        let largest = close.largest.unwrap();
+        assert_eq!((largest.x, largest.y, largest.channel), (1, 0, 1));
+        assert!(
+            (largest.relative - 1e-5).abs() < 1e-7,
+            "{}",
+            largest.relative
+        );
+        assert_eq!(compare(&a, &b, 1e-4).unwrap().beyond, 0);
+
+        // NaN against a number, and a value against zero, are as far apart as can be.
+        let c = image(vec![[1e-30, 1.0, 0.5], [2.0, 4.0, 1.0]]);
+        let far = compare(&a, &c, 1e-6).unwrap();
+        assert_eq!(far.beyond, 2);
+        assert_eq!(far.largest.unwrap().relative, f64::INFINITY);
+        assert!(compare(&a, &Image::new(1, 2), 1.0).is_none());
+    }
     #[test]
     fn image_get_is_row_major() {
         let image = test_image();

@@ -341,3 +341,72 @@ fn bad_inputs_exit_2_naming_the_problem_and_write_nothing() {
         assert_eq!(left, ["case.toml"], "{case}: something was written");
     }
 }
+
+#[test]
+fn compare_exits_0_within_the_tolerance_1_beyond_it_2_for_unreadable_files() {
+    use pathmix::output::{Image, write_exr};
+    let dir = temp_dir("compare");
+    let image = |pixels: Vec<[f32; 3]>| Image {
+        width: 2,
+        height: 1,
+        pixels,
+    };
+    let write = |name: &str, image: &Image| {
+        let path = dir.join(name);
+        write_exr(&path, image, &[]).unwrap();
+        path.display().to_string()
+    };
+    let a = write("a.exr", &image(vec![[0.5, 0.0, 1.0], [2.0, 3.0, 4.0]]));
+    let close = write(
+        "b.exr",
+        &image(vec![[0.5, 0.0, 1.0], [2.0, 3.0 * (1.0 + 4e-7), 4.0]]),
+    );
+    let far = write(
+        "c.exr",
+        &image(vec![[0.5, 0.0, 1.0], [2.0, 3.0 * (1.0 + 4e-6), 4.0]]),
+    );
+    let other_size = write("d.exr", &Image::new(1, 2));
+
+    let output = pathmix(&["compare", &a, &close]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("agree within relative 1e-6 (6 values)")
+            && stdout.contains("at pixel (1, 0) G"),
+        "{stdout}"
+    );
+    let output = pathmix(&["compare", &a, &a]);
+    assert!(String::from_utf8_lossy(&output.stdout).contains("identical"));
+
+    let output = pathmix(&["compare", &a, &far, "--tolerance", "1e-6"]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(
+        stderr(&output).contains("differ: 1 of 6 values beyond relative 1e-6"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(
+        pathmix(&["compare", &a, &far, "--tolerance", "1e-5"])
+            .status
+            .success()
+    );
+    let output = pathmix(&["compare", &a, &other_size]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(
+        stderr(&output).contains("differ in size: 2x1 and 1x2"),
+        "{}",
+        stderr(&output)
+    );
+
+    let missing = dir.join("missing.exr").display().to_string();
+    let output = pathmix(&["compare", &a, &missing]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("missing.exr"),
+        "{}",
+        stderr(&output)
+    );
+    let output = pathmix(&["compare", &a, &close, "--tolerance", "-1"]);
+    assert_eq!(output.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,6 +1,7 @@
 //! Command definitions and dispatch.
 
 mod bench;
+mod compare;
 mod converge;
 mod info;
 mod merge;
@@ -38,6 +39,8 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Measure each strategy's error against time and samples (table, CSV, plot).
     Converge(converge::ConvergeArgs),
+    /// Check that two linear EXR images agree within a relative tolerance (exit 1 if not).
+    Compare(compare::CompareArgs),
 }
 
 /// A failed command: what to tell the user, and the exit code.
@@ -71,5 +74,6 @@ pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
         Command::Merge(args) => merge::merge(args),
         Command::Bench(args) => bench::bench(args),
         Command::Converge(args) => converge::converge(args),
+        Command::Compare(args) => compare::compare(args),
     }
 }
