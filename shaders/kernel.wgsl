@@ -60,6 +60,7 @@ fn camera_ray(pixel: vec2<u32>) -> Ray {
 
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) id: vec3<u32>) {
+    load_params();
     if id.x >= params.tile_size.x || id.y >= params.tile_size.y {
         return;
     }

@@ -58,11 +58,7 @@ impl Kernel {
                 entries: &[
                     compute_entry(
                         BINDING_PARAMS,
-                        wgpu::BindingType::Buffer {
-                            ty: wgpu::BufferBindingType::Uniform,
-                            has_dynamic_offset: false,
-                            min_binding_size: None,
-                        },
+                        storage_buffer(true),
                     ),
                     compute_entry(BINDING_ACCUMULATOR, accumulator),
                     compute_entry(BINDING_COUNTERS, storage_buffer(false)),
