@@ -56,10 +56,7 @@ impl Kernel {
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("frame"),
                 entries: &[
-                    compute_entry(
-                        BINDING_PARAMS,
-                        storage_buffer(true),
-                    ),
+                    compute_entry(BINDING_PARAMS, storage_buffer(true)),
                     compute_entry(BINDING_ACCUMULATOR, accumulator),
                     compute_entry(BINDING_COUNTERS, storage_buffer(false)),
                 ],
