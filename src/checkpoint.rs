@@ -643,6 +643,14 @@ fn rr_text(depth: Option<u32>) -> String {
 mod tests {
     use super::*;
 
+    #[test]
+    fn fnv64_matches_published_vectors() {
+        let hash = |bytes: &[u8]| Fnv64::default().bytes(bytes).finish();
+        assert_eq!(hash(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(hash(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(hash(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
     fn scene(text_change: impl Fn(String) -> String) -> Scene {
         let text = std::fs::read_to_string(
             Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml"),
