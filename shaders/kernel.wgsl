@@ -98,7 +98,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
         if tracing_shadow {
             // Unoccluded emitter facing the shading point: the light sample's contribution.
             if hit.t < F32_MAX && dot(ray.dir, hit.normal) < 0.0 {
-                radiance += shadow_weight * materials[hit.material].emit;
+                radiance += shadow_weight * materials_at(hit.material).emit;
             }
             tracing_shadow = false;
             ray = continuation;
@@ -110,7 +110,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             radiance += throughput * params.background;
             path_done = true;
         } else {
-            let material = materials[hit.material];
+            let material = materials_at(hit.material);
             let front_face = dot(ray.dir, hit.normal) < 0.0;
             if front_face {
 #if STRATEGY_NEE

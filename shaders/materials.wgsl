@@ -16,8 +16,10 @@ struct Material {
     param: f32,
 }
 
+// `materials_at` reads one material by index; a baked scene generates it.
 #if !BAKED_SCENE
 @group(1) @binding(0) var<storage, read> materials: array<Material>;
+fn materials_at(i: u32) -> Material { return materials[i]; }
 #endif
 
 struct Scatter {

@@ -1,63 +1,50 @@
 // The scene's primitives and the closest-hit query. Only the kinds the scene
 // contains are compiled in.
+//
+// The primitives live in storage buffers, or (BAKED_SCENE) in module constants
+// generated from the same packed data (`KernelConfig::baked_scene_wgsl`), which
+// `#for_each` unrolls into straight-line code the driver's compiler folds.
 
-// Either storage buffers, or (BAKED_SCENE) arrays with constant initialisers
-// generated from the same packed data and appended to the kernel
-// (`KernelConfig::baked_scene_wgsl`): loops of fixed trip count over known
-// data, which the driver's compiler unrolls and folds into immediates.
+#if !BAKED_SCENE
 #if QUADS
-#if BAKED_SCENE
-fn quad_count() -> u32 { return QUAD_COUNT; }
-#else
 @group(1) @binding(1) var<storage, read> quads: array<Quad>;
-fn quad_count() -> u32 { return arrayLength(&quads); }
-#endif
 #endif
 #if SPHERES
-#if BAKED_SCENE
-fn sphere_count() -> u32 { return SPHERE_COUNT; }
-#else
 @group(1) @binding(2) var<storage, read> spheres: array<Sphere>;
-fn sphere_count() -> u32 { return arrayLength(&spheres); }
 #endif
 #endif
 
+// The closest hit's shading data is kept as it is found, so no primitive is
+// looked up again by a dynamic index.
 fn intersect_scene(ray: Ray) -> Hit {
     var hit = no_hit();
 #if QUADS
-    var quad_index = 0xffffffffu;
-    for (var i = 0u; i < quad_count(); i++) {
-        let t = quad_hit_t(quads[i], ray, hit.t);
-        if t > 0.0 {
-            hit.t = t;
-            quad_index = i;
-        }
+#for_each quad in quads
+    let t = quad_hit_t(quad, ray, hit.t);
+    if t > 0.0 {
+        hit.t = t;
+        hit.normal = quad.normal;
+        hit.material = quad.material;
     }
+#end_for
 #endif
 #if SPHERES
-    var sphere_index = 0xffffffffu;
-    for (var i = 0u; i < sphere_count(); i++) {
-        let t = sphere_hit_t(spheres[i], ray, hit.t);
-        if t > 0.0 {
-            hit.t = t;
-            sphere_index = i;
-        }
+    var sphere_center = vec3<f32>(0.0);
+    var sphere_radius = 0.0;
+#for_each sphere in spheres
+    let t = sphere_hit_t(sphere, ray, hit.t);
+    if t > 0.0 {
+        hit.t = t;
+        hit.material = sphere.material;
+        sphere_center = sphere.center;
+        sphere_radius = sphere.radius;
     }
+#end_for
 #endif
-    // Shading data only for the closest hit; a later kind's hit is closer.
     hit.p = ray.origin + hit.t * ray.dir;
 #if SPHERES
-    if sphere_index != 0xffffffffu {
-        let sphere = spheres[sphere_index];
-        hit.normal = (hit.p - sphere.center) / sphere.radius;
-        hit.material = sphere.material;
-        return hit;
-    }
-#endif
-#if QUADS
-    if quad_index != 0xffffffffu {
-        hit.normal = quads[quad_index].normal;
-        hit.material = quads[quad_index].material;
+    if sphere_radius != 0.0 {
+        hit.normal = (hit.p - sphere_center) / sphere_radius;
     }
 #endif
     return hit;

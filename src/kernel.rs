@@ -6,8 +6,8 @@ use crate::gpu::layout::{
     GpuLayout, MATERIAL_DIELECTRIC, MATERIAL_LAMBERTIAN, MATERIAL_METAL, SceneData,
 };
 use crate::scene::{RenderSettings, Strategy};
-use crate::shader::{ComposeError, ShaderModule, compose};
-use std::collections::BTreeSet;
+use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, element_constant};
+use std::collections::{BTreeMap, BTreeSet};
 
 macro_rules! shader_module {
     ($name:literal) => {
@@ -61,8 +61,8 @@ pub enum AccumulatorKind {
 /// Where the kernel reads the scene from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SceneStorage {
-    /// Compiled into the kernel as constant arrays: no loads, and loops of fixed
-    /// trip count that the driver's compiler can unroll and fold.
+    /// Compiled into the kernel as module constants: no loads, and every loop
+    /// over the scene unrolled into straight-line code the driver's compiler folds.
     Baked,
     /// Read-only storage buffers (group 1): any size, one kernel per feature set.
     Buffers,
@@ -70,11 +70,11 @@ pub enum SceneStorage {
 
 impl SceneStorage {
     /// Largest scene baked by default: primitives plus objects in the light
-    /// density. A baked kernel runs about 2.4x faster on lavapipe whatever the
-    /// size, but its first compile grows about quadratically (CPU seconds,
-    /// without Mesa's shader cache: 1.3 at 19 objects, 4.3 at 31, 12 at 43,
-    /// 23 at 55, 324 at 127); above this, the compile is not worth it.
-    pub const MAX_BAKED_OBJECTS: usize = 32;
+    /// density. Measured on lavapipe with random quads, a baked kernel renders
+    /// 7-8x faster than buffers at 32 to 128 objects; its first compile (without
+    /// Mesa's shader cache) takes 0.3 CPU-s at 32 objects, 0.5 at 64, 1.5 at 128
+    /// and 5.3 at 256, where it also renders slower than buffers.
+    pub const MAX_BAKED_OBJECTS: usize = 128;
 
     /// Baked for small scenes, buffers for the rest.
     pub fn auto(data: &SceneData) -> SceneStorage {
@@ -236,54 +236,95 @@ impl KernelConfig {
     }
 
     pub fn source(&self) -> Result<String, ComposeError> {
-        let mut source = compose(&self.modules(), &self.flags(), FLAGS)?;
+        let flags = self.flags();
+        let arrays = self.arrays();
+        let directives = Directives {
+            flags: &flags,
+            known_flags: FLAGS,
+            arrays: &arrays,
+        };
+        let mut source = compose(&self.modules(), &directives)?;
         if let Some(data) = &self.baked_scene {
             source.push_str(&self.baked_scene_wgsl(data));
         }
         Ok(source)
     }
 
-    /// The scene as WGSL constants: the arrays the kernel declares as storage
-    /// buffers otherwise, with the same contents bit for bit, and their lengths.
-    /// The arrays are never-written `var<private>` with constant initialisers, not
-    /// `const`: naga spills a `const` array into a fresh local copy at every
-    /// dynamically indexed access, which made lavapipe about 40x slower.
+    /// The scene arrays this kernel has, and where `#for_each` finds their elements.
+    fn arrays(&self) -> BTreeMap<&'static str, ArrayForm> {
+        let baked = self.baked_scene.as_ref();
+        let form = |len: fn(&SceneData) -> usize| match baked {
+            Some(data) => ArrayForm::Constants(len(data)),
+            None => ArrayForm::Buffer,
+        };
+        let arrays = [
+            ("materials", true, form(|d| d.materials.len())),
+            ("quads", self.quads, form(|d| d.quads.len())),
+            ("spheres", self.spheres, form(|d| d.spheres.len())),
+            (
+                "light_quads",
+                self.light_quads,
+                form(|d| d.light_quads.len()),
+            ),
+            (
+                "light_spheres",
+                self.light_spheres,
+                form(|d| d.light_spheres.len()),
+            ),
+        ];
+        arrays
+            .into_iter()
+            .filter(|&(_, present, _)| present)
+            .map(|(name, _, form)| (name, form))
+            .collect()
+    }
+
+    /// The scene as WGSL: for each array the kernel declares as a storage buffer
+    /// otherwise, its length `NAME_COUNT`, one constant per element (what
+    /// `#for_each` reads; bit for bit the buffer's contents) and, for arrays
+    /// also read by a dynamic index, a `NAME_at(i)` switch over them.
     fn baked_scene_wgsl(&self, data: &SceneData) -> String {
-        fn array<T: GpuLayout>(out: &mut String, name: &str, count_name: &str, items: &[T]) {
+        fn array<T: GpuLayout>(out: &mut String, name: &str, items: &[T], indexed: bool) {
             let n = items.len();
-            out.push_str(&format!("const {count_name}: u32 = {n}u;\n"));
-            out.push_str(&format!(
-                "var<private> {name}: array<{0}, {n}> = array<{0}, {n}>(\n",
-                T::WGSL_NAME
-            ));
-            for item in items {
-                out.push_str(&format!("    {},\n", item.wgsl_value()));
+            let upper = name.to_uppercase();
+            let ty = T::WGSL_NAME;
+            out.push_str(&format!("const {upper}_COUNT: u32 = {n}u;\n"));
+            for (i, item) in items.iter().enumerate() {
+                let constant = element_constant(name, i);
+                out.push_str(&format!(
+                    "const {constant}: {ty} = {};\n",
+                    item.wgsl_value()
+                ));
             }
-            out.push_str(");\n");
+            if indexed && n > 0 {
+                out.push_str(&format!(
+                    "fn {name}_at(i: u32) -> {ty} {{\n    switch i {{\n"
+                ));
+                for i in 0..n {
+                    let label = if i + 1 == n {
+                        "default".to_string()
+                    } else {
+                        format!("case {i}u")
+                    };
+                    let constant = element_constant(name, i);
+                    out.push_str(&format!("        {label}: {{ return {constant}; }}\n"));
+                }
+                out.push_str("    }\n}\n");
+            }
         }
         let mut out = String::from("// ---- baked scene ----\n");
-        array(&mut out, "materials", "MATERIAL_COUNT", &data.materials);
+        array(&mut out, "materials", &data.materials, true);
         if self.quads {
-            array(&mut out, "quads", "QUAD_COUNT", &data.quads);
+            array(&mut out, "quads", &data.quads, false);
         }
         if self.spheres {
-            array(&mut out, "spheres", "SPHERE_COUNT", &data.spheres);
+            array(&mut out, "spheres", &data.spheres, false);
         }
         if self.light_quads {
-            array(
-                &mut out,
-                "light_quads",
-                "LIGHT_QUAD_COUNT",
-                &data.light_quads,
-            );
+            array(&mut out, "light_quads", &data.light_quads, true);
         }
         if self.light_spheres {
-            array(
-                &mut out,
-                "light_spheres",
-                "LIGHT_SPHERE_COUNT",
-                &data.light_spheres,
-            );
+            array(&mut out, "light_spheres", &data.light_spheres, true);
         }
         out
     }
@@ -421,7 +462,22 @@ mod tests {
         }
     }
 
-    /// What naga reads from the baked arrays is exactly what the buffers hold.
+    /// The words of every element constant of baked array `name`, in order.
+    fn baked_words(module: &naga::Module, name: &str) -> Vec<u32> {
+        let value = |constant: &str| {
+            let (_, c) = module
+                .constants
+                .iter()
+                .find(|(_, c)| c.name.as_deref() == Some(constant))?;
+            Some(constant_words(module, c.init))
+        };
+        (0..)
+            .map_while(|i| value(&crate::shader::element_constant(name, i)))
+            .flatten()
+            .collect()
+    }
+
+    /// What naga reads from the baked constants is exactly what the buffers hold.
     #[test]
     fn baked_constants_are_the_buffer_contents() {
         for file in ["cornell.toml", "cornell-boxes.toml", "furnace.toml"] {
@@ -439,14 +495,7 @@ mod tests {
                 SceneStorage::Baked,
             );
             let module = validate(&config);
-            let words = |name: &str| {
-                let (_, global) = module
-                    .global_variables
-                    .iter()
-                    .find(|(_, g)| g.name.as_deref() == Some(name))
-                    .unwrap_or_else(|| panic!("{file}: no `{name}`"));
-                constant_words(&module, global.init.unwrap())
-            };
+            let words = |name: &str| baked_words(&module, name);
             let expected = |bytes: &[u8]| bytemuck::cast_slice::<u8, u32>(bytes).to_vec();
             assert_eq!(
                 words("materials"),
@@ -457,16 +506,14 @@ mod tests {
                 words("light_quads"),
                 expected(bytemuck::cast_slice(&data.light_quads))
             );
-            if !data.spheres.is_empty() {
-                assert_eq!(
-                    words("spheres"),
-                    expected(bytemuck::cast_slice(&data.spheres))
-                );
-                assert_eq!(
-                    words("light_spheres"),
-                    expected(bytemuck::cast_slice(&data.light_spheres))
-                );
-            }
+            assert_eq!(
+                words("spheres"),
+                expected(bytemuck::cast_slice(&data.spheres))
+            );
+            assert_eq!(
+                words("light_spheres"),
+                expected(bytemuck::cast_slice(&data.light_spheres))
+            );
         }
     }
 
@@ -518,13 +565,8 @@ mod tests {
             ..KernelConfig::general(Strategy::Cosine, AccumulatorKind::Buffer)
         };
         let module = validate(&config);
-        let (_, global) = module
-            .global_variables
-            .iter()
-            .find(|(_, g)| g.name.as_deref() == Some("materials"))
-            .unwrap();
         assert_eq!(
-            constant_words(&module, global.init.unwrap()),
+            baked_words(&module, "materials"),
             bytemuck::cast_slice::<_, u32>(&data.materials)
         );
     }

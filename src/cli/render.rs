@@ -79,7 +79,7 @@ pub struct RenderArgs {
     pub accumulator: Option<AccumulatorArg>,
     /// Where the kernel reads the scene: compiled into it as constants (fastest
     /// on CPU drivers, slower to compile) or from storage buffers. Default: baked
-    /// for scenes of up to 32 objects.
+    /// for scenes of up to 128 objects.
     #[arg(long, value_enum)]
     pub scene_storage: Option<SceneStorageArg>,
     /// Save the accumulated state (raw sums and compensations, sample count,
