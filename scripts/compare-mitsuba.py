@@ -10,6 +10,13 @@ Run by hand, not in CI:
 
     python3 scripts/compare-mitsuba.py [--scene scenes/cornell-boxes.toml]
         [--size 256] [--spp 256] [--reference-spp 4096]
+        [--pathmix mixture/sobol,mixture/independent]
+        [--mitsuba-samplers independent,multijitter]
+
+`--pathmix` lists pathmix runs as strategy/sampler; `--mitsuba-samplers` lists
+Mitsuba samplers (`independent` is Mitsuba's default; `multijitter`,
+`stratified`, `ldsampler` and `orthogonal` stratify). The reference is pathmix
+with the Sobol sampler.
 
 It creates a virtual environment in .venv-mitsuba with `mitsuba` and `numpy` from
 PyPI and re-runs itself there. Mitsuba's LLVM backend needs LLVM 19 (LLVM 15
@@ -80,7 +87,7 @@ def box_quads(lo, hi):
     ]
 
 
-def mitsuba_scene(mi, scene, size, spp, max_depth):
+def mitsuba_scene(mi, scene, size, spp, max_depth, sampler):
     """The pathmix scene file as a Mitsuba scene dictionary."""
     T = mi.ScalarTransform4f
     materials = {}
@@ -143,7 +150,7 @@ def mitsuba_scene(mi, scene, size, spp, max_depth):
             "to_world": T().look_at(
                 origin=camera["lookfrom"], target=camera["lookat"], up=camera.get("vup", [0, 1, 0])
             ),
-            "sampler": {"type": "independent", "sample_count": spp},
+            "sampler": {"type": sampler, "sample_count": spp},
             "film": {
                 "type": "hdrfilm",
                 "width": size,
@@ -156,12 +163,13 @@ def mitsuba_scene(mi, scene, size, spp, max_depth):
     }
 
 
-def pathmix(args, spp, out, seed):
+def pathmix(args, spp, out, seed, strategy="mixture", sampler="sobol"):
     """Renders with the release binary; returns the seconds it reports."""
     cmd = [
         str(ROOT / "target" / "release" / "pathmix"), "render", str(args.scene),
         "--width", str(args.size), "--height", str(args.size), "--spp", str(spp),
         "--max-depth", str(args.max_depth), "--seed", str(seed), "--quiet",
+        "--strategy", strategy, "--sampler", sampler,
         "-o", str(out.with_suffix(".png")), "--exr", str(out),
     ]
     result = subprocess.run(cmd, capture_output=True, text=True, check=True)
@@ -180,6 +188,10 @@ def main():
     parser.add_argument("--max-depth", type=int, default=50)
     parser.add_argument("--reference-spp", type=int, default=4096)
     parser.add_argument("--out", type=Path, default=ROOT / "compare-out")
+    parser.add_argument("--pathmix", default="mixture/sobol,mixture/independent",
+                        help="pathmix runs, comma-separated strategy/sampler pairs")
+    parser.add_argument("--mitsuba-samplers", default="independent,multijitter",
+                        help="Mitsuba samplers, comma-separated")
     args = parser.parse_args()
     args.out.mkdir(exist_ok=True)
 
@@ -187,7 +199,7 @@ def main():
     mi.set_variant("llvm_ad_rgb")
     scene = tomllib.loads(args.scene.read_text())
 
-    reference_path = args.out / f"reference-{args.size}-{args.reference_spp}.exr"
+    reference_path = args.out / f"reference-{args.size}-{args.reference_spp}-sobol.exr"
     if not reference_path.exists():
         print(f"rendering the reference with pathmix ({args.reference_spp} spp)...", file=sys.stderr)
         pathmix(args, args.reference_spp, reference_path, seed=12345)
@@ -197,19 +209,26 @@ def main():
     rows = []
 
     # pathmix: the reported time excludes start-up; warm the pipeline cache first.
-    pathmix(args, 1, args.out / "pathmix-warm.exr", seed=1)
-    seconds = pathmix(args, args.spp, args.out / "pathmix.exr", seed=1)
-    image = np.array(mi.Bitmap(str(args.out / "pathmix.exr")), dtype=np.float64)[..., :3]
-    rows.append(("pathmix (mixture)", seconds, image))
+    for variant in args.pathmix.split(","):
+        strategy, sampler = variant.split("/")
+        out = args.out / f"pathmix-{strategy}-{sampler}.exr"
+        pathmix(args, 1, args.out / "pathmix-warm.exr", 1, strategy, sampler)
+        seconds = pathmix(args, args.spp, out, 1, strategy, sampler)
+        image = np.array(mi.Bitmap(str(out)), dtype=np.float64)[..., :3]
+        rows.append((f"pathmix ({strategy}, {sampler})", seconds, image))
+    ours = len(rows)
 
     # Mitsuba: the first render JIT-compiles its kernels; time a second one.
-    mitsuba = mi.load_dict(mitsuba_scene(mi, scene, args.size, args.spp, args.max_depth))
-    mi.render(mitsuba, spp=1, seed=0)
-    started = time.perf_counter()
-    result = mi.render(mitsuba, spp=args.spp, seed=1)
-    image = np.array(result, dtype=np.float64)[..., :3]
-    rows.append(("Mitsuba 3 llvm_ad_rgb (path, NEE+MIS)", time.perf_counter() - started, image))
-    mi.Bitmap(result).write(str(args.out / "mitsuba.exr"))
+    for sampler in args.mitsuba_samplers.split(","):
+        description = mitsuba_scene(mi, scene, args.size, args.spp, args.max_depth, sampler)
+        mitsuba = mi.load_dict(description)
+        mi.render(mitsuba, spp=1, seed=0)
+        started = time.perf_counter()
+        result = mi.render(mitsuba, spp=args.spp, seed=1)
+        image = np.array(result, dtype=np.float64)[..., :3]
+        rows.append((f"Mitsuba 3 llvm_ad_rgb (path, NEE+MIS, {sampler})",
+                     time.perf_counter() - started, image))
+        mi.Bitmap(result).write(str(args.out / f"mitsuba-{sampler}.exr"))
 
     print(f"\n{args.scene.name}, {args.size}x{args.size}, {args.spp} spp, max depth {args.max_depth}; "
           f"reference: pathmix {args.reference_spp} spp\n")
@@ -221,11 +240,17 @@ def main():
         efficiency = 1.0 / (mse * seconds)
         efficiencies.append(efficiency)
         print(f"| {name} | {seconds:.2f} | {paths / seconds / 1e6:.2f} | {math.sqrt(mse):.4f} | {efficiency:.0f} |")
-    print(f"\nefficiency ratio pathmix / Mitsuba: {efficiencies[0] / efficiencies[1]:.2f}")
-    mean_ratio = float(np.mean(rows[1][2])) / float(np.mean(reference))
-    mirrored = math.sqrt(float(np.mean((rows[1][2][:, ::-1] - reference) ** 2)))
-    print(f"Mitsuba mean / reference mean: {mean_ratio:.4f}; RMSE of Mitsuba mirrored: {mirrored:.4f} "
-          "(the scenes match when the ratio is 1 and the mirrored RMSE is much larger)")
+    print("\nefficiency ratio pathmix / Mitsuba (rows: pathmix runs; columns: Mitsuba samplers):")
+    for i in range(ours):
+        ratios = [efficiencies[i] / efficiencies[j] for j in range(ours, len(rows))]
+        print(f"  {rows[i][0]}: " + ", ".join(f"{r:.2f}x" for r in ratios))
+    for name, _, image in rows:
+        mean_ratio = float(np.mean(image)) / float(np.mean(reference))
+        print(f"{name}: mean / reference mean {mean_ratio:.4f}")
+    mitsuba = rows[ours][2]
+    mirrored = math.sqrt(float(np.mean((mitsuba[:, ::-1] - reference) ** 2)))
+    print(f"RMSE of Mitsuba's image mirrored: {mirrored:.4f} (the scenes match when the mean "
+          "ratios are 1 and this is much larger than the RMSE)")
 
 
 if __name__ == "__main__":

@@ -51,7 +51,7 @@ fn all_finite(v: vec3<f32>) -> bool {
 
 // A camera ray through a uniformly jittered point of the pixel (box filter).
 fn camera_ray(pixel: vec2<u32>) -> Ray {
-    let jitter = vec2<f32>(rand(), rand());
+    let jitter = sample_2d();
     let to_film = params.to_pixel00
         + (f32(pixel.x) + jitter.x - 0.5) * params.delta_u
         + (f32(pixel.y) + jitter.y - 0.5) * params.delta_v;
@@ -74,7 +74,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
 
     var samples_done = 0u;
     var segments = 0u;
-    rng_begin_sample(pixel_index, params.sample_start);
+    sampler_begin(pixel_index, params.sample_start);
     var ray = camera_ray(pixel);
     var throughput = vec3<f32>(1.0);
     var radiance = vec3<f32>(0.0);
@@ -141,7 +141,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
                     // Russian roulette: end dim paths early, reweighting survivors (unbiased).
                     if depth >= RR_DEPTH {
                         let survive = clamp(max(throughput.x, max(throughput.y, throughput.z)), 0.05, 1.0);
-                        if rand() >= survive {
+                        if sample_1d() >= survive {
                             path_done = true;
                         } else {
                             throughput /= survive;
@@ -176,7 +176,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             if samples_done == params.sample_count {
                 break;
             }
-            rng_begin_sample(pixel_index, params.sample_start + samples_done);
+            sampler_begin(pixel_index, params.sample_start + samples_done);
             ray = camera_ray(pixel);
             throughput = vec3<f32>(1.0);
             radiance = vec3<f32>(0.0);

@@ -38,17 +38,19 @@ fn light_sphere_count() -> u32 {
 #endif
 }
 
-fn light_sample(origin: vec3<f32>) -> vec3<f32> {
+// A direction from `origin` drawn from the light density: `select` (uniform in
+// [0, 1)) picks the object, `u` the point on it.
+fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {
     let quad_count = light_quad_count();
     let count = quad_count + light_sphere_count();
-    let k = min(u32(rand() * f32(count)), count - 1u);
+    let k = min(u32(select * f32(count)), count - 1u);
 #if LIGHT_QUADS
     if k < quad_count {
-        return quad_light_sample(light_quads_at(k), origin);
+        return quad_light_sample(light_quads_at(k), origin, u);
     }
 #endif
 #if LIGHT_SPHERES
-    return sphere_light_sample(light_spheres_at(k - quad_count), origin);
+    return sphere_light_sample(light_spheres_at(k - quad_count), origin, u);
 #else
     return vec3<f32>(0.0, 1.0, 0.0); // unreachable: k < quad_count
 #endif

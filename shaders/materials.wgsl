@@ -58,12 +58,13 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
 fn scatter_lambertian(albedo: vec3<f32>, n: vec3<f32>, origin: vec3<f32>) -> Scatter {
 #if STRATEGY_COSINE
     // s / p = 1 exactly.
-    return specular(sample_cosine(n), albedo);
+    return specular(sample_cosine(n, sample_2d()), albedo);
 #else
 #if STRATEGY_NEE
     // Light sample; the kernel traces its shadow ray.
     var shadow_weight = vec3<f32>(0.0);
-    let light_dir = light_sample(origin);
+    let light_select = sample_1d();
+    let light_dir = light_sample(origin, light_select, sample_2d());
     let light_cos = dot(n, light_dir);
     let light_density = light_pdf(origin, light_dir);
     if light_cos > 0.0 && light_density > 0.0 {
@@ -71,18 +72,23 @@ fn scatter_lambertian(albedo: vec3<f32>, n: vec3<f32>, origin: vec3<f32>) -> Sca
         shadow_weight = albedo * (s * power_heuristic(light_density, s) / light_density);
     }
     // BSDF sample: the continuation, s / p = 1; its emitter hit is weighted in the kernel.
-    let dir = sample_cosine(n);
+    let dir = sample_cosine(n, sample_2d());
     return Scatter(dir, albedo, false, light_dir, shadow_weight, cosine_pdf(n, dir), light_pdf(origin, dir));
 #else
 #if STRATEGY_LIGHT
-    let dir = light_sample(origin);
+    let light_select = sample_1d();
+    let dir = light_sample(origin, light_select, sample_2d());
     let pdf = light_pdf(origin, dir);
 #else
+    // Both branches use the same dimensions, so they stay aligned across samples;
+    // the choice, rescaled, also picks the light.
+    let choice = sample_1d();
+    let u = sample_2d();
     var dir: vec3<f32>;
-    if rand() < LIGHT_WEIGHT {
-        dir = light_sample(origin);
+    if choice < LIGHT_WEIGHT {
+        dir = light_sample(origin, choice / LIGHT_WEIGHT, u);
     } else {
-        dir = sample_cosine(n);
+        dir = sample_cosine(n, u);
     }
     // The full mixture density of the chosen direction, whichever part drew it.
     let pdf = LIGHT_WEIGHT * light_pdf(origin, dir) + (1.0 - LIGHT_WEIGHT) * cosine_pdf(n, dir);
@@ -100,7 +106,7 @@ fn scatter_lambertian(albedo: vec3<f32>, n: vec3<f32>, origin: vec3<f32>) -> Sca
 
 #if METAL
 fn scatter_metal(albedo: vec3<f32>, fuzz: f32, n: vec3<f32>, in_dir: vec3<f32>) -> Scatter {
-    let dir = normalize(reflect(in_dir, n) + fuzz * random_unit_vector());
+    let dir = normalize(reflect(in_dir, n) + fuzz * sample_sphere(sample_2d()));
     if dot(dir, n) <= 0.0 {
         return absorbed();
     }
@@ -120,8 +126,10 @@ fn scatter_dielectric(ior: f32, n: vec3<f32>, in_dir: vec3<f32>, front_face: boo
     let eta = select(ior, 1.0 / ior, front_face);
     let cos_theta = min(dot(-in_dir, n), 1.0);
     let sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
+    // Drawn even under total internal reflection, to keep the dimensions aligned.
+    let u = sample_1d();
     var dir: vec3<f32>;
-    if eta * sin_theta > 1.0 || schlick(cos_theta, eta) > rand() {
+    if eta * sin_theta > 1.0 || schlick(cos_theta, eta) > u {
         dir = reflect(in_dir, n);
     } else {
         dir = refract(in_dir, n, eta);

@@ -33,8 +33,8 @@ fn quad_hit_t(quad: Quad, ray: Ray, t_max: f32) -> f32 {
 }
 
 // Direction from `origin` to a uniformly chosen point on the quad.
-fn quad_light_sample(quad: Quad, origin: vec3<f32>) -> vec3<f32> {
-    let target_point = quad.q + rand() * quad.u + rand() * quad.v;
+fn quad_light_sample(quad: Quad, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let target_point = quad.q + u.x * quad.u + u.y * quad.v;
     return normalize(target_point - origin);
 }
 

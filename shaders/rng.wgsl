@@ -1,7 +1,13 @@
-// Random numbers. A sample's stream depends only on (seed, pixel, sample index),
+// Random numbers. A sample's numbers depend only on (seed, pixel, sample index),
 // so images do not depend on how samples are split across dispatches or runs.
-
-var<private> rng_state: u32;
+//
+// Consumers ask for `sample_1d()` and `sample_2d()` in a fixed order per path
+// vertex; each call is the next dimension of the sample. SAMPLER_SOBOL draws
+// them from a per-pixel Owen-scrambled Sobol sequence (Burley, "Practical
+// Hash-based Owen Scrambling", JCGT 2020): every 2D pair is stratified over a
+// pixel's samples, which removes most of the noise of pixel edges and direct
+// light. Each scrambled point is uniform, so the estimator stays unbiased.
+// Otherwise the numbers are independent (PCG).
 
 // PCG-RXS-M-XS hash (Jarzynski & Olano, "Hash Functions for GPU Rendering", 2020).
 fn pcg_hash(v: u32) -> u32 {
@@ -10,13 +16,90 @@ fn pcg_hash(v: u32) -> u32 {
     return (word >> 22u) ^ word;
 }
 
-fn rng_begin_sample(pixel: u32, sample_index: u32) {
+// The top 24 bits as a float in [0, 1).
+fn unit_float(bits: u32) -> f32 {
+    return f32(bits >> 8u) * (1.0 / 16777216.0);
+}
+
+#if SAMPLER_SOBOL
+var<private> sampler_pixel_seed: u32;
+var<private> sampler_index: u32;
+var<private> sampler_dimension: u32;
+
+fn sampler_begin(pixel: u32, sample_index: u32) {
+    sampler_pixel_seed = pcg_hash(pcg_hash(params.seed) ^ pixel);
+    sampler_index = sample_index;
+    sampler_dimension = 0u;
+}
+
+// Flips each bit of `x` depending only on the bits below it: with bits
+// reversed, an Owen scramble (Vegdahl's constants, 2021).
+fn laine_karras(x: u32, seed: u32) -> u32 {
+    var v = x ^ (x * 0x3d20adeau);
+    v += seed;
+    v *= (seed >> 16u) | 1u;
+    v ^= v * 0x05526c56u;
+    v ^= v * 0x53a22864u;
+    return v;
+}
+
+// Owen-scrambles the binary digits of `x` read as a fraction (most significant first).
+fn owen_scramble(x: u32, seed: u32) -> u32 {
+    return reverseBits(laine_karras(reverseBits(x), seed));
+}
+
+// Sobol's second dimension before bit reversal: its generator matrix is Pascal's
+// triangle mod 2, so digit r takes index bit c exactly when r's bits are a subset
+// of c's (Lucas); a superset-sum over the 5-bit positions computes all 32 digits.
+fn sobol_pascal_reversed(index: u32) -> u32 {
+    var w = index;
+    w ^= (w >> 1u) & 0x55555555u;
+    w ^= (w >> 2u) & 0x33333333u;
+    w ^= (w >> 4u) & 0x0f0f0f0fu;
+    w ^= (w >> 8u) & 0x00ff00ffu;
+    w ^= (w >> 16u) & 0x0000ffffu;
+    return w;
+}
+
+// The dimension's own seed, and this sample's index in its own shuffled order:
+// an Owen scramble of the index keeps each aligned block of 2^k indices a block,
+// so every prefix of 2^k samples stays a (0, k, 2)-net.
+fn next_dimension() -> vec2<u32> {
+    let seed = pcg_hash(sampler_pixel_seed ^ (sampler_dimension * 0x9e3779b9u));
+    sampler_dimension += 1u;
+    return vec2<u32>(seed, owen_scramble(sampler_index, seed));
+}
+
+fn sample_1d() -> f32 {
+    let dimension = next_dimension();
+    // Van der Corput (Sobol's first dimension) is the reversed index, so its Owen
+    // scramble is reverseBits(laine_karras(index)).
+    return unit_float(reverseBits(laine_karras(dimension.y, pcg_hash(dimension.x))));
+}
+
+fn sample_2d() -> vec2<f32> {
+    let dimension = next_dimension();
+    let seed_x = pcg_hash(dimension.x);
+    let seed_y = pcg_hash(seed_x);
+    let x = reverseBits(laine_karras(dimension.y, seed_x));
+    let y = reverseBits(laine_karras(sobol_pascal_reversed(dimension.y), seed_y));
+    return vec2<f32>(unit_float(x), unit_float(y));
+}
+#else
+var<private> rng_state: u32;
+
+fn sampler_begin(pixel: u32, sample_index: u32) {
     rng_state = pcg_hash(pcg_hash(pcg_hash(params.seed) ^ pixel) ^ sample_index);
 }
 
-// Uniform in [0, 1): 24 random mantissa bits.
-fn rand() -> f32 {
+fn sample_1d() -> f32 {
     rng_state = rng_state * 747796405u + 2891336453u;
     let word = ((rng_state >> ((rng_state >> 28u) + 4u)) ^ rng_state) * 277803737u;
-    return f32(((word >> 22u) ^ word) >> 8u) * (1.0 / 16777216.0);
+    return unit_float((word >> 22u) ^ word);
 }
+
+fn sample_2d() -> vec2<f32> {
+    let x = sample_1d();
+    return vec2<f32>(x, sample_1d());
+}
+#endif

@@ -10,13 +10,12 @@ fn onb_to_world(n: vec3<f32>, local: vec3<f32>) -> vec3<f32> {
     return t * local.x + s * local.y + n * local.z;
 }
 
-// Cosine-weighted direction about unit `n`; density cos(theta) / pi.
-fn sample_cosine(n: vec3<f32>) -> vec3<f32> {
-    let r1 = rand();
-    let r2 = rand();
-    let phi = 2.0 * PI * r1;
-    let sin_theta = sqrt(r2);
-    let local = vec3<f32>(cos(phi) * sin_theta, sin(phi) * sin_theta, sqrt(1.0 - r2));
+// Cosine-weighted direction about unit `n` from a uniform point `u` of the unit
+// square; density cos(theta) / pi.
+fn sample_cosine(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let phi = 2.0 * PI * u.x;
+    let sin_theta = sqrt(u.y);
+    let local = vec3<f32>(cos(phi) * sin_theta, sin(phi) * sin_theta, sqrt(1.0 - u.y));
     return normalize(onb_to_world(n, local));
 }
 
@@ -24,9 +23,10 @@ fn cosine_pdf(n: vec3<f32>, dir: vec3<f32>) -> f32 {
     return max(dot(n, dir), 0.0) * INV_PI;
 }
 
-fn random_unit_vector() -> vec3<f32> {
-    let z = 1.0 - 2.0 * rand();
-    let phi = 2.0 * PI * rand();
+// Uniform direction on the unit sphere from a uniform point `u` of the unit square.
+fn sample_sphere(u: vec2<f32>) -> vec3<f32> {
+    let z = 1.0 - 2.0 * u.x;
+    let phi = 2.0 * PI * u.y;
     let r = sqrt(max(0.0, 1.0 - z * z));
     return vec3<f32>(r * cos(phi), r * sin(phi), z);
 }

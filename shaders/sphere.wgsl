@@ -42,15 +42,15 @@ fn sphere_cone_one_minus_cos(radius: f32, dist2: f32) -> f32 {
 
 // Uniform direction within the cone the sphere subtends from `origin`
 // (uniform over all directions when `origin` is inside the sphere).
-fn sphere_light_sample(sphere: Sphere, origin: vec3<f32>) -> vec3<f32> {
+fn sphere_light_sample(sphere: Sphere, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let to_center = sphere.center - origin;
     let dist2 = dot(to_center, to_center);
     if dist2 <= sphere.radius * sphere.radius {
-        return random_unit_vector();
+        return sample_sphere(u);
     }
     let one_minus_cos_max = sphere_cone_one_minus_cos(sphere.radius, dist2);
-    let phi = 2.0 * PI * rand();
-    let one_minus_z = rand() * one_minus_cos_max;
+    let phi = 2.0 * PI * u.x;
+    let one_minus_z = u.y * one_minus_cos_max;
     let sin_theta = sqrt(one_minus_z * (2.0 - one_minus_z));
     let local = vec3<f32>(cos(phi) * sin_theta, sin(phi) * sin_theta, 1.0 - one_minus_z);
     return normalize(onb_to_world(to_center * inverseSqrt(dist2), local));

@@ -16,7 +16,7 @@
 
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
-use crate::scene::{MaterialKind, Scene, SceneOverrides, Strategy};
+use crate::scene::{MaterialKind, Sampler, Scene, SceneOverrides, Strategy};
 use std::fmt;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -78,7 +78,7 @@ pub struct SceneIdentity {
     pub materials_hash: u64,
     /// Quads and spheres, with their materials and importance marks.
     pub geometry_hash: u64,
-    /// Seed, depth, strategy, light weight, background, Russian roulette depth.
+    /// Seed, depth, strategy, light weight, background, Russian roulette depth, sampler.
     pub settings_hash: u64,
     pub width: u32,
     pub height: u32,
@@ -88,6 +88,7 @@ pub struct SceneIdentity {
     pub light_weight: f32,
     /// Russian roulette depth; `None`: off.
     pub rr_depth: Option<u32>,
+    pub sampler: Sampler,
     pub materials: u32,
     pub quads: u32,
     pub spheres: u32,
@@ -145,6 +146,7 @@ impl SceneIdentity {
             .f32(r.light_weight)
             .vec3(r.background)
             .u32(r.rr_depth.unwrap_or(u32::MAX))
+            .str(r.sampler.name())
             .finish();
         SceneIdentity {
             camera_hash,
@@ -158,6 +160,7 @@ impl SceneIdentity {
             strategy: r.strategy,
             light_weight: r.light_weight,
             rr_depth: r.rr_depth,
+            sampler: r.sampler,
             materials: scene.materials.len() as u32,
             quads: scene.quads.len() as u32,
             spheres: scene.spheres.len() as u32,
@@ -239,6 +242,11 @@ impl SceneIdentity {
                 now.light_weight.to_string(),
             );
             field("rr_depth", rr_text(saved.rr_depth), rr_text(now.rr_depth));
+            field(
+                "sampler",
+                saved.sampler.to_string(),
+                now.sampler.to_string(),
+            );
             if fields.is_empty() {
                 fields.push("background".into());
             }
@@ -262,6 +270,7 @@ impl SceneIdentity {
             ("strategy", self.strategy.to_string()),
             ("light_weight", self.light_weight.to_string()),
             ("rr_depth", rr_text(self.rr_depth)),
+            ("sampler", self.sampler.to_string()),
             ("materials", self.materials.to_string()),
             ("quads", self.quads.to_string()),
             ("spheres", self.spheres.to_string()),
@@ -282,6 +291,7 @@ impl SceneIdentity {
         };
         let number = |key: &str| -> Result<u32, String> { parse(key, text(key)?) };
         let strategy = text("strategy")?;
+        let sampler = text("sampler")?;
         let identity = SceneIdentity {
             camera_hash: hash("camera_hash")?,
             materials_hash: hash("materials_hash")?,
@@ -298,6 +308,8 @@ impl SceneIdentity {
                 "off" => None,
                 depth => Some(parse("rr_depth", depth.to_string())?),
             },
+            sampler: Sampler::from_name(&sampler)
+                .ok_or_else(|| format!("unknown sampler `{sampler}`"))?,
             materials: number("materials")?,
             quads: number("quads")?,
             spheres: number("spheres")?,
@@ -446,6 +458,9 @@ fn header(c: &Checkpoint) -> String {
     if let Some(rr) = o.rr_depth {
         overrides.insert("rr_depth".into(), rr_text(rr).into());
     }
+    if let Some(s) = o.sampler {
+        overrides.insert("sampler".into(), s.name().into());
+    }
     root.insert("overrides".into(), overrides.into());
     let s = &c.state;
     let mut state = toml::Table::new();
@@ -590,6 +605,14 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
                     .ok_or("`overrides.rr_depth` is not a depth or `off`")?,
             )),
         },
+        sampler: match o.get("sampler") {
+            None => None,
+            Some(v) => Some(
+                v.as_str()
+                    .and_then(Sampler::from_name)
+                    .ok_or("`overrides.sampler` is not a sampler")?,
+            ),
+        },
     };
     let s = table("state")?;
     let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| format!("missing `state.{key}`"));
@@ -672,6 +695,7 @@ mod tests {
                 height: Some(2),
                 strategy: Some(Strategy::Cosine),
                 light_weight: Some(0.3),
+                sampler: Some(Sampler::Independent),
                 ..Default::default()
             },
             identity: SceneIdentity {
@@ -736,7 +760,7 @@ mod tests {
             SceneIdentity::differences((a, "before"), (b, "now"))
         }
         assert!(differences(&base, &same).is_empty());
-        let cases: [(&str, &str, &str, &str); 4] = [
+        let cases: [(&str, &str, &str, &str); 5] = [
             ("vfov = 40", "vfov = 41", "camera", "field of view"),
             ("[0.73, 0.73, 0.73]", "[0.7, 0.73, 0.73]", "materials", ""),
             ("radius = 90", "radius = 91", "geometry", ""),
@@ -745,6 +769,12 @@ mod tests {
                 "max_depth = 20",
                 "render settings",
                 "max_depth 50 before, 20 now",
+            ),
+            (
+                "max_depth = 50",
+                "max_depth = 50\nsampler = \"independent\"",
+                "render settings",
+                "sampler sobol before, independent now",
             ),
         ];
         for (from, to, part, detail) in cases {

@@ -5,7 +5,7 @@
 use crate::gpu::layout::{
     GpuLayout, MATERIAL_DIELECTRIC, MATERIAL_LAMBERTIAN, MATERIAL_METAL, SceneData,
 };
-use crate::scene::{RenderSettings, Strategy};
+use crate::scene::{RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, element_constant};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -44,6 +44,7 @@ pub const FLAGS: &[&str] = &[
     "STRATEGY_NEE",
     "VARIANCE",
     "BAKED_SCENE",
+    "SAMPLER_SOBOL",
 ];
 
 pub const ENTRY_POINT: &str = "render";
@@ -109,6 +110,7 @@ pub struct KernelConfig {
     pub light_weight: f32,
     /// Russian roulette from this depth on, or never.
     pub rr_depth: Option<u32>,
+    pub sampler: Sampler,
     pub accumulator: AccumulatorKind,
     /// Accumulate squared samples too, for per-pixel error estimates.
     pub variance: bool,
@@ -141,6 +143,7 @@ impl KernelConfig {
             max_depth: settings.max_depth,
             light_weight: settings.light_weight,
             rr_depth: settings.rr_depth,
+            sampler: settings.sampler,
             accumulator,
             variance,
             baked_scene: (scene_storage == SceneStorage::Baked).then(|| data.clone()),
@@ -175,6 +178,7 @@ impl KernelConfig {
             max_depth: 50,
             light_weight: 0.5,
             rr_depth: Some(5),
+            sampler: Sampler::Sobol,
             accumulator,
             variance: true,
             baked_scene: None,
@@ -206,6 +210,7 @@ impl KernelConfig {
             ("STRATEGY_NEE", self.strategy == Strategy::NeeMis),
             ("VARIANCE", self.variance),
             ("BAKED_SCENE", self.baked_scene.is_some()),
+            ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
         ];
         pairs
             .into_iter()

@@ -35,6 +35,10 @@ pub struct ConvergeArgs {
     /// [scene: render.rr_depth].
     #[arg(long, value_name = "N|off", value_parser = super::render::parse_rr_depth)]
     pub rr_depth: Option<super::render::RrDepth>,
+    /// Where the random numbers come from, for every variant and the rendered
+    /// reference [scene: render.sampler].
+    #[arg(long, value_enum)]
+    pub sampler: Option<super::render::SamplerArg>,
     /// Seed of the measured runs [scene: render.seed]. The rendered reference uses its
     /// own seed.
     #[arg(long, value_name = "S")]
@@ -105,6 +109,7 @@ pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
             max_depth: args.max_depth,
             seed: args.seed,
             rr_depth: args.rr_depth.map(|rr| rr.0),
+            sampler: args.sampler.map(Into::into),
             ..Default::default()
         })
         .map_err(Failure::input)?;

@@ -9,7 +9,7 @@ use pathmix::gpu::GpuContext;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::output::{self, ImageFormat};
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopReason, StopRule};
-use pathmix::scene::{Scene, SceneOverrides, Strategy};
+use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::shard::{self, Partial};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -66,6 +66,9 @@ pub struct RenderArgs {
     /// --max-depth) [scene: render.rr_depth; default off].
     #[arg(long, value_name = "N|off", value_parser = parse_rr_depth)]
     pub rr_depth: Option<RrDepth>,
+    /// Where the random numbers come from [scene: render.sampler].
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
     /// Random seed: the same seed gives the same image [scene: render.seed].
     #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub seed: Option<u32>,
@@ -96,7 +99,7 @@ pub struct RenderArgs {
     /// saved ones included); outputs default to the recorded ones; checkpoints go
     /// on being saved to FILE.
     #[arg(long, value_name = "FILE", conflicts_with_all = [
-        "width", "height", "max_depth", "strategy", "light_weight", "seed", "rr_depth", "sample_range", "shard",
+        "width", "height", "max_depth", "strategy", "light_weight", "seed", "rr_depth", "sampler", "sample_range", "shard",
     ])]
     pub resume: Option<PathBuf>,
     /// Rewrite the PNG output this often while rendering (atomically), e.g. 10s.
@@ -138,6 +141,24 @@ impl From<StrategyArg> for Strategy {
             StrategyArg::Cosine => Strategy::Cosine,
             StrategyArg::Light => Strategy::Light,
             StrategyArg::NeeMis => Strategy::NeeMis,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SamplerArg {
+    /// Owen-scrambled Sobol points, stratified per pixel (the default); the error
+    /// estimate then overstates the error.
+    Sobol,
+    /// Independent random numbers; the error estimate is unbiased.
+    Independent,
+}
+
+impl From<SamplerArg> for Sampler {
+    fn from(arg: SamplerArg) -> Sampler {
+        match arg {
+            SamplerArg::Sobol => Sampler::Sobol,
+            SamplerArg::Independent => Sampler::Independent,
         }
     }
 }
@@ -222,6 +243,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
             light_weight: args.light_weight,
             seed: args.seed,
             rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
+            sampler: args.sampler.map(Sampler::from),
         },
     };
     let scene_path = match (&args.scene, &resume) {

@@ -40,6 +40,11 @@
 //!   bounces on; a path survives with probability min(1, max(0.05, largest throughput
 //!   component)) and is reweighted, so the estimate stays unbiased. Off, paths end only at
 //!   `max_depth`.
+//! - `sampler` (`"sobol"` | `"independent"`, default `"sobol"`): where the random
+//!   numbers come from. `sobol` stratifies each pair of dimensions over a pixel's
+//!   samples (Owen-scrambled Sobol points): unbiased and much less noisy, but the
+//!   per-pixel error estimate then overstates the error. `independent` draws
+//!   independent numbers, for which that estimate is unbiased.
 //!
 //! ## `[materials.NAME]` (one table per material)
 //! `type` (required) is one of:
@@ -80,7 +85,8 @@ use glam::{DVec3, Vec3};
 use toml::{Table, Value};
 
 use super::{
-    Camera, Material, MaterialKind, Quad, RenderSettings, Scene, SceneError, Sphere, Strategy,
+    Camera, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene, SceneError, Sphere,
+    Strategy,
 };
 
 /// Command-line overrides of scene settings, validated like the file's values by
@@ -96,6 +102,7 @@ pub struct SceneOverrides {
     pub seed: Option<u32>,
     /// `Some(None)` turns Russian roulette off.
     pub rr_depth: Option<Option<u32>>,
+    pub sampler: Option<Sampler>,
 }
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -119,6 +126,7 @@ const RENDER_KEYS: &[&str] = &[
     "background",
     "seed",
     "rr_depth",
+    "sampler",
 ];
 const MATERIAL_TYPES: &[&str] = &["lambertian", "metal", "dielectric", "light"];
 const ALL_MATERIAL_KEYS: &[&str] = &["type", "albedo", "emit", "fuzz", "ior"];
@@ -249,6 +257,9 @@ impl Scene {
         if let Some(v) = rr_depth {
             self.render.rr_depth = v;
         }
+        if let Some(v) = o.sampler {
+            self.render.sampler = v;
+        }
         Ok(())
     }
 
@@ -299,6 +310,7 @@ fn default_render() -> RenderSettings {
         background: Vec3::ZERO,
         seed: 0,
         rr_depth: None,
+        sampler: Sampler::Sobol,
     }
 }
 
@@ -312,6 +324,13 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
             t.err(t.at("strategy"), unknown_name("strategy", name, &names))
         })?,
     };
+    let sampler = match t.string("sampler")? {
+        None => d.sampler,
+        Some(name) => Sampler::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = Sampler::ALL.iter().map(|s| s.name()).collect();
+            t.err(t.at("sampler"), unknown_name("sampler", name, &names))
+        })?,
+    };
     Ok(RenderSettings {
         spp: t.int("spp", SPP)?.unwrap_or(d.spp),
         max_depth: t.int("max_depth", MAX_DEPTH)?.unwrap_or(d.max_depth),
@@ -322,6 +341,7 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
         background: t.vec3("background", check_nonneg)?.unwrap_or(d.background),
         seed: t.int("seed", SEED)?.unwrap_or(d.seed),
         rr_depth: t.int("rr_depth", MAX_DEPTH)?.or(d.rr_depth),
+        sampler,
     })
 }
 
@@ -1581,6 +1601,7 @@ material = "white"
             light_weight: Some(1.0),
             seed: Some(7),
             rr_depth: None,
+            sampler: Some(Sampler::Independent),
         };
         s.apply_overrides(&o).unwrap();
         assert_eq!(
@@ -1592,6 +1613,7 @@ material = "white"
             (0, Strategy::Cosine, 7)
         );
         assert_eq!(s.render.light_weight, 1.0);
+        assert_eq!(s.render.sampler, Sampler::Independent);
         s.apply_overrides(&SceneOverrides::default()).unwrap();
         assert_eq!(s.render.spp, 16);
 
