@@ -133,6 +133,7 @@ impl<'a> Renderer<'a> {
             config
         };
         check_size(ctx, &config, width, height)?;
+        let max_samples_per_dispatch = max_samples_per_dispatch(&data, &config);
         let kernel = Kernel::new(ctx, config).map_err(|e| {
             RenderError::Unsupported(format!("internal shader composition error: {e}"))
         })?;
@@ -239,7 +240,7 @@ impl<'a> Renderer<'a> {
             samples: 0,
             first_sample: 0,
             paths_per_submission: 1 << 18,
-            max_samples_per_dispatch: max_samples_per_dispatch(&data, settings.max_depth, strategy),
+            max_samples_per_dispatch,
             submission_seconds: options.submission_seconds,
             warnings,
         })
@@ -518,16 +519,23 @@ pub fn choose_accumulator(
 const LOOP_ITERATION_BUDGET: u64 = 32768;
 
 /// Samples per dispatch that stay within `LOOP_ITERATION_BUDGET` even if every
-/// path runs to `max_depth`: each segment loops over every primitive (closest
-/// hit) and every light (light density).
-pub fn max_samples_per_dispatch(data: &SceneData, max_depth: u32, strategy: Strategy) -> u32 {
-    let mut loops_per_segment =
-        (data.quads.len() + data.spheres.len() + data.light_count()) as u64 + 2;
-    if strategy == Strategy::NeeMis {
-        // A shadow ray (closest hit) and a second light density per vertex.
-        loops_per_segment *= 2;
+/// path runs to the kernel's maximum depth: one path-loop iteration per vertex
+/// and, when the scene is read from buffers, a loop over every primitive (closest
+/// hit) and every light (light density) in it, twice with next-event estimation
+/// (the shadow ray's closest hit and a second light density). A baked scene's
+/// loops are unrolled.
+pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
+    let mut inner_loops = match config.scene_storage() {
+        SceneStorage::Baked => 0,
+        SceneStorage::Buffers => {
+            (data.quads.len() + data.spheres.len() + data.light_count()) as u64
+        }
+    };
+    if config.strategy == Strategy::NeeMis {
+        inner_loops *= 2;
     }
-    let per_sample = loops_per_segment * (max_depth as u64 + 1);
+    // One spare iteration per vertex, for safety.
+    let per_sample = (inner_loops + 2) * (config.max_depth as u64 + 1);
     (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
 }
 

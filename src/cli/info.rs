@@ -106,7 +106,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     );
     println!(
         "  at most {} samples per pixel per dispatch (driver loop-limit budget)",
-        max_samples_per_dispatch(&data, scene.render.max_depth, effective)
+        max_samples_per_dispatch(&data, &config)
     );
     match storage {
         SceneStorage::Baked => println!(
