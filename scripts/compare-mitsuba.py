@@ -10,10 +10,11 @@ Run by hand, not in CI:
 
     python3 scripts/compare-mitsuba.py [--scene scenes/cornell-boxes.toml]
         [--size 256] [--spp 256] [--reference-spp 4096]
-        [--pathmix mixture/sobol,mixture/independent]
+        [--pathmix mixture/sobol,mixture/independent,nee-mis/sobol/5]
         [--mitsuba-samplers independent,multijitter]
 
-`--pathmix` lists pathmix runs as strategy/sampler; `--mitsuba-samplers` lists
+`--pathmix` lists pathmix runs as strategy/sampler, with an optional third part,
+the Russian roulette depth (default off); `--mitsuba-samplers` lists
 Mitsuba samplers (`independent` is Mitsuba's default; `multijitter`,
 `stratified`, `ldsampler` and `orthogonal` stratify). The reference is pathmix
 with the Sobol sampler.
@@ -163,13 +164,13 @@ def mitsuba_scene(mi, scene, size, spp, max_depth, sampler):
     }
 
 
-def pathmix(args, spp, out, seed, strategy="mixture", sampler="sobol"):
+def pathmix(args, spp, out, seed, strategy="mixture", sampler="sobol", rr_depth="off"):
     """Renders with the release binary; returns the seconds it reports."""
     cmd = [
         str(ROOT / "target" / "release" / "pathmix"), "render", str(args.scene),
         "--width", str(args.size), "--height", str(args.size), "--spp", str(spp),
         "--max-depth", str(args.max_depth), "--seed", str(seed), "--quiet",
-        "--strategy", strategy, "--sampler", sampler,
+        "--strategy", strategy, "--sampler", sampler, "--rr-depth", rr_depth,
         "-o", str(out.with_suffix(".png")), "--exr", str(out),
     ]
     result = subprocess.run(cmd, capture_output=True, text=True, check=True)
@@ -188,8 +189,8 @@ def main():
     parser.add_argument("--max-depth", type=int, default=50)
     parser.add_argument("--reference-spp", type=int, default=4096)
     parser.add_argument("--out", type=Path, default=ROOT / "compare-out")
-    parser.add_argument("--pathmix", default="mixture/sobol,mixture/independent",
-                        help="pathmix runs, comma-separated strategy/sampler pairs")
+    parser.add_argument("--pathmix", default="mixture/sobol,mixture/independent,nee-mis/sobol/5",
+                        help="pathmix runs, comma-separated strategy/sampler[/roulette depth]")
     parser.add_argument("--mitsuba-samplers", default="independent,multijitter",
                         help="Mitsuba samplers, comma-separated")
     args = parser.parse_args()
@@ -210,12 +211,13 @@ def main():
 
     # pathmix: the reported time excludes start-up; warm the pipeline cache first.
     for variant in args.pathmix.split(","):
-        strategy, sampler = variant.split("/")
-        out = args.out / f"pathmix-{strategy}-{sampler}.exr"
-        pathmix(args, 1, args.out / "pathmix-warm.exr", 1, strategy, sampler)
-        seconds = pathmix(args, args.spp, out, 1, strategy, sampler)
+        strategy, sampler, rr_depth = (variant.split("/") + ["off"])[:3]
+        out = args.out / f"pathmix-{strategy}-{sampler}-rr{rr_depth}.exr"
+        pathmix(args, 1, args.out / "pathmix-warm.exr", 1, strategy, sampler, rr_depth)
+        seconds = pathmix(args, args.spp, out, 1, strategy, sampler, rr_depth)
         image = np.array(mi.Bitmap(str(out)), dtype=np.float64)[..., :3]
-        rows.append((f"pathmix ({strategy}, {sampler})", seconds, image))
+        roulette = "" if rr_depth == "off" else f", roulette from {rr_depth}"
+        rows.append((f"pathmix ({strategy}, {sampler}{roulette})", seconds, image))
     ours = len(rows)
 
     # Mitsuba: the first render JIT-compiles its kernels; time a second one.

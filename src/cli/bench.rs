@@ -6,7 +6,7 @@ use pathmix::bench::{self, Measurement};
 use pathmix::gpu::GpuContext;
 use pathmix::kernel::AccumulatorKind;
 use pathmix::render::RenderOptions;
-use pathmix::scene::{Scene, SceneOverrides};
+use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -83,28 +83,46 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     } else {
         AccumulatorKind::Buffer
     };
+    // Renderer options, and scene settings changed from the scene file's.
+    let options = |options: RenderOptions| (options, SceneOverrides::default());
+    let settings = |overrides: SceneOverrides| (RenderOptions::default(), overrides);
     let configurations = [
-        ("specialised", RenderOptions::default()),
+        ("specialised", options(RenderOptions::default())),
         (
             "general kernel",
-            RenderOptions {
+            options(RenderOptions {
                 general_kernel: true,
                 ..RenderOptions::default()
-            },
+            }),
         ),
         (
             "+ variance sums",
-            RenderOptions {
+            options(RenderOptions {
                 variance: true,
                 ..RenderOptions::default()
-            },
+            }),
         ),
         (
             "buffer accumulator",
-            RenderOptions {
+            options(RenderOptions {
                 accumulator: Some(AccumulatorKind::Buffer),
                 ..RenderOptions::default()
-            },
+            }),
+        ),
+        (
+            "independent sampler",
+            settings(SceneOverrides {
+                sampler: Some(Sampler::Independent),
+                ..Default::default()
+            }),
+        ),
+        (
+            "nee-mis, roulette from 5",
+            settings(SceneOverrides {
+                strategy: Some(Strategy::NeeMis),
+                rr_depth: Some(Some(5)),
+                ..Default::default()
+            }),
         ),
     ];
     for case in &CASES {
@@ -122,10 +140,12 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             case.samples
         };
         let mut baseline: Option<Measurement> = None;
-        for (name, options) in &configurations {
+        for (name, (options, overrides)) in &configurations {
             if *name == "buffer accumulator" && default_accumulator == AccumulatorKind::Buffer {
                 continue;
             }
+            let mut scene = scene.clone();
+            scene.apply_overrides(overrides).map_err(Failure::runtime)?;
             let m = bench::measure(&ctx, &scene, options, samples, repetitions)
                 .map_err(Failure::runtime)?;
             let ratio = baseline
