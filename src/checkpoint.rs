@@ -559,6 +559,20 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
             .map(str::to_string)
             .ok_or_else(|| format!("missing `{key}`"))
     };
+    fn named_in<T>(
+        overrides: &toml::Table,
+        key: &str,
+        from_name: fn(&str) -> Option<T>,
+    ) -> Result<Option<T>, String> {
+        overrides
+            .get(key)
+            .map(|v| {
+                v.as_str()
+                    .and_then(from_name)
+                    .ok_or_else(|| format!("`overrides.{key}` is not a {key}"))
+            })
+            .transpose()
+    }
     fn u32_in(table: &toml::Table, name: &str, key: &str) -> Result<Option<u32>, String> {
         table
             .get(key)
@@ -581,14 +595,7 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
         height: u32_in(o, "overrides", "height")?,
         max_depth: u32_in(o, "overrides", "max_depth")?,
         seed: u32_in(o, "overrides", "seed")?,
-        strategy: match o.get("strategy") {
-            None => None,
-            Some(v) => Some(
-                v.as_str()
-                    .and_then(Strategy::from_name)
-                    .ok_or("`overrides.strategy` is not a strategy")?,
-            ),
-        },
+        strategy: named_in(o, "strategy", Strategy::from_name)?,
         light_weight: match o.get("light_weight") {
             None => None,
             Some(v) => Some(
@@ -605,14 +612,7 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
                     .ok_or("`overrides.rr_depth` is not a depth or `off`")?,
             )),
         },
-        sampler: match o.get("sampler") {
-            None => None,
-            Some(v) => Some(
-                v.as_str()
-                    .and_then(Sampler::from_name)
-                    .ok_or("`overrides.sampler` is not a sampler")?,
-            ),
-        },
+        sampler: named_in(o, "sampler", Sampler::from_name)?,
     };
     let s = table("state")?;
     let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| format!("missing `state.{key}`"));

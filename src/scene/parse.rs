@@ -317,32 +317,32 @@ fn default_render() -> RenderSettings {
 fn parse_render(t: &Tab) -> Result<RenderSettings> {
     t.check_keys(RENDER_KEYS, None)?;
     let d = default_render();
-    let strategy = match t.string("strategy")? {
-        None => d.strategy,
-        Some(name) => Strategy::from_name(name).ok_or_else(|| {
-            let names: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
-            t.err(t.at("strategy"), unknown_name("strategy", name, &names))
-        })?,
-    };
-    let sampler = match t.string("sampler")? {
-        None => d.sampler,
-        Some(name) => Sampler::from_name(name).ok_or_else(|| {
-            let names: Vec<&str> = Sampler::ALL.iter().map(|s| s.name()).collect();
-            t.err(t.at("sampler"), unknown_name("sampler", name, &names))
-        })?,
-    };
     Ok(RenderSettings {
         spp: t.int("spp", SPP)?.unwrap_or(d.spp),
         max_depth: t.int("max_depth", MAX_DEPTH)?.unwrap_or(d.max_depth),
-        strategy,
+        strategy: named(t, "strategy", &Strategy::ALL, Strategy::name)?.unwrap_or(d.strategy),
         light_weight: t
             .float("light_weight", check_unit)?
             .unwrap_or(d.light_weight),
         background: t.vec3("background", check_nonneg)?.unwrap_or(d.background),
         seed: t.int("seed", SEED)?.unwrap_or(d.seed),
         rr_depth: t.int("rr_depth", MAX_DEPTH)?.or(d.rr_depth),
-        sampler,
+        sampler: named(t, "sampler", &Sampler::ALL, Sampler::name)?.unwrap_or(d.sampler),
     })
+}
+
+/// A setting given by the name of one of `all`.
+fn named<T: Copy>(t: &Tab, key: &str, all: &[T], name: fn(T) -> &'static str) -> Result<Option<T>> {
+    let Some(given) = t.string(key)? else {
+        return Ok(None);
+    };
+    match all.iter().copied().find(|&v| name(v) == given) {
+        Some(v) => Ok(Some(v)),
+        None => {
+            let names: Vec<&str> = all.iter().map(|&v| name(v)).collect();
+            Err(t.err(t.at(key), unknown_name(key, given, &names)))
+        }
+    }
 }
 
 fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
@@ -1575,6 +1575,14 @@ material = "white"
             "render.strategy",
             &["did you mean `mixture`?", "`cosine`"],
         );
+        let e = error("light_weight = 0.5", "sampler = \"sobl\"");
+        assert_error(
+            &e,
+            "render.sampler",
+            &["did you mean `sobol`?", "`independent`"],
+        );
+        let e = error("light_weight = 0.5", "sampler = 1");
+        assert_error(&e, "render.sampler", &["expected a string"]);
         let e = error("[render]", "[scene]\nscale = 0\n[render]");
         assert_error(&e, "scene.scale", &["must be > 0"]);
         let e = error("[render]", "[scene]\nscale = 1e30\n[render]");
