@@ -41,13 +41,14 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
 
     println!("scene: {}", scene.source);
     println!(
-        "  camera {}x{}, {} spp, max depth {}, strategy {}, light weight {}",
+        "  camera {}x{}, {} spp, max depth {}, strategy {}, light weight {}, {} sampler",
         width,
         height,
         scene.render.spp,
         scene.render.max_depth,
         strategy,
-        scene.render.light_weight
+        scene.render.light_weight,
+        scene.render.sampler
     );
     let kinds: Vec<&str> = ["lambertian", "metal", "dielectric", "light"]
         .into_iter()

@@ -534,9 +534,10 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     let (width, height) = renderer.size();
     eprintln!("adapter: {}", ctx.describe());
     eprintln!(
-        "scene: {}  {width}x{height}  strategy {}  max depth {}  stop: {}",
+        "scene: {}  {width}x{height}  strategy {}  {} sampler  max depth {}  stop: {}",
         scene.source,
         renderer.config().strategy,
+        renderer.config().sampler,
         scene.render.max_depth,
         describe_stop(&stop),
     );
