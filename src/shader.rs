@@ -117,6 +117,12 @@ fn preprocess(module: &ShaderModule, directives: &Directives) -> Result<String, 
             }
             open.push((number, directives.flags.contains(flag) != negated, false));
         } else if trimmed == "#else" {
+            if for_each.as_ref().is_some_and(|f| open.len() == f.open_ifs) {
+                return Err(error(
+                    number,
+                    "`#else` of an `#if` opened before `#for_each`".into(),
+                ));
+            }
             match open.last_mut() {
                 Some((_, _, in_else @ false)) => *in_else = true,
                 Some(_) => return Err(error(number, "second `#else` for one `#if`".into())),
@@ -140,8 +146,8 @@ fn preprocess(module: &ShaderModule, directives: &Directives) -> Result<String, 
             let [item, "in", array] = words[..] else {
                 return Err(error(number, "expected `#for_each ITEM in ARRAY`".into()));
             };
-            let kept = kept(&open);
-            if kept && !directives.arrays.contains_key(array) {
+            let active = kept(&open);
+            if active && !directives.arrays.contains_key(array) {
                 return Err(error(
                     number,
                     format!("array `{array}` is not in this kernel"),
@@ -151,7 +157,7 @@ fn preprocess(module: &ShaderModule, directives: &Directives) -> Result<String, 
                 line: number,
                 item: item.to_string(),
                 array: array.to_string(),
-                kept,
+                kept: active,
                 open_ifs: open.len(),
                 body: String::new(),
             });
@@ -354,5 +360,6 @@ mod tests {
             error("#if A\n#for_each q in quads\n#endif\n#end_for\n").0,
             3
         );
+        assert_eq!(error("#if A\n#for_each q in quads\n#else\n#end_for\n").0, 3);
     }
 }
