@@ -11,7 +11,7 @@ use crate::kernel::{
     AccumulatorKind, BINDING_LIGHT_QUADS, BINDING_LIGHT_SPHERES, BINDING_MATERIALS, BINDING_QUADS,
     BINDING_SPHERES, KernelConfig, SceneStorage, WORKGROUP_SIZE,
 };
-use crate::scene::{Scene, Strategy};
+use crate::scene::{Sampler, Scene, Strategy};
 use crate::stats::Accumulation;
 use std::fmt;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -675,6 +675,7 @@ pub fn run_with<E: From<RenderError>>(
         (samples - start_samples) as f64 * pixels / elapsed.as_secs_f64().max(1e-9)
     };
     let mut relative_error = None;
+    let mut errors = ErrorEstimator::new(renderer);
     let mut last_error_check: Option<Instant> = None;
     let reason = loop {
         if stop_requested.load(Ordering::SeqCst) {
@@ -694,11 +695,15 @@ pub fn run_with<E: From<RenderError>>(
                 break StopReason::TargetError;
             }
         }
-        renderer.advance(stop.max_samples - renderer.samples());
+        let samples = renderer.samples();
+        renderer.advance((stop.max_samples - samples).min(errors.samples_to_boundary(samples)));
+        let updated = errors.after_submission(renderer);
         let elapsed = started.elapsed();
         let wants_error = renderer.config().variance && renderer.samples() >= MIN_SAMPLES_FOR_ERROR;
-        if wants_error && last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL) {
-            relative_error = renderer.accumulation().relative_error();
+        if wants_error
+            && (updated || last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL))
+        {
+            relative_error = errors.estimate(renderer);
             last_error_check = Some(Instant::now());
         }
         between(
@@ -730,7 +735,7 @@ pub fn run_with<E: From<RenderError>>(
         .into());
     }
     if renderer.config().variance && reason != StopReason::TargetError {
-        relative_error = renderer.accumulation().relative_error();
+        relative_error = errors.estimate(renderer);
     }
     Ok(RunSummary {
         samples: renderer.samples(),
@@ -742,6 +747,70 @@ pub fn run_with<E: From<RenderError>>(
         reason,
         relative_error,
     })
+}
+
+/// The relative error a run reports and stops on. With independent samples it is
+/// the per-pixel sample variance's ([`Accumulation::relative_error`]). Under the
+/// Sobol sampler that overstates the error (3.8x in a test), so the run also keeps
+/// the sums at each power of two `n` and, at `2n`, estimates the error from the two
+/// halves ([`Accumulation::split_relative_error`]). Between powers of two that
+/// estimate is scaled by `sqrt(2n / samples)`, the rate of independent samples;
+/// Sobol's error falls faster, so the scaled estimate errs high.
+struct ErrorEstimator {
+    /// Sobol samples from index 0 (the halves are then aligned nets) with variance on.
+    split: bool,
+    /// The sums at the last power of two.
+    snapshot: Option<Accumulation>,
+    /// The last split estimate, and the sample count it was made at.
+    latest: Option<(u32, f64)>,
+}
+
+impl ErrorEstimator {
+    fn new(renderer: &Renderer) -> ErrorEstimator {
+        let config = renderer.config();
+        ErrorEstimator {
+            split: config.variance
+                && config.sampler == Sampler::Sobol
+                && renderer.first_sample() == 0,
+            snapshot: None,
+            latest: None,
+        }
+    }
+
+    /// Most samples the next submission may add: up to the next power of two, where
+    /// the split estimate needs the sums.
+    fn samples_to_boundary(&self, samples: u32) -> u32 {
+        match (samples + 1).checked_next_power_of_two() {
+            Some(boundary) if self.split => boundary - samples,
+            _ => u32::MAX,
+        }
+    }
+
+    /// After each submission: at a power of two, reads the sums back, estimates
+    /// against the previous power of two and keeps them. True if the estimate changed.
+    fn after_submission(&mut self, renderer: &Renderer) -> bool {
+        let samples = renderer.samples();
+        if !self.split || !samples.is_power_of_two() || samples < MIN_SAMPLES_FOR_ERROR / 2 {
+            return false;
+        }
+        let accumulation = renderer.accumulation();
+        let estimate = self
+            .snapshot
+            .as_ref()
+            .and_then(|half| accumulation.split_relative_error(half));
+        self.snapshot = Some(accumulation);
+        if let Some(error) = estimate {
+            self.latest = Some((samples, error));
+        }
+        estimate.is_some()
+    }
+
+    fn estimate(&self, renderer: &Renderer) -> Option<f64> {
+        match self.latest {
+            Some((at, error)) => Some(error * (at as f64 / renderer.samples() as f64).sqrt()),
+            None => renderer.accumulation().relative_error(),
+        }
+    }
 }
 
 /// Time left: the soonest of the sample cap, the time budget, and the samples

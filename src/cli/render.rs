@@ -147,10 +147,10 @@ impl From<StrategyArg> for Strategy {
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum SamplerArg {
-    /// Owen-scrambled Sobol points, stratified per pixel (the default); the error
-    /// estimate then overstates the error.
+    /// Owen-scrambled Sobol points, stratified per pixel (the default); the
+    /// per-pixel standard error (--variance) then overstates the error.
     Sobol,
-    /// Independent random numbers; the error estimate is unbiased.
+    /// Independent random numbers; the per-pixel standard error is unbiased.
     Independent,
 }
 
