@@ -780,7 +780,7 @@ impl ErrorEstimator {
     /// Most samples the next submission may add: up to the next power of two, where
     /// the split estimate needs the sums.
     fn samples_to_boundary(&self, samples: u32) -> u32 {
-        match (samples + 1).checked_next_power_of_two() {
+        match samples.saturating_add(1).checked_next_power_of_two() {
             Some(boundary) if self.split => boundary - samples,
             _ => u32::MAX,
         }
@@ -793,11 +793,13 @@ impl ErrorEstimator {
         if !self.split || !samples.is_power_of_two() || samples < MIN_SAMPLES_FOR_ERROR / 2 {
             return false;
         }
-        let accumulation = renderer.accumulation();
+        let mut accumulation = renderer.accumulation();
         let estimate = self
             .snapshot
             .as_ref()
             .and_then(|half| accumulation.split_relative_error(half));
+        // Only the sums are needed later.
+        accumulation.sum_sq = None;
         self.snapshot = Some(accumulation);
         if let Some(error) = estimate {
             self.latest = Some((samples, error));
