@@ -7,7 +7,7 @@ use pathmix::converge::{
     Verdict,
 };
 use pathmix::output::{self, Image};
-use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
+use pathmix::scene::{Sampler, SceneOverrides, Strategy};
 use pathmix::stats;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -25,19 +25,6 @@ fn temp_dir(name: &str) -> PathBuf {
 }
 
 /// The Cornell box with two boxes, small and at depth 8 (as in tests/render.rs).
-fn small_cornell(size: u32, sampler: Sampler) -> Scene {
-    common::scene_with(
-        "cornell-boxes.toml",
-        SceneOverrides {
-            width: Some(size),
-            height: Some(size),
-            max_depth: Some(8),
-            sampler: Some(sampler),
-            ..Default::default()
-        },
-    )
-}
-
 /// One study serves every check on the command's outputs. The ladder goes to 1024 spp:
 /// on this scene the light strategy's bias (about 0.045 RMS) stays below its noise up to
 /// about 64 spp, where no measurement can tell it from noise. At 1024 spp its error is
@@ -47,7 +34,7 @@ fn small_cornell(size: u32, sampler: Sampler) -> Scene {
 #[test]
 fn converge_measures_flags_and_writes_its_report() {
     let ctx = gpu_or_skip!();
-    let scene = small_cornell(32, Sampler::Independent);
+    let scene = common::small_cornell_boxes(32, Sampler::Independent);
     let scene_bytes = std::fs::read(scene_path("cornell-boxes.toml")).unwrap();
     let dir = temp_dir("study");
     let variants = [Variant::COSINE, Variant::LIGHT, Variant::mixture(0.5)];
@@ -165,7 +152,7 @@ fn converge_measures_flags_and_writes_its_report() {
 fn standard_error_predicts_the_measured_error() {
     let ctx = gpu_or_skip!();
     let render = |strategy, sampler, spp, seed| {
-        let mut scene = small_cornell(32, sampler);
+        let mut scene = common::small_cornell_boxes(32, sampler);
         scene
             .apply_overrides(&SceneOverrides {
                 strategy: Some(strategy),
@@ -356,7 +343,7 @@ fn converge_command_renders_then_reuses_its_reference() {
 #[test]
 fn reset_restarts_the_accumulation_exactly() {
     let ctx = gpu_or_skip!();
-    let mut scene = small_cornell(16, Sampler::Sobol);
+    let mut scene = common::small_cornell_boxes(16, Sampler::Sobol);
     scene
         .apply_overrides(&SceneOverrides {
             spp: Some(5),

@@ -4,7 +4,7 @@ mod common;
 
 use pathmix::output::Image;
 use pathmix::render::{self, RenderOptions, Renderer, StopReason, StopRule};
-use pathmix::scene::{Sampler, SceneOverrides};
+use pathmix::scene::Sampler;
 use pathmix::stats::luminance;
 use std::time::Duration;
 
@@ -13,17 +13,9 @@ fn small_cornell() -> pathmix::scene::Scene {
 }
 
 fn cornell(size: u32, sampler: Sampler, seed: u32) -> pathmix::scene::Scene {
-    common::scene_with(
-        "cornell-boxes.toml",
-        SceneOverrides {
-            width: Some(size),
-            height: Some(size),
-            max_depth: Some(8),
-            sampler: Some(sampler),
-            seed: Some(seed),
-            ..Default::default()
-        },
-    )
+    let mut scene = common::small_cornell_boxes(size, sampler);
+    scene.render.seed = seed;
+    scene
 }
 
 /// The relative error as `Accumulation::relative_error` defines it, measured: the RMS

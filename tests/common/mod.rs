@@ -3,7 +3,7 @@
 
 use pathmix::gpu::GpuContext;
 use pathmix::render::{RenderOptions, Renderer};
-use pathmix::scene::{Scene, SceneOverrides};
+use pathmix::scene::{Sampler, Scene, SceneOverrides};
 use pathmix::stats::Accumulation;
 use std::sync::OnceLock;
 
@@ -50,6 +50,21 @@ pub fn scene_with(name: &str, overrides: SceneOverrides) -> Scene {
     let mut scene = scene_file(name);
     scene.apply_overrides(&overrides).unwrap();
     scene
+}
+
+/// The Cornell boxes at `size`×`size`, max depth 8: small enough to render
+/// thousands of samples per pixel within a test.
+pub fn small_cornell_boxes(size: u32, sampler: Sampler) -> Scene {
+    scene_with(
+        "cornell-boxes.toml",
+        SceneOverrides {
+            width: Some(size),
+            height: Some(size),
+            max_depth: Some(8),
+            sampler: Some(sampler),
+            ..Default::default()
+        },
+    )
 }
 
 /// A one-pixel camera at the origin looking down +z through a `vfov`-degree view at
