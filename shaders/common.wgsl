@@ -67,13 +67,13 @@ struct Hit {
 // branches, so every new sample count or tile size recompiled it (measured: 3.5x
 // the render time of a 512-spp run without the shader cache). `load_params`
 // copies them into private memory once per invocation.
-@group(0) @binding(0) var<storage, read> dispatch_params: Params;
+@group(0) @binding(BINDING_PARAMS) var<storage, read> dispatch_params: Params;
 var<private> params: Params;
 
 fn load_params() {
     params = dispatch_params;
 }
-@group(0) @binding(2) var<storage, read_write> counters: Counters;
+@group(0) @binding(BINDING_COUNTERS) var<storage, read_write> counters: Counters;
 
 fn no_hit() -> Hit {
     return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), 0u);

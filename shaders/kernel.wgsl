@@ -7,11 +7,6 @@
 // samples, and the arithmetic per pixel does not depend on how samples are split
 // across dispatches.
 
-const LAYER_SUM: u32 = 0u;
-const LAYER_SUM_COMPENSATION: u32 = 1u;
-const LAYER_SQUARES: u32 = 2u;
-const LAYER_SQUARES_COMPENSATION: u32 = 3u;
-
 struct CompensatedSum {
     sum: vec3<f32>,
     compensation: vec3<f32>,
@@ -58,7 +53,7 @@ fn camera_ray(pixel: vec2<u32>) -> Ray {
     return Ray(params.origin, normalize(to_film));
 }
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(WORKGROUP_SIZE_X, WORKGROUP_SIZE_Y, 1)
 fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     load_params();
     if id.x >= params.tile_size.x || id.y >= params.tile_size.y {
@@ -80,7 +75,9 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     var radiance = vec3<f32>(0.0);
     var depth = 0u;
 #if STRATEGY_NEE
-    // Densities of the last bounce's direction; bsdf 0: camera ray or specular bounce.
+    // How the last bounce drew the ray: a delta lobe (or the camera) counts the
+    // emission it finds fully; otherwise the densities give its MIS weight.
+    var last_delta = true;
     var last_bsdf_pdf = 0.0;
     var last_light_pdf = 0.0;
 #endif
@@ -96,9 +93,9 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             let front_face = dot(ray.dir, hit.normal) < 0.0;
             if front_face {
 #if STRATEGY_NEE
-                // After a diffuse bounce the shadow ray could have found this emitter too.
+                // After a smooth bounce the shadow ray could have found this emitter too.
                 var mis = 1.0;
-                if last_bsdf_pdf > 0.0 {
+                if !last_delta {
                     mis = power_heuristic(last_bsdf_pdf, last_light_pdf);
                 }
                 radiance += throughput * material.emit * mis;
@@ -109,14 +106,25 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             if depth == MAX_DEPTH {
                 path_done = true;
             } else {
-                let n = select(-hit.normal, hit.normal, front_face);
-                let scattered = scatter(material, n, ray.dir, hit.p + n * params.ray_offset, front_face);
+                let frame = Frame(select(-hit.normal, hit.normal, front_face), front_face);
+                let scattered = scatter(material, frame, -ray.dir, hit.p + frame.n * params.ray_offset);
+#if STRATEGY_NEE
+                // The shadow ray is traced within the vertex's iteration. As an
+                // iteration of its own, lanes drifted out of step (some tracing
+                // shadow rays while others shade), which cost 18-38% of the speed.
+                if any(scattered.shadow_weight > vec3<f32>(0.0)) {
+                    let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir), scattered.shadow_dir);
+                    let shadow_hit = intersect_scene(shadow_ray);
+                    segments += 1u;
+                    // Unoccluded emitter facing the shading point: the light sample's contribution.
+                    if shadow_hit.t < F32_MAX && dot(shadow_ray.dir, shadow_hit.normal) < 0.0 {
+                        radiance += throughput * scattered.shadow_weight * materials_at(shadow_hit.material).emit;
+                    }
+                }
+#endif
                 if scattered.absorbed {
                     path_done = true;
                 } else {
-#if STRATEGY_NEE
-                    let vertex_throughput = throughput;
-#endif
                     throughput *= scattered.weight;
                     ray = Ray(offset_origin(hit.p, hit.normal, scattered.dir), scattered.dir);
                     depth += 1u;
@@ -130,20 +138,9 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
                         }
                     }
 #if STRATEGY_NEE
+                    last_delta = scattered.delta;
                     last_bsdf_pdf = scattered.bsdf_pdf;
                     last_light_pdf = scattered.light_pdf;
-                    // The shadow ray is traced within the vertex's iteration. As an
-                    // iteration of its own, lanes drifted out of step (some tracing
-                    // shadow rays while others shade), which cost 18-38% of the speed.
-                    if any(scattered.shadow_weight > vec3<f32>(0.0)) {
-                        let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir), scattered.shadow_dir);
-                        let shadow_hit = intersect_scene(shadow_ray);
-                        segments += 1u;
-                        // Unoccluded emitter facing the shading point: the light sample's contribution.
-                        if shadow_hit.t < F32_MAX && dot(shadow_ray.dir, shadow_hit.normal) < 0.0 {
-                            radiance += vertex_throughput * scattered.shadow_weight * materials_at(shadow_hit.material).emit;
-                        }
-                    }
 #endif
                 }
             }
@@ -168,7 +165,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             radiance = vec3<f32>(0.0);
             depth = 0u;
 #if STRATEGY_NEE
-            last_bsdf_pdf = 0.0;
+            last_delta = true;
 #endif
         }
     }

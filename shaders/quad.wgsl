@@ -32,6 +32,15 @@ fn quad_hit_t(quad: Quad, ray: Ray, t_max: f32) -> f32 {
     return t;
 }
 
+// The closest hit keeps the normal: the plane's, the same at every point.
+fn quad_hit_keep(quad: Quad) -> vec4<f32> {
+    return vec4<f32>(quad.normal, 0.0);
+}
+
+fn quad_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
+    return keep.xyz;
+}
+
 // Direction from `origin` to a uniformly chosen point on the quad.
 fn quad_light_sample(quad: Quad, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let target_point = quad.q + u.x * quad.u + u.y * quad.v;

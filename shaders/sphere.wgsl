@@ -33,6 +33,15 @@ fn sphere_hit_t(sphere: Sphere, ray: Ray, t_max: f32) -> f32 {
     return -1.0;
 }
 
+// The closest hit keeps the centre and radius, from which the normal follows.
+fn sphere_hit_keep(sphere: Sphere) -> vec4<f32> {
+    return vec4<f32>(sphere.center, sphere.radius);
+}
+
+fn sphere_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
+    return (p - keep.xyz) / keep.w;
+}
+
 // 1 - cos(theta_max) of the cone the sphere subtends, computed without cancellation
 // so a pin-point sphere still gets a finite density.
 fn sphere_cone_one_minus_cos(radius: f32, dist2: f32) -> f32 {

@@ -693,7 +693,7 @@ mod tests {
             overrides: SceneOverrides {
                 width: Some(3),
                 height: Some(2),
-                strategy: Some(Strategy::Cosine),
+                strategy: Some(Strategy::Bsdf),
                 light_weight: Some(0.3),
                 sampler: Some(Sampler::Independent),
                 ..Default::default()

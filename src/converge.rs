@@ -40,8 +40,8 @@ impl Variant {
     /// The light weight `mixture` means when none is given.
     pub const DEFAULT_LIGHT_WEIGHT: f32 = 0.5;
 
-    pub const COSINE: Variant = Variant {
-        strategy: Strategy::Cosine,
+    pub const BSDF: Variant = Variant {
+        strategy: Strategy::Bsdf,
         light_weight: None,
     };
     pub const LIGHT: Variant = Variant {
@@ -63,7 +63,7 @@ impl Variant {
     /// cosine, light, next-event estimation, and the mixture at light weights 0.25, 0.5, 0.75.
     pub fn defaults() -> Vec<Variant> {
         vec![
-            Variant::COSINE,
+            Variant::BSDF,
             Variant::LIGHT,
             Variant::NEE_MIS,
             Variant::mixture(0.25),
@@ -890,7 +890,7 @@ mod tests {
 
     #[test]
     fn variants_parse_and_print() {
-        assert_eq!(Variant::parse("cosine"), Ok(Variant::COSINE));
+        assert_eq!(Variant::parse("cosine"), Ok(Variant::BSDF));
         assert_eq!(Variant::parse(" light "), Ok(Variant::LIGHT));
         assert_eq!(Variant::parse("mixture"), Ok(Variant::mixture(0.5)));
         assert_eq!(Variant::parse("mixture:0.25"), Ok(Variant::mixture(0.25)));
@@ -902,7 +902,7 @@ mod tests {
         assert_eq!(
             names,
             [
-                "cosine",
+                "bsdf",
                 "light",
                 "nee-mis",
                 "mixture:0.25",

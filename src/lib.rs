@@ -12,6 +12,7 @@ pub mod checkpoint;
 pub mod converge;
 pub mod gpu;
 pub mod kernel;
+pub mod kinds;
 pub mod output;
 pub mod render;
 pub mod scene;

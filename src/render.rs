@@ -2,15 +2,11 @@
 //! the running sums back, and the rules that stop a run.
 
 use crate::gpu::accumulator::{Accumulator, map_read};
-use crate::gpu::layout::{
-    CameraFrame, Counters, Params, Quad, RAY_OFFSET_RELATIVE, SceneData, Sphere,
-};
+use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Kernel};
 use crate::gpu::{GpuContext, GpuError};
-use crate::kernel::{
-    AccumulatorKind, BINDING_LIGHT_QUADS, BINDING_LIGHT_SPHERES, BINDING_MATERIALS, BINDING_QUADS,
-    BINDING_SPHERES, KernelConfig, SceneStorage, WORKGROUP_SIZE,
-};
+use crate::kernel::{AccumulatorKind, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE};
+use crate::kinds::PRIMITIVE_KINDS;
 use crate::scene::{Sampler, Scene, Strategy};
 use crate::stats::Accumulation;
 use std::fmt;
@@ -102,44 +98,19 @@ impl<'a> Renderer<'a> {
         options: &RenderOptions,
     ) -> Result<Renderer<'a>, RenderError> {
         let settings = &scene.render;
-        let (data, strategy, warnings) = prepare_scene(scene, settings.strategy)?;
         let (width, height) = (scene.camera.width, scene.camera.height);
-        let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
-        // The general kernel reads the scene from buffers, as a kernel not specialised
-        // to any scene would.
-        let scene_storage = match options.scene_storage {
-            _ if options.general_kernel => SceneStorage::Buffers,
-            Some(storage) => storage,
-            None => SceneStorage::auto(&data),
-        };
-        if scene_storage == SceneStorage::Baked && !data.is_finite() {
-            return Err(RenderError::Unsupported(format!(
-                "{}: a scene with non-finite numbers cannot be baked into the kernel; \
-                 use --scene-storage buffers",
-                scene.source
-            )));
-        }
-        let config = KernelConfig::for_scene(
-            &data,
-            strategy,
-            settings,
-            accumulator_kind,
-            options.variance,
-            scene_storage,
-        );
-        let config = if options.general_kernel {
-            config.generalized()
-        } else {
-            config
-        };
-        check_size(ctx, &config, width, height)?;
+        let KernelPlan {
+            data,
+            config,
+            warnings,
+        } = plan_kernel(ctx, scene, options)?;
         let max_samples_per_dispatch = max_samples_per_dispatch(&data, &config);
         let kernel = Kernel::new(ctx, config).map_err(|e| {
             RenderError::Unsupported(format!("internal shader composition error: {e}"))
         })?;
         let accumulator = Accumulator::new(
             ctx,
-            accumulator_kind,
+            kernel.config.accumulator,
             width,
             height,
             kernel.config.accumulator_layers(),
@@ -196,23 +167,20 @@ impl<'a> Renderer<'a> {
             .into_iter()
             .map(|binding| {
                 // A general kernel may declare kinds the scene lacks; bindings cannot be empty.
-                let (no_quad, no_sphere) = ([Quad::never_hit()], [Sphere::never_hit()]);
-                let contents: &[u8] = match binding {
-                    BINDING_MATERIALS => bytemuck::cast_slice(&data.materials),
-                    BINDING_QUADS if data.quads.is_empty() => bytemuck::cast_slice(&no_quad),
-                    BINDING_QUADS => bytemuck::cast_slice(&data.quads),
-                    BINDING_SPHERES if data.spheres.is_empty() => bytemuck::cast_slice(&no_sphere),
-                    BINDING_SPHERES => bytemuck::cast_slice(&data.spheres),
-                    BINDING_LIGHT_QUADS => bytemuck::cast_slice(&data.light_quads),
-                    BINDING_LIGHT_SPHERES => bytemuck::cast_slice(&data.light_spheres),
-                    _ => unreachable!("binding {binding} is not a scene binding"),
+                let never_hit;
+                let contents = match binding.source {
+                    ArraySource::Primitives(k) if data.primitives[k].is_empty() => {
+                        never_hit = (PRIMITIVE_KINDS[k].never_hit)();
+                        &never_hit[..]
+                    }
+                    source => data.array_bytes(source),
                 };
                 let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("scene"),
                     contents,
                     usage: wgpu::BufferUsages::STORAGE,
                 });
-                (binding, buffer)
+                (binding.binding, buffer)
             })
             .collect();
         let scene_entries: Vec<_> = scene_buffers
@@ -447,10 +415,63 @@ pub struct AccumulatorState {
     pub texels: Vec<[f32; 4]>,
 }
 
+/// What a run's kernel is: the packed scene, the kernel configuration, and what
+/// the user should be told. Decided once, here, for `Renderer::new` and `info`.
+pub struct KernelPlan {
+    pub data: SceneData,
+    pub config: KernelConfig,
+    pub warnings: Vec<String>,
+}
+
+/// The kernel `Renderer::new` builds for `scene` under `options` on `ctx`.
+pub fn plan_kernel(
+    ctx: &GpuContext,
+    scene: &Scene,
+    options: &RenderOptions,
+) -> Result<KernelPlan, RenderError> {
+    let settings = &scene.render;
+    let (data, strategy, warnings) = prepare_scene(scene, settings.strategy)?;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
+    // The general kernel reads the scene from buffers, as a kernel not specialised
+    // to any scene would.
+    let scene_storage = match options.scene_storage {
+        _ if options.general_kernel => SceneStorage::Buffers,
+        Some(storage) => storage,
+        None => SceneStorage::auto(&data),
+    };
+    if scene_storage == SceneStorage::Baked && !data.is_finite() {
+        return Err(RenderError::Unsupported(format!(
+            "{}: a scene with non-finite numbers cannot be baked into the kernel; \
+             use --scene-storage buffers",
+            scene.source
+        )));
+    }
+    let config = KernelConfig::for_scene(
+        &data,
+        strategy,
+        settings,
+        accumulator_kind,
+        options.variance,
+        scene_storage,
+    );
+    let config = if options.general_kernel {
+        config.generalized()
+    } else {
+        config
+    };
+    check_size(ctx, &config, width, height)?;
+    Ok(KernelPlan {
+        data,
+        config,
+        warnings,
+    })
+}
+
 /// The scene packed for a run with the `wanted` strategy, the strategy the run
 /// really uses, and what the user should be told. Next-event estimation aims only
 /// at emitters (a shadow ray toward a non-emitting importance object finds no
-/// light). A strategy with nothing to aim at falls back to cosine sampling, except
+/// light). A strategy with nothing to aim at falls back to the materials' own (`bsdf`) sampling, except
 /// `light`, which is refused there and warned about everywhere (it is biased).
 pub fn prepare_scene(
     scene: &Scene,
@@ -462,7 +483,7 @@ pub fn prepare_scene(
     }
     let mut warnings = Vec::new();
     let mut strategy = wanted;
-    if data.light_count() == 0 && strategy != Strategy::Cosine {
+    if data.light_count() == 0 && strategy != Strategy::Bsdf {
         if strategy == Strategy::Light {
             return Err(RenderError::Unsupported(format!(
                 "{}: strategy `light` needs an emitting or `importance = true` object to aim at, \
@@ -471,10 +492,10 @@ pub fn prepare_scene(
             )));
         }
         warnings.push(format!(
-            "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to cosine sampling",
+            "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to bsdf sampling (the materials' own: cosine-weighted on diffuse surfaces)",
             scene.source
         ));
-        strategy = Strategy::Cosine;
+        strategy = Strategy::Bsdf;
     }
     if strategy == Strategy::Light {
         warnings.push(
@@ -527,9 +548,7 @@ const LOOP_ITERATION_BUDGET: u64 = 32768;
 pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
     let mut inner_loops = match config.scene_storage() {
         SceneStorage::Baked => 0,
-        SceneStorage::Buffers => {
-            (data.quads.len() + data.spheres.len() + data.light_count()) as u64
-        }
+        SceneStorage::Buffers => (data.primitive_count() + data.light_count()) as u64,
     };
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;

@@ -12,15 +12,33 @@
 //!
 //! Nothing else is rewritten, so what naga validates is what the modules say.
 
+use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 
-/// One WGSL source file from `shaders/`.
-#[derive(Clone, Copy, Debug)]
+/// One WGSL module: a file from `shaders/`, or text generated from the scene's
+/// kinds (`kernel::glue`).
+#[derive(Clone, Debug)]
 pub struct ShaderModule {
     pub name: &'static str,
-    pub source: &'static str,
+    pub source: Cow<'static, str>,
 }
+
+/// The module `shaders/NAME.wgsl`, compiled into the binary.
+macro_rules! shader_module {
+    ($name:literal) => {
+        $crate::shader::ShaderModule {
+            name: $name,
+            source: std::borrow::Cow::Borrowed(include_str!(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/shaders/",
+                $name,
+                ".wgsl"
+            ))),
+        }
+    };
+}
+pub(crate) use shader_module;
 
 /// Where the elements of an array that `#for_each` walks come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -228,7 +246,7 @@ mod tests {
         let arrays: BTreeMap<&str, ArrayForm> = arrays.iter().copied().collect();
         let module = ShaderModule {
             name: "test",
-            source,
+            source: source.into(),
         };
         let directives = Directives {
             flags: &flags,
@@ -289,11 +307,11 @@ mod tests {
         let modules = [
             ShaderModule {
                 name: "one",
-                source: "1\n",
+                source: "1\n".into(),
             },
             ShaderModule {
                 name: "two",
-                source: "#if A\n2\n#endif\n",
+                source: "#if A\n2\n#endif\n".into(),
             },
         ];
         let flags: BTreeSet<&str> = ["A"].into_iter().collect();

@@ -37,7 +37,7 @@ fn converge_measures_flags_and_writes_its_report() {
     let scene = common::small_cornell_boxes(32, Sampler::Independent);
     let scene_bytes = std::fs::read(scene_path("cornell-boxes.toml")).unwrap();
     let dir = temp_dir("study");
-    let variants = [Variant::COSINE, Variant::LIGHT, Variant::mixture(0.5)];
+    let variants = [Variant::BSDF, Variant::LIGHT, Variant::mixture(0.5)];
     let study = Study {
         scene: &scene,
         scene_bytes: &scene_bytes,
@@ -82,7 +82,7 @@ fn converge_measures_flags_and_writes_its_report() {
         );
     }
     let summary = |name: &str| report.summaries.iter().find(|s| s.variant == name).unwrap();
-    for name in ["cosine", "mixture:0.5"] {
+    for name in ["bsdf", "mixture:0.5"] {
         let s = summary(name);
         let slope = s.slope.unwrap();
         assert!((slope + 0.5).abs() <= 0.2, "{name}: slope {slope}");
@@ -169,7 +169,7 @@ fn standard_error_predicts_the_measured_error() {
     let mut measured_mixture = Vec::new();
     for (strategy, sampler) in [
         (Strategy::Mixture, Sampler::Independent),
-        (Strategy::Cosine, Sampler::Independent),
+        (Strategy::Bsdf, Sampler::Independent),
         (Strategy::Mixture, Sampler::Sobol),
     ] {
         let run = render(strategy, sampler, 512, 1);
@@ -318,7 +318,7 @@ fn converge_command_renders_then_reuses_its_reference() {
         String::from_utf8_lossy(&first.stderr)
     );
     assert!(stdout.contains("rendered reference"), "{stdout}");
-    assert!(stdout.contains("| cosine |") && stdout.contains("| mixture:0.25 |"));
+    assert!(stdout.contains("| bsdf |") && stdout.contains("| mixture:0.25 |"));
     for file in ["converge.md", "converge.csv", "converge.png"] {
         assert!(dir.join(file).is_file(), "{file}");
     }

@@ -44,7 +44,7 @@ fn furnace_cosine_is_exact() {
             ..common::with_variance()
         };
         for depth in [0, 1, 4] {
-            let acc = common::render(ctx, &furnace(Strategy::Cosine, 8, depth), &options);
+            let acc = common::render(ctx, &furnace(Strategy::Bsdf, 8, depth), &options);
             let expected = furnace_value(1.0, 0.5, depth) as f32;
             for pixel in acc.mean().pixels {
                 for channel in pixel {
@@ -148,7 +148,7 @@ fn baked_scene_matches_scene_buffers() {
     for (file, strategy) in [
         ("cornell.toml", Strategy::Mixture),
         ("cornell-boxes.toml", Strategy::Mixture),
-        ("cornell-boxes.toml", Strategy::Cosine),
+        ("cornell-boxes.toml", Strategy::Bsdf),
         ("furnace.toml", Strategy::Light),
     ] {
         let mut scene = common::scene_file(file);
@@ -234,7 +234,7 @@ fn mixture_has_lower_error_than_cosine_on_the_cornell_box() {
     };
     let reference = render(Strategy::Mixture, 2048, 1);
     let mixture = stats::rmse(&render(Strategy::Mixture, 16, 2), &reference);
-    let cosine = stats::rmse(&render(Strategy::Cosine, 16, 2), &reference);
+    let cosine = stats::rmse(&render(Strategy::Bsdf, 16, 2), &reference);
     eprintln!("16 spp RMSE: mixture {mixture:.5}, cosine {cosine:.5}");
     assert!(
         mixture < 0.8 * cosine,
@@ -380,7 +380,7 @@ fn general_kernel_matches_specialised_kernel() {
 fn russian_roulette_is_unbiased_in_the_furnace() {
     let ctx = gpu_or_skip!();
     let expected = furnace_value(1.0, 0.5, 6);
-    for strategy in [Strategy::Cosine, Strategy::Mixture, Strategy::NeeMis] {
+    for strategy in [Strategy::Bsdf, Strategy::Mixture, Strategy::NeeMis] {
         let mut scene = furnace(strategy, 256, 6);
         scene
             .apply_overrides(&SceneOverrides {

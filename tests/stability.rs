@@ -273,7 +273,7 @@ fn mixture_agrees_with_cosine(ctx: &GpuContext, what: &str, scene: &Scene, spp: 
     assert_agree(
         &format!("{what} (mixture vs cosine)"),
         run(Strategy::Mixture, spp.0),
-        run(Strategy::Cosine, spp.1),
+        run(Strategy::Bsdf, spp.1),
         0.01,
     );
 }
@@ -547,12 +547,12 @@ fn scene_without_emitters_falls_back_to_cosine_or_is_refused() {
     let ctx = gpu_or_skip!();
     let mixture = scene_without_emitters("mixture");
     let renderer = Renderer::new(ctx, &mixture, &RenderOptions::default()).unwrap();
-    assert_eq!(renderer.config().strategy, Strategy::Cosine);
+    assert_eq!(renderer.config().strategy, Strategy::Bsdf);
     assert!(
         renderer
             .warnings
             .iter()
-            .any(|w| w.contains("test.toml") && w.contains("falls back to cosine")),
+            .any(|w| w.contains("test.toml") && w.contains("falls back to bsdf")),
         "{:?}",
         renderer.warnings
     );

@@ -4,10 +4,13 @@ use super::Failure;
 use super::render::StrategyArg;
 use clap::Args;
 use pathmix::gpu::GpuContext;
-use pathmix::gpu::layout::{Material, Quad, Sphere};
-use pathmix::kernel::{KernelConfig, SceneStorage};
-use pathmix::render::{choose_accumulator, max_samples_per_dispatch, prepare_scene};
-use pathmix::scene::{MaterialKind, Scene, Strategy};
+use pathmix::gpu::layout::PackedArray;
+use pathmix::kernel::SceneStorage;
+use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
+use pathmix::render::{
+    KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel, prepare_scene,
+};
+use pathmix::scene::{Scene, Strategy};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -25,18 +28,10 @@ pub struct InfoArgs {
     pub adapter: Option<String>,
 }
 
-fn bytes<T>(count: usize) -> String {
-    format!(
-        "{count} x {} B = {} B",
-        size_of::<T>(),
-        count * size_of::<T>()
-    )
-}
-
 pub fn info(args: InfoArgs) -> Result<(), Failure> {
     let scene = Scene::load(&args.scene).map_err(Failure::input)?;
     let strategy = args.strategy.map_or(scene.render.strategy, Strategy::from);
-    let (data, effective, warnings) = prepare_scene(&scene, strategy).map_err(Failure::input)?;
+    let (data, _, _) = prepare_scene(&scene, strategy).map_err(Failure::input)?;
     let (width, height) = (scene.camera.width, scene.camera.height);
 
     println!("scene: {}", scene.source);
@@ -50,46 +45,44 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         scene.render.light_weight,
         scene.render.sampler
     );
-    let kinds: Vec<&str> = ["lambertian", "metal", "dielectric", "light"]
-        .into_iter()
-        .filter(|kind| {
-            scene.materials.iter().any(|m| {
-                matches!(
-                    (m.kind, *kind),
-                    (MaterialKind::Lambertian, "lambertian")
-                        | (MaterialKind::Metal { .. }, "metal")
-                        | (MaterialKind::Dielectric { .. }, "dielectric")
-                        | (MaterialKind::Light, "light")
-                )
-            })
-        })
+    let kinds: Vec<&str> = MATERIAL_KINDS
+        .iter()
+        .enumerate()
+        .filter(|&(id, _)| data.materials.iter().any(|m| m.kind as usize == id))
+        .map(|(_, kind)| kind.name)
         .collect();
+    let counts = |arrays: &[PackedArray]| -> Vec<String> {
+        PRIMITIVE_KINDS
+            .iter()
+            .zip(arrays)
+            .map(|(kind, array)| format!("{} {}", array.len(), kind.array))
+            .collect()
+    };
     println!(
-        "  {} quads, {} spheres, {} materials ({}); light density: {} quads, {} spheres",
-        data.quads.len(),
-        data.spheres.len(),
+        "  {}, {} materials ({}); light density: {}",
+        counts(&data.primitives).join(", "),
         data.materials.len(),
         kinds.join(", "),
-        data.light_quads.len(),
-        data.light_spheres.len()
+        counts(&data.lights).join(", ")
     );
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
-    let accumulator = choose_accumulator(&ctx, None, width, height).map_err(Failure::input)?;
-    let storage = SceneStorage::auto(&data);
-    let config = KernelConfig::for_scene(
-        &data,
-        effective,
-        &scene.render,
-        accumulator,
-        args.variance,
-        storage,
-    );
+    let options = RenderOptions {
+        variance: args.variance,
+        ..RenderOptions::default()
+    };
+    let mut scene = scene;
+    scene.render.strategy = strategy;
+    let KernelPlan {
+        data,
+        config,
+        warnings,
+    } = plan_kernel(&ctx, &scene, &options).map_err(Failure::input)?;
     println!("kernel:");
     for warning in warnings {
         println!("  note: {warning}");
     }
-    let flags: Vec<&str> = config.flags().into_iter().collect();
+    let flags: Vec<String> = config.flags().into_iter().collect();
     println!("  flags: {}", flags.join(" "));
     let modules: Vec<&str> = config.modules().iter().map(|m| m.name).collect();
     println!("  modules: {}", modules.join(", "));
@@ -109,29 +102,23 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         "  at most {} samples per pixel per dispatch (driver loop-limit budget)",
         max_samples_per_dispatch(&data, &config)
     );
-    match storage {
+    match config.scene_storage() {
         SceneStorage::Baked => println!(
             "scene data: compiled into the kernel as constants (at most {} objects are baked)",
             SceneStorage::MAX_BAKED_OBJECTS
         ),
         SceneStorage::Buffers => println!("scene data: storage buffers"),
     }
-    println!("  materials: {}", bytes::<Material>(data.materials.len()));
-    if config.quads {
-        println!("  quads: {}", bytes::<Quad>(data.quads.len()));
-    }
-    if config.spheres {
-        println!("  spheres: {}", bytes::<Sphere>(data.spheres.len()));
-    }
-    if config.light_quads {
-        println!("  light quads: {}", bytes::<Quad>(data.light_quads.len()));
-    }
-    if config.light_spheres {
+    for array in config.scene_arrays() {
+        let count = data.array_bytes(array.source).len() / array.element_size;
         println!(
-            "  light spheres: {}",
-            bytes::<Sphere>(data.light_spheres.len())
+            "  {}: {count} x {} B = {} B",
+            array.name.replace('_', " "),
+            array.element_size,
+            count * array.element_size
         );
     }
+    let accumulator = config.accumulator;
     let layers = config.accumulator_layers() as u64;
     println!(
         "  accumulator ({:?}): {width} x {height} x {layers} layers x 16 B = {} B",

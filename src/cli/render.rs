@@ -124,10 +124,11 @@ pub struct RenderArgs {
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum StrategyArg {
-    /// Mixture of the light density and cosine (unbiased; the default).
+    /// Mixture of the light density and the material's own sampling (unbiased; the default).
     Mixture,
-    /// Cosine-weighted hemisphere only.
-    Cosine,
+    /// The material's own sampling only (cosine-weighted for Lambertian).
+    #[value(alias = "cosine")]
+    Bsdf,
     /// Light density only: biased, misses indirect light (diagnostic).
     Light,
     /// Next-event estimation (shadow rays to emitters) with multiple importance sampling.
@@ -138,7 +139,7 @@ impl From<StrategyArg> for Strategy {
     fn from(arg: StrategyArg) -> Strategy {
         match arg {
             StrategyArg::Mixture => Strategy::Mixture,
-            StrategyArg::Cosine => Strategy::Cosine,
+            StrategyArg::Bsdf => Strategy::Bsdf,
             StrategyArg::Light => Strategy::Light,
             StrategyArg::NeeMis => Strategy::NeeMis,
         }

@@ -3,6 +3,13 @@
 use super::context::GpuContext;
 use crate::kernel::AccumulatorKind;
 
+/// The accumulator's layers: the running sum of samples, its compensation, and
+/// (with variance) the sum of squared samples and its compensation.
+pub const LAYER_SUM: u32 = 0;
+pub const LAYER_SUM_COMPENSATION: u32 = 1;
+pub const LAYER_SQUARES: u32 = 2;
+pub const LAYER_SQUARES_COMPENSATION: u32 = 3;
+
 /// Bytes per pixel per layer (one `vec4<f32>`).
 const TEXEL_BYTES: u32 = 16;
 

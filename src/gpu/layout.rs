@@ -1,8 +1,9 @@
 //! Host mirrors of the WGSL structs, and packing a scene into them. Every struct
 //! here is checked against naga's reading of the WGSL in `kernel::tests`.
 
+use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, material_kind};
 use crate::scene::{Camera, MaterialKind, Scene};
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Pod;
 use glam::Vec3;
 
 /// A host struct with a WGSL twin of the same name and field order.
@@ -13,6 +14,8 @@ pub trait GpuLayout: Pod {
     /// This value as a WGSL constant expression: the struct's constructor with
     /// every field in declaration order, bit-exact (see `WgslValue`).
     fn wgsl_value(&self) -> String;
+    /// Whether every float field is finite (see `WgslValue`).
+    fn is_finite(&self) -> bool;
 }
 
 /// A field value written as an exact WGSL constant expression, so the kernel
@@ -21,11 +24,15 @@ pub trait GpuLayout: Pod {
 /// twice through an abstract float); they must be finite.
 pub trait WgslValue {
     fn wgsl_value(&self) -> String;
+    fn is_finite(&self) -> bool;
 }
 
 impl WgslValue for u32 {
     fn wgsl_value(&self) -> String {
         format!("{self}u")
+    }
+    fn is_finite(&self) -> bool {
+        true
     }
 }
 
@@ -33,6 +40,9 @@ impl WgslValue for f32 {
     fn wgsl_value(&self) -> String {
         assert!(self.is_finite(), "{self} has no WGSL literal");
         format!("{self:?}f")
+    }
+    fn is_finite(&self) -> bool {
+        f32::is_finite(*self)
     }
 }
 
@@ -42,27 +52,34 @@ impl<T: WgslValue, const N: usize> WgslValue for [T; N] {
         let scalar = std::any::type_name::<T>();
         format!("vec{N}<{scalar}>({})", components.join(", "))
     }
+    fn is_finite(&self) -> bool {
+        self.iter().all(WgslValue::is_finite)
+    }
 }
 
 macro_rules! gpu_struct {
     ($(#[$meta:meta])* pub struct $name:ident { $($(#[$field_meta:meta])* pub $field:ident : $ty:ty,)* }) => {
         $(#[$meta])*
         #[repr(C)]
-        #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
         pub struct $name { $($(#[$field_meta])* pub $field: $ty,)* }
 
-        impl GpuLayout for $name {
+        impl $crate::gpu::layout::GpuLayout for $name {
             const WGSL_NAME: &'static str = stringify!($name);
             fn fields() -> Vec<(&'static str, usize)> {
                 vec![$((stringify!($field), std::mem::offset_of!($name, $field)),)*]
             }
             fn wgsl_value(&self) -> String {
-                let fields: Vec<String> = vec![$(WgslValue::wgsl_value(&self.$field),)*];
+                let fields: Vec<String> = vec![$($crate::gpu::layout::WgslValue::wgsl_value(&self.$field),)*];
                 format!("{}({})", stringify!($name), fields.join(", "))
+            }
+            fn is_finite(&self) -> bool {
+                true $(&& $crate::gpu::layout::WgslValue::is_finite(&self.$field))*
             }
         }
     };
 }
+pub(crate) use gpu_struct;
 
 gpu_struct! {
     /// Per-dispatch uniform: camera, image, sample range and tile.
@@ -104,87 +121,66 @@ impl Counters {
 }
 
 gpu_struct! {
+    /// Every material kind packs into this (see `kinds::material`).
     pub struct Material {
         pub albedo: [f32; 3],
+        /// Index into `kinds::MATERIAL_KINDS`.
         pub kind: u32,
         pub emit: [f32; 3],
+        /// Metal: fuzz. Dielectric: index of refraction.
         pub param: f32,
     }
 }
 
-gpu_struct! {
-    pub struct Quad {
-        pub q: [f32; 3],
-        pub material: u32,
-        pub u: [f32; 3],
-        pub plane_d: f32,
-        pub v: [f32; 3],
-        pub area: f32,
-        pub normal: [f32; 3],
-        pub _pad0: u32,
-        pub w: [f32; 3],
-        pub _pad1: u32,
-    }
-}
-
-gpu_struct! {
-    pub struct Sphere {
-        pub center: [f32; 3],
-        pub radius: f32,
-        pub material: u32,
-        pub _pad0: u32,
-        pub _pad1: u32,
-        pub _pad2: u32,
-    }
-}
-
-impl Quad {
-    /// Binds where a kernel declares quads but the scene has none: with NaN
-    /// geometry every hit test fails.
-    pub fn never_hit() -> Quad {
-        let nan = [f32::NAN; 3];
-        Quad {
-            q: nan,
-            u: nan,
-            plane_d: f32::NAN,
-            v: nan,
-            area: f32::NAN,
-            normal: nan,
-            w: nan,
-            ..Quad::default()
-        }
-    }
-}
-
-impl Sphere {
-    /// As `Quad::never_hit`.
-    pub fn never_hit() -> Sphere {
-        Sphere {
-            center: [f32::NAN; 3],
-            radius: f32::NAN,
-            ..Sphere::default()
-        }
-    }
-}
-
-/// Material kinds as the kernel numbers them (`MATERIAL_*` in materials.wgsl).
-pub const MATERIAL_LAMBERTIAN: u32 = 0;
-pub const MATERIAL_METAL: u32 = 1;
-pub const MATERIAL_DIELECTRIC: u32 = 2;
-pub const MATERIAL_LIGHT: u32 = 3;
-
 /// Ray origins leave a surface by this fraction of the scene's extent.
 pub const RAY_OFFSET_RELATIVE: f32 = 1e-5;
 
-/// The scene as the kernel sees it: only what is present, tightly packed.
+/// Packed elements of one scene array, as its storage buffer holds them.
 #[derive(Clone, Debug, Default, PartialEq)]
+pub struct PackedArray {
+    pub bytes: Vec<u8>,
+    /// Each element's material index.
+    pub materials: Vec<u32>,
+}
+
+impl PackedArray {
+    pub fn len(&self) -> usize {
+        self.materials.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.materials.is_empty()
+    }
+
+    fn push(&mut self, primitive: &PackedPrimitive) {
+        self.bytes.extend_from_slice(&primitive.bytes);
+        self.materials.push(primitive.material);
+    }
+
+    /// Element `i`'s bytes, for a kind of element size `size`.
+    pub fn element(&self, i: usize, size: usize) -> &[u8] {
+        &self.bytes[i * size..(i + 1) * size]
+    }
+}
+
+/// The scene as the kernel sees it: only what is present, tightly packed.
+#[derive(Clone, Debug, PartialEq)]
 pub struct SceneData {
     pub materials: Vec<Material>,
-    pub quads: Vec<Quad>,
-    pub spheres: Vec<Sphere>,
-    /// Copies of the primitives in the light density.
-    pub light_quads: Vec<Quad>,
-    pub light_spheres: Vec<Sphere>,
+    /// Per kind of `PRIMITIVE_KINDS`: the primitives rays can hit.
+    pub primitives: Vec<PackedArray>,
+    /// Per kind: copies of the primitives in the light density.
+    pub lights: Vec<PackedArray>,
+}
+
+impl Default for SceneData {
+    fn default() -> Self {
+        SceneData {
+            materials: Vec::new(),
+            primitives: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
+            lights: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
+        }
+    }
 }
 
 impl SceneData {
@@ -197,27 +193,14 @@ impl SceneData {
             materials,
             ..SceneData::default()
         };
-        for quad in &scene.quads {
-            let packed = pack_quad(quad.q, quad.u, quad.v, quad.material);
-            if !invisible(quad.material) {
-                data.quads.push(packed);
-            }
-            if quad.importance {
-                data.light_quads.push(packed);
-            }
-        }
-        for sphere in &scene.spheres {
-            let packed = Sphere {
-                center: sphere.center.to_array(),
-                radius: sphere.radius,
-                material: sphere.material,
-                ..Sphere::default()
-            };
-            if !invisible(sphere.material) {
-                data.spheres.push(packed);
-            }
-            if sphere.importance {
-                data.light_spheres.push(packed);
+        for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            for primitive in (kind.pack)(scene) {
+                if !invisible(primitive.material) {
+                    data.primitives[k].push(&primitive);
+                }
+                if primitive.importance && kind.light_density {
+                    data.lights[k].push(&primitive);
+                }
             }
         }
         data
@@ -225,65 +208,80 @@ impl SceneData {
 
     /// Drops non-emitting objects from the light density.
     pub fn keep_emitting_lights(&mut self) {
-        let materials = &self.materials;
-        let emits = |material: u32| materials[material as usize].emit.iter().any(|&e| e > 0.0);
-        self.light_quads.retain(|q| emits(q.material));
-        self.light_spheres.retain(|s| emits(s.material));
+        let emits = |material: u32| {
+            self.materials[material as usize]
+                .emit
+                .iter()
+                .any(|&e| e > 0.0)
+        };
+        let kept: Vec<PackedArray> = PRIMITIVE_KINDS
+            .iter()
+            .zip(&self.lights)
+            .map(|(kind, lights)| {
+                let mut kept = PackedArray::default();
+                for (i, &material) in lights.materials.iter().enumerate() {
+                    if emits(material) {
+                        kept.bytes
+                            .extend_from_slice(lights.element(i, kind.layout.size));
+                        kept.materials.push(material);
+                    }
+                }
+                kept
+            })
+            .collect();
+        self.lights = kept;
     }
 
     /// Whether every float is finite (has a WGSL literal, so it can be baked).
     pub fn is_finite(&self) -> bool {
-        let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
-        let quad = |q: &Quad| {
-            finite(&[q.plane_d, q.area]) && [q.q, q.u, q.v, q.normal, q.w].iter().all(|v| finite(v))
+        let array_finite = |kind: &PrimitiveKind, array: &PackedArray| {
+            (0..array.len()).all(|i| (kind.layout.is_finite)(array.element(i, kind.layout.size)))
         };
-        let sphere = |s: &Sphere| finite(&s.center) && s.radius.is_finite();
-        self.materials
-            .iter()
-            .all(|m| finite(&m.albedo) && finite(&m.emit) && m.param.is_finite())
-            && self.quads.iter().chain(&self.light_quads).all(quad)
-            && self.spheres.iter().chain(&self.light_spheres).all(sphere)
+        self.materials.iter().all(GpuLayout::is_finite)
+            && PRIMITIVE_KINDS.iter().enumerate().all(|(k, kind)| {
+                array_finite(kind, &self.primitives[k]) && array_finite(kind, &self.lights[k])
+            })
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.primitives.iter().map(PackedArray::len).sum()
     }
 
     pub fn light_count(&self) -> usize {
-        self.light_quads.len() + self.light_spheres.len()
+        self.lights.iter().map(PackedArray::len).sum()
     }
 
-    /// Whether any material of `kind` is referenced by geometry the kernel sees.
-    pub fn uses_material(&self, kind: u32) -> bool {
-        let used = |material: u32| self.materials[material as usize].kind == kind;
-        self.quads.iter().any(|q| used(q.material)) || self.spheres.iter().any(|s| used(s.material))
+    /// The material kinds referenced by geometry the kernel sees.
+    pub fn material_kinds(&self) -> KindSet {
+        self.primitives
+            .iter()
+            .flat_map(|array| &array.materials)
+            .map(|&m| self.materials[m as usize].kind as usize)
+            .collect()
+    }
+
+    /// The primitive kinds rays can hit.
+    pub fn primitive_kinds(&self) -> KindSet {
+        (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| !self.primitives[k].is_empty())
+            .collect()
+    }
+
+    /// The primitive kinds in the light density.
+    pub fn light_kinds(&self) -> KindSet {
+        (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| !self.lights[k].is_empty())
+            .collect()
     }
 }
 
 fn pack_material(material: &crate::scene::Material) -> Material {
-    let (kind, param) = match material.kind {
-        MaterialKind::Lambertian => (MATERIAL_LAMBERTIAN, 0.0),
-        MaterialKind::Metal { fuzz } => (MATERIAL_METAL, fuzz),
-        MaterialKind::Dielectric { ior } => (MATERIAL_DIELECTRIC, ior),
-        MaterialKind::Light => (MATERIAL_LIGHT, 0.0),
-    };
+    let (kind, param) = material_kind(&material.kind);
     Material {
         albedo: material.albedo.to_array(),
-        kind,
+        kind: kind as u32,
         emit: material.emit.to_array(),
         param,
-    }
-}
-
-fn pack_quad(q: Vec3, u: Vec3, v: Vec3, material: u32) -> Quad {
-    let n = u.cross(v);
-    let normal = n.normalize();
-    Quad {
-        q: q.to_array(),
-        material,
-        u: u.to_array(),
-        plane_d: normal.dot(q),
-        v: v.to_array(),
-        area: n.length(),
-        normal: normal.to_array(),
-        w: (n / n.dot(n)).to_array(),
-        ..Quad::default()
     }
 }
 

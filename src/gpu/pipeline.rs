@@ -64,7 +64,7 @@ impl Kernel {
         let scene_entries: Vec<_> = config
             .scene_bindings()
             .into_iter()
-            .map(|binding| compute_entry(binding, storage_buffer(true)))
+            .map(|array| compute_entry(array.binding, storage_buffer(true)))
             .collect();
         let scene_layout = ctx
             .device

@@ -12,14 +12,15 @@ pub use parse::SceneOverrides;
 /// How a diffuse bounce picks its direction (see DESIGN.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Strategy {
-    /// `w * p_light + (1 - w) * p_cosine`: unbiased, the default.
+    /// `w * p_light + (1 - w) * p_bsdf`: unbiased, the default.
     Mixture,
-    /// Cosine-weighted hemisphere only.
-    Cosine,
+    /// The material's own sampling only (cosine-weighted for Lambertian);
+    /// `cosine`, its name before materials other than the book's, is accepted.
+    Bsdf,
     /// Light density only: biased (misses indirect light), a diagnostic.
     Light,
-    /// Next-event estimation: at each diffuse vertex a shadow ray to a point sampled
-    /// on an emitter and a cosine-sampled continuation, combined by the power
+    /// Next-event estimation: at each vertex with a smooth lobe a shadow ray to a
+    /// point sampled on an emitter and a BSDF-sampled continuation, combined by the power
     /// heuristic (multiple importance sampling, Veach & Guibas 1995).
     NeeMis,
 }
@@ -27,7 +28,7 @@ pub enum Strategy {
 impl Strategy {
     pub const ALL: [Strategy; 4] = [
         Strategy::Mixture,
-        Strategy::Cosine,
+        Strategy::Bsdf,
         Strategy::Light,
         Strategy::NeeMis,
     ];
@@ -35,14 +36,17 @@ impl Strategy {
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Mixture => "mixture",
-            Strategy::Cosine => "cosine",
+            Strategy::Bsdf => "bsdf",
             Strategy::Light => "light",
             Strategy::NeeMis => "nee-mis",
         }
     }
 
     pub fn from_name(name: &str) -> Option<Strategy> {
-        Strategy::ALL.into_iter().find(|s| s.name() == name)
+        match name {
+            "cosine" => Some(Strategy::Bsdf),
+            _ => Strategy::ALL.into_iter().find(|s| s.name() == name),
+        }
     }
 }
 

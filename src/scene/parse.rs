@@ -28,7 +28,7 @@
 //! - `spp` (integer >= 1, default 100): samples per pixel.
 //! - `max_depth` (integer in 0..=100000, default 50): maximum number of scattering
 //!   events on a path; 0 renders emission only.
-//! - `strategy` (`"mixture"` | `"cosine"` | `"light"` | `"nee-mis"`, default
+//! - `strategy` (`"mixture"` | `"bsdf"` (alias `"cosine"`) | `"light"` | `"nee-mis"`, default
 //!   `"mixture"`): how a diffuse bounce picks its direction (`nee-mis`: next-event
 //!   estimation with multiple importance sampling).
 //! - `light_weight` (float in [0, 1], default 0.5): weight of the light density in the
@@ -320,23 +320,43 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
     Ok(RenderSettings {
         spp: t.int("spp", SPP)?.unwrap_or(d.spp),
         max_depth: t.int("max_depth", MAX_DEPTH)?.unwrap_or(d.max_depth),
-        strategy: named(t, "strategy", &Strategy::ALL, Strategy::name)?.unwrap_or(d.strategy),
+        strategy: named(
+            t,
+            "strategy",
+            &Strategy::ALL,
+            Strategy::name,
+            Strategy::from_name,
+        )?
+        .unwrap_or(d.strategy),
         light_weight: t
             .float("light_weight", check_unit)?
             .unwrap_or(d.light_weight),
         background: t.vec3("background", check_nonneg)?.unwrap_or(d.background),
         seed: t.int("seed", SEED)?.unwrap_or(d.seed),
         rr_depth: t.int("rr_depth", MAX_DEPTH)?.or(d.rr_depth),
-        sampler: named(t, "sampler", &Sampler::ALL, Sampler::name)?.unwrap_or(d.sampler),
+        sampler: named(
+            t,
+            "sampler",
+            &Sampler::ALL,
+            Sampler::name,
+            Sampler::from_name,
+        )?
+        .unwrap_or(d.sampler),
     })
 }
 
-/// A setting given by the name of one of `all`.
-fn named<T: Copy>(t: &Tab, key: &str, all: &[T], name: fn(T) -> &'static str) -> Result<Option<T>> {
+/// A setting given by the name of one of `all` (or an alias `from_name` knows).
+fn named<T: Copy>(
+    t: &Tab,
+    key: &str,
+    all: &[T],
+    name: fn(T) -> &'static str,
+    from_name: fn(&str) -> Option<T>,
+) -> Result<Option<T>> {
     let Some(given) = t.string(key)? else {
         return Ok(None);
     };
-    match all.iter().copied().find(|&v| name(v) == given) {
+    match from_name(given) {
         Some(v) => Ok(Some(v)),
         None => {
             let names: Vec<&str> = all.iter().map(|&v| name(v)).collect();
@@ -1573,7 +1593,7 @@ material = "white"
         assert_error(
             &e,
             "render.strategy",
-            &["did you mean `mixture`?", "`cosine`"],
+            &["did you mean `mixture`?", "`bsdf`"],
         );
         let e = error("light_weight = 0.5", "sampler = \"sobl\"");
         assert_error(
@@ -1605,7 +1625,7 @@ material = "white"
             width: Some(64),
             height: Some(48),
             max_depth: Some(0),
-            strategy: Some(Strategy::Cosine),
+            strategy: Some(Strategy::Bsdf),
             light_weight: Some(1.0),
             seed: Some(7),
             rr_depth: None,
@@ -1618,7 +1638,7 @@ material = "white"
         );
         assert_eq!(
             (s.render.max_depth, s.render.strategy, s.render.seed),
-            (0, Strategy::Cosine, 7)
+            (0, Strategy::Bsdf, 7)
         );
         assert_eq!(s.render.light_weight, 1.0);
         assert_eq!(s.render.sampler, Sampler::Independent);

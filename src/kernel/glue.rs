@@ -1,0 +1,360 @@
+//! WGSL generated from the kind descriptions (`kinds`) and the Rust constants
+//! the kernel shares: what would otherwise be copied by hand into the shaders.
+//! The generated modules go through the same composer as the files in
+//! `shaders/`, so they may use `#for_each`.
+
+use super::{ArraySource, KernelConfig, SceneArray, WORKGROUP_SIZE};
+use crate::gpu::accumulator::{
+    LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
+};
+use crate::gpu::layout::{GpuLayout, SceneData};
+use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
+use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS};
+use crate::shader::element_constant;
+use std::fmt::Write;
+
+/// Constants every module may use: workgroup size, frame bindings, accumulator
+/// layers and material kind ids, from their Rust definitions.
+pub fn shared_constants() -> String {
+    let mut out = String::new();
+    let mut constant = |name: &str, value: u32| {
+        writeln!(out, "const {name}: u32 = {value}u;").unwrap();
+    };
+    constant("WORKGROUP_SIZE_X", WORKGROUP_SIZE.0);
+    constant("WORKGROUP_SIZE_Y", WORKGROUP_SIZE.1);
+    constant("BINDING_PARAMS", BINDING_PARAMS);
+    constant("BINDING_ACCUMULATOR", BINDING_ACCUMULATOR);
+    constant("BINDING_COUNTERS", BINDING_COUNTERS);
+    constant("LAYER_SUM", LAYER_SUM);
+    constant("LAYER_SUM_COMPENSATION", LAYER_SUM_COMPENSATION);
+    constant("LAYER_SQUARES", LAYER_SQUARES);
+    constant("LAYER_SQUARES_COMPENSATION", LAYER_SQUARES_COMPENSATION);
+    for (id, kind) in MATERIAL_KINDS.iter().enumerate() {
+        constant(&kind.id_constant(), id as u32);
+    }
+    out
+}
+
+/// The scene's arrays, the closest-hit query over the primitive kinds present
+/// and, when the kernel samples lights, the light density.
+///
+/// Each array `NAME` gets `NAME_count()` and, when read by a dynamic index,
+/// `NAME_at(i)`: over a storage buffer of group 1, or over one module constant
+/// per element (bit for bit the buffer's contents) when the scene is baked, which
+/// `#for_each` unrolls into straight-line code the driver's compiler folds.
+pub fn scene(config: &KernelConfig) -> String {
+    let mut out = String::new();
+    for array in config.scene_arrays() {
+        match &config.baked_scene {
+            Some(data) => baked_array(&mut out, &array, data),
+            None => buffer_array(&mut out, &array),
+        }
+    }
+    closest_hit(&mut out, config);
+    if config.samples_lights() {
+        light_density(&mut out, config);
+    }
+    out
+}
+
+fn buffer_array(out: &mut String, array: &SceneArray) {
+    let SceneArray {
+        name, wgsl_type, ..
+    } = array;
+    writeln!(
+        out,
+        "@group(1) @binding({}) var<storage, read> {name}: array<{wgsl_type}>;",
+        array.binding
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "fn {name}_count() -> u32 {{ return arrayLength(&{name}); }}"
+    )
+    .unwrap();
+    if array.indexed {
+        writeln!(
+            out,
+            "fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
+        )
+        .unwrap();
+    }
+}
+
+fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
+    let SceneArray {
+        name, wgsl_type, ..
+    } = array;
+    let values: Vec<String> = match array.source {
+        ArraySource::Materials => data.materials.iter().map(GpuLayout::wgsl_value).collect(),
+        ArraySource::Primitives(k) | ArraySource::Lights(k) => {
+            let packed = match array.source {
+                ArraySource::Primitives(_) => &data.primitives[k],
+                _ => &data.lights[k],
+            };
+            let layout = PRIMITIVE_KINDS[k].layout;
+            (0..packed.len())
+                .map(|i| (layout.wgsl_value)(packed.element(i, layout.size)))
+                .collect()
+        }
+    };
+    let n = values.len();
+    writeln!(out, "fn {name}_count() -> u32 {{ return {n}u; }}").unwrap();
+    for (i, value) in values.iter().enumerate() {
+        let constant = element_constant(name, i);
+        writeln!(out, "const {constant}: {wgsl_type} = {value};").unwrap();
+    }
+    if array.indexed && n > 0 {
+        writeln!(
+            out,
+            "fn {name}_at(i: u32) -> {wgsl_type} {{\n    switch i {{"
+        )
+        .unwrap();
+        for i in 0..n {
+            let label = if i + 1 == n {
+                "default".to_string()
+            } else {
+                format!("case {i}u")
+            };
+            let constant = element_constant(name, i);
+            writeln!(out, "        {label}: {{ return {constant}; }}").unwrap();
+        }
+        out.push_str("    }\n}\n");
+    }
+}
+
+/// The closest hit keeps only each kind's `NAME_hit_keep` of the closest
+/// primitive, and computes the normal from it once at the end.
+fn closest_hit(out: &mut String, config: &KernelConfig) {
+    let kinds: Vec<usize> = config.primitive_kinds.iter().collect();
+    out.push_str("fn intersect_scene(ray: Ray) -> Hit {\n    var hit = no_hit();\n");
+    if kinds.is_empty() {
+        out.push_str("    return hit;\n}\n");
+        return;
+    }
+    out.push_str("    var hit_keep = vec4<f32>(0.0);\n");
+    let several = kinds.len() > 1;
+    if several {
+        out.push_str("    var hit_kind = 0xffffffffu;\n");
+    }
+    for &k in &kinds {
+        let kind = PRIMITIVE_KINDS[k];
+        let (name, array) = (kind.name, kind.array);
+        let tag = if several {
+            format!("        hit_kind = {k}u;\n")
+        } else {
+            String::new()
+        };
+        write!(
+            out,
+            "#for_each primitive in {array}
+    let t = {name}_hit_t(primitive, ray, hit.t);
+    if t > 0.0 {{
+        hit.t = t;
+        hit.material = primitive.material;
+        hit_keep = {name}_hit_keep(primitive);
+{tag}    }}
+#end_for
+"
+        )
+        .unwrap();
+    }
+    out.push_str("    hit.p = ray.origin + hit.t * ray.dir;\n");
+    if several {
+        out.push_str("    switch hit_kind {\n");
+        for &k in &kinds {
+            let name = PRIMITIVE_KINDS[k].name;
+            writeln!(
+                out,
+                "        case {k}u: {{ hit.normal = {name}_hit_normal(hit_keep, hit.p); }}"
+            )
+            .unwrap();
+        }
+        out.push_str("        default: {}\n    }\n");
+    } else {
+        let name = PRIMITIVE_KINDS[kinds[0]].name;
+        writeln!(
+            out,
+            "    if hit.t < F32_MAX {{\n        hit.normal = {name}_hit_normal(hit_keep, hit.p);\n    }}"
+        )
+        .unwrap();
+    }
+    out.push_str("    return hit;\n}\n");
+}
+
+/// The light density p_light: the average of the solid-angle densities of every
+/// object in it (emitters, and objects marked for importance). Choosing one
+/// object uniformly and sampling it draws from exactly this density.
+fn light_density(out: &mut String, config: &KernelConfig) {
+    let kinds: Vec<usize> = config.light_kinds.iter().collect();
+    let counts: Vec<String> = kinds
+        .iter()
+        .map(|&k| format!("{}_count()", PRIMITIVE_KINDS[k].light_array()))
+        .collect();
+    writeln!(
+        out,
+        "fn light_count() -> u32 {{ return {}; }}",
+        counts.join(" + ")
+    )
+    .unwrap();
+    // `select` (uniform in [0, 1)) picks the object, `u` the point on it.
+    out.push_str(
+        "fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {
+    let count = light_count();
+    let k = min(u32(select * f32(count)), count - 1u);
+    var first = 0u;
+",
+    );
+    for (i, &k) in kinds.iter().enumerate() {
+        let kind = PRIMITIVE_KINDS[k];
+        let call = format!(
+            "{}_light_sample({}_at(k - first), origin, u)",
+            kind.name,
+            kind.light_array()
+        );
+        if i + 1 == kinds.len() {
+            writeln!(out, "    return {call};").unwrap();
+        } else {
+            writeln!(
+                out,
+                "    if k < first + {count} {{\n        return {call};\n    }}\n    first += {count};",
+                count = counts[i]
+            )
+            .unwrap();
+        }
+    }
+    out.push_str("}\n");
+    out.push_str(
+        "fn light_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {\n    var total = 0.0;\n",
+    );
+    for &k in &kinds {
+        let kind = PRIMITIVE_KINDS[k];
+        write!(
+            out,
+            "#for_each light in {}
+    total += {}_light_pdf(light, origin, dir);
+#end_for
+",
+            kind.light_array(),
+            kind.name
+        )
+        .unwrap();
+    }
+    out.push_str("    return total / f32(light_count());\n}\n");
+}
+
+/// The BSDF interface's dispatch by material kind (materials.wgsl), over the
+/// kinds compiled in. `bsdf_sample` takes any material; `bsdf_is_smooth`,
+/// `bsdf_eval`, `bsdf_pdf` and `smooth_bsdf_sample` exist where strategies
+/// sample lights, and the last three take only materials with a smooth lobe (a
+/// direct call when the kernel has one such kind).
+pub fn bsdf(config: &KernelConfig) -> String {
+    let mut out = String::new();
+    let scattering: Vec<usize> = config
+        .material_kinds
+        .iter()
+        .filter(|&k| MATERIAL_KINDS[k].lobe != Lobe::Absorbing)
+        .collect();
+    let smooth: Vec<usize> = scattering
+        .iter()
+        .copied()
+        .filter(|&k| MATERIAL_KINDS[k].lobe == Lobe::Smooth)
+        .collect();
+    dispatch(
+        &mut out,
+        "bsdf_sample",
+        "sample",
+        "wo: vec3<f32>",
+        "wo",
+        "BsdfSample",
+        &scattering,
+        Some("bsdf_absorbed()"),
+    );
+    if !config.samples_lights() {
+        return out;
+    }
+    let ids: Vec<String> = smooth
+        .iter()
+        .map(|&k| format!("m.kind == {}", MATERIAL_KINDS[k].id_constant()))
+        .collect();
+    let test = if ids.is_empty() {
+        "false".to_string()
+    } else {
+        ids.join(" || ")
+    };
+    writeln!(
+        out,
+        "fn bsdf_is_smooth(m: Material) -> bool {{ return {test}; }}"
+    )
+    .unwrap();
+    let wi = "wo: vec3<f32>, wi: vec3<f32>";
+    dispatch(
+        &mut out,
+        "bsdf_eval",
+        "eval",
+        wi,
+        "wo, wi",
+        "vec3<f32>",
+        &smooth,
+        None,
+    );
+    dispatch(
+        &mut out, "bsdf_pdf", "pdf", wi, "wo, wi", "f32", &smooth, None,
+    );
+    dispatch(
+        &mut out,
+        "smooth_bsdf_sample",
+        "sample",
+        "wo: vec3<f32>",
+        "wo",
+        "BsdfSample",
+        &smooth,
+        None,
+    );
+    out
+}
+
+/// `fn NAME(m, frame, PARAMS) -> RESULT` calling `KIND_FUNCTION` for each kind
+/// of `kinds`: a switch on the kind with `fallback` as default, or, without a
+/// fallback and with one kind, a direct call. Without a fallback the default is
+/// the last kind's call.
+#[allow(clippy::too_many_arguments)]
+fn dispatch(
+    out: &mut String,
+    name: &str,
+    function: &str,
+    params: &str,
+    args: &str,
+    result: &str,
+    kinds: &[usize],
+    fallback: Option<&str>,
+) {
+    writeln!(
+        out,
+        "fn {name}(m: Material, frame: Frame, {params}) -> {result} {{"
+    )
+    .unwrap();
+    let call = |k: usize| format!("{}_{function}(m, frame, {args})", MATERIAL_KINDS[k].name);
+    match (kinds, fallback) {
+        ([], None) => unreachable!("`{name}` over no material kind"),
+        ([only], None) => writeln!(out, "    return {};", call(*only)).unwrap(),
+        _ => {
+            out.push_str("    switch m.kind {\n");
+            let (cases, default) = match fallback {
+                Some(fallback) => (kinds, fallback.to_string()),
+                None => (&kinds[..kinds.len() - 1], call(kinds[kinds.len() - 1])),
+            };
+            for &k in cases {
+                writeln!(
+                    out,
+                    "        case {}: {{ return {}; }}",
+                    MATERIAL_KINDS[k].id_constant(),
+                    call(k)
+                )
+                .unwrap();
+            }
+            writeln!(out, "        default: {{ return {default}; }}\n    }}").unwrap();
+        }
+    }
+    out.push_str("}\n");
+}

@@ -1,0 +1,170 @@
+//! The kinds of primitive and material pathmix renders, each described once.
+//!
+//! A kind's description names its WGSL module and packed struct and says what it
+//! supports; the kernel's presence flags, modules, scene arrays, bindings, baked
+//! constants and generated WGSL glue (`kernel::glue`), the packed scene
+//! (`gpu::layout::SceneData`) and `pathmix info` are all derived from it. A new
+//! primitive kind is its WGSL file, a file here with its packed struct and
+//! description (listed in [`PRIMITIVE_KINDS`]), its scene type and parser
+//! (`scene`), and a test; a material kind is the same with [`MATERIAL_KINDS`].
+
+mod material;
+mod quad;
+mod sphere;
+
+pub use material::{Lobe, MATERIAL_KINDS, MaterialKind, material_kind};
+pub use quad::Quad;
+pub use sphere::Sphere;
+
+use crate::gpu::layout::GpuLayout;
+use crate::scene::Scene;
+use crate::shader::ShaderModule;
+
+/// Every primitive kind, in the order of the kernel's closest-hit test and light
+/// density (which fixes the order of floating-point sums: images depend on it).
+pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[&quad::QUAD, &sphere::SPHERE];
+
+/// A kind of primitive: what the host packs and what its WGSL module defines.
+///
+/// The module (named `name`) defines the struct `layout.wgsl_name` and
+/// - `fn NAME_hit_t(p: S, ray: Ray, t_max: f32) -> f32`: the distance to the
+///   primitive in (0, t_max), or a negative number;
+/// - `fn NAME_hit_keep(p: S) -> vec4<f32>`: what the closest hit keeps of the
+///   primitive (the closest-hit loop copies only this, so keep it small), and
+///   `fn NAME_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32>`: the
+///   geometric, outward normal at the hit point `p` from it;
+/// - with `light_density`, `fn NAME_light_sample(p: S, origin: vec3<f32>, u:
+///   vec2<f32>) -> vec3<f32>` (a direction toward the primitive) and `fn
+///   NAME_light_pdf(p: S, origin: vec3<f32>, dir: vec3<f32>) -> f32` (its
+///   solid-angle density).
+///
+/// The WGSL struct's first `u32` field named `material` indexes the materials.
+pub struct PrimitiveKind {
+    /// Singular, lower case: the module's name and its functions' prefix.
+    pub name: &'static str,
+    /// The scene array of this kind (`quads`); the kernel's presence flag is its
+    /// upper-case form (`QUADS`), and the light density's array is `light_quads`.
+    pub array: &'static str,
+    pub module: ShaderModule,
+    pub layout: ErasedLayout,
+    /// Whether the light density can sample it (emitters and `importance = true`).
+    pub light_density: bool,
+    /// The scene's primitives of this kind, packed, in scene order.
+    pub pack: fn(&Scene) -> Vec<PackedPrimitive>,
+    /// An element no ray hits: what a kernel that declares this kind binds when
+    /// the scene has none (bindings cannot be empty).
+    pub never_hit: fn() -> Vec<u8>,
+}
+
+impl PrimitiveKind {
+    /// The kernel's presence flag for the primitives (`QUADS`).
+    pub fn flag(&self) -> String {
+        self.array.to_uppercase()
+    }
+
+    /// The light density's array of this kind (`light_quads`).
+    pub fn light_array(&self) -> String {
+        format!("light_{}", self.array)
+    }
+
+    pub fn light_flag(&self) -> String {
+        self.light_array().to_uppercase()
+    }
+}
+
+/// One packed primitive and what the host needs to know of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PackedPrimitive {
+    /// The packed struct, as the storage buffer holds it.
+    pub bytes: Vec<u8>,
+    /// Index into the scene's materials.
+    pub material: u32,
+    /// In the light density.
+    pub importance: bool,
+}
+
+impl PackedPrimitive {
+    pub fn new<T: GpuLayout>(value: &T, material: u32, importance: bool) -> PackedPrimitive {
+        PackedPrimitive {
+            bytes: bytemuck::bytes_of(value).to_vec(),
+            material,
+            importance,
+        }
+    }
+}
+
+/// A `GpuLayout` type behind function pointers, so kinds of different packed
+/// structs fit one table.
+#[derive(Clone, Copy)]
+pub struct ErasedLayout {
+    pub wgsl_name: &'static str,
+    /// Bytes per element.
+    pub size: usize,
+    /// Field names and offsets (for the layout test against naga).
+    pub fields: fn() -> Vec<(&'static str, usize)>,
+    /// One element's bytes as an exact WGSL constant expression.
+    pub wgsl_value: fn(&[u8]) -> String,
+    /// Whether every float of one element is finite (has a WGSL literal).
+    pub is_finite: fn(&[u8]) -> bool,
+}
+
+impl ErasedLayout {
+    pub const fn of<T: GpuLayout>() -> ErasedLayout {
+        fn wgsl_value<T: GpuLayout>(bytes: &[u8]) -> String {
+            bytemuck::pod_read_unaligned::<T>(bytes).wgsl_value()
+        }
+        fn is_finite<T: GpuLayout>(bytes: &[u8]) -> bool {
+            bytemuck::pod_read_unaligned::<T>(bytes).is_finite()
+        }
+        ErasedLayout {
+            wgsl_name: T::WGSL_NAME,
+            size: size_of::<T>(),
+            fields: T::fields,
+            wgsl_value: wgsl_value::<T>,
+            is_finite: is_finite::<T>,
+        }
+    }
+}
+
+/// A set of kinds, by index into [`PRIMITIVE_KINDS`] or [`MATERIAL_KINDS`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct KindSet(u32);
+
+impl KindSet {
+    /// Every kind of a table of `count`.
+    pub fn all(count: usize) -> KindSet {
+        KindSet(((1u64 << count) - 1) as u32)
+    }
+
+    /// The kinds whose bits are set in `mask`.
+    pub fn from_mask(mask: u32) -> KindSet {
+        KindSet(mask)
+    }
+
+    pub fn with(self, kind: usize) -> KindSet {
+        KindSet(self.0 | 1 << kind)
+    }
+
+    pub fn contains(self, kind: usize) -> bool {
+        self.0 & (1 << kind) != 0
+    }
+
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    pub fn intersection(self, other: KindSet) -> KindSet {
+        KindSet(self.0 & other.0)
+    }
+
+    /// The indices in the set, in table order.
+    pub fn iter(self) -> impl Iterator<Item = usize> {
+        (0..32).filter(move |&k| self.contains(k))
+    }
+}
+
+impl FromIterator<usize> for KindSet {
+    fn from_iter<I: IntoIterator<Item = usize>>(iter: I) -> KindSet {
+        iter.into_iter().fold(KindSet::default(), KindSet::with)
+    }
+}

@@ -1,0 +1,48 @@
+//! Spheres, with outward normals.
+
+use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
+use crate::gpu::layout::gpu_struct;
+use crate::scene::Scene;
+use crate::shader::shader_module;
+
+pub const SPHERE: PrimitiveKind = PrimitiveKind {
+    name: "sphere",
+    array: "spheres",
+    module: shader_module!("sphere"),
+    layout: ErasedLayout::of::<Sphere>(),
+    light_density: true,
+    pack: |scene: &Scene| {
+        scene
+            .spheres
+            .iter()
+            .map(|s| {
+                let packed = Sphere {
+                    center: s.center.to_array(),
+                    radius: s.radius,
+                    material: s.material,
+                    ..Sphere::default()
+                };
+                PackedPrimitive::new(&packed, s.material, s.importance)
+            })
+            .collect()
+    },
+    never_hit: || {
+        let nan = Sphere {
+            center: [f32::NAN; 3],
+            radius: f32::NAN,
+            ..Sphere::default()
+        };
+        bytemuck::bytes_of(&nan).to_vec()
+    },
+};
+
+gpu_struct! {
+    pub struct Sphere {
+        pub center: [f32; 3],
+        pub radius: f32,
+        pub material: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
+    }
+}
