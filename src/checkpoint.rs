@@ -16,15 +16,16 @@
 
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
-use crate::scene::{MaterialKind, Sampler, Scene, SceneOverrides, Strategy};
+use crate::scene::{Camera, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
 use std::fmt;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
-pub const VERSION: u32 = 1;
+/// 2: the scene hashes come from the whole scene's `Debug` text (1: chosen fields).
+pub const VERSION: u32 = 2;
 
-/// FNV-1a, 64 bits: the scene identity hash (stable across platforms and versions).
+/// FNV-1a, 64 bits: the scene identity's hash function (stable across platforms).
 #[derive(Clone, Copy, Debug)]
 pub struct Fnv64(u64);
 
@@ -50,14 +51,6 @@ impl Fnv64 {
         self.bytes(&v.to_le_bytes())
     }
 
-    pub fn f32(&mut self, v: f32) -> &mut Self {
-        self.u32(v.to_bits())
-    }
-
-    pub fn vec3(&mut self, v: glam::Vec3) -> &mut Self {
-        self.f32(v.x).f32(v.y).f32(v.z)
-    }
-
     /// Length-prefixed, so that consecutive strings cannot run together.
     pub fn str(&mut self, s: &str) -> &mut Self {
         self.u64(s.len() as u64).bytes(s.as_bytes())
@@ -68,15 +61,16 @@ impl Fnv64 {
     }
 }
 
-/// What a run's sums depend on, by part, with the values that messages name.
-/// Computed after command-line overrides. The sample count (`spp`) is not part
-/// of it: it only says when to stop.
+/// What a run's sums depend on, by part, with the values that messages name:
+/// every field of the [`Scene`], after command-line overrides, but the file's
+/// path and the sample count (`spp`), which only says when to stop.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneIdentity {
     /// Position, direction, up, field of view and image size.
     pub camera_hash: u64,
+    /// Every material, each whole (name, kind with its parameters, colours).
     pub materials_hash: u64,
-    /// Quads and spheres, with their materials and importance marks.
+    /// Quads and spheres, each whole (with its material and importance mark).
     pub geometry_hash: u64,
     /// Seed, depth, strategy, light weight, background, Russian roulette depth, sampler.
     pub settings_hash: u64,
@@ -96,74 +90,60 @@ pub struct SceneIdentity {
 
 impl SceneIdentity {
     pub fn of(scene: &Scene) -> SceneIdentity {
-        let c = &scene.camera;
-        let camera_hash = Fnv64::default()
-            .vec3(c.lookfrom)
-            .vec3(c.lookat)
-            .vec3(c.vup)
-            .f32(c.vfov_degrees)
-            .u32(c.width)
-            .u32(c.height)
-            .finish();
-        let mut materials = Fnv64::default();
-        for m in &scene.materials {
-            let (kind, param) = match m.kind {
-                MaterialKind::Lambertian => (0, 0.0),
-                MaterialKind::Metal { fuzz } => (1, fuzz),
-                MaterialKind::Dielectric { ior } => (2, ior),
-                MaterialKind::Light => (3, 0.0),
-            };
-            materials
-                .str(&m.name)
-                .u32(kind)
-                .f32(param)
-                .vec3(m.albedo)
-                .vec3(m.emit);
-        }
-        let mut geometry = Fnv64::default();
-        geometry.u64(scene.quads.len() as u64);
-        for q in &scene.quads {
-            geometry
-                .vec3(q.q)
-                .vec3(q.u)
-                .vec3(q.v)
-                .u32(q.material)
-                .u32(q.importance as u32);
-        }
-        geometry.u64(scene.spheres.len() as u64);
-        for s in &scene.spheres {
-            geometry
-                .vec3(s.center)
-                .f32(s.radius)
-                .u32(s.material)
-                .u32(s.importance as u32);
-        }
-        let r = &scene.render;
-        let settings_hash = Fnv64::default()
-            .u32(r.seed)
-            .u32(r.max_depth)
-            .str(r.strategy.name())
-            .f32(r.light_weight)
-            .vec3(r.background)
-            .u32(r.rr_depth.unwrap_or(u32::MAX))
-            .str(r.sampler.name())
-            .finish();
+        // No `..`: a new field fails to compile until it joins a part or is
+        // excluded here with the reason.
+        let Scene {
+            // The file's path, not its content: a moved file is the same scene.
+            source: _,
+            camera,
+            render,
+            materials,
+            quads,
+            spheres,
+        } = scene;
+        let Camera {
+            lookfrom,
+            lookat,
+            vup,
+            vfov_degrees,
+            width,
+            height,
+        } = camera;
+        let RenderSettings {
+            // Only says when to stop: a resume or a shard may ask for more.
+            spp: _,
+            max_depth,
+            strategy,
+            light_weight,
+            background,
+            seed,
+            rr_depth,
+            sampler,
+        } = render;
         SceneIdentity {
-            camera_hash,
-            materials_hash: materials.finish(),
-            geometry_hash: geometry.finish(),
-            settings_hash,
-            width: c.width,
-            height: c.height,
-            seed: r.seed,
-            max_depth: r.max_depth,
-            strategy: r.strategy,
-            light_weight: r.light_weight,
-            rr_depth: r.rr_depth,
-            sampler: r.sampler,
-            materials: scene.materials.len() as u32,
-            quads: scene.quads.len() as u32,
-            spheres: scene.spheres.len() as u32,
+            camera_hash: debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height)),
+            materials_hash: debug_hash(materials),
+            geometry_hash: debug_hash(&(quads, spheres)),
+            settings_hash: debug_hash(&(
+                max_depth,
+                strategy,
+                light_weight,
+                background,
+                seed,
+                rr_depth,
+                sampler,
+            )),
+            width: *width,
+            height: *height,
+            seed: *seed,
+            max_depth: *max_depth,
+            strategy: *strategy,
+            light_weight: *light_weight,
+            rr_depth: *rr_depth,
+            sampler: *sampler,
+            materials: materials.len() as u32,
+            quads: quads.len() as u32,
+            spheres: spheres.len() as u32,
         }
     }
 
@@ -319,6 +299,14 @@ impl SceneIdentity {
         }
         Ok(identity)
     }
+}
+
+/// FNV-1a of a value's derived `Debug` text: every field, nested, with floats in
+/// shortest round-trip form, so equal text means equal values. The text follows
+/// the field names and the standard library's formatting; should either change,
+/// old files are refused as a different scene, never silently accepted.
+fn debug_hash(value: &impl fmt::Debug) -> u64 {
+    Fnv64::default().str(&format!("{value:?}")).finish()
 }
 
 pub fn hex(v: u64) -> String {
@@ -509,8 +497,14 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
     let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
     let version = u32_at(8);
     if version != VERSION {
+        let by = if version < VERSION {
+            "an older"
+        } else {
+            "a newer"
+        };
         return Err(format!(
-            "checkpoint format version {version}; this pathmix ({}) reads version {VERSION}",
+            "written by {by} pathmix (checkpoint format version {version}; this pathmix ({}) \
+             reads version {VERSION}): resume with the pathmix that wrote it, or start again",
             env!("CARGO_PKG_VERSION")
         ));
     }
@@ -792,5 +786,19 @@ mod tests {
         // The sample count is not part of the identity.
         let more = SceneIdentity::of(&scene(|t| t.replacen("spp = 1000", "spp = 5", 1)));
         assert_eq!(base, more);
+    }
+
+    #[test]
+    fn older_checkpoints_are_refused_as_older() {
+        let mut bytes = to_bytes(&sample());
+        bytes[8..12].copy_from_slice(&(VERSION - 1).to_le_bytes());
+        let e = from_bytes(&bytes).unwrap_err();
+        assert!(
+            e.contains("written by an older pathmix") && e.contains("version 1"),
+            "{e}"
+        );
+        bytes[8..12].copy_from_slice(&(VERSION + 1).to_le_bytes());
+        let e = from_bytes(&bytes).unwrap_err();
+        assert!(e.contains("written by a newer pathmix"), "{e}");
     }
 }
