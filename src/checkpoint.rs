@@ -801,4 +801,232 @@ mod tests {
         let e = from_bytes(&bytes).unwrap_err();
         assert!(e.contains("written by a newer pathmix"), "{e}");
     }
+
+    /// Sets every optional key, and the ones no shipped scene has (scale, seed,
+    /// Russian roulette, sampler, a metal, transforms of a sphere), so that the
+    /// walk below reaches them too.
+    const EVERY_KEY: &str = r#"
+        [scene]
+        scale = 2
+        [camera]
+        lookfrom = [1, 2, -9]
+        lookat = [0.5, 1, 0]
+        vup = [0.1, 1, 0]
+        vfov = 50
+        width = 20
+        height = 10
+        [render]
+        spp = 16
+        max_depth = 7
+        strategy = "nee-mis"
+        light_weight = 0.25
+        background = [0.1, 0.2, 0.3]
+        seed = 7
+        rr_depth = 5
+        sampler = "independent"
+        [materials.steel]
+        type = "metal"
+        albedo = [0.8, 0.7, 0.6]
+        fuzz = 0.3
+        [materials.glow]
+        type = "lambertian"
+        albedo = [0.2, 0.3, 0.4]
+        emit = [0.5, 0.25, 2]
+        [materials.glass]
+        type = "dielectric"
+        ior = 1.33
+        [materials.lamp]
+        type = "light"
+        emit = [4, 5, 6]
+        [[objects]]
+        type = "sphere"
+        center = [1, 2, 3]
+        radius = 0.75
+        rotate_y = 30
+        translate = [-1, 0.5, 2]
+        importance = true
+        material = "steel"
+        [[objects]]
+        type = "quad"
+        q = [-3, -1, 4]
+        u = [6, 0, 0.5]
+        v = [0, 0.25, 3]
+        importance = false
+        material = "glass"
+        [[objects]]
+        type = "box"
+        min = [-1, -1, -1]
+        max = [1, 2, 1.5]
+        rotate_y = -20
+        translate = [0.5, 0, 1]
+        material = "glow"
+        [[objects]]
+        type = "quad"
+        q = [-1, 3, -1]
+        u = [2, 0, 0]
+        v = [0, 0, 2]
+        material = "lamp"
+    "#;
+
+    /// A key or an index into a TOML document.
+    #[derive(Clone)]
+    enum Step {
+        Key(String),
+        Index(usize),
+    }
+
+    /// The paths to every number, string and boolean in `value`.
+    fn leaves(value: &toml::Value, path: &mut Vec<Step>, out: &mut Vec<Vec<Step>>) {
+        match value {
+            toml::Value::Table(table) => {
+                for (key, v) in table {
+                    path.push(Step::Key(key.clone()));
+                    leaves(v, path, out);
+                    path.pop();
+                }
+            }
+            toml::Value::Array(array) => {
+                for (i, v) in array.iter().enumerate() {
+                    path.push(Step::Index(i));
+                    leaves(v, path, out);
+                    path.pop();
+                }
+            }
+            _ => out.push(path.clone()),
+        }
+    }
+
+    fn leaf<'a>(value: &'a mut toml::Value, path: &[Step]) -> &'a mut toml::Value {
+        path.iter().fold(value, |v, step| match step {
+            Step::Key(key) => &mut v[key.as_str()],
+            Step::Index(i) => &mut v[*i],
+        })
+    }
+
+    fn path_text(path: &[Step]) -> String {
+        let mut text = String::new();
+        for step in path {
+            match step {
+                Step::Key(key) if text.is_empty() => text += key,
+                Step::Key(key) => text += &format!(".{key}"),
+                Step::Index(i) => text += &format!("[{i}]"),
+            }
+        }
+        text
+    }
+
+    /// Other values for a leaf, to try in turn until the scene still validates.
+    fn replacements(value: &toml::Value, names: &[String]) -> Vec<toml::Value> {
+        use toml::Value;
+        let all = match value {
+            Value::Integer(i) => [i * 3 / 2 + 1, i / 2, i + 1, i - 1]
+                .map(Value::Integer)
+                .into(),
+            Value::Float(x) => [x * 1.5 + 0.25, x * 0.5, x + 1.0, x - 1.0]
+                .map(Value::Float)
+                .into(),
+            Value::Boolean(b) => vec![Value::Boolean(!b)],
+            Value::String(_) => names.iter().cloned().map(Value::String).collect(),
+            other => panic!("no scene file holds a {other:?}"),
+        };
+        all.into_iter().filter(|v| v != value).collect()
+    }
+
+    /// Every single value of every shipped scene (and of `EVERY_KEY`) changed in
+    /// turn changes the identity, but the sample count; the file name does not.
+    #[test]
+    fn identity_changes_with_every_value_of_a_scene_file_but_spp() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut files: Vec<(String, String)> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|entry| entry.unwrap().path())
+            .filter(|path| path.extension().is_some_and(|e| e == "toml"))
+            .map(|path| {
+                let name = path.file_name().unwrap().to_string_lossy().into_owned();
+                (name, std::fs::read_to_string(&path).unwrap())
+            })
+            .collect();
+        files.sort();
+        assert!(files.len() >= 3, "{files:?}");
+        files.push(("every-key.toml".into(), EVERY_KEY.into()));
+        let documents: Vec<(String, toml::Value)> = files
+            .iter()
+            .map(|(name, text)| (name.clone(), toml::Value::Table(text.parse().unwrap())))
+            .collect();
+        // Replacement names: every string and material name in any of the files,
+        // and every strategy and sampler.
+        let mut names = std::collections::BTreeSet::new();
+        for (_, document) in &documents {
+            let mut paths = Vec::new();
+            leaves(document, &mut Vec::new(), &mut paths);
+            let mut document = document.clone();
+            for path in &paths {
+                if let Some(s) = leaf(&mut document, path).as_str() {
+                    names.insert(s.to_string());
+                }
+            }
+            if let Some(materials) = document.get("materials").and_then(|m| m.as_table()) {
+                names.extend(materials.keys().cloned());
+            }
+        }
+        names.extend(Strategy::ALL.map(|s| s.name().to_string()));
+        names.extend(Sampler::ALL.map(|s| s.name().to_string()));
+        let names: Vec<String> = names.into_iter().collect();
+
+        let (mut checked, mut changed, mut spp_leaves) = (0, 0, 0);
+        let mut unchanged = Vec::new();
+        for (name, document) in &documents {
+            let base = SceneIdentity::of(
+                &Scene::parse(&toml::to_string(document).unwrap(), name).unwrap(),
+            );
+            let original = &files.iter().find(|(n, _)| n == name).unwrap().1;
+            assert_eq!(
+                SceneIdentity::of(&Scene::parse(original, name).unwrap()),
+                base,
+                "{name}: written back, the file is the same scene"
+            );
+            assert_eq!(
+                SceneIdentity::of(&Scene::parse(original, "elsewhere/other.toml").unwrap()),
+                base,
+                "{name}: the file name is not part of the identity"
+            );
+            let mut paths = Vec::new();
+            leaves(document, &mut Vec::new(), &mut paths);
+            for path in &paths {
+                checked += 1;
+                let at = path_text(path);
+                let mut mutated = document.clone();
+                let value = leaf(&mut mutated, path).clone();
+                let scene = replacements(&value, &names).into_iter().find_map(|v| {
+                    *leaf(&mut mutated, path) = v;
+                    Scene::parse(&toml::to_string(&mutated).unwrap(), name).ok()
+                });
+                let Some(scene) = scene else {
+                    assert!(value.is_str(), "{name}: {at}: no other value validates");
+                    unchanged.push(format!("{name}: {at}"));
+                    continue;
+                };
+                changed += 1;
+                let identity = SceneIdentity::of(&scene);
+                if at == "render.spp" {
+                    spp_leaves += 1;
+                    assert_eq!(identity, base, "{name}: {at}");
+                } else {
+                    assert_ne!(identity.hash(), base.hash(), "{name}: {at}");
+                    assert!(
+                        !SceneIdentity::differences((&base, "before"), (&identity, "now"))
+                            .is_empty(),
+                        "{name}: {at}"
+                    );
+                }
+            }
+        }
+        assert_eq!(spp_leaves, documents.len());
+        // Only names can be left: most `type`s (another type needs other keys), and
+        // the material of an object in a scene of one material.
+        assert!(
+            changed * 10 >= checked * 9,
+            "{changed} of {checked} values changed; not: {unchanged:#?}"
+        );
+    }
 }
