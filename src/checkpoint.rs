@@ -16,15 +16,16 @@
 
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
-use crate::scene::{MaterialKind, Sampler, Scene, SceneOverrides, Strategy};
+use crate::scene::{Camera, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
 use std::fmt;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
-pub const VERSION: u32 = 1;
+/// 2: the scene hashes come from the whole scene's `Debug` text (1: chosen fields).
+pub const VERSION: u32 = 2;
 
-/// FNV-1a, 64 bits: the scene identity hash (stable across platforms and versions).
+/// FNV-1a, 64 bits: the scene identity's hash function (stable across platforms).
 #[derive(Clone, Copy, Debug)]
 pub struct Fnv64(u64);
 
@@ -50,14 +51,6 @@ impl Fnv64 {
         self.bytes(&v.to_le_bytes())
     }
 
-    pub fn f32(&mut self, v: f32) -> &mut Self {
-        self.u32(v.to_bits())
-    }
-
-    pub fn vec3(&mut self, v: glam::Vec3) -> &mut Self {
-        self.f32(v.x).f32(v.y).f32(v.z)
-    }
-
     /// Length-prefixed, so that consecutive strings cannot run together.
     pub fn str(&mut self, s: &str) -> &mut Self {
         self.u64(s.len() as u64).bytes(s.as_bytes())
@@ -68,15 +61,16 @@ impl Fnv64 {
     }
 }
 
-/// What a run's sums depend on, by part, with the values that messages name.
-/// Computed after command-line overrides. The sample count (`spp`) is not part
-/// of it: it only says when to stop.
+/// What a run's sums depend on, by part, with the values that messages name:
+/// every field of the [`Scene`], after command-line overrides, but the file's
+/// path and the sample count (`spp`), which only says when to stop.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneIdentity {
     /// Position, direction, up, field of view and image size.
     pub camera_hash: u64,
+    /// Every material, each whole (name, kind with its parameters, colours).
     pub materials_hash: u64,
-    /// Quads and spheres, with their materials and importance marks.
+    /// Quads and spheres, each whole (with its material and importance mark).
     pub geometry_hash: u64,
     /// Seed, depth, strategy, light weight, background, Russian roulette depth, sampler.
     pub settings_hash: u64,
@@ -96,74 +90,60 @@ pub struct SceneIdentity {
 
 impl SceneIdentity {
     pub fn of(scene: &Scene) -> SceneIdentity {
-        let c = &scene.camera;
-        let camera_hash = Fnv64::default()
-            .vec3(c.lookfrom)
-            .vec3(c.lookat)
-            .vec3(c.vup)
-            .f32(c.vfov_degrees)
-            .u32(c.width)
-            .u32(c.height)
-            .finish();
-        let mut materials = Fnv64::default();
-        for m in &scene.materials {
-            let (kind, param) = match m.kind {
-                MaterialKind::Lambertian => (0, 0.0),
-                MaterialKind::Metal { fuzz } => (1, fuzz),
-                MaterialKind::Dielectric { ior } => (2, ior),
-                MaterialKind::Light => (3, 0.0),
-            };
-            materials
-                .str(&m.name)
-                .u32(kind)
-                .f32(param)
-                .vec3(m.albedo)
-                .vec3(m.emit);
-        }
-        let mut geometry = Fnv64::default();
-        geometry.u64(scene.quads.len() as u64);
-        for q in &scene.quads {
-            geometry
-                .vec3(q.q)
-                .vec3(q.u)
-                .vec3(q.v)
-                .u32(q.material)
-                .u32(q.importance as u32);
-        }
-        geometry.u64(scene.spheres.len() as u64);
-        for s in &scene.spheres {
-            geometry
-                .vec3(s.center)
-                .f32(s.radius)
-                .u32(s.material)
-                .u32(s.importance as u32);
-        }
-        let r = &scene.render;
-        let settings_hash = Fnv64::default()
-            .u32(r.seed)
-            .u32(r.max_depth)
-            .str(r.strategy.name())
-            .f32(r.light_weight)
-            .vec3(r.background)
-            .u32(r.rr_depth.unwrap_or(u32::MAX))
-            .str(r.sampler.name())
-            .finish();
+        // No `..`: a new field fails to compile until it joins a part or is
+        // excluded here with the reason.
+        let Scene {
+            // The file's path, not its content: a moved file is the same scene.
+            source: _,
+            camera,
+            render,
+            materials,
+            quads,
+            spheres,
+        } = scene;
+        let Camera {
+            lookfrom,
+            lookat,
+            vup,
+            vfov_degrees,
+            width,
+            height,
+        } = camera;
+        let RenderSettings {
+            // Only says when to stop: a resume or a shard may ask for more.
+            spp: _,
+            max_depth,
+            strategy,
+            light_weight,
+            background,
+            seed,
+            rr_depth,
+            sampler,
+        } = render;
         SceneIdentity {
-            camera_hash,
-            materials_hash: materials.finish(),
-            geometry_hash: geometry.finish(),
-            settings_hash,
-            width: c.width,
-            height: c.height,
-            seed: r.seed,
-            max_depth: r.max_depth,
-            strategy: r.strategy,
-            light_weight: r.light_weight,
-            rr_depth: r.rr_depth,
-            sampler: r.sampler,
-            materials: scene.materials.len() as u32,
-            quads: scene.quads.len() as u32,
-            spheres: scene.spheres.len() as u32,
+            camera_hash: debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height)),
+            materials_hash: debug_hash(materials),
+            geometry_hash: debug_hash(&(quads, spheres)),
+            settings_hash: debug_hash(&(
+                max_depth,
+                strategy,
+                light_weight,
+                background,
+                seed,
+                rr_depth,
+                sampler,
+            )),
+            width: *width,
+            height: *height,
+            seed: *seed,
+            max_depth: *max_depth,
+            strategy: *strategy,
+            light_weight: *light_weight,
+            rr_depth: *rr_depth,
+            sampler: *sampler,
+            materials: materials.len() as u32,
+            quads: quads.len() as u32,
+            spheres: spheres.len() as u32,
         }
     }
 
@@ -319,6 +299,14 @@ impl SceneIdentity {
         }
         Ok(identity)
     }
+}
+
+/// FNV-1a of a value's derived `Debug` text: every field, nested, with floats in
+/// shortest round-trip form, so equal text means equal values. The text follows
+/// the field names and the standard library's formatting; should either change,
+/// old files are refused as a different scene, never silently accepted.
+fn debug_hash(value: &impl fmt::Debug) -> u64 {
+    Fnv64::default().str(&format!("{value:?}")).finish()
 }
 
 pub fn hex(v: u64) -> String {
@@ -509,8 +497,14 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
     let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
     let version = u32_at(8);
     if version != VERSION {
+        let by = if version < VERSION {
+            "an older"
+        } else {
+            "a newer"
+        };
         return Err(format!(
-            "checkpoint format version {version}; this pathmix ({}) reads version {VERSION}",
+            "written by {by} pathmix (checkpoint format version {version}; this pathmix ({}) \
+             reads version {VERSION}): resume with the pathmix that wrote it, or start again",
             env!("CARGO_PKG_VERSION")
         ));
     }
@@ -792,5 +786,247 @@ mod tests {
         // The sample count is not part of the identity.
         let more = SceneIdentity::of(&scene(|t| t.replacen("spp = 1000", "spp = 5", 1)));
         assert_eq!(base, more);
+    }
+
+    #[test]
+    fn older_checkpoints_are_refused_as_older() {
+        let mut bytes = to_bytes(&sample());
+        bytes[8..12].copy_from_slice(&(VERSION - 1).to_le_bytes());
+        let e = from_bytes(&bytes).unwrap_err();
+        assert!(
+            e.contains("written by an older pathmix") && e.contains("version 1"),
+            "{e}"
+        );
+        bytes[8..12].copy_from_slice(&(VERSION + 1).to_le_bytes());
+        let e = from_bytes(&bytes).unwrap_err();
+        assert!(e.contains("written by a newer pathmix"), "{e}");
+    }
+
+    /// Sets every optional key, and the ones no shipped scene has (scale, seed,
+    /// Russian roulette, sampler, a metal, transforms of a sphere), so that the
+    /// walk below reaches them too.
+    const EVERY_KEY: &str = r#"
+        [scene]
+        scale = 2
+        [camera]
+        lookfrom = [1, 2, -9]
+        lookat = [0.5, 1, 0]
+        vup = [0.1, 1, 0]
+        vfov = 50
+        width = 20
+        height = 10
+        [render]
+        spp = 16
+        max_depth = 7
+        strategy = "nee-mis"
+        light_weight = 0.25
+        background = [0.1, 0.2, 0.3]
+        seed = 7
+        rr_depth = 5
+        sampler = "independent"
+        [materials.steel]
+        type = "metal"
+        albedo = [0.8, 0.7, 0.6]
+        fuzz = 0.3
+        [materials.glow]
+        type = "lambertian"
+        albedo = [0.2, 0.3, 0.4]
+        emit = [0.5, 0.25, 2]
+        [materials.glass]
+        type = "dielectric"
+        ior = 1.33
+        [materials.lamp]
+        type = "light"
+        emit = [4, 5, 6]
+        [[objects]]
+        type = "sphere"
+        center = [1, 2, 3]
+        radius = 0.75
+        rotate_y = 30
+        translate = [-1, 0.5, 2]
+        importance = true
+        material = "steel"
+        [[objects]]
+        type = "quad"
+        q = [-3, -1, 4]
+        u = [6, 0, 0.5]
+        v = [0, 0.25, 3]
+        importance = false
+        material = "glass"
+        [[objects]]
+        type = "box"
+        min = [-1, -1, -1]
+        max = [1, 2, 1.5]
+        rotate_y = -20
+        translate = [0.5, 0, 1]
+        material = "glow"
+        [[objects]]
+        type = "quad"
+        q = [-1, 3, -1]
+        u = [2, 0, 0]
+        v = [0, 0, 2]
+        material = "lamp"
+    "#;
+
+    /// A key or an index into a TOML document.
+    #[derive(Clone)]
+    enum Step {
+        Key(String),
+        Index(usize),
+    }
+
+    /// The paths to every number, string and boolean in `value`.
+    fn leaves(value: &toml::Value, path: &mut Vec<Step>, out: &mut Vec<Vec<Step>>) {
+        match value {
+            toml::Value::Table(table) => {
+                for (key, v) in table {
+                    path.push(Step::Key(key.clone()));
+                    leaves(v, path, out);
+                    path.pop();
+                }
+            }
+            toml::Value::Array(array) => {
+                for (i, v) in array.iter().enumerate() {
+                    path.push(Step::Index(i));
+                    leaves(v, path, out);
+                    path.pop();
+                }
+            }
+            _ => out.push(path.clone()),
+        }
+    }
+
+    fn leaf<'a>(value: &'a mut toml::Value, path: &[Step]) -> &'a mut toml::Value {
+        path.iter().fold(value, |v, step| match step {
+            Step::Key(key) => &mut v[key.as_str()],
+            Step::Index(i) => &mut v[*i],
+        })
+    }
+
+    fn path_text(path: &[Step]) -> String {
+        let mut text = String::new();
+        for step in path {
+            match step {
+                Step::Key(key) if text.is_empty() => text += key,
+                Step::Key(key) => text += &format!(".{key}"),
+                Step::Index(i) => text += &format!("[{i}]"),
+            }
+        }
+        text
+    }
+
+    /// Other values for a leaf, to try in turn until the scene still validates.
+    fn replacements(value: &toml::Value, names: &[String]) -> Vec<toml::Value> {
+        use toml::Value;
+        let all = match value {
+            Value::Integer(i) => [i * 3 / 2 + 1, i / 2, i + 1, i - 1]
+                .map(Value::Integer)
+                .into(),
+            Value::Float(x) => [x * 1.5 + 0.25, x * 0.5, x + 1.0, x - 1.0]
+                .map(Value::Float)
+                .into(),
+            Value::Boolean(b) => vec![Value::Boolean(!b)],
+            Value::String(_) => names.iter().cloned().map(Value::String).collect(),
+            other => panic!("no scene file holds a {other:?}"),
+        };
+        all.into_iter().filter(|v| v != value).collect()
+    }
+
+    /// Every single value of every shipped scene (and of `EVERY_KEY`) changed in
+    /// turn changes the identity, but the sample count; the file name does not.
+    #[test]
+    fn identity_changes_with_every_value_of_a_scene_file_but_spp() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut files: Vec<(String, String)> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|entry| entry.unwrap().path())
+            .filter(|path| path.extension().is_some_and(|e| e == "toml"))
+            .map(|path| {
+                let name = path.file_name().unwrap().to_string_lossy().into_owned();
+                (name, std::fs::read_to_string(&path).unwrap())
+            })
+            .collect();
+        files.sort();
+        assert!(files.len() >= 3, "{files:?}");
+        files.push(("every-key.toml".into(), EVERY_KEY.into()));
+        let documents: Vec<(String, toml::Value)> = files
+            .iter()
+            .map(|(name, text)| (name.clone(), toml::Value::Table(text.parse().unwrap())))
+            .collect();
+        // Replacement names: every string and material name in any of the files,
+        // and every strategy and sampler.
+        let mut names = std::collections::BTreeSet::new();
+        for (_, document) in &documents {
+            let mut paths = Vec::new();
+            leaves(document, &mut Vec::new(), &mut paths);
+            let mut document = document.clone();
+            for path in &paths {
+                if let Some(s) = leaf(&mut document, path).as_str() {
+                    names.insert(s.to_string());
+                }
+            }
+            if let Some(materials) = document.get("materials").and_then(|m| m.as_table()) {
+                names.extend(materials.keys().cloned());
+            }
+        }
+        names.extend(Strategy::ALL.map(|s| s.name().to_string()));
+        names.extend(Sampler::ALL.map(|s| s.name().to_string()));
+        let names: Vec<String> = names.into_iter().collect();
+
+        let (mut checked, mut changed, mut spp_leaves) = (0, 0, 0);
+        let mut unchanged = Vec::new();
+        for (name, document) in &documents {
+            let base = SceneIdentity::of(
+                &Scene::parse(&toml::to_string(document).unwrap(), name).unwrap(),
+            );
+            let original = &files.iter().find(|(n, _)| n == name).unwrap().1;
+            assert_eq!(
+                SceneIdentity::of(&Scene::parse(original, name).unwrap()),
+                base,
+                "{name}: written back, the file is the same scene"
+            );
+            assert_eq!(
+                SceneIdentity::of(&Scene::parse(original, "elsewhere/other.toml").unwrap()),
+                base,
+                "{name}: the file name is not part of the identity"
+            );
+            let mut paths = Vec::new();
+            leaves(document, &mut Vec::new(), &mut paths);
+            for path in &paths {
+                checked += 1;
+                let at = path_text(path);
+                let mut mutated = document.clone();
+                let value = leaf(&mut mutated, path).clone();
+                let scene = replacements(&value, &names).into_iter().find_map(|v| {
+                    *leaf(&mut mutated, path) = v;
+                    Scene::parse(&toml::to_string(&mutated).unwrap(), name).ok()
+                });
+                let Some(scene) = scene else {
+                    assert!(value.is_str(), "{name}: {at}: no other value validates");
+                    unchanged.push(format!("{name}: {at}"));
+                    continue;
+                };
+                changed += 1;
+                let identity = SceneIdentity::of(&scene);
+                if at == "render.spp" {
+                    spp_leaves += 1;
+                    assert_eq!(identity, base, "{name}: {at}");
+                } else {
+                    assert_ne!(identity.hash(), base.hash(), "{name}: {at}");
+                    assert!(
+                        !SceneIdentity::differences((&base, "before"), (&identity, "now"))
+                            .is_empty(),
+                        "{name}: {at}"
+                    );
+                }
+            }
+        }
+        assert_eq!(spp_leaves, documents.len());
+        // Only names can be left: most `type`s (another type needs other keys), and
+        // the material of an object in a scene of one material.
+        assert!(
+            changed * 10 >= checked * 9,
+            "{changed} of {checked} values changed; not: {unchanged:#?}"
+        );
     }
 }

@@ -27,6 +27,8 @@ use std::path::Path;
 pub const LAYER_NAMES: [&str; 4] = ["sum", "sum_compensation", "squares", "squares_compensation"];
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 const PREFIX: &str = "pathmix.";
+/// `pathmix.format`. 2: the scene hashes come from the whole scene's `Debug` text.
+const FORMAT: u32 = 2;
 
 /// `A..B`: sample indices A (included) to B (excluded).
 pub fn parse_range(text: &str) -> Result<Range<u32>, String> {
@@ -158,7 +160,7 @@ impl Partial {
             .into_iter()
             .map(|(k, v)| (format!("{PREFIX}{k}"), v))
             .collect();
-        a.insert(format!("{PREFIX}format"), "partial 1".into());
+        a.insert(format!("{PREFIX}format"), format!("partial {FORMAT}"));
         a.insert(format!("{PREFIX}version"), self.pathmix_version.clone());
         a.insert(format!("{PREFIX}scene"), latin1(&self.scene_path));
         a.insert(
@@ -278,11 +280,20 @@ pub fn read_partial(path: &Path) -> Result<Partial, String> {
         .remove(&format!("{PREFIX}checksum"))
         .ok_or_else(not_partial)?;
     let get = |k: &str| attributes.get(&format!("{PREFIX}{k}")).cloned();
-    if get("format").as_deref() != Some("partial 1") {
-        return Err(match get("format") {
-            None => not_partial(),
-            Some(f) => {
-                format!("`{name}`: partial result format `{f}` is not one this pathmix reads")
+    let format = get("format").ok_or_else(not_partial)?;
+    let version = format
+        .strip_prefix("partial ")
+        .and_then(|v| v.parse::<u32>().ok());
+    if version != Some(FORMAT) {
+        return Err(match version {
+            Some(v) => format!(
+                "`{name}` was written by {} pathmix (partial result format `{format}`; this \
+                 one reads `partial {FORMAT}`): merge it with that pathmix, or render the part \
+                 again",
+                if v < FORMAT { "an older" } else { "a newer" }
+            ),
+            None => {
+                format!("`{name}`: partial result format `{format}` is not one this pathmix reads")
             }
         });
     }
@@ -598,6 +609,28 @@ mod tests {
             let e = read_partial_bytes(&b);
             assert!(e.contains("checksum"), "{e}");
         }
+    }
+
+    #[test]
+    fn partial_files_of_an_older_format_are_refused_as_older() {
+        let path = temp("older.exr");
+        write_partial(&path, &part(0..10, 1.0, 2)).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let ours = format!("partial {FORMAT}");
+        let at = bytes
+            .windows(ours.len())
+            .position(|w| w == ours.as_bytes())
+            .unwrap();
+        let mut b = bytes.clone();
+        b[at + ours.len() - 1] = b'0' + (FORMAT - 1) as u8;
+        // Its own file: `read_partial_bytes` shares one with tests running alongside.
+        std::fs::write(&path, b).unwrap();
+        let e = read_partial(&path).unwrap_err();
+        assert!(
+            e.contains("written by an older pathmix")
+                && e.contains(&format!("`partial {}`", FORMAT - 1)),
+            "{e}"
+        );
     }
 
     fn read_partial_bytes(bytes: &[u8]) -> String {
