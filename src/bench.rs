@@ -5,9 +5,6 @@ use crate::gpu::GpuContext;
 use crate::render::{self, RenderError, RenderOptions, Renderer, StopRule};
 use crate::scene::Scene;
 
-/// Rendering before timing starts.
-const WARM_UP: std::time::Duration = std::time::Duration::from_millis(500);
-
 /// One configuration measured on one scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Measurement {
@@ -21,8 +18,8 @@ pub struct Measurement {
     pub segments_per_second: f64,
 }
 
-/// Builds the renderer, warms it for `WARM_UP`, then times `repetitions` runs of
-/// `samples` samples per pixel each.
+/// Builds the renderer, warms it up (`Renderer::warm_up`), then times
+/// `repetitions` runs of `samples` samples per pixel each.
 pub fn measure(
     ctx: &GpuContext,
     scene: &Scene,
@@ -31,12 +28,7 @@ pub fn measure(
     repetitions: usize,
 ) -> Result<Measurement, RenderError> {
     let mut renderer = Renderer::new(ctx, scene, options)?;
-    // Warm up: lavapipe compiles at the first dispatch (sometimes the second too),
-    // and the dispatch sizing adapts to the measured speed over a few submissions.
-    let warm_up = std::time::Instant::now();
-    while warm_up.elapsed() < WARM_UP {
-        renderer.advance(samples);
-    }
+    renderer.warm_up(samples);
     let (width, height) = renderer.size();
     let mut seconds = Vec::with_capacity(repetitions);
     let mut segment_rates = Vec::with_capacity(repetitions);

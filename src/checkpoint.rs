@@ -258,18 +258,24 @@ impl SceneIdentity {
     }
 
     /// Reads what `to_pairs` wrote; `get` looks a key up. Checks the combined hash.
-    pub fn from_pairs(get: impl Fn(&str) -> Option<String>) -> Result<SceneIdentity, String> {
-        let text = |key: &str| get(key).ok_or_else(|| format!("missing `{key}`"));
-        fn parse<T: std::str::FromStr>(key: &str, value: String) -> Result<T, String> {
-            value
-                .parse()
-                .map_err(|_| format!("`{key}` is not valid: `{value}`"))
+    pub fn from_pairs(
+        get: impl Fn(&str) -> Option<String>,
+    ) -> Result<SceneIdentity, IdentityError> {
+        let text = |key: &str| get(key).ok_or_else(|| IdentityError::Missing { key: key.into() });
+        fn parse<T: std::str::FromStr>(key: &str, value: String) -> Result<T, IdentityError> {
+            value.parse().map_err(|_| IdentityError::Invalid {
+                key: key.into(),
+                value,
+            })
         }
-        let hash = |key: &str| -> Result<u64, String> {
+        let hash = |key: &str| -> Result<u64, IdentityError> {
             let value = text(key)?;
-            u64::from_str_radix(&value, 16).map_err(|_| format!("`{key}` is not a hash: `{value}`"))
+            u64::from_str_radix(&value, 16).map_err(|_| IdentityError::NotAHash {
+                key: key.into(),
+                value,
+            })
         };
-        let number = |key: &str| -> Result<u32, String> { parse(key, text(key)?) };
+        let number = |key: &str| -> Result<u32, IdentityError> { parse(key, text(key)?) };
         let strategy = text("strategy")?;
         let sampler = text("sampler")?;
         let identity = SceneIdentity {
@@ -282,20 +288,20 @@ impl SceneIdentity {
             seed: number("seed")?,
             max_depth: number("max_depth")?,
             strategy: Strategy::from_name(&strategy)
-                .ok_or_else(|| format!("unknown strategy `{strategy}`"))?,
+                .ok_or(IdentityError::UnknownStrategy { name: strategy })?,
             light_weight: parse("light_weight", text("light_weight")?)?,
             rr_depth: match text("rr_depth")?.as_str() {
                 "off" => None,
                 depth => Some(parse("rr_depth", depth.to_string())?),
             },
             sampler: Sampler::from_name(&sampler)
-                .ok_or_else(|| format!("unknown sampler `{sampler}`"))?,
+                .ok_or(IdentityError::UnknownSampler { name: sampler })?,
             materials: number("materials")?,
             quads: number("quads")?,
             spheres: number("spheres")?,
         };
         if hash("hash")? != identity.hash() {
-            return Err("the scene hash does not match its parts".into());
+            return Err(IdentityError::HashMismatch);
         }
         Ok(identity)
     }
@@ -307,6 +313,23 @@ impl SceneIdentity {
 /// old files are refused as a different scene, never silently accepted.
 fn debug_hash(value: &impl fmt::Debug) -> u64 {
     Fnv64::default().str(&format!("{value:?}")).finish()
+}
+
+/// Recorded scene identity pairs that do not make one.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum IdentityError {
+    #[error("missing `{key}`")]
+    Missing { key: String },
+    #[error("`{key}` is not valid: `{value}`")]
+    Invalid { key: String, value: String },
+    #[error("`{key}` is not a hash: `{value}`")]
+    NotAHash { key: String, value: String },
+    #[error("unknown strategy `{name}`")]
+    UnknownStrategy { name: String },
+    #[error("unknown sampler `{name}`")]
+    UnknownSampler { name: String },
+    #[error("the scene hash does not match its parts")]
+    HashMismatch,
 }
 
 pub fn hex(v: u64) -> String {
@@ -332,19 +355,76 @@ pub struct Checkpoint {
 }
 
 /// A checkpoint that cannot be used, and why.
-#[derive(Debug)]
-pub struct CheckpointError {
-    pub path: PathBuf,
-    pub message: String,
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    #[error("checkpoint `{}`: cannot read it: {source}", .path.display())]
+    Read { path: PathBuf, source: io::Error },
+    #[error("checkpoint `{}`: {source}", .path.display())]
+    Format { path: PathBuf, source: FormatError },
 }
 
-impl fmt::Display for CheckpointError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "checkpoint `{}`: {}", self.path.display(), self.message)
+/// How a file's format version compares with this pathmix's, for messages.
+fn older_or_newer(version: &u32) -> &'static str {
+    if *version < VERSION {
+        "an older"
+    } else {
+        "a newer"
     }
 }
 
-impl std::error::Error for CheckpointError {}
+/// What is wrong with a checkpoint file's bytes.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum FormatError {
+    #[error("truncated: only {len} bytes")]
+    Truncated { len: usize },
+    #[error("not a pathmix checkpoint (wrong magic bytes)")]
+    WrongMagic,
+    #[error(
+        "written by {} pathmix (checkpoint format version {version}; this pathmix ({}) \
+         reads version {VERSION}): resume with the pathmix that wrote it, or start again",
+        older_or_newer(.version),
+        env!("CARGO_PKG_VERSION")
+    )]
+    Version { version: u32 },
+    #[error("truncated or corrupted: the file has {len} bytes, its layout says {expected}")]
+    LengthMismatch { len: usize, expected: u128 },
+    #[error("corrupted: the checksum does not match the contents")]
+    Checksum,
+    #[error("corrupted: the header is not UTF-8")]
+    HeaderNotUtf8,
+    #[error("bad header: {0}")]
+    Header(#[from] HeaderError),
+}
+
+/// What is wrong with a checkpoint's TOML header.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum HeaderError {
+    #[error(transparent)]
+    Toml(#[from] toml::de::Error),
+    #[error("missing table `[{key}]`")]
+    MissingTable { key: String },
+    #[error("missing `{key}`")]
+    Missing { key: String },
+    #[error("[scene]: {0}")]
+    Scene(#[from] IdentityError),
+    #[error("`{table}.{key}` is not a u32")]
+    NotU32 { table: String, key: String },
+    #[error("`overrides.{key}` is not a {key}")]
+    NotNamed { key: String },
+    #[error("`overrides.light_weight` is not a number")]
+    LightWeight,
+    #[error("`overrides.rr_depth` is not a depth or `off`")]
+    RrDepth,
+    #[error("{count} texels of data for {width}x{height} pixels and {layers} layers")]
+    TexelCount {
+        count: usize,
+        width: u32,
+        height: u32,
+        layers: u32,
+    },
+    #[error("the sums' size differs from the scene's")]
+    SizeDiffers,
+}
 
 /// Writes `checkpoint` atomically (temporary file, fsync, rename).
 pub fn write(path: &Path, checkpoint: &Checkpoint) -> Result<(), OutputError> {
@@ -474,47 +554,39 @@ fn header(c: &Checkpoint) -> String {
 /// Reads and checks a checkpoint file: magic, version, length and checksum,
 /// then the header. A truncated or corrupted file is refused.
 pub fn read(path: &Path) -> Result<Checkpoint, CheckpointError> {
-    let error = |message: String| CheckpointError {
+    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Read {
         path: path.to_owned(),
-        message,
-    };
-    let bytes = std::fs::read(path).map_err(|e| error(format!("cannot read it: {e}")))?;
-    from_bytes(&bytes).map_err(error)
+        source,
+    })?;
+    from_bytes(&bytes).map_err(|source| CheckpointError::Format {
+        path: path.to_owned(),
+        source,
+    })
 }
 
-/// Decodes what `to_bytes` made; the message says what is wrong.
-pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
+/// Decodes what `to_bytes` made.
+pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, FormatError> {
     const FIXED: usize = 8 + 4 + 4 + 8 + 4;
+    let truncated = FormatError::Truncated { len: bytes.len() };
     if bytes.len() < 8 || bytes[..8] != MAGIC {
         if bytes.len() < 8 && MAGIC.starts_with(bytes) {
-            return Err(format!("truncated: only {} bytes", bytes.len()));
+            return Err(truncated);
         }
-        return Err("not a pathmix checkpoint (wrong magic bytes)".into());
+        return Err(FormatError::WrongMagic);
     }
     if bytes.len() < 16 {
-        return Err(format!("truncated: only {} bytes", bytes.len()));
+        return Err(truncated);
     }
     let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
     let version = u32_at(8);
     if version != VERSION {
-        let by = if version < VERSION {
-            "an older"
-        } else {
-            "a newer"
-        };
-        return Err(format!(
-            "written by {by} pathmix (checkpoint format version {version}; this pathmix ({}) \
-             reads version {VERSION}): resume with the pathmix that wrote it, or start again",
-            env!("CARGO_PKG_VERSION")
-        ));
+        return Err(FormatError::Version { version });
     }
     let header_len = u32_at(12) as usize;
     let count_at = 16 + header_len;
-    let truncated = |expected: u128| {
-        format!(
-            "truncated or corrupted: the file has {} bytes, its layout says {expected}",
-            bytes.len()
-        )
+    let truncated = |expected: u128| FormatError::LengthMismatch {
+        len: bytes.len(),
+        expected,
     };
     if bytes.len() < count_at + 8 + 4 {
         return Err(truncated((FIXED + header_len) as u128));
@@ -526,10 +598,10 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
     }
     let (body, crc) = bytes.split_at(bytes.len() - 4);
     if crc32fast::hash(body) != u32::from_le_bytes(crc.try_into().unwrap()) {
-        return Err("corrupted: the checksum does not match the contents".into());
+        return Err(FormatError::Checksum);
     }
-    let header = std::str::from_utf8(&bytes[16..count_at])
-        .map_err(|_| "corrupted: the header is not UTF-8".to_string())?;
+    let header =
+        std::str::from_utf8(&bytes[16..count_at]).map_err(|_| FormatError::HeaderNotUtf8)?;
     let data = &bytes[count_at + 8..bytes.len() - 4];
     let texels: Vec<[f32; 4]> = data
         .chunks_exact(16)
@@ -537,51 +609,54 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
             std::array::from_fn(|c| f32::from_le_bytes(t[4 * c..4 * c + 4].try_into().unwrap()))
         })
         .collect();
-    parse_header(header, texels).map_err(|e| format!("bad header: {e}"))
+    Ok(parse_header(header, texels)?)
 }
 
-fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String> {
-    let root: toml::Table = text.parse().map_err(|e| format!("{e}"))?;
-    let table = |key: &str| -> Result<&toml::Table, String> {
+fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, HeaderError> {
+    let root: toml::Table = text.parse()?;
+    let missing = |key: String| HeaderError::Missing { key };
+    let table = |key: &str| -> Result<&toml::Table, HeaderError> {
         root.get(key)
             .and_then(|v| v.as_table())
-            .ok_or_else(|| format!("missing table `[{key}]`"))
+            .ok_or_else(|| HeaderError::MissingTable { key: key.into() })
     };
-    let string = |key: &str| -> Result<String, String> {
+    let string = |key: &str| -> Result<String, HeaderError> {
         root.get(key)
             .and_then(|v| v.as_str())
             .map(str::to_string)
-            .ok_or_else(|| format!("missing `{key}`"))
+            .ok_or_else(|| missing(key.into()))
     };
     fn named_in<T>(
         overrides: &toml::Table,
         key: &str,
         from_name: fn(&str) -> Option<T>,
-    ) -> Result<Option<T>, String> {
+    ) -> Result<Option<T>, HeaderError> {
         overrides
             .get(key)
             .map(|v| {
                 v.as_str()
                     .and_then(from_name)
-                    .ok_or_else(|| format!("`overrides.{key}` is not a {key}"))
+                    .ok_or_else(|| HeaderError::NotNamed { key: key.into() })
             })
             .transpose()
     }
-    fn u32_in(table: &toml::Table, name: &str, key: &str) -> Result<Option<u32>, String> {
+    fn u32_in(table: &toml::Table, name: &str, key: &str) -> Result<Option<u32>, HeaderError> {
         table
             .get(key)
             .map(|v| {
                 v.as_integer()
                     .and_then(|i| u32::try_from(i).ok())
-                    .ok_or_else(|| format!("`{name}.{key}` is not a u32"))
+                    .ok_or_else(|| HeaderError::NotU32 {
+                        table: name.into(),
+                        key: key.into(),
+                    })
             })
             .transpose()
     }
     let scene = table("scene")?;
     let identity = SceneIdentity::from_pairs(|key| {
         scene.get(key).and_then(|v| v.as_str()).map(str::to_string)
-    })
-    .map_err(|e| format!("[scene]: {e}"))?;
+    })?;
     let o = table("overrides")?;
     let overrides = SceneOverrides {
         spp: None,
@@ -592,10 +667,7 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
         strategy: named_in(o, "strategy", Strategy::from_name)?,
         light_weight: match o.get("light_weight") {
             None => None,
-            Some(v) => Some(
-                v.as_float()
-                    .ok_or("`overrides.light_weight` is not a number")? as f32,
-            ),
+            Some(v) => Some(v.as_float().ok_or(HeaderError::LightWeight)? as f32),
         },
         rr_depth: match o.get("rr_depth").map(|v| v.as_str()) {
             None => None,
@@ -603,13 +675,13 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
             Some(depth) => Some(Some(
                 depth
                     .and_then(|d| d.parse().ok())
-                    .ok_or("`overrides.rr_depth` is not a depth or `off`")?,
+                    .ok_or(HeaderError::RrDepth)?,
             )),
         },
         sampler: named_in(o, "sampler", Sampler::from_name)?,
     };
     let s = table("state")?;
-    let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| format!("missing `state.{key}`"));
+    let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| missing(format!("state.{key}")));
     let state = AccumulatorState {
         width: need("width")?,
         height: need("height")?,
@@ -620,22 +692,21 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, String>
     };
     let texel_count = state.width as u64 * state.height as u64 * state.layers as u64;
     if state.texels.len() as u64 != texel_count {
-        return Err(format!(
-            "{} texels of data for {}x{} pixels and {} layers",
-            state.texels.len(),
-            state.width,
-            state.height,
-            state.layers
-        ));
+        return Err(HeaderError::TexelCount {
+            count: state.texels.len(),
+            width: state.width,
+            height: state.height,
+            layers: state.layers,
+        });
     }
     if (state.width, state.height) != (identity.width, identity.height) {
-        return Err("the sums' size differs from the scene's".into());
+        return Err(HeaderError::SizeDiffers);
     }
     let discarded = s
         .get("discarded")
         .and_then(|v| v.as_integer())
         .and_then(|v| u64::try_from(v).ok())
-        .ok_or("missing `state.discarded`")?;
+        .ok_or_else(|| missing("state.discarded".into()))?;
     Ok(Checkpoint {
         pathmix_version: string("pathmix_version")?,
         scene_path: PathBuf::from(string("scene_path")?),
@@ -723,7 +794,7 @@ mod tests {
     fn truncated_and_flipped_files_are_refused() {
         let bytes = to_bytes(&sample());
         for len in [0, 5, 8, 15, 16, 40, bytes.len() / 2, bytes.len() - 1] {
-            let e = from_bytes(&bytes[..len]).unwrap_err();
+            let e = from_bytes(&bytes[..len]).unwrap_err().to_string();
             assert!(e.contains("truncated"), "{len}: {e}");
         }
         // Every single bit flip anywhere is caught.
@@ -731,7 +802,7 @@ mod tests {
             for bit in [0, 5] {
                 let mut b = bytes.clone();
                 b[at] ^= 1 << bit;
-                let e = from_bytes(&b).unwrap_err();
+                let e = from_bytes(&b).unwrap_err().to_string();
                 assert!(
                     e.contains("corrupted")
                         || e.contains("truncated")
@@ -743,7 +814,12 @@ mod tests {
         }
         let mut longer = bytes.clone();
         longer.push(0);
-        assert!(from_bytes(&longer).unwrap_err().contains("corrupted"));
+        assert!(
+            from_bytes(&longer)
+                .unwrap_err()
+                .to_string()
+                .contains("corrupted")
+        );
     }
 
     #[test]
@@ -792,13 +868,13 @@ mod tests {
     fn older_checkpoints_are_refused_as_older() {
         let mut bytes = to_bytes(&sample());
         bytes[8..12].copy_from_slice(&(VERSION - 1).to_le_bytes());
-        let e = from_bytes(&bytes).unwrap_err();
+        let e = from_bytes(&bytes).unwrap_err().to_string();
         assert!(
             e.contains("written by an older pathmix") && e.contains("version 1"),
             "{e}"
         );
         bytes[8..12].copy_from_slice(&(VERSION + 1).to_le_bytes());
-        let e = from_bytes(&bytes).unwrap_err();
+        let e = from_bytes(&bytes).unwrap_err().to_string();
         assert!(e.contains("written by a newer pathmix"), "{e}");
     }
 

@@ -267,40 +267,37 @@ pub fn summarize(rows: &[Row]) -> Vec<Summary> {
         .collect()
 }
 
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum ConvergeError {
-    /// The request cannot be met: a reference of the wrong size, a variant the scene
-    /// cannot render, a seed that collides with the reference's.
+    /// The request cannot be met (an unreadable reference, settings the scene refuses).
+    #[error("{0}")]
     Input(String),
-    Render(RenderError),
-    Output(OutputError),
+    /// `path` (when the user gave it) holds a reference of another size.
+    #[error(
+        "{}the reference is {}x{}, the measured image {}x{}; measure at the reference's \
+         size or give a reference of the measured size",
+        .path.as_ref().map_or_else(String::new, |p| format!("{}: ", p.display())),
+        .reference.0, .reference.1, .measured.0, .measured.1
+    )]
+    ReferenceSize {
+        path: Option<PathBuf>,
+        reference: (u32, u32),
+        measured: (u32, u32),
+    },
+    /// Measured runs must not share the reference's noise.
+    #[error("seed {REFERENCE_SEED} is the reference's; measure with another seed")]
+    ReferenceSeed,
+    /// A variant the scene or adapter cannot render (`Renderer::new` refused it).
+    #[error(transparent)]
+    Unsupported(RenderError),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error(transparent)]
+    Output(#[from] OutputError),
 }
 
-impl fmt::Display for ConvergeError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ConvergeError::Input(message) => f.write_str(message),
-            ConvergeError::Render(e) => e.fmt(f),
-            ConvergeError::Output(e) => e.fmt(f),
-        }
-    }
-}
-
-impl std::error::Error for ConvergeError {}
-
-impl From<RenderError> for ConvergeError {
-    fn from(e: RenderError) -> Self {
-        ConvergeError::Render(e)
-    }
-}
-
-impl From<OutputError> for ConvergeError {
-    fn from(e: OutputError) -> Self {
-        ConvergeError::Output(e)
-    }
-}
-
-/// `Renderer::new`, with the requests the scene or adapter cannot meet as input errors.
+/// `Renderer::new`, with the requests the scene or adapter cannot meet apart from
+/// device failures.
 fn renderer<'a>(
     ctx: &'a GpuContext,
     scene: &Scene,
@@ -311,21 +308,9 @@ fn renderer<'a>(
         ..Default::default()
     };
     Renderer::new(ctx, scene, &options).map_err(|e| match e {
-        RenderError::Unsupported(message) => ConvergeError::Input(message),
-        e => ConvergeError::Render(e),
+        RenderError::Gpu(_) => ConvergeError::Render(e),
+        e => ConvergeError::Unsupported(e),
     })
-}
-
-fn check_counters(renderer: &Renderer) -> Result<u64, ConvergeError> {
-    let counters = renderer.counters();
-    if counters.truncated > 0 {
-        return Err(ConvergeError::Render(RenderError::Unsupported(format!(
-            "{} pixel invocations were cut short by the driver (a loop limit): the measurement \
-             would be wrong. Use a smaller --max-depth on this adapter",
-            counters.truncated
-        ))));
-    }
-    Ok(counters.discarded as u64)
 }
 
 // --- The reference -----------------------------------------------------------------
@@ -402,15 +387,11 @@ impl Reference {
 pub fn given_reference(path: &Path, width: u32, height: u32) -> Result<Reference, ConvergeError> {
     let image = output::read_exr(path).map_err(|e| ConvergeError::Input(e.to_string()))?;
     if (image.width, image.height) != (width, height) {
-        return Err(ConvergeError::Input(format!(
-            "{}: the reference is {}x{}, the measured image {width}x{height}; \
-             give --width {} --height {} or a reference of the same size",
-            path.display(),
-            image.width,
-            image.height,
-            image.width,
-            image.height
-        )));
+        return Err(ConvergeError::ReferenceSize {
+            path: Some(path.to_path_buf()),
+            reference: (image.width, image.height),
+            measured: (width, height),
+        });
     }
     Ok(Reference {
         image,
@@ -502,31 +483,10 @@ pub struct Measurement {
     pub discarded: u64,
 }
 
-/// Most one-sample dispatches [`warm_up`] runs.
-const WARM_UP_MAX_DISPATCHES: usize = 10;
-
-/// Runs one-sample dispatches until their time settles, then restarts the accumulation.
-/// lavapipe compiles the kernel at its first dispatch, sometimes again at the second
-/// (the shader cache is written in the background); the timed samples must not pay
-/// for that. Settled: at least 3 dispatches, the last two within 1.5 times the fastest.
-fn warm_up(renderer: &mut Renderer) {
-    let mut times = Vec::new();
-    while times.len() < WARM_UP_MAX_DISPATCHES {
-        let started = Instant::now();
-        renderer.advance(1);
-        times.push(started.elapsed().as_secs_f64());
-        let fastest = times.iter().copied().fold(f64::INFINITY, f64::min);
-        if times.len() >= 3 && times[times.len() - 2..].iter().all(|&t| t <= 1.5 * fastest) {
-            break;
-        }
-    }
-    renderer.reset();
-}
-
 /// Renders `variant` of `scene` once, progressively, reading it back at each rung of
 /// `ladder` (ascending) and comparing it with `reference`. Squared samples are
 /// accumulated too, for the error estimate. The pipeline is warmed up first
-/// ([`warm_up`]), so compile time is not counted; neither are the readbacks. `on_rung`
+/// ([`Renderer::warm_up`]), so compile time is not counted; neither are the readbacks. `on_rung`
 /// sees each row as it is measured.
 pub fn measure_variant(
     ctx: &GpuContext,
@@ -546,19 +506,19 @@ pub fn measure_variant(
         })
         .map_err(|e| ConvergeError::Input(e.to_string()))?;
     if scene.render.seed == REFERENCE_SEED {
-        return Err(ConvergeError::Input(format!(
-            "seed {REFERENCE_SEED} is the reference's; measure with another --seed"
-        )));
+        return Err(ConvergeError::ReferenceSeed);
     }
     let mut renderer = renderer(ctx, &scene, true)?;
     let (width, height) = renderer.size();
     if (reference.width, reference.height) != (width, height) {
-        return Err(ConvergeError::Input(format!(
-            "the reference is {}x{}, the measured image {width}x{height}",
-            reference.width, reference.height
-        )));
+        return Err(ConvergeError::ReferenceSize {
+            path: None,
+            reference: (reference.width, reference.height),
+            measured: (width, height),
+        });
     }
-    warm_up(&mut renderer);
+    // One-sample submissions, as the first rung's.
+    renderer.warm_up(1);
 
     let name = variant.name();
     let pixels = width as f64 * height as f64;
@@ -589,7 +549,7 @@ pub fn measure_variant(
         on_rung(&row);
         rows.push(row);
     }
-    let discarded = check_counters(&renderer)?;
+    let discarded = renderer.check_counters()?.discarded as u64;
     Ok(Measurement {
         rows,
         warnings: renderer.warnings.clone(),

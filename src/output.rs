@@ -129,6 +129,12 @@ pub fn check_output_path(path: &Path, expected: ImageFormat) -> Result<(), Outpu
             ),
         ));
     }
+    check_writable(path)
+}
+
+/// Checks that a file can be written at `path`: the parent folder exists and is a
+/// folder, `path` is not a folder, and a file can be created in that folder.
+pub fn check_writable(path: &Path) -> Result<(), OutputError> {
     let name = file_name(path)?;
     let folder = parent_folder(path)?;
     if path.is_dir() {

@@ -1,15 +1,18 @@
 //! Progressive accumulation: dispatching samples in short submissions, reading
 //! the running sums back, and the rules that stop a run.
 
-use crate::gpu::accumulator::{Accumulator, map_read};
+use crate::gpu::accumulator::{
+    Accumulator, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
+    compensated_sums, map_read,
+};
 use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Kernel};
 use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{AccumulatorKind, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE};
 use crate::kinds::PRIMITIVE_KINDS;
 use crate::scene::{Sampler, Scene, Strategy};
+use crate::shader::ComposeError;
 use crate::stats::Accumulation;
-use std::fmt;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
@@ -42,28 +45,67 @@ impl Default for RenderOptions {
     }
 }
 
-#[derive(Debug)]
+/// Why a run cannot start, or why its result cannot be trusted. The messages
+/// name settings; a front end adds how to change them.
+#[derive(Debug, thiserror::Error)]
 pub enum RenderError {
-    Gpu(GpuError),
-    /// The run asks for something this scene or adapter cannot do.
-    Unsupported(String),
-}
-
-impl fmt::Display for RenderError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RenderError::Gpu(e) => e.fmt(f),
-            RenderError::Unsupported(message) => f.write_str(message),
-        }
-    }
-}
-
-impl std::error::Error for RenderError {}
-
-impl From<GpuError> for RenderError {
-    fn from(e: GpuError) -> Self {
-        RenderError::Gpu(e)
-    }
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(
+        "{scene}: a scene with non-finite numbers cannot be baked into the kernel; \
+         it needs scene storage `buffers`"
+    )]
+    NonFiniteBakedScene { scene: String },
+    #[error(
+        "{scene}: strategy `light` needs an emitting or `importance = true` object to aim at, \
+         and the scene has none"
+    )]
+    LightStrategyWithoutTargets { scene: String },
+    #[error(
+        "adapter {adapter} has no read-write rgba32float storage textures; \
+         use the buffer accumulator"
+    )]
+    NoStorageTextures { adapter: String },
+    #[error(
+        "{width}x{height} exceeds this adapter's largest texture ({max}x{max}); \
+         render a smaller image or use the buffer accumulator"
+    )]
+    TextureTooLarge { width: u32, height: u32, max: u32 },
+    #[error(
+        "{width}x{height} needs a {bytes}-byte accumulator, over this adapter's \
+         storage buffer limit of {max} bytes; render a smaller image"
+    )]
+    AccumulatorTooLarge {
+        width: u32,
+        height: u32,
+        bytes: u64,
+        max: u64,
+    },
+    #[error("internal shader composition error: {0}")]
+    ShaderComposition(#[from] ComposeError),
+    #[error("the first sample index can only be set before rendering")]
+    FirstSampleAfterRendering,
+    #[error("saved sums are {saved_width}x{saved_height}, this render is {width}x{height}")]
+    StateSizeMismatch {
+        saved_width: u32,
+        saved_height: u32,
+        width: u32,
+        height: u32,
+    },
+    #[error(
+        "saved sums have {saved} layers, this render has {layers} (variance {})",
+        if *.layers > LAYER_SQUARES { "on" } else { "off" }
+    )]
+    StateLayersMismatch { saved: u32, layers: u32 },
+    #[error("saved sums hold {count} texels, expected {expected}")]
+    StateTexelCountMismatch { count: usize, expected: u64 },
+    #[error("a target error needs the variance sums: render with variance on")]
+    TargetErrorWithoutVariance,
+    #[error(
+        "{count} pixel invocations were cut short by the driver (a loop limit): the sums \
+         would be wrong; render with a smaller maximum depth or a simpler scene on this adapter"
+    )]
+    TruncatedInvocations { count: u32 },
 }
 
 /// One scene on one device: the specialised kernel, its buffers and the sums so far.
@@ -105,9 +147,7 @@ impl<'a> Renderer<'a> {
             warnings,
         } = plan_kernel(ctx, scene, options)?;
         let max_samples_per_dispatch = max_samples_per_dispatch(&data, &config);
-        let kernel = Kernel::new(ctx, config).map_err(|e| {
-            RenderError::Unsupported(format!("internal shader composition error: {e}"))
-        })?;
+        let kernel = Kernel::new(ctx, config)?;
         let accumulator = Accumulator::new(
             ctx,
             kernel.config.accumulator,
@@ -239,13 +279,12 @@ impl<'a> Renderer<'a> {
     /// takes one sample over several submissions.
     pub fn advance(&mut self, max_samples: u32) -> u32 {
         let (width, height) = self.size();
-        let pixels = width as u64 * height as u64;
-        let budget = self.paths_per_submission.max(1);
-        let cap = max_samples.clamp(1, self.max_samples_per_dispatch) as u64;
-        let samples = (budget / pixels).clamp(1, cap) as u32;
-        // Rows per dispatch: all of them unless one sample of the image is over budget.
-        let rows = ((budget / width as u64).clamp(1, height as u64) as u32)
-            .min(u16::MAX as u32 * WORKGROUP_SIZE.1);
+        let (samples, rows) = submission_shape(
+            self.paths_per_submission,
+            width,
+            height,
+            max_samples.min(self.max_samples_per_dispatch),
+        );
         let started = Instant::now();
         let mut row = 0;
         while row < height {
@@ -255,12 +294,38 @@ impl<'a> Renderer<'a> {
         }
         self.wait();
         self.samples += samples;
-        // Aim the next submission at the target duration, changing by at most 4x.
-        let seconds = started.elapsed().as_secs_f64().max(1e-4);
-        let paths = pixels as f64 * samples as f64;
-        let wanted = paths * (self.submission_seconds / seconds).clamp(0.25, 4.0);
-        self.paths_per_submission = wanted.max(1.0) as u64;
+        let paths = width as u64 * height as u64 * samples as u64;
+        self.paths_per_submission =
+            next_paths_per_submission(paths, started.elapsed(), self.submission_seconds);
         samples
+    }
+
+    /// Renders until the pipeline is compiled and the submission size has adapted,
+    /// then starts the accumulation over, so that timed samples pay for neither:
+    /// lavapipe compiles the kernel at its first dispatch, sometimes again at the
+    /// second (the shader cache is written in the background), and each submission
+    /// moves the size at most 4x toward its target. Submissions trace up to
+    /// `max_samples` samples, as the timed ones will. Settled: at least 3
+    /// submissions, the time per path of the last two within 1.5 times the fastest
+    /// (then neither compilation nor per-submission overhead dominates).
+    pub fn warm_up(&mut self, max_samples: u32) {
+        let (width, height) = self.size();
+        let mut per_path = Vec::new();
+        while per_path.len() < WARM_UP_MAX_SUBMISSIONS {
+            let started = Instant::now();
+            let samples = self.advance(max_samples);
+            let paths = width as f64 * height as f64 * samples as f64;
+            per_path.push(started.elapsed().as_secs_f64() / paths);
+            let fastest = per_path.iter().copied().fold(f64::INFINITY, f64::min);
+            if per_path.len() >= 3
+                && per_path[per_path.len() - 2..]
+                    .iter()
+                    .all(|&t| t <= 1.5 * fastest)
+            {
+                break;
+            }
+        }
+        self.reset();
     }
 
     fn dispatch(&mut self, tile_origin: [u32; 2], tile_size: [u32; 2], samples: u32) {
@@ -303,20 +368,20 @@ impl<'a> Renderer<'a> {
     /// The sums so far, in f64 (each running sum minus its compensation).
     pub fn accumulation(&self) -> Accumulation {
         let (width, height) = self.size();
-        let pixels = (width * height) as usize;
+        let pixels = width as usize * height as usize;
         let texels = self.accumulator.read(self.ctx);
-        let layer = |sum: usize, compensation: usize| -> Vec<[f64; 3]> {
-            let (sums, compensations) = (&texels[sum * pixels..], &texels[compensation * pixels..]);
-            (0..pixels)
-                .map(|i| std::array::from_fn(|c| sums[i][c] as f64 - compensations[i][c] as f64))
-                .collect()
-        };
+        let layer =
+            |sum, compensation| compensated_sums(&texels, pixels, sum, compensation).collect();
         Accumulation {
             width,
             height,
             samples: self.samples as u64,
-            sum: layer(0, 1),
-            sum_sq: self.kernel.config.variance.then(|| layer(2, 3)),
+            sum: layer(LAYER_SUM, LAYER_SUM_COMPENSATION),
+            sum_sq: self
+                .kernel
+                .config
+                .variance
+                .then(|| layer(LAYER_SQUARES, LAYER_SQUARES_COMPENSATION)),
         }
     }
 
@@ -331,9 +396,7 @@ impl<'a> Renderer<'a> {
     /// Only before the first sample is traced.
     pub fn set_first_sample(&mut self, first: u32) -> Result<(), RenderError> {
         if self.samples > 0 {
-            return Err(RenderError::Unsupported(
-                "the first sample index can only be set before rendering".into(),
-            ));
+            return Err(RenderError::FirstSampleAfterRendering);
         }
         self.first_sample = first;
         Ok(())
@@ -358,31 +421,23 @@ impl<'a> Renderer<'a> {
     /// added to the saved sums and compensations.
     pub fn import_state(&mut self, state: &AccumulatorState) -> Result<(), RenderError> {
         let (width, height) = self.size();
-        let layers = self.accumulator.layers;
-        if (state.width, state.height) != (width, height) {
-            return Err(RenderError::Unsupported(format!(
-                "saved sums are {}x{}, this render is {width}x{height}",
-                state.width, state.height
-            )));
-        }
-        if state.layers != layers {
-            return Err(RenderError::Unsupported(format!(
-                "saved sums have {} layers, this render has {layers} (variance {})",
-                state.layers,
-                if layers > 2 { "on" } else { "off" }
-            )));
-        }
-        if state.texels.len() != (width * height * layers) as usize {
-            return Err(RenderError::Unsupported(format!(
-                "saved sums hold {} texels, expected {}",
-                state.texels.len(),
-                width * height * layers
-            )));
-        }
+        check_state(state, width, height, self.accumulator.layers)?;
         self.accumulator.write(self.ctx, &state.texels);
         self.first_sample = state.first_sample;
         self.samples = state.samples;
         Ok(())
+    }
+
+    /// The counters, refused when the driver cut invocations short: the sums are
+    /// then wrong. The one check every run makes before trusting its result.
+    pub fn check_counters(&self) -> Result<Counters, RenderError> {
+        let counters = self.counters();
+        if counters.truncated > 0 {
+            return Err(RenderError::TruncatedInvocations {
+                count: counters.truncated,
+            });
+        }
+        Ok(counters)
     }
 
     /// The kernel's counters: samples discarded as NaN or infinite (added as
@@ -406,7 +461,7 @@ impl<'a> Renderer<'a> {
 pub struct AccumulatorState {
     pub width: u32,
     pub height: u32,
-    /// 2 (sum, compensation) or 4 (and squares, compensation).
+    /// 2 (sum, compensation) or 4 (and squares, compensation): `gpu::accumulator::LAYER_*`.
     pub layers: u32,
     pub first_sample: u32,
     pub samples: u32,
@@ -441,11 +496,9 @@ pub fn plan_kernel(
         None => SceneStorage::auto(&data),
     };
     if scene_storage == SceneStorage::Baked && !data.is_finite() {
-        return Err(RenderError::Unsupported(format!(
-            "{}: a scene with non-finite numbers cannot be baked into the kernel; \
-             use --scene-storage buffers",
-            scene.source
-        )));
+        return Err(RenderError::NonFiniteBakedScene {
+            scene: scene.source.clone(),
+        });
     }
     let config = KernelConfig::for_scene(
         &data,
@@ -468,6 +521,59 @@ pub fn plan_kernel(
     })
 }
 
+/// Whether saved sums fit a render of `width` x `height` with `layers` layers:
+/// the resume rules of `Renderer::import_state`.
+fn check_state(
+    state: &AccumulatorState,
+    width: u32,
+    height: u32,
+    layers: u32,
+) -> Result<(), RenderError> {
+    if (state.width, state.height) != (width, height) {
+        return Err(RenderError::StateSizeMismatch {
+            saved_width: state.width,
+            saved_height: state.height,
+            width,
+            height,
+        });
+    }
+    if state.layers != layers {
+        return Err(RenderError::StateLayersMismatch {
+            saved: state.layers,
+            layers,
+        });
+    }
+    let expected = width as u64 * height as u64 * layers as u64;
+    if state.texels.len() as u64 != expected {
+        return Err(RenderError::StateTexelCountMismatch {
+            count: state.texels.len(),
+            expected,
+        });
+    }
+    Ok(())
+}
+
+/// Samples per pixel and rows per dispatch for a submission of about `budget`
+/// paths: as many whole samples of the image as fit, 1 to `max_samples`, over
+/// all rows unless one sample of the image is over budget; a dispatch covers at
+/// most the rows its workgroup count can reach.
+fn submission_shape(budget: u64, width: u32, height: u32, max_samples: u32) -> (u32, u32) {
+    let budget = budget.max(1);
+    let pixels = width as u64 * height as u64;
+    let samples = (budget / pixels).clamp(1, max_samples.max(1) as u64) as u32;
+    let rows = ((budget / width as u64).clamp(1, height as u64) as u32)
+        .min(u16::MAX as u32 * WORKGROUP_SIZE.1);
+    (samples, rows)
+}
+
+/// The next submission's paths after `paths` took `elapsed`: aimed at
+/// `target_seconds`, changing by at most 4x at a time.
+fn next_paths_per_submission(paths: u64, elapsed: Duration, target_seconds: f64) -> u64 {
+    let seconds = elapsed.as_secs_f64().max(1e-4);
+    let wanted = paths as f64 * (target_seconds / seconds).clamp(0.25, 4.0);
+    wanted.max(1.0) as u64
+}
+
 /// The scene packed for a run with the `wanted` strategy, the strategy the run
 /// really uses, and what the user should be told. Next-event estimation aims only
 /// at emitters (a shadow ray toward a non-emitting importance object finds no
@@ -485,11 +591,9 @@ pub fn prepare_scene(
     let mut strategy = wanted;
     if data.light_count() == 0 && strategy != Strategy::Bsdf {
         if strategy == Strategy::Light {
-            return Err(RenderError::Unsupported(format!(
-                "{}: strategy `light` needs an emitting or `importance = true` object to aim at, \
-                 and the scene has none",
-                scene.source
-            )));
+            return Err(RenderError::LightStrategyWithoutTargets {
+                scene: scene.source.clone(),
+            });
         }
         warnings.push(format!(
             "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to bsdf sampling (the materials' own: cosine-weighted on diffuse surfaces)",
@@ -516,10 +620,9 @@ pub fn choose_accumulator(
 ) -> Result<AccumulatorKind, RenderError> {
     Ok(match wanted {
         Some(AccumulatorKind::Texture) if !ctx.storage_texture_accumulator => {
-            return Err(RenderError::Unsupported(format!(
-                "adapter {} has no read-write rgba32float storage textures; use the buffer accumulator",
-                ctx.describe()
-            )));
+            return Err(RenderError::NoStorageTextures {
+                adapter: ctx.describe(),
+            });
         }
         Some(kind) => kind,
         // The buffer has no per-dimension limit, so it takes images wider or
@@ -570,10 +673,7 @@ fn check_size(
         AccumulatorKind::Texture => {
             let max = limits.max_texture_dimension_2d;
             if width > max || height > max {
-                return Err(RenderError::Unsupported(format!(
-                    "{width}x{height} exceeds this adapter's largest texture ({max}x{max}); \
-                     render a smaller image or use --accumulator buffer"
-                )));
+                return Err(RenderError::TextureTooLarge { width, height, max });
             }
         }
         AccumulatorKind::Buffer => {
@@ -582,10 +682,12 @@ fn check_size(
                 .max_storage_buffer_binding_size
                 .min(limits.max_buffer_size);
             if bytes > max {
-                return Err(RenderError::Unsupported(format!(
-                    "{width}x{height} needs a {bytes}-byte accumulator, over this adapter's \
-                     storage buffer limit of {max} bytes; render a smaller image"
-                )));
+                return Err(RenderError::AccumulatorTooLarge {
+                    width,
+                    height,
+                    bytes,
+                    max,
+                });
             }
         }
     }
@@ -622,6 +724,9 @@ pub enum StopReason {
     /// The caller asked the run to stop (`run_with`'s flag).
     Interrupted,
 }
+
+/// Most submissions `Renderer::warm_up` runs.
+const WARM_UP_MAX_SUBMISSIONS: usize = 10;
 
 /// The error estimate is not trusted before this many samples per pixel.
 pub const MIN_SAMPLES_FOR_ERROR: u32 = 8;
@@ -680,10 +785,7 @@ pub fn run_with<E: From<RenderError>>(
     mut between: impl FnMut(&Progress, &Renderer) -> Result<(), E>,
 ) -> Result<RunSummary, E> {
     if stop.target_error.is_some() && !renderer.config().variance {
-        return Err(RenderError::Unsupported(
-            "a target error needs the variance sums: render with variance on".into(),
-        )
-        .into());
+        return Err(RenderError::TargetErrorWithoutVariance.into());
     }
     let start_segments = renderer.counters().segments();
     let started = Instant::now();
@@ -744,15 +846,7 @@ pub fn run_with<E: From<RenderError>>(
         )?;
     };
     let elapsed = started.elapsed();
-    let counters = renderer.counters();
-    if counters.truncated > 0 {
-        return Err(RenderError::Unsupported(format!(
-            "{} pixel invocations were cut short by the driver (a loop limit): the image would \
-             be wrong. Use a smaller --max-depth or a simpler scene on this adapter",
-            counters.truncated
-        ))
-        .into());
-    }
+    let counters = renderer.check_counters()?;
     if renderer.config().variance && reason != StopReason::TargetError {
         relative_error = errors.estimate(renderer);
     }
@@ -856,4 +950,164 @@ fn eta(
         left = left.min(per_sample * (needed - samples as f64).max(0.0));
     }
     left.is_finite().then(|| Duration::from_secs_f64(left))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn submissions_take_whole_samples_of_the_image_within_the_budget() {
+        let budget = 1 << 18;
+        // (budget, width, height, most samples) -> (samples, rows)
+        for (args, expected) in [
+            ((budget, 1, 1, 1000), (1000, 1)),
+            ((budget, 1, 1, 0), (1, 1)),
+            ((budget, 1, 4096, 1000), (64, 4096)),
+            ((budget, 4096, 1, 1000), (64, 1)),
+            ((budget, 16, 16, 100), (100, 16)),
+            // One sample of the image is over budget: a band of rows per dispatch.
+            ((budget, 65536, 65536, 1000), (1, 4)),
+            ((1000, 4096, 4096, 1000), (1, 1)),
+            ((0, 4, 4, 1000), (1, 1)),
+            // A dispatch reaches at most 65535 workgroups of 8 rows.
+            ((1 << 30, 1, 1_000_000, 5000), (1073, 524_280)),
+        ] {
+            let (budget, width, height, max_samples) = args;
+            assert_eq!(
+                submission_shape(budget, width, height, max_samples),
+                expected,
+                "{args:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_submission_size_follows_the_target_time_by_at_most_4x() {
+        let ms = Duration::from_millis;
+        assert_eq!(next_paths_per_submission(1000, ms(125), 0.25), 2000);
+        assert_eq!(next_paths_per_submission(1000, ms(500), 0.25), 500);
+        assert_eq!(next_paths_per_submission(1000, ms(1), 0.25), 4000);
+        assert_eq!(next_paths_per_submission(1000, Duration::ZERO, 0.25), 4000);
+        assert_eq!(next_paths_per_submission(1000, ms(10_000), 0.25), 250);
+        assert_eq!(next_paths_per_submission(1, ms(10_000), 0.25), 1);
+    }
+
+    #[test]
+    fn eta_is_the_soonest_rule() {
+        let secs = Duration::from_secs;
+        let stop = StopRule::samples(100);
+        // 8 samples in 2 s: 0.25 s per sample.
+        assert_eq!(eta(&stop, 0, secs(2), 20, None), None);
+        assert_eq!(eta(&stop, 8, secs(2), 20, None), Some(secs(20)));
+        assert_eq!(eta(&stop, 8, secs(2), 100, None), Some(Duration::ZERO));
+        let budget = StopRule {
+            time_budget: Some(secs(5)),
+            ..stop
+        };
+        assert_eq!(eta(&budget, 8, secs(2), 20, None), Some(secs(3)));
+        assert_eq!(eta(&budget, 8, secs(6), 20, None), Some(Duration::ZERO));
+        // Error 0.2 at 20 samples, target 0.1: 80 samples needed, 60 more.
+        let target = StopRule {
+            max_samples: u32::MAX,
+            time_budget: None,
+            target_error: Some(0.1),
+        };
+        assert_eq!(eta(&target, 8, secs(2), 20, Some(0.2)), Some(secs(15)));
+        assert_eq!(
+            eta(&target, 8, secs(2), 20, Some(0.05)),
+            Some(Duration::ZERO)
+        );
+        // No estimate yet: the sample cap alone.
+        assert_eq!(
+            eta(&target, 8, secs(2), 20, None),
+            Some(Duration::from_secs_f64(0.25 * (u32::MAX - 20) as f64))
+        );
+    }
+
+    #[test]
+    fn split_estimates_stop_submissions_at_powers_of_two() {
+        let estimator = |split| ErrorEstimator {
+            split,
+            snapshot: None,
+            latest: None,
+        };
+        let split = estimator(true);
+        for (samples, most) in [
+            (0, 1),
+            (1, 1),
+            (2, 2),
+            (3, 1),
+            (4, 4),
+            (5, 3),
+            (1000, 24),
+            (1 << 30, 1 << 30),
+            ((1 << 31) - 1, 1),
+        ] {
+            assert_eq!(split.samples_to_boundary(samples), most, "{samples}");
+        }
+        // No power of two above: no limit.
+        assert_eq!(split.samples_to_boundary(1 << 31), u32::MAX);
+        assert_eq!(split.samples_to_boundary(u32::MAX), u32::MAX);
+        assert_eq!(estimator(false).samples_to_boundary(5), u32::MAX);
+    }
+
+    fn state(width: u32, height: u32, layers: u32, texels: usize) -> AccumulatorState {
+        AccumulatorState {
+            width,
+            height,
+            layers,
+            first_sample: 0,
+            samples: 7,
+            texels: vec![[0.0; 4]; texels],
+        }
+    }
+
+    #[test]
+    fn saved_sums_must_fit_the_render() {
+        assert!(check_state(&state(3, 2, 2, 12), 3, 2, 2).is_ok());
+        assert!(check_state(&state(3, 2, 4, 24), 3, 2, 4).is_ok());
+        let size = check_state(&state(3, 2, 2, 12), 2, 3, 2).unwrap_err();
+        assert!(
+            matches!(
+                size,
+                RenderError::StateSizeMismatch {
+                    saved_width: 3,
+                    saved_height: 2,
+                    width: 2,
+                    height: 3
+                }
+            ),
+            "{size:?}"
+        );
+        assert_eq!(size.to_string(), "saved sums are 3x2, this render is 2x3");
+        let layers = check_state(&state(3, 2, 2, 12), 3, 2, 4).unwrap_err();
+        assert!(
+            matches!(
+                layers,
+                RenderError::StateLayersMismatch {
+                    saved: 2,
+                    layers: 4
+                }
+            ),
+            "{layers:?}"
+        );
+        assert_eq!(
+            layers.to_string(),
+            "saved sums have 2 layers, this render has 4 (variance on)"
+        );
+        let fewer = check_state(&state(3, 2, 4, 24), 3, 2, 2).unwrap_err();
+        assert!(fewer.to_string().ends_with("(variance off)"), "{fewer}");
+        let texels = check_state(&state(3, 2, 2, 11), 3, 2, 2).unwrap_err();
+        assert!(
+            matches!(
+                texels,
+                RenderError::StateTexelCountMismatch {
+                    count: 11,
+                    expected: 12
+                }
+            ),
+            "{texels:?}"
+        );
+    }
 }

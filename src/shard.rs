@@ -8,7 +8,10 @@
 //! sample range, size, pathmix version and a CRC-32 of the other attributes and
 //! the pixel data.
 
-use crate::checkpoint::SceneIdentity;
+use crate::checkpoint::{IdentityError, SceneIdentity};
+use crate::gpu::accumulator::{
+    LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION, compensated_sums,
+};
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
 use crate::stats::Accumulation;
@@ -18,54 +21,75 @@ use exr::prelude::{
     ReadLayers, SmallVec, WritableImage,
 };
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 use std::io;
 use std::ops::Range;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Channel groups in accumulator layer order.
+/// Channel groups in accumulator layer order (`gpu::accumulator::LAYER_*`).
 pub const LAYER_NAMES: [&str; 4] = ["sum", "sum_compensation", "squares", "squares_compensation"];
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 const PREFIX: &str = "pathmix.";
 /// `pathmix.format`. 2: the scene hashes come from the whole scene's `Debug` text.
 const FORMAT: u32 = 2;
 
+/// A sample range or shard given as text that does not make one.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ParseError {
+    #[error("`{text}` is not a range like 0..250")]
+    NotARange { text: String },
+    #[error("`{text}`: `{part}` is not a sample index")]
+    NotASampleIndex { text: String, part: String },
+    #[error("`{text}`: the range is empty (end must be > start)")]
+    EmptyRange { text: String },
+    #[error("`{text}` is not INDEX/COUNT like 2/4")]
+    NotAShard { text: String },
+    #[error("`{text}`: bad index")]
+    BadShardIndex { text: String },
+    #[error("`{text}`: bad count")]
+    BadShardCount { text: String },
+    #[error("`{text}`: the index must be below the count (0..{count})")]
+    ShardIndexNotBelowCount { text: String, count: u32 },
+}
+
 /// `A..B`: sample indices A (included) to B (excluded).
-pub fn parse_range(text: &str) -> Result<Range<u32>, String> {
+pub fn parse_range(text: &str) -> Result<Range<u32>, ParseError> {
     let (a, b) = text
         .split_once("..")
-        .ok_or_else(|| format!("`{text}` is not a range like 0..250"))?;
+        .ok_or_else(|| ParseError::NotARange { text: text.into() })?;
     let number = |s: &str| {
         s.trim()
             .parse::<u32>()
-            .map_err(|_| format!("`{text}`: `{s}` is not a sample index"))
+            .map_err(|_| ParseError::NotASampleIndex {
+                text: text.into(),
+                part: s.into(),
+            })
     };
     let range = number(a)?..number(b)?;
     if range.start >= range.end {
-        return Err(format!(
-            "`{text}`: the range is empty (end must be > start)"
-        ));
+        return Err(ParseError::EmptyRange { text: text.into() });
     }
     Ok(range)
 }
 
 /// `I/N`: shard I (from 0) of N.
-pub fn parse_shard(text: &str) -> Result<(u32, u32), String> {
+pub fn parse_shard(text: &str) -> Result<(u32, u32), ParseError> {
     let (i, n) = text
         .split_once('/')
-        .ok_or_else(|| format!("`{text}` is not INDEX/COUNT like 2/4"))?;
+        .ok_or_else(|| ParseError::NotAShard { text: text.into() })?;
     let index: u32 = i
         .trim()
         .parse()
-        .map_err(|_| format!("`{text}`: bad index"))?;
+        .map_err(|_| ParseError::BadShardIndex { text: text.into() })?;
     let count: u32 = n
         .trim()
         .parse()
-        .map_err(|_| format!("`{text}`: bad count"))?;
+        .map_err(|_| ParseError::BadShardCount { text: text.into() })?;
     if count == 0 || index >= count {
-        return Err(format!(
-            "`{text}`: the index must be below the count (0..{count})"
-        ));
+        return Err(ParseError::ShardIndexNotBelowCount {
+            text: text.into(),
+            count,
+        });
     }
     Ok((index, count))
 }
@@ -141,16 +165,6 @@ impl Partial {
             .iter()
             .map(|t| t[c])
             .collect()
-    }
-
-    /// Each sum rebuilt in f64 (sum minus compensation).
-    fn layer_f64(&self, sum: usize) -> impl Iterator<Item = [f64; 3]> + '_ {
-        let pixels = self.pixels();
-        let sums = &self.texels[sum * pixels..(sum + 1) * pixels];
-        let compensations = &self.texels[(sum + 1) * pixels..(sum + 2) * pixels];
-        sums.iter()
-            .zip(compensations)
-            .map(|(s, c)| std::array::from_fn(|i| s[i] as f64 - c[i] as f64))
     }
 
     fn attributes(&self) -> BTreeMap<String, String> {
@@ -248,9 +262,65 @@ pub fn write_partial(path: &Path, partial: &Partial) -> Result<(), OutputError> 
     })
 }
 
-/// Reads and checks a partial result. The message names the file and the problem.
-pub fn read_partial(path: &Path) -> Result<Partial, String> {
-    let name = path.display();
+/// A partial result that cannot be used: the file and the problem.
+#[derive(Debug, thiserror::Error)]
+pub enum PartialError {
+    #[error("cannot read `{}`: {source}", .path.display())]
+    Read { path: PathBuf, source: io::Error },
+    #[error(
+        "`{}` is not a readable OpenEXR file (truncated or corrupted?): {source}",
+        .path.display()
+    )]
+    NotExr {
+        path: PathBuf,
+        source: exr::error::Error,
+    },
+    #[error("`{}` is not a pathmix partial result", .path.display())]
+    NotPartial { path: PathBuf },
+    #[error(
+        "`{}`: partial result format `{format}` is not one this pathmix reads",
+        .path.display()
+    )]
+    UnknownFormat { path: PathBuf, format: String },
+    #[error(
+        "`{}` was written by {} pathmix (partial result format `{format}`; this one reads \
+         `partial {FORMAT}`): merge it with that pathmix, or render the part again",
+        .path.display(),
+        if *.version < FORMAT { "an older" } else { "a newer" }
+    )]
+    OtherVersion {
+        path: PathBuf,
+        format: String,
+        version: u32,
+    },
+    #[error("`{}` is corrupted: {problem}", .path.display())]
+    Corrupted { path: PathBuf, problem: Corruption },
+}
+
+/// What is wrong inside a damaged partial result.
+#[derive(Debug, thiserror::Error)]
+pub enum Corruption {
+    #[error(transparent)]
+    Identity(#[from] IdentityError),
+    #[error("bad sample range `{text}`")]
+    SampleRange { text: String },
+    #[error("its pixel size differs from its attributes")]
+    SizeDiffers,
+    #[error("channel `{channel}` is missing")]
+    MissingChannel { channel: String },
+    #[error("channel `{channel}` is not f32")]
+    ChannelNotF32 { channel: String },
+    #[error("channel `{channel}` has the wrong size")]
+    ChannelSize { channel: String },
+    #[error("bad `pathmix.discarded`")]
+    Discarded,
+    #[error("its checksum does not match its contents")]
+    Checksum,
+}
+
+/// Reads and checks a partial result.
+pub fn read_partial(path: &Path) -> Result<Partial, PartialError> {
+    let path_buf = || path.to_owned();
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -259,10 +329,16 @@ pub fn read_partial(path: &Path) -> Result<Partial, String> {
         .all_attributes()
         .from_file(path)
         .map_err(|e| match e {
-            exr::error::Error::Io(e) if e.kind() != io::ErrorKind::UnexpectedEof => {
-                format!("cannot read `{name}`: {e}")
+            exr::error::Error::Io(source) if source.kind() != io::ErrorKind::UnexpectedEof => {
+                PartialError::Read {
+                    path: path_buf(),
+                    source,
+                }
             }
-            e => format!("`{name}` is not a readable OpenEXR file (truncated or corrupted?): {e}"),
+            source => PartialError::NotExr {
+                path: path_buf(),
+                source,
+            },
         })?;
     let layer = &image.layer_data;
     let mut attributes = BTreeMap::new();
@@ -274,8 +350,7 @@ pub fn read_partial(path: &Path) -> Result<Partial, String> {
             }
         }
     }
-    let not_partial =
-        || format!("`{name}` is not a pathmix partial result (made by `pathmix render --partial`)");
+    let not_partial = || PartialError::NotPartial { path: path_buf() };
     let stored_checksum = attributes
         .remove(&format!("{PREFIX}checksum"))
         .ok_or_else(not_partial)?;
@@ -286,25 +361,26 @@ pub fn read_partial(path: &Path) -> Result<Partial, String> {
         .and_then(|v| v.parse::<u32>().ok());
     if version != Some(FORMAT) {
         return Err(match version {
-            Some(v) => format!(
-                "`{name}` was written by {} pathmix (partial result format `{format}`; this \
-                 one reads `partial {FORMAT}`): merge it with that pathmix, or render the part \
-                 again",
-                if v < FORMAT { "an older" } else { "a newer" }
-            ),
-            None => {
-                format!("`{name}`: partial result format `{format}` is not one this pathmix reads")
-            }
+            Some(version) => PartialError::OtherVersion {
+                path: path_buf(),
+                format,
+                version,
+            },
+            None => PartialError::UnknownFormat {
+                path: path_buf(),
+                format,
+            },
         });
     }
-    let corrupted = |what: String| format!("`{name}` is corrupted: {what}");
-    let identity = SceneIdentity::from_pairs(get).map_err(corrupted)?;
+    let corrupted = |problem: Corruption| PartialError::Corrupted {
+        path: path_buf(),
+        problem,
+    };
+    let identity = SceneIdentity::from_pairs(get).map_err(|e| corrupted(e.into()))?;
     let range = parse_samples(&get("samples").unwrap_or_default()).map_err(corrupted)?;
     let size = layer.size;
     if (size.width(), size.height()) != (identity.width as usize, identity.height as usize) {
-        return Err(corrupted(
-            "its pixel size differs from its attributes".into(),
-        ));
+        return Err(corrupted(Corruption::SizeDiffers));
     }
     let pixels = size.area();
     let find = |n: &str| {
@@ -314,20 +390,24 @@ pub fn read_partial(path: &Path) -> Result<Partial, String> {
             .iter()
             .find(|c| c.name.to_string() == n)
     };
-    let layers = if find("squares.R").is_some() { 4 } else { 2 };
+    let squares = channel_name(LAYER_SQUARES as usize, 0);
+    let layers = if find(&squares).is_some() {
+        LAYER_SQUARES_COMPENSATION + 1
+    } else {
+        LAYER_SUM_COMPENSATION + 1
+    } as usize;
     let mut texels = vec![[0.0f32; 4]; layers * pixels];
     for l in 0..layers {
         for c in 0..3 {
-            let channel_name = channel_name(l, c);
-            let channel = find(&channel_name)
-                .ok_or_else(|| corrupted(format!("channel `{channel_name}` is missing")))?;
-            let FlatSamples::F32(values) = &channel.sample_data else {
-                return Err(corrupted(format!("channel `{channel_name}` is not f32")));
+            let channel = channel_name(l, c);
+            let Some(found) = find(&channel) else {
+                return Err(corrupted(Corruption::MissingChannel { channel }));
+            };
+            let FlatSamples::F32(values) = &found.sample_data else {
+                return Err(corrupted(Corruption::ChannelNotF32 { channel }));
             };
             if values.len() != pixels {
-                return Err(corrupted(format!(
-                    "channel `{channel_name}` has the wrong size"
-                )));
+                return Err(corrupted(Corruption::ChannelSize { channel }));
             }
             for (t, v) in texels[l * pixels..].iter_mut().zip(values) {
                 t[c] = *v;
@@ -341,24 +421,23 @@ pub fn read_partial(path: &Path) -> Result<Partial, String> {
         range,
         discarded: get("discarded")
             .and_then(|d| d.parse().ok())
-            .ok_or_else(|| corrupted("bad `pathmix.discarded`".into()))?,
+            .ok_or_else(|| corrupted(Corruption::Discarded))?,
         layers: layers as u32,
         texels,
     };
     let expected = partial.checksum(&partial.attributes());
     if expected != stored_checksum || partial.attributes() != attributes {
-        return Err(corrupted("its checksum does not match its contents".into()));
+        return Err(corrupted(Corruption::Checksum));
     }
     Ok(partial)
 }
 
-fn parse_samples(text: &str) -> Result<Range<u32>, String> {
-    let (a, b) = text
-        .split_once("..")
-        .ok_or_else(|| format!("bad sample range `{text}`"))?;
+fn parse_samples(text: &str) -> Result<Range<u32>, Corruption> {
+    let bad = || Corruption::SampleRange { text: text.into() };
+    let (a, b) = text.split_once("..").ok_or_else(bad)?;
     match (a.parse::<u32>(), b.parse::<u32>()) {
         (Ok(a), Ok(b)) if a <= b => Ok(a..b),
-        _ => Err(format!("bad sample range `{text}`")),
+        _ => Err(bad()),
     }
 }
 
@@ -375,40 +454,113 @@ pub struct Merged {
     pub warnings: Vec<String>,
 }
 
+/// Parts that do not merge into one image. `part` names the part that differs
+/// from `first`, the first one given.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum MergeError {
+    #[error("no partial results to merge")]
+    NoParts,
+    #[error(
+        "`{part}` is {}x{} but `{first}` is {}x{}: parts must be renders of the same image size",
+        .size.0, .size.1, .first_size.0, .first_size.1
+    )]
+    SizeDiffers {
+        part: String,
+        first: String,
+        size: (u32, u32),
+        first_size: (u32, u32),
+    },
+    #[error(
+        "`{part}` has seed {seed} but `{first}` has seed {first_seed}: parts must use the same \
+         seed, or their samples repeat or do not belong together"
+    )]
+    SeedDiffers {
+        part: String,
+        first: String,
+        seed: u32,
+        first_seed: u32,
+    },
+    #[error(
+        "`{part}` comes from a different scene than `{first}` (scene hash {} vs {}): {}",
+        crate::checkpoint::hex(*.hash),
+        crate::checkpoint::hex(*.first_hash),
+        .differences.join("; ")
+    )]
+    SceneDiffers {
+        part: String,
+        first: String,
+        hash: u64,
+        first_hash: u64,
+        differences: Vec<String>,
+    },
+    #[error(
+        "parts overlap, so some samples would count twice: {}",
+        .0.iter().map(Overlap::to_string).collect::<Vec<_>>().join("; ")
+    )]
+    Overlaps(Vec<Overlap>),
+}
+
+/// Two parts that hold some of the same sample indices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Overlap {
+    pub earlier: (String, Range<u32>),
+    pub later: (String, Range<u32>),
+}
+
+impl fmt::Display for Overlap {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let ((a, r0), (b, r1)) = (&self.earlier, &self.later);
+        write!(
+            f,
+            "`{a}` (samples {}..{}) and `{b}` (samples {}..{}) overlap in {}..{}",
+            r0.start,
+            r0.end,
+            r1.start,
+            r1.end,
+            r1.start,
+            r0.end.min(r1.end)
+        )
+    }
+}
+
 /// Merges partial results of one image: same scene (hash), seed and size,
 /// disjoint sample ranges. Sums are added in f64. Gaps in the ranges are
 /// listed, not refused: any set of sample indices gives an unbiased image.
-pub fn merge(parts: &[(String, Partial)]) -> Result<Merged, String> {
+pub fn merge(parts: &[(String, Partial)]) -> Result<Merged, MergeError> {
     let Some((first_name, first)) = parts.first() else {
-        return Err("no partial results to merge".into());
+        return Err(MergeError::NoParts);
     };
     let mut warnings = Vec::new();
     for (name, part) in &parts[1..] {
         let (a, b) = (&first.identity, &part.identity);
         if (a.width, a.height) != (b.width, b.height) {
-            return Err(format!(
-                "`{name}` is {}x{} but `{first_name}` is {}x{}: parts must be renders of the same image size",
-                b.width, b.height, a.width, a.height
-            ));
+            return Err(MergeError::SizeDiffers {
+                part: name.clone(),
+                first: first_name.clone(),
+                size: (b.width, b.height),
+                first_size: (a.width, a.height),
+            });
         }
         if a.seed != b.seed {
-            return Err(format!(
-                "`{name}` has seed {} but `{first_name}` has seed {}: parts must use the same seed, \
-                 or their samples repeat or do not belong together",
-                b.seed, a.seed
-            ));
+            return Err(MergeError::SeedDiffers {
+                part: name.clone(),
+                first: first_name.clone(),
+                seed: b.seed,
+                first_seed: a.seed,
+            });
         }
         let differences = SceneIdentity::differences(
             (a, &format!("in `{first_name}`")),
             (b, &format!("in `{name}`")),
         );
         if !differences.is_empty() {
-            return Err(format!(
-                "`{name}` comes from a different scene than `{first_name}` (scene hash {} vs {}): {}",
-                crate::checkpoint::hex(b.hash()),
-                crate::checkpoint::hex(a.hash()),
-                differences.join("; ")
-            ));
+            return Err(MergeError::SceneDiffers {
+                part: name.clone(),
+                first: first_name.clone(),
+                hash: b.hash(),
+                first_hash: a.hash(),
+                differences,
+            });
         }
         if part.pathmix_version != first.pathmix_version {
             warnings.push(format!(
@@ -427,18 +579,10 @@ pub fn merge(parts: &[(String, Partial)]) -> Result<Merged, String> {
         }
         if let Some(before) = reach {
             if part.1.range.start < before.1.range.end {
-                let r = (&before.1.range, &part.1.range);
-                overlaps.push(format!(
-                    "`{}` (samples {}..{}) and `{}` (samples {}..{}) overlap in {}..{}",
-                    before.0,
-                    r.0.start,
-                    r.0.end,
-                    part.0,
-                    r.1.start,
-                    r.1.end,
-                    r.1.start,
-                    r.0.end.min(r.1.end)
-                ));
+                overlaps.push(Overlap {
+                    earlier: (before.0.clone(), before.1.range.clone()),
+                    later: (part.0.clone(), part.1.range.clone()),
+                });
             }
         }
         if reach.is_none_or(|b| part.1.range.end > b.1.range.end) {
@@ -446,10 +590,7 @@ pub fn merge(parts: &[(String, Partial)]) -> Result<Merged, String> {
         }
     }
     if !overlaps.is_empty() {
-        return Err(format!(
-            "parts overlap, so some samples would count twice: {}",
-            overlaps.join("; ")
-        ));
+        return Err(MergeError::Overlaps(overlaps));
     }
     let ranges: Vec<Range<u32>> = order.iter().map(|(_, p)| p.range.clone()).collect();
     let mut gaps = Vec::new();
@@ -470,19 +611,22 @@ pub fn merge(parts: &[(String, Partial)]) -> Result<Merged, String> {
         );
         warnings.push(text);
     }
-    let variance = parts.iter().all(|(_, p)| p.layers >= 4);
-    if !variance && parts.iter().any(|(_, p)| p.layers >= 4) {
+    let has_squares = |p: &Partial| p.layers > LAYER_SQUARES_COMPENSATION;
+    let variance = parts.iter().all(|(_, p)| has_squares(p));
+    if !variance && parts.iter().any(|(_, p)| has_squares(p)) {
         warnings.push("some parts have no sums of squares, so the merge has no variance".into());
     }
     let pixels = first.pixels();
     let mut sum = vec![[0.0f64; 3]; pixels];
     let mut sum_sq = variance.then(|| vec![[0.0f64; 3]; pixels]);
     for (_, part) in parts {
-        for (total, s) in sum.iter_mut().zip(part.layer_f64(0)) {
+        let layer = |sum, compensation| compensated_sums(&part.texels, pixels, sum, compensation);
+        for (total, s) in sum.iter_mut().zip(layer(LAYER_SUM, LAYER_SUM_COMPENSATION)) {
             (0..3).for_each(|c| total[c] += s[c]);
         }
         if let Some(sum_sq) = &mut sum_sq {
-            for (total, s) in sum_sq.iter_mut().zip(part.layer_f64(2)) {
+            let squares = layer(LAYER_SQUARES, LAYER_SQUARES_COMPENSATION);
+            for (total, s) in sum_sq.iter_mut().zip(squares) {
                 (0..3).for_each(|c| total[c] += s[c]);
             }
         }
@@ -625,7 +769,7 @@ mod tests {
         b[at + ours.len() - 1] = b'0' + (FORMAT - 1) as u8;
         // Its own file: `read_partial_bytes` shares one with tests running alongside.
         std::fs::write(&path, b).unwrap();
-        let e = read_partial(&path).unwrap_err();
+        let e = read_partial(&path).unwrap_err().to_string();
         assert!(
             e.contains("written by an older pathmix")
                 && e.contains(&format!("`partial {}`", FORMAT - 1)),
@@ -638,7 +782,7 @@ mod tests {
         std::fs::write(&path, bytes).unwrap();
         match read_partial(&path) {
             Ok(_) => "read without error".into(),
-            Err(e) => e,
+            Err(e) => e.to_string(),
         }
     }
 
@@ -677,7 +821,8 @@ mod tests {
             ("b".into(), part(100..200, 1.0, 2)),
             ("c".into(), part(900..1100, 1.0, 2)),
         ])
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(
             overlap.contains("`a` (samples 0..1000) and `b` (samples 100..200)")
                 && overlap.contains("`c` (samples 900..1100) overlap in 900..1000"),
@@ -686,15 +831,21 @@ mod tests {
 
         let mut other_seed = part(500..600, 1.0, 2);
         other_seed.identity.seed += 1;
-        let e = merge(&[("a".into(), part(0..10, 1.0, 2)), ("s".into(), other_seed)]).unwrap_err();
+        let e = merge(&[("a".into(), part(0..10, 1.0, 2)), ("s".into(), other_seed)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("seed"), "{e}");
         let mut other_size = part(500..600, 1.0, 2);
         other_size.identity.width = 4;
-        let e = merge(&[("a".into(), part(0..10, 1.0, 2)), ("w".into(), other_size)]).unwrap_err();
+        let e = merge(&[("a".into(), part(0..10, 1.0, 2)), ("w".into(), other_size)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("4x2") && e.contains("3x2"), "{e}");
         let mut other_scene = part(500..600, 1.0, 2);
         other_scene.identity.geometry_hash ^= 1;
-        let e = merge(&[("a".into(), part(0..10, 1.0, 2)), ("g".into(), other_scene)]).unwrap_err();
+        let e = merge(&[("a".into(), part(0..10, 1.0, 2)), ("g".into(), other_scene)])
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("different scene") && e.contains("geometry"),
             "{e}"

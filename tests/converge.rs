@@ -206,7 +206,10 @@ fn a_reference_of_another_size_is_refused() {
     let path = dir.join("ref.exr");
     output::write_exr(&path, &Image::new(4, 3), &[]).unwrap();
     match converge::given_reference(&path, 4, 4) {
-        Err(ConvergeError::Input(message)) => assert!(message.contains("4x3"), "{message}"),
+        Err(e @ ConvergeError::ReferenceSize { .. }) => {
+            let message = e.to_string();
+            assert!(message.contains("4x3"), "{message}")
+        }
         other => panic!("{other:?}"),
     }
     let reference = converge::given_reference(&path, 4, 3).unwrap();

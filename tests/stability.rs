@@ -506,7 +506,8 @@ fn image_taller_than_the_largest_texture_uses_the_buffer() {
             ..Default::default()
         };
         match Renderer::new(ctx, &scene, &texture) {
-            Err(RenderError::Unsupported(message)) => {
+            Err(e @ RenderError::TextureTooLarge { .. }) => {
+                let message = e.to_string();
                 assert!(message.contains("largest texture"), "{message}")
             }
             _ => panic!("the texture accumulator accepted 1x{height}"),
@@ -571,10 +572,13 @@ fn scene_without_emitters_falls_back_to_cosine_or_is_refused() {
         &scene_without_emitters("light"),
         &RenderOptions::default(),
     ) {
-        Err(RenderError::Unsupported(message)) => assert!(
-            message.contains("test.toml") && message.contains("`light`"),
-            "{message}"
-        ),
+        Err(e @ RenderError::LightStrategyWithoutTargets { .. }) => {
+            let message = e.to_string();
+            assert!(
+                message.contains("test.toml") && message.contains("`light`"),
+                "{message}"
+            )
+        }
         Err(e) => panic!("unexpected error: {e}"),
         Ok(_) => panic!("strategy `light` accepted a scene without emitters"),
     }

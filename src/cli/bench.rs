@@ -71,9 +71,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
         args.repetitions.max(1)
     };
     println!("adapter: {}", ctx.describe());
-    println!(
-        "median of {repetitions} warm runs (each configuration renders 0.5 s before timing)\n"
-    );
+    println!("median of {repetitions} warm runs (each configuration is warmed up before timing)\n");
     println!(
         "| scene | size | spp | configuration | median s | M paths/s | M segments/s | vs specialised |"
     );

@@ -84,7 +84,14 @@ fn measured_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32
 fn failure(e: ConvergeError) -> Failure {
     match e {
         ConvergeError::Input(_) => Failure::input(e),
-        _ => Failure::runtime(e),
+        ConvergeError::ReferenceSize { reference, .. } => Failure::input(format!(
+            "{e} (--width {} --height {})",
+            reference.0, reference.1
+        )),
+        ConvergeError::ReferenceSeed => Failure::input(format!("{e} (--seed S)")),
+        ConvergeError::Unsupported(e) => Failure::input(super::render::with_flag(&e)),
+        ConvergeError::Render(e) => Failure::runtime(super::render::with_flag(&e)),
+        ConvergeError::Output(_) => Failure::runtime(e),
     }
 }
 

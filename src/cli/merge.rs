@@ -3,7 +3,7 @@
 use super::Failure;
 use clap::Args;
 use pathmix::output::{self, ImageFormat};
-use pathmix::shard::{self, describe_ranges};
+use pathmix::shard::{self, PartialError, describe_ranges};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -32,7 +32,12 @@ pub fn merge(args: MergeArgs) -> Result<(), Failure> {
     }
     let mut parts = Vec::new();
     for path in &args.parts {
-        let part = shard::read_partial(path).map_err(Failure::input)?;
+        let part = shard::read_partial(path).map_err(|e| match e {
+            PartialError::NotPartial { .. } => {
+                Failure::input(format!("{e} (made by `pathmix render --partial`)"))
+            }
+            e => Failure::input(e),
+        })?;
         parts.push((path.display().to_string(), part));
     }
     let merged = shard::merge(&parts).map_err(|e| Failure::input(format!("cannot merge: {e}")))?;

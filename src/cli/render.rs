@@ -6,6 +6,7 @@ use super::signals::Signals;
 use clap::{Args, ValueEnum};
 use pathmix::checkpoint::{self, Checkpoint, SceneIdentity};
 use pathmix::gpu::GpuContext;
+use pathmix::gpu::accumulator::LAYER_SQUARES_COMPENSATION;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::output::{self, ImageFormat};
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopReason, StopRule};
@@ -196,8 +197,21 @@ impl From<SceneStorageArg> for SceneStorage {
 
 impl From<RenderError> for Failure {
     fn from(e: RenderError) -> Failure {
-        Failure::runtime(e)
+        Failure::runtime(with_flag(&e))
     }
+}
+
+/// The library's message, and the flag that changes the setting it names.
+pub fn with_flag(e: &RenderError) -> String {
+    let flag = match e {
+        RenderError::NonFiniteBakedScene { .. } => "--scene-storage buffers",
+        RenderError::NoStorageTextures { .. } | RenderError::TextureTooLarge { .. } => {
+            "--accumulator buffer"
+        }
+        RenderError::TruncatedInvocations { .. } => "--max-depth D",
+        _ => return e.to_string(),
+    };
+    format!("{e} ({flag})")
 }
 
 /// Where the results go.
@@ -308,7 +322,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
                     target_error: recorded("target_error").and_then(|v| v.as_float()),
                 }
             };
-            let variance = c.state.layers >= 4;
+            let variance = c.state.layers > LAYER_SQUARES_COMPENSATION;
             if !variance && (args.variance.is_some() || stop.target_error.is_some()) {
                 return Err(Failure::input(format!(
                     "cannot resume from `{}` with --variance or --target-error: it holds no sums \
@@ -390,7 +404,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
     }
     if let Some(path) = &checkpoint {
-        check_checkpoint_path(path)?;
+        output::check_writable(path).map_err(|e| Failure::input(format!("--checkpoint: {e}")))?;
     }
     Ok(Plan {
         scene,
@@ -406,35 +420,6 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         first_sample,
         resume,
     })
-}
-
-/// The checkpoint's folder must exist and take a new file; the path must not be a folder.
-fn check_checkpoint_path(path: &Path) -> Result<(), Failure> {
-    let refuse = |problem: String| {
-        Failure::input(format!(
-            "cannot write checkpoint `{}`: {problem}",
-            path.display()
-        ))
-    };
-    if path.is_dir() {
-        return Err(refuse("it is a folder".into()));
-    }
-    let Some(name) = path.file_name() else {
-        return Err(refuse("the path does not name a file".into()));
-    };
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !folder.is_dir() {
-        return Err(refuse(format!(
-            "folder `{}` does not exist",
-            folder.display()
-        )));
-    }
-    let probe = folder.join(format!(".{}.probe", name.to_string_lossy()));
-    std::fs::File::create(&probe).map_err(|e| refuse(e.to_string()))?;
-    std::fs::remove_file(&probe).map_err(|e| refuse(e.to_string()))
 }
 
 fn absolute(path: &Path) -> PathBuf {
@@ -519,7 +504,8 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         scene_storage: args.scene_storage.map(SceneStorage::from),
         ..Default::default()
     };
-    let mut renderer = Renderer::new(&ctx, scene, &options).map_err(Failure::input)?;
+    let mut renderer =
+        Renderer::new(&ctx, scene, &options).map_err(|e| Failure::input(with_flag(&e)))?;
     match &plan.resume {
         Some(c) => renderer.import_state(&c.state).map_err(|e| {
             Failure::input(format!(
@@ -760,8 +746,36 @@ pub fn parse_duration(text: &str) -> Result<Duration, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::parse_duration;
+    use super::{parse_duration, with_flag};
+    use pathmix::render::RenderError;
     use std::time::Duration;
+
+    #[test]
+    fn library_refusals_gain_the_flag_that_changes_the_setting() {
+        let large = RenderError::TextureTooLarge {
+            width: 1,
+            height: 9000,
+            max: 8192,
+        };
+        assert_eq!(
+            with_flag(&large),
+            "1x9000 exceeds this adapter's largest texture (8192x8192); render a smaller \
+             image or use the buffer accumulator (--accumulator buffer)"
+        );
+        let baked = RenderError::NonFiniteBakedScene {
+            scene: "s.toml".into(),
+        };
+        assert!(with_flag(&baked).ends_with("scene storage `buffers` (--scene-storage buffers)"));
+        let cut = RenderError::TruncatedInvocations { count: 3 };
+        assert!(with_flag(&cut).starts_with("3 pixel invocations"));
+        assert!(
+            with_flag(&cut).ends_with(
+                "smaller maximum depth or a simpler scene on this adapter (--max-depth D)"
+            )
+        );
+        let first = RenderError::FirstSampleAfterRendering;
+        assert_eq!(with_flag(&first), first.to_string());
+    }
 
     #[test]
     fn durations() {

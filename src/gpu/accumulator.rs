@@ -3,12 +3,28 @@
 use super::context::GpuContext;
 use crate::kernel::AccumulatorKind;
 
-/// The accumulator's layers: the running sum of samples, its compensation, and
-/// (with variance) the sum of squared samples and its compensation.
+/// The accumulator's layers: each running sum and its Kahan compensation (the
+/// sum minus the compensation is the sum without the rounding losses).
 pub const LAYER_SUM: u32 = 0;
 pub const LAYER_SUM_COMPENSATION: u32 = 1;
+/// Only with variance on.
 pub const LAYER_SQUARES: u32 = 2;
 pub const LAYER_SQUARES_COMPENSATION: u32 = 3;
+
+/// Each pixel's sum in f64 (the running sum minus its compensation) from
+/// layer-major `texels` of `pixels` pixels per layer.
+pub fn compensated_sums(
+    texels: &[[f32; 4]],
+    pixels: usize,
+    sum: u32,
+    compensation: u32,
+) -> impl Iterator<Item = [f64; 3]> + '_ {
+    let layer = |l: u32| &texels[l as usize * pixels..(l as usize + 1) * pixels];
+    layer(sum)
+        .iter()
+        .zip(layer(compensation))
+        .map(|(s, c)| std::array::from_fn(|i| s[i] as f64 - c[i] as f64))
+}
 
 /// Bytes per pixel per layer (one `vec4<f32>`).
 const TEXEL_BYTES: u32 = 16;
@@ -191,4 +207,30 @@ pub fn map_read<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[
     let value = read(&buffer.get_mapped_range(..).expect("mapped range"));
     buffer.unmap();
     value
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compensated_sums_subtract_each_layers_compensation() {
+        // Two pixels per layer, layer-major; w is unused.
+        let texels = [
+            [1.5, 2.0, 3.0, 9.0],
+            [4.0, 5.0, 6.0, 9.0],
+            [0.25, -0.5, 0.0, 9.0],
+            [1.0, 0.0, 2.0, 9.0],
+            [9.0, 8.0, 7.0, 9.0],
+            [16.0, 0.5, 1.0, 9.0],
+            [0.5, 0.0, -1.0, 9.0],
+            [0.0, 0.25, 0.125, 9.0],
+        ];
+        let sums: Vec<_> =
+            compensated_sums(&texels, 2, LAYER_SUM, LAYER_SUM_COMPENSATION).collect();
+        assert_eq!(sums, [[1.25, 2.5, 3.0], [3.0, 5.0, 4.0]]);
+        let squares: Vec<_> =
+            compensated_sums(&texels, 2, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION).collect();
+        assert_eq!(squares, [[8.5, 8.0, 8.0], [16.0, 0.25, 0.875]]);
+    }
 }
