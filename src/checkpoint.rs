@@ -100,6 +100,7 @@ impl SceneIdentity {
             materials,
             quads,
             spheres,
+            triangles,
         } = scene;
         let Camera {
             lookfrom,
@@ -123,7 +124,7 @@ impl SceneIdentity {
         SceneIdentity {
             camera_hash: debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height)),
             materials_hash: debug_hash(materials),
-            geometry_hash: debug_hash(&(quads, spheres)),
+            geometry_hash: debug_hash(&(quads, spheres, triangles)),
             settings_hash: debug_hash(&(
                 max_depth,
                 strategy,

@@ -7,6 +7,7 @@
 //! it; `shard` writes and merges partial results; `output` and `stats` work on
 //! plain arrays; `converge` measures the strategies' speed/accuracy trade.
 
+pub mod accel;
 pub mod bench;
 pub mod checkpoint;
 pub mod converge;

@@ -1,6 +1,7 @@
 //! Progressive accumulation: dispatching samples in short submissions, reading
 //! the running sums back, and the rules that stop a run.
 
+use crate::accel::Bvh;
 use crate::gpu::accumulator::{
     Accumulator, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
     compensated_sums, map_read,
@@ -495,6 +496,18 @@ pub fn plan_kernel(
         Some(storage) => storage,
         None => SceneStorage::auto(&data),
     };
+    let mut data = data;
+    let scene_storage = match scene_storage {
+        SceneStorage::Bvh => match Bvh::build(&data) {
+            Some(bvh) => {
+                data.bvh = Some(bvh);
+                SceneStorage::Bvh
+            }
+            // Nothing to hit: the loops over empty buffers are the same.
+            None => SceneStorage::Buffers,
+        },
+        storage => storage,
+    };
     if scene_storage == SceneStorage::Baked && !data.is_finite() {
         return Err(RenderError::NonFiniteBakedScene {
             scene: scene.source.clone(),
@@ -642,16 +655,22 @@ pub fn choose_accumulator(
 /// budget, at half that limit, keeps them from happening.
 const LOOP_ITERATION_BUDGET: u64 = 32768;
 
+/// Loop iterations allowed for one ray's BVH traversal (see `max_samples_per_dispatch`).
+const BVH_ITERATIONS_PER_RAY: u64 = 256;
+
 /// Samples per dispatch that stay within `LOOP_ITERATION_BUDGET` even if every
 /// path runs to the kernel's maximum depth: one path-loop iteration per vertex
 /// and, when the scene is read from buffers, a loop over every primitive (closest
 /// hit) and every light (light density) in it, twice with next-event estimation
 /// (the shadow ray's closest hit and a second light density). A baked scene's
-/// loops are unrolled.
+/// loops are unrolled. A BVH traversal's iterations (nodes visited plus
+/// primitives tested) have no tight bound: `BVH_ITERATIONS_PER_RAY` is a
+/// generous allowance, and the truncation guard reports a ray that needs more.
 pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
     let mut inner_loops = match config.scene_storage() {
         SceneStorage::Baked => 0,
         SceneStorage::Buffers => (data.primitive_count() + data.light_count()) as u64,
+        SceneStorage::Bvh => BVH_ITERATIONS_PER_RAY + data.light_count() as u64,
     };
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;

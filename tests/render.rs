@@ -4,7 +4,7 @@ mod common;
 
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
-use pathmix::scene::{Sampler, SceneOverrides, Strategy};
+use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::stats;
 
 /// Every pixel of the white furnace converges to E * sum_{k=0}^{D} a^k.
@@ -182,6 +182,72 @@ fn baked_scene_matches_scene_buffers() {
             baked == buffers,
             "{file} {strategy}: baked and buffers differ"
         );
+    }
+}
+
+/// A field of `n` small spheres on a ground sphere under a sphere light.
+fn sphere_field(n: usize) -> Scene {
+    let mut text = String::from(
+        "[camera]\nlookfrom = [0, 6, 14]\nlookat = [0, 0, 0]\nwidth = 24\nheight = 20\n\
+         [render]\nspp = 4\nmax_depth = 6\nbackground = [0.5, 0.7, 1.0]\n\
+         [materials.ground]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [materials.ball]\ntype = \"metal\"\nalbedo = [0.7, 0.6, 0.5]\nfuzz = 0.2\n\
+         [materials.lamp]\ntype = \"light\"\nemit = [10, 10, 10]\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [0, -1000, 0]\nradius = 1000\nmaterial = \"ground\"\n\
+         [[objects]]\ntype = \"quad\"\nq = [-2, 12, -2]\nu = [4, 0, 0]\nv = [0, 0, 4]\nmaterial = \"lamp\"\n",
+    );
+    let side = (n as f64).sqrt().ceil() as usize;
+    for i in 0..n {
+        let (x, z) = ((i % side) as f64, (i / side) as f64);
+        let (x, z) = (x / side as f64 * 20.0 - 10.0, z / side as f64 * 20.0 - 10.0);
+        text.push_str(&format!(
+            "[[objects]]\ntype = \"sphere\"\ncenter = [{x}, 0.3, {z}]\nradius = 0.3\nmaterial = \"ball\"\n"
+        ));
+    }
+    Scene::parse(&text, "field.toml").unwrap()
+}
+
+/// Closest hits through the BVH are the ones the loop over every primitive
+/// finds: the same image, bit for bit, on the shipped scenes and on a field of
+/// 300 spheres, under every strategy.
+#[test]
+fn bvh_matches_scene_buffers() {
+    let ctx = gpu_or_skip!();
+    let small = |file: &str| {
+        common::scene_with(
+            file,
+            SceneOverrides {
+                width: Some(24),
+                height: Some(20),
+                spp: Some(4),
+                ..Default::default()
+            },
+        )
+    };
+    let scenes = [
+        ("cornell.toml", small("cornell.toml")),
+        ("cornell-boxes.toml", small("cornell-boxes.toml")),
+        ("field.toml", sphere_field(300)),
+    ];
+    for (name, scene) in scenes {
+        for strategy in Strategy::ALL {
+            let mut scene = scene.clone();
+            scene.render.strategy = strategy;
+            scene.render.rr_depth = Some(3);
+            let render = |storage| {
+                let options = RenderOptions {
+                    scene_storage: Some(storage),
+                    ..RenderOptions::default()
+                };
+                common::render(ctx, &scene, &options)
+            };
+            let bvh = render(SceneStorage::Bvh);
+            assert!(bvh.sum.iter().any(|p| p[0] > 0.0), "{name}: black image");
+            assert!(
+                bvh == render(SceneStorage::Buffers),
+                "{name} {strategy}: BVH and buffers differ"
+            );
+        }
     }
 }
 

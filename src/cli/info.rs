@@ -108,6 +108,15 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
             SceneStorage::MAX_BAKED_OBJECTS
         ),
         SceneStorage::Buffers => println!("scene data: storage buffers"),
+        SceneStorage::Bvh => {
+            let bvh = data.bvh.as_ref().expect("a BVH kernel has a BVH");
+            println!(
+                "scene data: storage buffers with a BVH: {} nodes, depth {}, built in {:.3} s",
+                bvh.nodes.len(),
+                bvh.depth,
+                bvh.build_seconds
+            );
+        }
     }
     for array in config.scene_arrays() {
         let count = data.array_bytes(array.source).len() / array.element_size;

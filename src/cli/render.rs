@@ -82,8 +82,9 @@ pub struct RenderArgs {
     #[arg(long, value_enum)]
     pub accumulator: Option<AccumulatorArg>,
     /// Where the kernel reads the scene: compiled into it as constants (fastest
-    /// on CPU drivers, slower to compile) or from storage buffers. Default: baked
-    /// for scenes of up to 128 objects.
+    /// on CPU drivers, slower to compile), from storage buffers with every ray
+    /// testing every primitive, or from storage buffers through a BVH. Default:
+    /// baked for scenes of up to 128 objects, the BVH above.
     #[arg(long, value_enum)]
     pub scene_storage: Option<SceneStorageArg>,
     /// Save the accumulated state (raw sums and compensations, sample count,
@@ -184,6 +185,7 @@ impl From<AccumulatorArg> for AccumulatorKind {
 pub enum SceneStorageArg {
     Baked,
     Buffers,
+    Bvh,
 }
 
 impl From<SceneStorageArg> for SceneStorage {
@@ -191,6 +193,7 @@ impl From<SceneStorageArg> for SceneStorage {
         match arg {
             SceneStorageArg::Baked => SceneStorage::Baked,
             SceneStorageArg::Buffers => SceneStorage::Buffers,
+            SceneStorageArg::Bvh => SceneStorage::Bvh,
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Host mirrors of the WGSL structs, and packing a scene into them. Every struct
 //! here is checked against naga's reading of the WGSL in `kernel::tests`.
 
+use crate::accel::Bvh;
 use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, material_kind};
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
@@ -171,6 +172,8 @@ pub struct SceneData {
     pub primitives: Vec<PackedArray>,
     /// Per kind: copies of the primitives in the light density.
     pub lights: Vec<PackedArray>,
+    /// Over `primitives`, when the kernel traverses one.
+    pub bvh: Option<Bvh>,
 }
 
 impl Default for SceneData {
@@ -179,6 +182,7 @@ impl Default for SceneData {
             materials: Vec::new(),
             primitives: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
             lights: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
+            bvh: None,
         }
     }
 }

@@ -4,6 +4,7 @@
 //! `shaders/`, so they may use `#for_each`.
 
 use super::{ArraySource, KernelConfig, SceneArray, WORKGROUP_SIZE};
+use crate::accel;
 use crate::gpu::accumulator::{
     LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
 };
@@ -14,7 +15,8 @@ use crate::shader::element_constant;
 use std::fmt::Write;
 
 /// Constants every module may use: workgroup size, frame bindings, accumulator
-/// layers and material kind ids, from their Rust definitions.
+/// layers, material kind ids and the BVH's stack size and reference layout, from
+/// their Rust definitions.
 pub fn shared_constants() -> String {
     let mut out = String::new();
     let mut constant = |name: &str, value: u32| {
@@ -32,6 +34,9 @@ pub fn shared_constants() -> String {
     for (id, kind) in MATERIAL_KINDS.iter().enumerate() {
         constant(&kind.id_constant(), id as u32);
     }
+    constant("BVH_STACK", accel::MAX_DEPTH);
+    constant("BVH_REF_KIND_SHIFT", accel::REF_KIND_SHIFT);
+    constant("BVH_REF_INDEX_MASK", accel::REF_INDEX_MASK);
     out
 }
 
@@ -97,6 +102,7 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
                 .map(|i| (layout.wgsl_value)(packed.element(i, layout.size)))
                 .collect()
         }
+        ArraySource::BvhNodes | ArraySource::BvhRefs => unreachable!("a baked scene has no BVH"),
     };
     let n = values.len();
     writeln!(out, "fn {name}_count() -> u32 {{ return {n}u; }}").unwrap();
@@ -124,7 +130,8 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
 }
 
 /// The closest hit keeps only each kind's `NAME_hit_keep` of the closest
-/// primitive, and computes the normal from it once at the end.
+/// primitive, and computes the normal from it once at the end. The primitives
+/// are walked by `#for_each`, or reached through the BVH.
 fn closest_hit(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.primitive_kinds.iter().collect();
     out.push_str("fn intersect_scene(ray: Ray) -> Hit {\n    var hit = no_hit();\n");
@@ -137,27 +144,36 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
     if several {
         out.push_str("    var hit_kind = 0xffffffffu;\n");
     }
-    for &k in &kinds {
-        let kind = PRIMITIVE_KINDS[k];
-        let (name, array) = (kind.name, kind.array);
+    // The test of `primitive`, a kind-`k` element in scope.
+    let test = |k: usize, indent: &str| {
+        let name = PRIMITIVE_KINDS[k].name;
         let tag = if several {
-            format!("        hit_kind = {k}u;\n")
+            format!("{indent}    hit_kind = {k}u;\n")
         } else {
             String::new()
         };
-        write!(
-            out,
-            "#for_each primitive in {array}
-    let t = {name}_hit_t(primitive, ray, hit.t);
-    if t > 0.0 {{
-        hit.t = t;
-        hit.material = primitive.material;
-        hit_keep = {name}_hit_keep(primitive);
-{tag}    }}
-#end_for
+        format!(
+            "{indent}let t = {name}_hit_t(primitive, ray, hit.t);
+{indent}if t > 0.0 {{
+{indent}    hit.t = t;
+{indent}    hit.material = primitive.material;
+{indent}    hit_keep = {name}_hit_keep(primitive);
+{tag}{indent}}}
 "
         )
-        .unwrap();
+    };
+    if config.bvh {
+        bvh_traversal(out, &kinds, test);
+    } else {
+        for &k in &kinds {
+            let array = PRIMITIVE_KINDS[k].array;
+            write!(
+                out,
+                "#for_each primitive in {array}\n{}#end_for\n",
+                test(k, "    ")
+            )
+            .unwrap();
+        }
     }
     out.push_str("    hit.p = ray.origin + hit.t * ray.dir;\n");
     if several {
@@ -180,6 +196,67 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         .unwrap();
     }
     out.push_str("    return hit;\n}\n");
+}
+
+/// Depth-first traversal with a stack: the nearer child first, the farther one
+/// pushed, boxes behind the closest hit so far skipped.
+fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -> String) {
+    out.push_str(
+        "    let inv_dir = 1.0 / ray.dir;
+    var stack: array<u32, BVH_STACK>;
+    var depth = 0u;
+    var node_index = 0u;
+    loop {
+        let node = bvh_nodes_at(node_index);
+        if node.count == 0u {
+            let near_index = node_index + 1u;
+            let t_near = bvh_box_t(bvh_nodes_at(near_index), ray.origin, inv_dir, hit.t);
+            let t_far = bvh_box_t(bvh_nodes_at(node.first), ray.origin, inv_dir, hit.t);
+            var first = near_index;
+            var second = node.first;
+            var t_second = t_far;
+            if t_far < t_near {
+                first = node.first;
+                second = near_index;
+                t_second = t_near;
+            }
+            if min(t_near, t_far) < F32_MAX {
+                if t_second < F32_MAX {
+                    stack[depth] = second;
+                    depth += 1u;
+                }
+                node_index = first;
+                continue;
+            }
+        } else {
+            for (var r = node.first; r < node.first + node.count; r += 1u) {
+                let reference = bvh_refs_at(r);
+                let index = reference & BVH_REF_INDEX_MASK;
+                switch reference >> BVH_REF_KIND_SHIFT {
+",
+    );
+    for &k in kinds {
+        let array = PRIMITIVE_KINDS[k].array;
+        writeln!(
+            out,
+            "                    case {k}u: {{\n                        let primitive = {array}_at(index);\n{}                    }}",
+            test(k, "                        ")
+        )
+        .unwrap();
+    }
+    out.push_str(
+        "                    default: {}
+                }
+            }
+        }
+        if depth == 0u {
+            break;
+        }
+        depth -= 1u;
+        node_index = stack[depth];
+    }
+",
+    );
 }
 
 /// The light density p_light: the average of the solid-angle densities of every

@@ -5,6 +5,7 @@
 
 mod glue;
 
+use crate::accel::BvhNode;
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS};
 use crate::scene::{RenderSettings, Sampler, Strategy};
@@ -14,6 +15,7 @@ use std::collections::{BTreeMap, BTreeSet};
 pub const COMMON: ShaderModule = shader_module!("common");
 pub const RNG: ShaderModule = shader_module!("rng");
 pub const SAMPLING: ShaderModule = shader_module!("sampling");
+pub const BVH: ShaderModule = shader_module!("bvh");
 pub const MATERIALS: ShaderModule = shader_module!("materials");
 pub const STRATEGY: ShaderModule = shader_module!("strategy");
 pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture");
@@ -28,6 +30,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "LIGHT_DENSITY",
     "VARIANCE",
     "SAMPLER_SOBOL",
+    "BVH",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -62,8 +65,11 @@ pub enum SceneStorage {
     /// Compiled into the kernel as module constants: no loads, and every loop
     /// over the scene unrolled into straight-line code the driver's compiler folds.
     Baked,
-    /// Read-only storage buffers (group 1): any size, one kernel per feature set.
+    /// Read-only storage buffers (group 1), every ray testing every primitive:
+    /// any size, one kernel per feature set.
     Buffers,
+    /// Storage buffers through a BVH (`accel`): cost that grows as log n.
+    Bvh,
 }
 
 impl SceneStorage {
@@ -74,13 +80,16 @@ impl SceneStorage {
     /// and 5.3 at 256, where it also renders slower than buffers.
     pub const MAX_BAKED_OBJECTS: usize = 128;
 
-    /// Baked for small scenes, buffers for the rest.
+    /// Baked for small scenes, a BVH for the rest; plain buffers for a scene
+    /// with non-finite numbers (no literal to bake, no box to bound).
     pub fn auto(data: &SceneData) -> SceneStorage {
         let objects = data.primitive_count() + data.light_count();
-        if objects <= Self::MAX_BAKED_OBJECTS && data.is_finite() {
+        if !data.is_finite() {
+            SceneStorage::Buffers
+        } else if objects <= Self::MAX_BAKED_OBJECTS {
             SceneStorage::Baked
         } else {
-            SceneStorage::Buffers
+            SceneStorage::Bvh
         }
     }
 }
@@ -93,6 +102,8 @@ pub enum ArraySource {
     Primitives(usize),
     /// The primitives of kind `k` in the light density.
     Lights(usize),
+    BvhNodes,
+    BvhRefs,
 }
 
 /// One array of the scene the kernel declares.
@@ -131,6 +142,8 @@ pub struct KernelConfig {
     /// The scene compiled into the kernel (`SceneStorage::Baked`), or `None`
     /// to read it from storage buffers.
     pub baked_scene: Option<SceneData>,
+    /// Closest hits through the scene's BVH (`SceneStorage::Bvh`).
+    pub bvh: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -166,6 +179,7 @@ impl KernelConfig {
             accumulator,
             variance,
             baked_scene: (scene_storage == SceneStorage::Baked).then(|| data.clone()),
+            bvh: scene_storage == SceneStorage::Bvh,
         }
     }
 
@@ -199,13 +213,15 @@ impl KernelConfig {
             accumulator,
             variance: true,
             baked_scene: None,
+            bvh: false,
         }
     }
 
     pub fn scene_storage(&self) -> SceneStorage {
-        match self.baked_scene {
-            Some(_) => SceneStorage::Baked,
-            None => SceneStorage::Buffers,
+        match (&self.baked_scene, self.bvh) {
+            (Some(_), _) => SceneStorage::Baked,
+            (None, true) => SceneStorage::Bvh,
+            (None, false) => SceneStorage::Buffers,
         }
     }
 
@@ -231,6 +247,7 @@ impl KernelConfig {
             ("LIGHT_DENSITY", self.samples_lights()),
             ("VARIANCE", self.variance),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
+            ("BVH", self.bvh),
         ];
         for (flag, on) in features {
             if on {
@@ -256,6 +273,9 @@ impl KernelConfig {
         let geometry = self.primitive_kinds.iter().chain(self.light_kinds.iter());
         let geometry: KindSet = geometry.collect();
         modules.extend(geometry.iter().map(|k| PRIMITIVE_KINDS[k].module.clone()));
+        if self.bvh {
+            modules.push(BVH);
+        }
         modules.push(generated("scene", glue::scene(self)));
         modules.push(MATERIALS);
         modules.extend(
@@ -309,7 +329,8 @@ impl KernelConfig {
                 wgsl_type: kind.layout.wgsl_name,
                 element_size: kind.layout.size,
                 binding: 1 + k as u32,
-                indexed: false,
+                // The BVH's leaves look primitives up by index.
+                indexed: self.bvh,
                 source: ArraySource::Primitives(k),
             });
         }
@@ -324,6 +345,24 @@ impl KernelConfig {
                 source: ArraySource::Lights(k),
             });
         }
+        if self.bvh {
+            arrays.push(SceneArray {
+                name: "bvh_nodes".into(),
+                wgsl_type: BvhNode::WGSL_NAME,
+                element_size: size_of::<BvhNode>(),
+                binding: 1 + 2 * count,
+                indexed: true,
+                source: ArraySource::BvhNodes,
+            });
+            arrays.push(SceneArray {
+                name: "bvh_refs".into(),
+                wgsl_type: "u32",
+                element_size: size_of::<u32>(),
+                binding: 2 + 2 * count,
+                indexed: true,
+                source: ArraySource::BvhRefs,
+            });
+        }
         arrays
     }
 
@@ -334,6 +373,9 @@ impl KernelConfig {
                 ArraySource::Materials => data.materials.len(),
                 ArraySource::Primitives(k) => data.primitives[k].len(),
                 ArraySource::Lights(k) => data.lights[k].len(),
+                ArraySource::BvhNodes | ArraySource::BvhRefs => {
+                    unreachable!("a baked scene has no BVH")
+                }
             }),
             None => ArrayForm::Buffer,
         }
@@ -369,7 +411,15 @@ impl SceneData {
             ArraySource::Materials => bytemuck::cast_slice(&self.materials),
             ArraySource::Primitives(k) => &self.primitives[k].bytes,
             ArraySource::Lights(k) => &self.lights[k].bytes,
+            ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
+            ArraySource::BvhRefs => bytemuck::cast_slice(&self.bvh_part().refs),
         }
+    }
+
+    fn bvh_part(&self) -> &crate::accel::Bvh {
+        self.bvh
+            .as_ref()
+            .expect("a BVH kernel's scene has its BVH built")
     }
 }
 
@@ -397,8 +447,8 @@ mod tests {
         module
     }
 
-    /// Every subset of primitive and material kinds, with and without variance,
-    /// for every strategy and accumulator. Lights are sampled where a smooth
+    /// Every subset of primitive and material kinds, with and without variance
+    /// and the BVH, for every strategy and accumulator. Lights are sampled where a smooth
     /// material exists: from the kinds present, or from all when none is.
     fn all_variants() -> Vec<KernelConfig> {
         let (primitives, materials) = (PRIMITIVE_KINDS.len(), MATERIAL_KINDS.len());
@@ -406,7 +456,7 @@ mod tests {
         for strategy in Strategy::ALL {
             for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
                 let general = KernelConfig::general(strategy, accumulator);
-                for mask in 0..(1u32 << (primitives + materials + 1)) {
+                for mask in 0..(1u32 << (primitives + materials + 2)) {
                     let primitive_kinds = KindSet::from_mask(mask & ((1 << primitives) - 1));
                     let material_kinds =
                         KindSet::from_mask((mask >> primitives) & ((1 << materials) - 1));
@@ -420,7 +470,8 @@ mod tests {
                         primitive_kinds,
                         light_kinds,
                         material_kinds,
-                        variance: mask >> (primitives + materials) != 0,
+                        variance: mask >> (primitives + materials) & 1 != 0,
+                        bvh: mask >> (primitives + materials + 1) != 0,
                         ..general.clone()
                     });
                 }
@@ -447,7 +498,11 @@ mod tests {
                     for variance in [false, true] {
                         let (data, strategy, _) =
                             crate::render::prepare_scene(&scene, strategy).unwrap();
-                        for storage in [SceneStorage::Baked, SceneStorage::Buffers] {
+                        for storage in [
+                            SceneStorage::Baked,
+                            SceneStorage::Buffers,
+                            SceneStorage::Bvh,
+                        ] {
                             let config = KernelConfig::for_scene(
                                 &data,
                                 strategy,
@@ -545,7 +600,7 @@ mod tests {
         };
         let max = SceneStorage::MAX_BAKED_OBJECTS;
         assert_eq!(SceneStorage::auto(&quads(max)), SceneStorage::Baked);
-        assert_eq!(SceneStorage::auto(&quads(max + 1)), SceneStorage::Buffers);
+        assert_eq!(SceneStorage::auto(&quads(max + 1)), SceneStorage::Bvh);
         let mut infinite = quads(1);
         infinite.primitives[0].bytes[..4].copy_from_slice(&f32::INFINITY.to_ne_bytes());
         assert_eq!(SceneStorage::auto(&infinite), SceneStorage::Buffers);

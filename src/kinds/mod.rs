@@ -11,10 +11,12 @@
 mod material;
 mod quad;
 mod sphere;
+mod triangle;
 
 pub use material::{Lobe, MATERIAL_KINDS, MaterialKind, material_kind};
 pub use quad::Quad;
 pub use sphere::Sphere;
+pub use triangle::Triangle;
 
 use crate::gpu::layout::GpuLayout;
 use crate::scene::Scene;
@@ -22,7 +24,7 @@ use crate::shader::ShaderModule;
 
 /// Every primitive kind, in the order of the kernel's closest-hit test and light
 /// density (which fixes the order of floating-point sums: images depend on it).
-pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[&quad::QUAD, &sphere::SPHERE];
+pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[&quad::QUAD, &sphere::SPHERE, &triangle::TRIANGLE];
 
 /// A kind of primitive: what the host packs and what its WGSL module defines.
 ///
@@ -54,6 +56,8 @@ pub struct PrimitiveKind {
     /// An element no ray hits: what a kernel that declares this kind binds when
     /// the scene has none (bindings cannot be empty).
     pub never_hit: fn() -> Vec<u8>,
+    /// The axis-aligned box around one packed element (for the BVH).
+    pub bounds: fn(&[u8]) -> (glam::Vec3, glam::Vec3),
 }
 
 impl PrimitiveKind {

@@ -19,6 +19,20 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
             .collect()
     },
     never_hit: || bytemuck::bytes_of(&Quad::never_hit()).to_vec(),
+    bounds: |bytes| {
+        let quad: Quad = bytemuck::pod_read_unaligned(bytes);
+        let (q, u, v) = (
+            quad.q.into(),
+            glam::Vec3::from(quad.u),
+            glam::Vec3::from(quad.v),
+        );
+        let corners = [q, q + u, q + v, q + u + v];
+        let min = corners.iter().fold(glam::Vec3::INFINITY, |m, &c| m.min(c));
+        let max = corners
+            .iter()
+            .fold(glam::Vec3::NEG_INFINITY, |m, &c| m.max(c));
+        (min, max)
+    },
 };
 
 gpu_struct! {

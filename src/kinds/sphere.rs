@@ -34,6 +34,11 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
         };
         bytemuck::bytes_of(&nan).to_vec()
     },
+    bounds: |bytes| {
+        let sphere: Sphere = bytemuck::pod_read_unaligned(bytes);
+        let center = glam::Vec3::from(sphere.center);
+        (center - sphere.radius, center + sphere.radius)
+    },
 };
 
 gpu_struct! {

@@ -166,6 +166,14 @@ pub struct Sphere {
     pub importance: bool,
 }
 
+/// A mesh face, world space; normal `normalize((v1 - v0) x (v2 - v0))`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub vertices: [Vec3; 3],
+    pub material: u32,
+    pub importance: bool,
+}
+
 /// A validated scene: world-space primitives after box expansion and transforms.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
@@ -176,6 +184,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub quads: Vec<Quad>,
     pub spheres: Vec<Sphere>,
+    /// Mesh faces, degenerate ones dropped.
+    pub triangles: Vec<Triangle>,
 }
 
 /// A problem with a scene file: which file, where in it, and what is wrong.
@@ -220,6 +230,7 @@ impl Scene {
     pub fn importance_count(&self) -> usize {
         self.quads.iter().filter(|q| q.importance).count()
             + self.spheres.iter().filter(|s| s.importance).count()
+            + self.triangles.iter().filter(|t| t.importance).count()
     }
 
     /// Largest absolute coordinate of any geometry or the camera: the scene's size,
@@ -233,6 +244,11 @@ impl Scene {
         }
         for s in &self.spheres {
             extent = extent.max(s.center.abs().max_element() + s.radius);
+        }
+        for t in &self.triangles {
+            for v in t.vertices {
+                extent = extent.max(v.abs().max_element());
+            }
         }
         extent
     }

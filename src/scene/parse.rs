@@ -183,6 +183,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         materials,
         quads,
         spheres,
+        triangles: Vec::new(),
     };
     if scale == 1.0 {
         return Ok(scene);
@@ -277,6 +278,11 @@ impl Scene {
         for sp in &mut s.spheres {
             sp.center *= factor;
             sp.radius *= factor;
+        }
+        for t in &mut s.triangles {
+            for v in &mut t.vertices {
+                *v *= factor;
+            }
         }
         s
     }

@@ -1,0 +1,97 @@
+// Triangles (mesh faces): vertices p0, p1, p2, counter-clockwise seen from the
+// side the normal normalize((p1 - p0) x (p2 - p0)) faces.
+
+// Mirrors `kinds::Triangle`.
+struct Triangle {
+    p0: vec3<f32>,
+    material: u32,
+    p1: vec3<f32>,
+    area: f32,
+    p2: vec3<f32>,
+    _pad0: u32,
+    normal: vec3<f32>,
+    _pad1: u32,
+}
+
+// a b - c d with one rounding (Kahan's algorithm with fma).
+fn difference_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
+    let cd = c * d;
+    return fma(a, b, -cd) + fma(-c, d, cd);
+}
+
+// Distance along the ray to the triangle in (0, t_max), or -1. Watertight (Woop,
+// Benthin and Wald 2013, as pbrt-v4): the vertices are moved into a frame where
+// the ray is the +z axis, so the edge tests of two triangles sharing an edge are
+// the same numbers with opposite signs and no ray passes between them.
+fn triangle_hit_t(tri: Triangle, ray: Ray, t_max: f32) -> f32 {
+    let d_abs = abs(ray.dir);
+    var kz = 0u;
+    if d_abs.y > d_abs.x {
+        kz = 1u;
+    }
+    if d_abs.z > max(d_abs.x, d_abs.y) {
+        kz = 2u;
+    }
+    let kx = (kz + 1u) % 3u;
+    let ky = (kx + 1u) % 3u;
+    let d = vec3<f32>(ray.dir[kx], ray.dir[ky], ray.dir[kz]);
+    let a = tri.p0 - ray.origin;
+    let b = tri.p1 - ray.origin;
+    let c = tri.p2 - ray.origin;
+    var p0 = vec3<f32>(a[kx], a[ky], a[kz]);
+    var p1 = vec3<f32>(b[kx], b[ky], b[kz]);
+    var p2 = vec3<f32>(c[kx], c[ky], c[kz]);
+    let shear = vec3<f32>(-d.x / d.z, -d.y / d.z, 1.0 / d.z);
+    p0 = vec3<f32>(p0.x + shear.x * p0.z, p0.y + shear.y * p0.z, p0.z);
+    p1 = vec3<f32>(p1.x + shear.x * p1.z, p1.y + shear.y * p1.z, p1.z);
+    p2 = vec3<f32>(p2.x + shear.x * p2.z, p2.y + shear.y * p2.z, p2.z);
+    let e0 = difference_of_products(p1.x, p2.y, p1.y, p2.x);
+    let e1 = difference_of_products(p2.x, p0.y, p2.y, p0.x);
+    let e2 = difference_of_products(p0.x, p1.y, p0.y, p1.x);
+    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+        return -1.0;
+    }
+    let det = e0 + e1 + e2;
+    if det == 0.0 {
+        return -1.0;
+    }
+    let t_scaled = (e0 * p0.z + e1 * p1.z + e2 * p2.z) * shear.z;
+    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
+        return -1.0;
+    }
+    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
+        return -1.0;
+    }
+    let t = t_scaled / det;
+    if !(t > 0.0 && t < t_max) {
+        return -1.0;
+    }
+    return t;
+}
+
+// The closest hit keeps the face normal.
+fn triangle_hit_keep(tri: Triangle) -> vec4<f32> {
+    return vec4<f32>(tri.normal, 0.0);
+}
+
+fn triangle_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
+    return keep.xyz;
+}
+
+// Direction from `origin` to a uniformly chosen point of the triangle.
+fn triangle_light_sample(tri: Triangle, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let s = sqrt(u.x);
+    let b0 = 1.0 - s;
+    let b1 = u.y * s;
+    let target_point = b0 * tri.p0 + b1 * tri.p1 + (1.0 - b0 - b1) * tri.p2;
+    return normalize(target_point - origin);
+}
+
+// Solid-angle density of `triangle_light_sample`: d^2 / (|cos| A) where the ray meets it.
+fn triangle_light_pdf(tri: Triangle, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let t = triangle_hit_t(tri, Ray(origin, dir), F32_MAX);
+    if t < 0.0 {
+        return 0.0;
+    }
+    return (t * t) / (abs(dot(dir, tri.normal)) * tri.area);
+}
