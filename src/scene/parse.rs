@@ -81,7 +81,7 @@
 
 use std::fmt::{Display, LowerExp};
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 use toml::{Table, Value};
 
 use super::{
@@ -131,11 +131,15 @@ const RENDER_KEYS: &[&str] = &[
 const MATERIAL_TYPES: &[&str] = &["lambertian", "metal", "dielectric", "light"];
 const ALL_MATERIAL_KEYS: &[&str] = &["type", "albedo", "emit", "fuzz", "ior"];
 const OBJECT_TYPES: &[&str] = &["sphere", "quad", "box"];
+const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
 const ALL_OBJECT_KEYS: &[&str] = &[
     "type",
     "material",
+    "scale",
     "rotate_y",
+    "rotate",
     "translate",
+    "matrix",
     "importance",
     "center",
     "radius",
@@ -476,8 +480,10 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<(Vec<Quad>, Vec<Sp
                 ));
             }
         };
-        let known: Vec<&str> = ["type", "material", "rotate_y", "translate", "importance"]
-            .into_iter()
+        let known: Vec<&str> = TRANSFORM_KEYS
+            .iter()
+            .copied()
+            .chain(["type", "material", "importance"])
             .chain(keys.iter().copied())
             .collect();
         t.check_keys(&known, Some(what))?;
@@ -493,19 +499,22 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<(Vec<Quad>, Vec<Sp
             return Err(t.err(t.at("material"), message));
         };
         let importance = t.boolean("importance")?.unwrap_or(false) || materials[material].emits();
-        let xf = Transform::new(
-            t.float("rotate_y", ok)?.unwrap_or(0.0),
-            t.vec3("translate", ok)?.unwrap_or(Vec3::ZERO),
-        );
+        let xf = Transform::parse(&t)?;
         let material = material as u32;
 
         match ty {
             "sphere" => {
                 let center = t.require("center", t.vec3("center", ok)?)?;
                 let radius = t.require("radius", t.float("radius", check_positive)?)?;
+                let Some(scale) = xf.uniform_scale() else {
+                    return Err(t.err(
+                        t.here(),
+                        "a sphere cannot take a non-uniform scale (it would be an ellipsoid)",
+                    ));
+                };
                 let sphere = Sphere {
                     center: xf.point(center.as_dvec3()),
-                    radius,
+                    radius: (f64::from(radius) * scale) as f32,
                     material,
                     importance,
                 };
@@ -583,44 +592,129 @@ fn box_faces(a: DVec3, b: DVec3) -> [(&'static str, DVec3, DVec3, DVec3); 6] {
 }
 
 /// `rotate_y` then `translate`, object to world, evaluated in double precision.
+/// Object to world: `linear` (scale, then rotation) then `translate`, in f64 so
+/// that composing and applying it rounds once, to f32, at the end.
 struct Transform {
-    sin: f64,
-    cos: f64,
+    linear: DMat3,
     translate: DVec3,
 }
 
+/// `sin` and `cos` of `degrees`, exact at multiples of 90 degrees so axis-aligned
+/// geometry stays exact.
+fn sin_cos_degrees(degrees: f64) -> (f64, f64) {
+    match degrees.rem_euclid(360.0) {
+        0.0 => (0.0, 1.0),
+        90.0 => (1.0, 0.0),
+        180.0 => (0.0, -1.0),
+        270.0 => (-1.0, 0.0),
+        r => r.to_radians().sin_cos(),
+    }
+}
+
 impl Transform {
-    fn new(degrees: f32, translate: Vec3) -> Transform {
-        // Exact values for multiples of 90 degrees keep axis-aligned geometry exact.
-        let r = f64::from(degrees).rem_euclid(360.0);
-        let (sin, cos) = match r {
-            0.0 => (0.0, 1.0),
-            90.0 => (1.0, 0.0),
-            180.0 => (0.0, -1.0),
-            270.0 => (-1.0, 0.0),
-            _ => r.to_radians().sin_cos(),
-        };
-        Transform {
-            sin,
-            cos,
-            translate: translate.as_dvec3(),
+    /// The object's transform keys: `scale`, `rotate_y` or `rotate`, `translate`,
+    /// or `matrix` instead of all three.
+    fn parse(t: &Tab) -> Result<Transform> {
+        if t.table.contains_key("matrix") {
+            if let Some(other) = ["scale", "rotate_y", "rotate", "translate"]
+                .into_iter()
+                .find(|k| t.table.contains_key(*k))
+            {
+                return Err(t.err(
+                    t.at(other),
+                    "cannot be combined with `matrix` (the matrix is the whole transform)",
+                ));
+            }
+            let m: [f32; 16] = t.numbers("matrix")?;
+            if m[12..] != [0.0, 0.0, 0.0, 1.0] {
+                return Err(t.err(
+                    t.at("matrix"),
+                    format!(
+                        "must be affine: its last row must be [0, 0, 0, 1], got [{}]",
+                        m[12..].iter().map(|&x| fmt_num(x)).collect::<Vec<_>>().join(", ")
+                    ),
+                ));
+            }
+            let m = m.map(f64::from);
+            let linear = DMat3::from_cols(
+                DVec3::new(m[0], m[4], m[8]),
+                DVec3::new(m[1], m[5], m[9]),
+                DVec3::new(m[2], m[6], m[10]),
+            );
+            return Transform::checked(t, "matrix", linear, DVec3::new(m[3], m[7], m[11]));
         }
+        let scale = match t.table.get("scale") {
+            None => DVec3::ONE,
+            Some(Value::Array(_)) => t.require("scale", t.vec3("scale", ok)?)?.as_dvec3(),
+            Some(_) => DVec3::splat(t.require("scale", t.float("scale", ok)?)?.into()),
+        };
+        let rotation = match (t.table.contains_key("rotate_y"), t.sub("rotate")?) {
+            (true, Some(_)) => {
+                return Err(t.err(t.at("rotate"), "give either `rotate_y` or `rotate`, not both"));
+            }
+            (_, Some(r)) => {
+                r.check_keys(&["axis", "angle"], Some("a rotation"))?;
+                let axis = r.require("axis", r.vec3("axis", ok)?)?.as_dvec3();
+                let angle = f64::from(r.require("angle", r.float("angle", ok)?)?);
+                if !(axis.length_squared() > 0.0) {
+                    return Err(r.err(r.at("axis"), "must not be the zero vector"));
+                }
+                let (sin, cos) = sin_cos_degrees(angle);
+                // Rodrigues' formula, with the exact sine and cosine.
+                let k = axis.normalize();
+                let cross = DMat3::from_cols(
+                    DVec3::new(0.0, k.z, -k.y),
+                    DVec3::new(-k.z, 0.0, k.x),
+                    DVec3::new(k.y, -k.x, 0.0),
+                );
+                DMat3::IDENTITY * cos
+                    + cross * sin
+                    + DMat3::from_cols(k * k.x, k * k.y, k * k.z) * (1.0 - cos)
+            }
+            (_, None) => {
+                let (sin, cos) = sin_cos_degrees(t.float("rotate_y", ok)?.unwrap_or(0.0).into());
+                // The book's rotate_y: (x, z) maps to (cos x + sin z, -sin x + cos z).
+                DMat3::from_cols(
+                    DVec3::new(cos, 0.0, -sin),
+                    DVec3::Y,
+                    DVec3::new(sin, 0.0, cos),
+                )
+            }
+        };
+        let translate = t.vec3("translate", ok)?.unwrap_or(Vec3::ZERO).as_dvec3();
+        let linear = rotation * DMat3::from_diagonal(scale);
+        Transform::checked(t, "scale", linear, translate)
     }
 
-    fn rotate(&self, p: DVec3) -> DVec3 {
-        DVec3::new(
-            self.cos * p.x + self.sin * p.z,
-            p.y,
-            -self.sin * p.x + self.cos * p.z,
-        )
+    fn checked(t: &Tab, key: &str, linear: DMat3, translate: DVec3) -> Result<Transform> {
+        if !(linear.determinant().abs() > 0.0) || !linear.is_finite() || !translate.is_finite() {
+            return Err(t.err(t.at(key), "the transform is singular: it flattens the object"));
+        }
+        Ok(Transform { linear, translate })
     }
 
     fn point(&self, p: DVec3) -> Vec3 {
-        (self.rotate(p) + self.translate).as_vec3()
+        (self.linear * p + self.translate).as_vec3()
     }
 
     fn vector(&self, v: DVec3) -> Vec3 {
-        self.rotate(v).as_vec3()
+        (self.linear * v).as_vec3()
+    }
+
+    /// The factor of a transform that scales every direction alike (a rotation
+    /// times a uniform scale, maybe mirrored), or `None`.
+    fn uniform_scale(&self) -> Option<f64> {
+        let columns = [self.linear.x_axis, self.linear.y_axis, self.linear.z_axis];
+        let lengths = columns.map(DVec3::length);
+        let tolerance = 1e-6 * lengths[0];
+        let orthogonal = (0..3).all(|i| columns[i].dot(columns[(i + 1) % 3]).abs() <= tolerance * lengths[0]);
+        let equal = lengths.iter().all(|&l| (l - lengths[0]).abs() <= tolerance);
+        (orthogonal && equal).then_some(lengths[0])
+    }
+
+    /// Whether the transform mirrors (turns counter-clockwise windings clockwise).
+    fn mirrors(&self) -> bool {
+        self.linear.determinant() < 0.0
     }
 }
 
@@ -897,6 +991,32 @@ impl<'a> Tab<'a> {
             *slot = x;
         }
         Ok(Some(Vec3::from_array(out)))
+    }
+
+    /// Exactly `n` numbers (required).
+    fn numbers<const N: usize>(&self, key: &str) -> Result<[f32; N]> {
+        let loc = self.at(key);
+        let value = self.table.get(key).expect("caller checked the key");
+        let items = match value {
+            Value::Array(items) if items.len() == N => items,
+            Value::Array(items) => {
+                return Err(self.err(
+                    loc,
+                    format!("expected an array of {N} numbers, got {} elements", items.len()),
+                ));
+            }
+            other => {
+                return Err(self.err(
+                    loc,
+                    format!("expected an array of {N} numbers, got {}", type_name(other)),
+                ));
+            }
+        };
+        let mut out = [0.0f32; N];
+        for (i, (item, slot)) in items.iter().zip(&mut out).enumerate() {
+            *slot = number(item).map_err(|m| self.err(format!("{loc}[{i}]"), m))?;
+        }
+        Ok(out)
     }
 
     fn int(&self, key: &str, range: (i64, i64)) -> Result<Option<u32>> {
