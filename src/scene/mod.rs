@@ -1,6 +1,7 @@
 //! Scene model: the TOML file format, parsed and validated into world-space
 //! primitives. Knows nothing of devices or runs.
 
+pub mod mesh;
 mod parse;
 
 use glam::Vec3;

@@ -1,0 +1,976 @@
+//! Mesh files for `type = "mesh"` objects: Wavefront OBJ (read by `tobj`) and PLY,
+//! ASCII or binary (read by `ply-rs-bw`), each into one indexed triangle mesh.
+//! Every problem is a [`MeshError`] that names the file and, where the reader
+//! knows it, the line or the element; no input makes these readers panic.
+
+use glam::{Vec2, Vec3};
+use ply_rs_bw::parser::{ParseError, Parser, Reader};
+use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property};
+use std::fmt;
+use std::io::{self, BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+/// A triangle mesh as read from a file, in the file's own coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<glam::Vec3>,
+    /// Vertex indices, three per triangle (polygons fanned into triangles: (0,i,i+1)).
+    pub triangles: Vec<[u32; 3]>,
+    /// Per-vertex normals, where the file has them (same length as positions).
+    pub normals: Option<Vec<glam::Vec3>>,
+    /// Per-vertex texture coordinates, where the file has them.
+    pub uvs: Option<Vec<glam::Vec2>>,
+}
+
+/// The extensions [`load_mesh`] reads, for the message that names them.
+const SUPPORTED: &str = ".obj, .ply";
+
+/// Where in a mesh file a problem lies.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Location {
+    /// The file as a whole, or a place the reader cannot name.
+    File,
+    /// A line of a text file, counted from 1.
+    Line(usize),
+    /// A PLY element ("vertex 12"), counted from 0 as PLY's own indices are, with
+    /// its line in an ASCII file.
+    Element {
+        name: String,
+        index: usize,
+        line: Option<usize>,
+    },
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::File => Ok(()),
+            Location::Line(line) => write!(f, ": line {line}"),
+            Location::Element {
+                name,
+                index,
+                line: None,
+            } => write!(f, ": {name} {index}"),
+            Location::Element {
+                name,
+                index,
+                line: Some(line),
+            } => write!(f, ": line {line} ({name} {index})"),
+        }
+    }
+}
+
+/// Why a mesh file could not be read. Each message starts with the file's path and
+/// the [`Location`] (`mesh.ply: face 3: ...`).
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    #[error("{}: cannot read the mesh file: {source}", .path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    #[error("{}: unknown mesh format {extension:?} (supported: {SUPPORTED})", .path.display())]
+    UnknownFormat { path: PathBuf, extension: String },
+    /// The reading crate's own complaint, in `message`.
+    #[error("{}{at}: malformed mesh file: {message}", .path.display())]
+    Malformed {
+        path: PathBuf,
+        at: Location,
+        message: String,
+    },
+    #[error("{}{at}: unsupported: {what}", .path.display())]
+    Unsupported {
+        path: PathBuf,
+        at: Location,
+        what: String,
+    },
+    /// `index` as the file writes it (OBJ counts from 1, or back from -1).
+    #[error("{}{at}: index {index} out of range ({count} {of})", .path.display())]
+    IndexOutOfRange {
+        path: PathBuf,
+        at: Location,
+        index: i64,
+        count: usize,
+        of: &'static str,
+    },
+    #[error("{}{at}: non-finite number {value} in {what}", .path.display())]
+    NonFinite {
+        path: PathBuf,
+        at: Location,
+        what: String,
+        value: f32,
+    },
+    #[error("{}{at}: face with {vertices} vertices (at least 3 needed)", .path.display())]
+    DegenerateFace {
+        path: PathBuf,
+        at: Location,
+        vertices: usize,
+    },
+    /// A PLY file that ends before the element at `at`.
+    #[error(
+        "{}{at}: truncated: the file ends before this element (the header declares {declared} such elements)",
+        .path.display()
+    )]
+    Truncated {
+        path: PathBuf,
+        at: Location,
+        declared: usize,
+    },
+    #[error("{}: no triangles", .path.display())]
+    NoTriangles { path: PathBuf },
+}
+
+/// Reads a mesh file, choosing the format by the extension (any case).
+pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let mesh = match extension.as_str() {
+        "obj" => load_obj(path)?,
+        "ply" => load_ply(path)?,
+        _ => {
+            return Err(MeshError::UnknownFormat {
+                path: path.into(),
+                extension,
+            });
+        }
+    };
+    if mesh.triangles.is_empty() {
+        return Err(MeshError::NoTriangles { path: path.into() });
+    }
+    Ok(mesh)
+}
+
+/// The triangles (0,i,i+1) of a polygon.
+fn fan(face: &[u32]) -> impl Iterator<Item = [u32; 3]> + '_ {
+    (1..face.len().saturating_sub(1)).map(move |i| [face[0], face[i], face[i + 1]])
+}
+
+/// The line (from 1) that holds byte `offset` of `bytes`.
+fn line_of(bytes: &[u8], offset: usize) -> usize {
+    1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count()
+}
+
+fn read_error(path: &Path) -> impl FnOnce(io::Error) -> MeshError + '_ {
+    |source| MeshError::Read {
+        path: path.into(),
+        source,
+    }
+}
+
+fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
+    let bytes = std::fs::read(path).map_err(read_error(path))?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| MeshError::Malformed {
+        path: path.into(),
+        at: Location::Line(line_of(&bytes, e.valid_up_to())),
+        message: "not UTF-8 text".into(),
+    })?;
+    check_obj(path, text)?;
+
+    // Polygons are fanned below, with one index per vertex (normals and texture
+    // coordinates follow the positions). Points and two-vertex lines are no surface.
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let mut rest = text.as_bytes();
+    // Materials are the scene file's business: no library is opened.
+    let (models, _) = tobj::load_obj_buf(&mut rest, &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| MeshError::Malformed {
+        path: path.into(),
+        // tobj stops on the line it fails on, so what it consumed ends with that line.
+        at: Location::Line(line_of(
+            &bytes,
+            (bytes.len() - rest.len()).saturating_sub(1),
+        )),
+        message: e.to_string(),
+    })?;
+
+    let mut mesh = Mesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        normals: Some(Vec::new()),
+        uvs: Some(Vec::new()),
+    };
+    for tobj::Model { mesh: m, .. } in models {
+        // Indices fit u32: tobj numbers its vertices with u32.
+        let base = mesh.positions.len() as u32;
+        let vertices = m.positions.len() / 3;
+        mesh.positions
+            .extend(m.positions.chunks_exact(3).map(Vec3::from_slice));
+        // Normals and uvs only where every vertex of every object has one.
+        mesh.normals = mesh.normals.filter(|_| m.normals.len() == 3 * vertices);
+        if let Some(normals) = &mut mesh.normals {
+            normals.extend(m.normals.chunks_exact(3).map(Vec3::from_slice));
+        }
+        mesh.uvs = mesh.uvs.filter(|_| m.texcoords.len() == 2 * vertices);
+        if let Some(uvs) = &mut mesh.uvs {
+            uvs.extend(m.texcoords.chunks_exact(2).map(Vec2::from_slice));
+        }
+        // tobj leaves the arities out when every face is a triangle.
+        let arities = if m.face_arities.is_empty() {
+            vec![3; m.indices.len() / 3]
+        } else {
+            m.face_arities
+        };
+        let mut start = 0;
+        for arity in arities {
+            let face = &m.indices[start..start + arity as usize];
+            start += arity as usize;
+            mesh.triangles
+                .extend(fan(face).map(|t| t.map(|i| base + i)));
+        }
+    }
+    Ok(mesh)
+}
+
+/// Checks, with the line, what tobj does not check (non-finite numbers, faces of
+/// fewer than three vertices), what it would misread (polylines of three or more
+/// vertices become faces) and what it reports only without a line, or, in a debug
+/// build, overflows on (indices out of range; indices count from 1, negative ones
+/// back from the last element so far).
+fn check_obj(path: &Path, text: &str) -> Result<(), MeshError> {
+    const KINDS: [&str; 3] = ["v", "vt", "vn"];
+    const OF: [&str; 3] = [
+        "positions before this line",
+        "texture coordinates before this line",
+        "normals before this line",
+    ];
+    let mut counts = [0usize; 3];
+    for (n, line) in text.lines().enumerate() {
+        let at = Location::Line(n + 1);
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some(kind @ ("v" | "vt" | "vn")) => {
+                if let Some(k) = KINDS.iter().position(|&k| k == kind) {
+                    counts[k] += 1;
+                }
+                // Words that are no number are tobj's to report.
+                if let Some(value) = words
+                    .filter_map(|w| w.parse::<f32>().ok())
+                    .find(|v| !v.is_finite())
+                {
+                    return Err(MeshError::NonFinite {
+                        path: path.into(),
+                        at,
+                        what: format!("a `{kind}` line"),
+                        value,
+                    });
+                }
+            }
+            Some("f") => {
+                let vertices: Vec<&str> = words.collect();
+                if vertices.len() < 3 {
+                    return Err(MeshError::DegenerateFace {
+                        path: path.into(),
+                        at,
+                        vertices: vertices.len(),
+                    });
+                }
+                // v, v/vt, v//vn or v/vt/vn.
+                for vertex in vertices {
+                    for ((word, &count), of) in vertex.split('/').zip(&counts).zip(OF) {
+                        let Ok(index) = word.parse::<i64>() else {
+                            continue;
+                        };
+                        let in_range = index != 0
+                            && usize::try_from(index.unsigned_abs()).is_ok_and(|i| i <= count);
+                        if !in_range {
+                            return Err(MeshError::IndexOutOfRange {
+                                path: path.into(),
+                                at,
+                                index,
+                                count,
+                                of,
+                            });
+                        }
+                    }
+                }
+            }
+            Some("l") => {
+                let vertices = words.count();
+                if vertices > 2 {
+                    return Err(MeshError::Unsupported {
+                        path: path.into(),
+                        at,
+                        what: format!("a polyline (`l`) of {vertices} vertices"),
+                    });
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// ply-rs-bw's message on one line, and without its own "Line N: " (the location
+/// says it).
+fn ply_message(e: &ParseError) -> String {
+    let text = e.to_string();
+    let text = match e.line() {
+        Some(n) => text.strip_prefix(&format!("Line {n}: ")).unwrap_or(&text),
+        None => &text,
+    };
+    text.lines().map(str::trim).collect::<Vec<_>>().join(" ")
+}
+
+/// The names of the texture coordinates PLY writers use, by pairs.
+const UV_NAMES: [[&str; 2]; 3] = [["u", "v"], ["s", "t"], ["texture_u", "texture_v"]];
+
+fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
+    let file = std::fs::File::open(path).map_err(read_error(path))?;
+    let mut reader = Reader::new(BufReader::new(file));
+    let parser = Parser::<DefaultElement>::new();
+    let header = parser
+        .read_header(&mut reader)
+        .map_err(|e| MeshError::Malformed {
+            path: path.into(),
+            at: e.line().map_or(Location::File, Location::Line),
+            message: ply_message(&e),
+        })?;
+
+    let vertex_def = header.elements.get("vertex");
+    let has = |name: &str| vertex_def.is_some_and(|d| d.properties.contains_key(name));
+    let vertex_count = vertex_def.map_or(0, |d| d.count);
+    let normal_names = ["nx", "ny", "nz"].iter().all(|&n| has(n));
+    let uv_names = UV_NAMES.into_iter().find(|uv| uv.iter().all(|&n| has(n)));
+    let mut mesh = Mesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        normals: normal_names.then(Vec::new),
+        uvs: uv_names.map(|_| Vec::new()),
+    };
+
+    // ASCII elements are one a line, from the line after `end_header`.
+    let mut line = reader.line();
+    for def in header.elements.values() {
+        // Element by element, not the crate's whole payload at once, so that an
+        // error names the element (the crate's binary errors carry none).
+        for index in 0..def.count {
+            let at = Location::Element {
+                name: def.name.clone(),
+                index,
+                line: (header.encoding == Encoding::Ascii).then_some(line),
+            };
+            line += 1;
+            let element = match read_element(&parser, &mut reader, header.encoding, def) {
+                Ok(Some(element)) => element,
+                Ok(None) => {
+                    return Err(MeshError::Truncated {
+                        path: path.into(),
+                        at,
+                        declared: def.count,
+                    });
+                }
+                Err(e) => {
+                    return Err(MeshError::Malformed {
+                        path: path.into(),
+                        at,
+                        message: ply_message(&e),
+                    });
+                }
+            };
+            match def.name.as_str() {
+                "vertex" => {
+                    let number = |name: &str| -> Result<f32, MeshError> {
+                        match scalar(&element, name) {
+                            Some(value) if value.is_finite() => Ok(value),
+                            Some(value) => Err(MeshError::NonFinite {
+                                path: path.into(),
+                                at: at.clone(),
+                                what: format!("property {name}"),
+                                value,
+                            }),
+                            None => Err(MeshError::Malformed {
+                                path: path.into(),
+                                at: at.clone(),
+                                message: format!("no number {name}"),
+                            }),
+                        }
+                    };
+                    mesh.positions
+                        .push(Vec3::new(number("x")?, number("y")?, number("z")?));
+                    if let Some(normals) = &mut mesh.normals {
+                        normals.push(Vec3::new(number("nx")?, number("ny")?, number("nz")?));
+                    }
+                    if let (Some(uvs), Some([u, v])) = (&mut mesh.uvs, uv_names) {
+                        uvs.push(Vec2::new(number(u)?, number(v)?));
+                    }
+                }
+                "face" => {
+                    let indices = index_list(&element, "vertex_indices")
+                        .or_else(|| index_list(&element, "vertex_index"))
+                        .ok_or_else(|| MeshError::Malformed {
+                            path: path.into(),
+                            at: at.clone(),
+                            message: "no integer list vertex_indices or vertex_index".into(),
+                        })?;
+                    if indices.len() < 3 {
+                        return Err(MeshError::DegenerateFace {
+                            path: path.into(),
+                            at,
+                            vertices: indices.len(),
+                        });
+                    }
+                    let face = indices
+                        .iter()
+                        .map(|&index| {
+                            u32::try_from(index)
+                                .ok()
+                                .filter(|&i| (i as usize) < vertex_count)
+                                .ok_or_else(|| MeshError::IndexOutOfRange {
+                                    path: path.into(),
+                                    at: at.clone(),
+                                    index,
+                                    count: vertex_count,
+                                    of: "vertices in the file",
+                                })
+                        })
+                        .collect::<Result<Vec<u32>, _>>()?;
+                    mesh.triangles.extend(fan(&face));
+                }
+                // Edges, materials and the like are no part of the surface.
+                _ => {}
+            }
+        }
+    }
+    Ok(mesh)
+}
+
+/// The next element, or `None` where the file ends before it.
+fn read_element<R: BufRead>(
+    parser: &Parser<DefaultElement>,
+    reader: &mut Reader<R>,
+    encoding: Encoding,
+    def: &ElementDef,
+) -> Result<Option<DefaultElement>, ParseError> {
+    let element = match encoding {
+        Encoding::Ascii => {
+            let mut text = String::new();
+            if reader.get_mut().read_line(&mut text)? == 0 {
+                return Ok(None);
+            }
+            parser.read_ascii_element(&text, def)
+        }
+        Encoding::BinaryLittleEndian => parser.read_little_endian_element(reader.get_mut(), def),
+        Encoding::BinaryBigEndian => parser.read_big_endian_element(reader.get_mut(), def),
+    };
+    match element {
+        Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => Ok(None),
+        element => element.map(Some),
+    }
+}
+
+/// A scalar property as f32, whatever its type in the file.
+fn scalar(element: &DefaultElement, name: &str) -> Option<f32> {
+    Some(match *element.get(name)? {
+        Property::Char(v) => v.into(),
+        Property::UChar(v) => v.into(),
+        Property::Short(v) => v.into(),
+        Property::UShort(v) => v.into(),
+        Property::Int(v) => v as f32,
+        Property::UInt(v) => v as f32,
+        Property::Float(v) => v,
+        Property::Double(v) => v as f32,
+        _ => return None,
+    })
+}
+
+/// An integer list property (a face's vertex indices), whatever its integer type.
+fn index_list(element: &DefaultElement, name: &str) -> Option<Vec<i64>> {
+    fn widen<T: Copy + Into<i64>>(list: &[T]) -> Vec<i64> {
+        list.iter().map(|&i| i.into()).collect()
+    }
+    Some(match element.get(name)? {
+        Property::ListChar(list) => widen(list),
+        Property::ListUChar(list) => widen(list),
+        Property::ListShort(list) => widen(list),
+        Property::ListUShort(list) => widen(list),
+        Property::ListInt(list) => widen(list),
+        Property::ListUInt(list) => widen(list),
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// A folder of its own under the system's temp dir, removed when dropped.
+    struct Scratch(PathBuf);
+
+    impl Scratch {
+        fn new() -> Scratch {
+            static NEXT: AtomicUsize = AtomicUsize::new(0);
+            let n = NEXT.fetch_add(1, Ordering::Relaxed);
+            let dir = std::env::temp_dir().join(format!("pathmix-mesh-{}-{n}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            Scratch(dir)
+        }
+
+        fn file(&self, name: &str, bytes: &[u8]) -> PathBuf {
+            let path = self.0.join(name);
+            std::fs::write(&path, bytes).unwrap();
+            path
+        }
+    }
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    fn load(name: &str, bytes: &[u8]) -> Result<Mesh, MeshError> {
+        load_mesh(&Scratch::new().file(name, bytes))
+    }
+
+    const CUBE_OBJ: &str = "\
+# a unit cube, quads
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+f 1 4 3 2
+f 5 6 7 8
+f 1 2 6 5
+f 2 3 7 6
+f 3 4 8 7
+f 4 1 5 8
+";
+
+    #[test]
+    fn obj_cube_of_quads_is_fanned() {
+        let mesh = load("cube.obj", CUBE_OBJ.as_bytes()).unwrap();
+        // tobj numbers the vertices by first use: 1 4 3 2 5 6 7 8 become 0..8.
+        assert_eq!(mesh.positions.len(), 8);
+        assert_eq!(mesh.positions[1], Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(
+            mesh.triangles,
+            vec![
+                [0, 1, 2],
+                [0, 2, 3],
+                [4, 5, 6],
+                [4, 6, 7],
+                [0, 3, 5],
+                [0, 5, 4],
+                [3, 2, 6],
+                [3, 6, 5],
+                [2, 1, 7],
+                [2, 7, 6],
+                [1, 0, 4],
+                [1, 4, 7],
+            ]
+        );
+        assert_eq!(mesh.normals, None);
+        assert_eq!(mesh.uvs, None);
+    }
+
+    #[test]
+    fn obj_polygon_is_fanned_from_its_first_vertex() {
+        let obj = "v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\nf 1 2 3 4 5\nf 5 1 3\n";
+        let mesh = load("pentagon.OBJ", obj.as_bytes()).unwrap();
+        assert_eq!(
+            mesh.triangles,
+            vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [4, 0, 2]]
+        );
+    }
+
+    #[test]
+    fn obj_objects_are_merged_and_relative_indices_resolved() {
+        let obj = "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\
+                   o b\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf -3 -2 -1\n";
+        let mesh = load("two.obj", obj.as_bytes()).unwrap();
+        assert_eq!(mesh.positions.len(), 6);
+        assert_eq!(mesh.positions[3], Vec3::new(0.0, 0.0, 1.0));
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [3, 4, 5]]);
+    }
+
+    #[test]
+    fn obj_normals_and_uvs_follow_the_vertices() {
+        let obj = "\
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+vn 0 0 1
+vn 0 0 -1
+f 1/1/1 2/2/1 3/3/1 4/4/1
+f 3/3/2 2/2/2 1/1/2
+";
+        let mesh = load("quad.obj", obj.as_bytes()).unwrap();
+        // The same position with another normal is another vertex.
+        assert_eq!(mesh.positions.len(), 7);
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [4, 5, 6]]);
+        let normals = mesh.normals.unwrap();
+        assert_eq!(normals[..4], [Vec3::Z; 4]);
+        assert_eq!(normals[4..], [Vec3::NEG_Z; 3]);
+        let uvs = mesh.uvs.unwrap();
+        assert_eq!(uvs[2], Vec2::new(1.0, 1.0));
+        assert_eq!(uvs[4], Vec2::new(1.0, 1.0));
+        assert_eq!(mesh.positions[4], Vec3::new(1.0, 1.0, 0.0));
+    }
+
+    const ASCII_PLY: &str = "\
+ply
+format ascii 1.0
+comment a square with normals and uvs, one quad and one triangle
+element vertex 4
+property float x
+property float y
+property float z
+property float nx
+property float ny
+property float nz
+property float s
+property float t
+element face 2
+property list uchar int vertex_indices
+end_header
+0 0 0 0 0 1 0 0
+1 0 0 0 0 1 1 0
+1 1 0 0 0 1 1 1
+0 1 0 0 0 1 0 1
+4 0 1 2 3
+3 0 2 3
+";
+
+    #[test]
+    fn ascii_ply_with_normals_uvs_and_polygons() {
+        let mesh = load("square.ply", ASCII_PLY.as_bytes()).unwrap();
+        assert_eq!(
+            mesh.positions,
+            vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y]
+        );
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 2, 3]]);
+        assert_eq!(mesh.normals, Some(vec![Vec3::Z; 4]));
+        assert_eq!(mesh.uvs.unwrap()[2], Vec2::new(1.0, 1.0));
+    }
+
+    /// A binary PLY of a unit square as two triangles: little endian with float
+    /// coordinates and int indices, or big endian with double coordinates and
+    /// unsigned short indices (`vertex_index`), declaring `faces` faces.
+    fn binary_ply(big_endian: bool, faces: usize) -> Vec<u8> {
+        let (format, coordinate, list) = if big_endian {
+            ("binary_big_endian", "double", "uchar ushort vertex_index")
+        } else {
+            ("binary_little_endian", "float", "uchar int vertex_indices")
+        };
+        let mut bytes = format!(
+            "ply\nformat {format} 1.0\nelement vertex 4\nproperty {coordinate} x\n\
+             property {coordinate} y\nproperty {coordinate} z\nelement face {faces}\n\
+             property list {list}\nend_header\n"
+        )
+        .into_bytes();
+        for [x, y] in [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]] {
+            for c in [x, y, 0.5] {
+                if big_endian {
+                    bytes.extend_from_slice(&f64::to_be_bytes(c));
+                } else {
+                    bytes.extend_from_slice(&f32::to_le_bytes(c as f32));
+                }
+            }
+        }
+        for face in [[0, 1, 2], [0, 2, 3]] {
+            bytes.push(3);
+            for i in face {
+                if big_endian {
+                    bytes.extend_from_slice(&u16::to_be_bytes(i));
+                } else {
+                    bytes.extend_from_slice(&i32::to_le_bytes(i.into()));
+                }
+            }
+        }
+        bytes
+    }
+
+    /// `ply` with coordinate `axis` of vertex `vertex` replaced by `value` (the
+    /// bytes of one coordinate in the file's type and byte order).
+    fn with_vertex_value(mut ply: Vec<u8>, vertex: usize, axis: usize, value: &[u8]) -> Vec<u8> {
+        let end = b"end_header\n";
+        let payload = ply.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+        let at = payload + (3 * vertex + axis) * value.len();
+        ply[at..at + value.len()].copy_from_slice(value);
+        ply
+    }
+
+    #[test]
+    fn binary_ply_both_byte_orders() {
+        for big_endian in [false, true] {
+            let mesh = load("square.ply", &binary_ply(big_endian, 2)).unwrap();
+            assert_eq!(mesh.positions[2], Vec3::new(1.0, 1.0, 0.5));
+            assert_eq!(mesh.positions.len(), 4);
+            assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+            assert_eq!(mesh.normals, None);
+            assert_eq!(mesh.uvs, None);
+        }
+    }
+
+    #[test]
+    fn bad_files_name_the_file_the_place_and_the_problem() {
+        let square = "v 0 0 0\nv 1 0 0\nv 1 1 0\n";
+        let ply_header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n\
+                          property float y\nproperty float z\nelement face 1\n\
+                          property list uchar int vertex_indices\nend_header\n";
+        let garbage: Vec<u8> = (0u32..512)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+            .collect();
+        let cases: Vec<(&str, Vec<u8>, &[&str])> = vec![
+            (
+                "short-face.obj",
+                format!("{square}f 1 2\n").into_bytes(),
+                &["line 4", "face with 2 vertices"],
+            ),
+            (
+                "index.obj",
+                format!("{square}f 1 2 4\n").into_bytes(),
+                &["line 4", "index 4 out of range", "3 positions"],
+            ),
+            (
+                "zero-index.obj",
+                format!("{square}f 0 1 2\n").into_bytes(),
+                &["line 4", "index 0 out of range"],
+            ),
+            (
+                "relative.obj",
+                format!("{square}f -1 -2 -4\n").into_bytes(),
+                &["line 4", "index -4 out of range"],
+            ),
+            (
+                "normal-index.obj",
+                format!("{square}vn 0 0 1\nf 1//1 2//2 3//1\n").into_bytes(),
+                &["line 5", "index 2 out of range", "1 normals"],
+            ),
+            (
+                "nan.obj",
+                "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n".into(),
+                &["line 2", "non-finite number NaN", "`v`"],
+            ),
+            (
+                "inf.obj",
+                "v 0 0 0\nv 1 0 0\nv 0 -inf 0\nf 1 2 3\n".into(),
+                &["line 3", "non-finite number -inf"],
+            ),
+            (
+                "polyline.obj",
+                format!("{square}l 1 2 3\n").into_bytes(),
+                &["line 4", "unsupported", "polyline"],
+            ),
+            (
+                "words.obj",
+                format!("{square}v 1 2\nf 1 2 3\n").into_bytes(),
+                &["line 4", "malformed", "position parse error"],
+            ),
+            (
+                "points.obj",
+                format!("{square}l 1 2\n").into_bytes(),
+                &["no triangles"],
+            ),
+            ("empty.obj", Vec::new(), &["no triangles"]),
+            ("garbage.obj", garbage.clone(), &["malformed", "not UTF-8"]),
+            (
+                "index.ply",
+                format!("{ply_header}0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n").into_bytes(),
+                &["line 13 (face 0)", "index 3 out of range", "3 vertices"],
+            ),
+            (
+                "negative.ply",
+                format!("{ply_header}0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n").into_bytes(),
+                &["face 0", "index -1 out of range"],
+            ),
+            (
+                "short-face.ply",
+                format!("{ply_header}0 0 0\n1 0 0\n0 1 0\n2 0 1\n").into_bytes(),
+                &["line 13 (face 0)", "face with 2 vertices"],
+            ),
+            (
+                "nan.ply",
+                with_vertex_value(binary_ply(false, 2), 1, 1, &f32::NAN.to_le_bytes()),
+                &["vertex 1", "non-finite number NaN", "property y"],
+            ),
+            (
+                "inf.ply",
+                with_vertex_value(binary_ply(true, 2), 2, 2, &f64::INFINITY.to_be_bytes()),
+                &["vertex 2", "non-finite number inf", "property z"],
+            ),
+            (
+                "words.ply",
+                format!("{ply_header}0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n").into_bytes(),
+                &["line 11 (vertex 1)", "malformed"],
+            ),
+            (
+                "ascii-truncated.ply",
+                format!("{ply_header}0 0 0\n1 0 0\n").into_bytes(),
+                &["line 12 (vertex 2)", "truncated", "declares 3"],
+            ),
+            (
+                "truncated.ply",
+                binary_ply(false, 5),
+                &["face 2", "truncated", "declares 5"],
+            ),
+            (
+                "truncated-mid-element.ply",
+                {
+                    let mut bytes = binary_ply(true, 2);
+                    bytes.truncate(bytes.len() - 3);
+                    bytes
+                },
+                &["face 1", "truncated", "declares 2"],
+            ),
+            (
+                "no-faces.ply",
+                format!(
+                    "{}0 0 0\n1 0 0\n0 1 0\n",
+                    ply_header.replace("face 1", "face 0")
+                )
+                .into_bytes(),
+                &["no triangles"],
+            ),
+            (
+                "bad-header.ply",
+                "ply\nformat ascii 1.0\nelement vertex three\nend_header\n".into(),
+                &["line 3", "malformed"],
+            ),
+            ("garbage.ply", garbage, &["malformed", "UTF-8"]),
+            (
+                "text.ply",
+                "solid cube\n".into(),
+                &["line 1", "malformed", "magic number"],
+            ),
+            (
+                "mesh.stl",
+                "solid\n".into(),
+                &["unknown mesh format", ".obj, .ply"],
+            ),
+            ("no-extension", "v 0 0 0\n".into(), &["unknown mesh format"]),
+        ];
+        for (name, bytes, expected) in cases {
+            let text = load(name, &bytes)
+                .expect_err(&format!("{name} should not load"))
+                .to_string();
+            assert!(text.contains(name), "{name}: {text}");
+            for part in expected {
+                assert!(text.contains(part), "{name}: {part:?} not in {text:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn missing_file_is_named() {
+        let path = Scratch::new().0.join("absent.ply");
+        let e = load_mesh(&path).unwrap_err();
+        assert!(matches!(e, MeshError::Read { .. }));
+        let text = e.to_string();
+        assert!(
+            text.contains("absent.ply") && text.contains("cannot read"),
+            "{text}"
+        );
+    }
+
+    /// Every prefix and many corruptions of good files give a mesh or an error,
+    /// never a panic.
+    #[test]
+    fn no_input_panics() {
+        let scratch = Scratch::new();
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut random = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let goods: [(&str, Vec<u8>); 4] = [
+            ("fuzz.obj", CUBE_OBJ.into()),
+            ("fuzz.ply", ASCII_PLY.into()),
+            ("fuzz.ply", binary_ply(false, 2)),
+            ("fuzz.ply", binary_ply(true, 2)),
+        ];
+        for (name, good) in goods {
+            for len in 0..good.len() {
+                let _ = load_mesh(&scratch.file(name, &good[..len]));
+            }
+            for _ in 0..300 {
+                let mut bytes = good.clone();
+                for _ in 0..1 + random() % 4 {
+                    let at = random() as usize % bytes.len();
+                    bytes[at] = match random() % 4 {
+                        0 => b"0123456789"[random() as usize % 10],
+                        1 => b" -\n/"[random() as usize % 4],
+                        _ => random() as u8,
+                    };
+                }
+                let _ = load_mesh(&scratch.file(name, &bytes));
+            }
+        }
+    }
+
+    /// A file under `../shared/mitsuba-scenes/`, where this checkout has one.
+    fn shared(relative: &str) -> Option<PathBuf> {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../shared/mitsuba-scenes")
+            .join(relative);
+        if path.exists() {
+            Some(path)
+        } else {
+            println!("skipped: {} is absent", path.display());
+            None
+        }
+    }
+
+    #[test]
+    fn mitsuba_bunny_and_teapot() {
+        if let Some(path) = shared("meshes/bunny.ply") {
+            let bunny = load_mesh(&path).unwrap();
+            assert_eq!(bunny.positions.len(), 35_947);
+            assert_eq!(bunny.triangles.len(), 69_451);
+            assert_eq!(bunny.normals, None);
+        }
+        if let Some(path) = shared("meshes/teapot.ply") {
+            let teapot = load_mesh(&path).unwrap();
+            assert!(!teapot.triangles.is_empty());
+        }
+    }
+
+    #[test]
+    fn mitsuba_cornell_box_objs() {
+        let Some(dir) = shared("cbox/meshes") else {
+            return;
+        };
+        let mut seen = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "obj") {
+                let mesh = load_mesh(&path).unwrap();
+                assert!(!mesh.triangles.is_empty(), "{}", path.display());
+                seen += 1;
+            }
+        }
+        assert!(seen > 0);
+        if let Some(path) = shared("cbox/meshes/cbox_back.obj") {
+            // One quad.
+            let back = load_mesh(&path).unwrap();
+            assert_eq!(back.positions.len(), 4);
+            assert_eq!(back.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        }
+        if let Some(path) = shared("cbox/meshes/cbox_largebox.obj") {
+            let large = load_mesh(&path).unwrap();
+            assert_eq!(large.triangles.len(), 12);
+            assert_eq!(large.normals.map(|n| n.len()), Some(24));
+        }
+    }
+}
