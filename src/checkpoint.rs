@@ -101,6 +101,8 @@ impl SceneIdentity {
             quads,
             spheres,
             triangles,
+            // Follows from the mesh files, whose faces are hashed.
+            degenerate_triangles: _,
         } = scene;
         let Camera {
             lookfrom,

@@ -187,6 +187,8 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     /// Mesh faces, degenerate ones dropped.
     pub triangles: Vec<Triangle>,
+    /// Mesh faces dropped for having no area.
+    pub degenerate_triangles: usize,
 }
 
 /// A problem with a scene file: which file, where in it, and what is wrong.

@@ -29,7 +29,7 @@
 //! - `max_depth` (integer in 0..=100000, default 50): maximum number of scattering
 //!   events on a path; 0 renders emission only.
 //! - `strategy` (`"mixture"` | `"bsdf"` (alias `"cosine"`) | `"light"` | `"nee-mis"`, default
-//!   `"mixture"`): how a diffuse bounce picks its direction (`nee-mis`: next-event
+//!   `"mixture"`): how a bounce off a smooth material picks its direction (`nee-mis`: next-event
 //!   estimation with multiple importance sampling).
 //! - `light_weight` (float in [0, 1], default 0.5): weight of the light density in the
 //!   mixture.
@@ -66,28 +66,46 @@
 //!   be (near) zero: `|u x v| <= 1e-6 |u| |v|` is rejected as degenerate.
 //! - `"box"`: `min`, `max` (vectors, `max > min` in every axis): an axis-aligned box,
 //!   expanded into six outward-facing quads exactly like the book's `box()`.
+//! - `"mesh"`: `file` (string, required): a triangle mesh, `.obj` (Wavefront, polygons
+//!   fanned into triangles), `.ply` (ASCII or binary), relative to the scene file. The
+//!   face normal `normalize((v1 - v0) x (v2 - v0))` faces the side the vertices wind
+//!   counter-clockwise around, and shading is flat (face normals) for now; normals and
+//!   texture coordinates in the file are read but not used yet. Faces with no area are
+//!   dropped and counted (`pathmix info`). A mesh whose material emits is a light: every
+//!   face is in the light density. An unreadable or malformed file is an error naming
+//!   the object (`objects[4].file`), the mesh file and, where the reader knows it, the
+//!   line or element.
 //!
 //! Keys common to every object:
 //! - `material` (string, required): the `NAME` of a `[materials.NAME]` table.
+//! - `scale` (float, or vector for a per-axis scale, default 1): applied first. A
+//!   sphere takes only a uniform scale.
 //! - `rotate_y` (float, degrees, default 0): rotation about the y axis through the
 //!   origin, as the book's `rotate_y` (object to world: `(x, z)` maps to
-//!   `(cos t x + sin t z, -sin t x + cos t z)`).
+//!   `(cos t x + sin t z, -sin t x + cos t z)`). Or `rotate = { axis = [x, y, z], angle
+//!   = degrees }`: a rotation about any axis through the origin (right-handed). Applied
+//!   after the scale.
 //! - `translate` (vector, default `[0, 0, 0]`): applied after the rotation.
+//! - `matrix` (16 numbers, row-major, last row `[0, 0, 0, 1]`): the whole object-to-world
+//!   transform instead of `scale`, `rotate_y`/`rotate` and `translate`.
 //! - `importance` (bool, default false): adds the object to the light density. An
 //!   object whose material emits (any `emit` component > 0) is always in it.
 //!
-//! Quads are transformed by moving `q` and rotating the edges `u`, `v`; a sphere's
-//! centre is rotated and translated.
+//! Quads are transformed by moving `q` and transforming the edges `u`, `v`; a sphere's
+//! centre is transformed and its radius scaled; a mesh's vertices are transformed (a
+//! mirroring transform keeps each face's side).
 
 use std::fmt::{Display, LowerExp};
 
 use glam::{DMat3, DVec3, Vec3};
 use toml::{Table, Value};
 
+use super::mesh::load_mesh;
 use super::{
     Camera, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene, SceneError, Sphere,
-    Strategy,
+    Strategy, Triangle,
 };
+use std::path::Path;
 
 /// Command-line overrides of scene settings, validated like the file's values by
 /// [`Scene::apply_overrides`].
@@ -130,7 +148,7 @@ const RENDER_KEYS: &[&str] = &[
 ];
 const MATERIAL_TYPES: &[&str] = &["lambertian", "metal", "dielectric", "light"];
 const ALL_MATERIAL_KEYS: &[&str] = &["type", "albedo", "emit", "fuzz", "ior"];
-const OBJECT_TYPES: &[&str] = &["sphere", "quad", "box"];
+const OBJECT_TYPES: &[&str] = &["sphere", "quad", "box", "mesh"];
 const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
 const ALL_OBJECT_KEYS: &[&str] = &[
     "type",
@@ -148,6 +166,7 @@ const ALL_OBJECT_KEYS: &[&str] = &[
     "v",
     "min",
     "max",
+    "file",
 ];
 
 // ---------------------------------------------------------------------------------
@@ -178,16 +197,17 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         None => default_render(),
     };
     let materials = parse_materials(&top)?;
-    let (quads, spheres) = parse_objects(&top, &materials)?;
+    let objects = parse_objects(&top, &materials)?;
 
     let scene = Scene {
         source: file.to_string(),
         camera,
         render,
         materials,
-        quads,
-        spheres,
-        triangles: Vec::new(),
+        quads: objects.quads,
+        spheres: objects.spheres,
+        triangles: objects.triangles,
+        degenerate_triangles: objects.degenerate_triangles,
     };
     if scale == 1.0 {
         return Ok(scene);
@@ -434,11 +454,25 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
     Ok(out)
 }
 
-fn parse_objects(top: &Tab, materials: &[Material]) -> Result<(Vec<Quad>, Vec<Sphere>)> {
-    let mut quads = Vec::new();
-    let mut spheres = Vec::new();
+/// The objects of a scene file, in world space.
+#[derive(Default)]
+struct Objects {
+    quads: Vec<Quad>,
+    spheres: Vec<Sphere>,
+    triangles: Vec<Triangle>,
+    degenerate_triangles: usize,
+}
+
+fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
+    let mut objects = Objects::default();
+    let Objects {
+        quads,
+        spheres,
+        triangles,
+        degenerate_triangles,
+    } = &mut objects;
     let Some(value) = top.table.get("objects") else {
-        return Ok((quads, spheres));
+        return Ok(objects);
     };
     let Value::Array(items) = value else {
         return Err(top.err(
@@ -473,6 +507,7 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<(Vec<Quad>, Vec<Sp
             "sphere" => (&["center", "radius"], "a sphere"),
             "quad" => (&["q", "u", "v"], "a quad"),
             "box" => (&["min", "max"], "a box"),
+            "mesh" => (&["file"], "a mesh"),
             other => {
                 return Err(t.err(
                     t.at("type"),
@@ -539,6 +574,34 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<(Vec<Quad>, Vec<Sp
                 }
                 quads.push(quad);
             }
+            "mesh" => {
+                let name = t.require("file", t.string("file")?)?;
+                // Relative to the scene file, as every path in it.
+                let path = Path::new(top.file)
+                    .parent()
+                    .unwrap_or(Path::new(""))
+                    .join(name);
+                let mesh = load_mesh(&path).map_err(|e| t.err(t.at("file"), e.to_string()))?;
+                let world: Vec<Vec3> = mesh
+                    .positions
+                    .iter()
+                    .map(|p| xf.point(p.as_dvec3()))
+                    .collect();
+                for &[a, b, c] in &mesh.triangles {
+                    // A mirroring transform reverses the winding; keep the face's side.
+                    let (b, c) = if xf.mirrors() { (c, b) } else { (b, c) };
+                    let vertices = [a, b, c].map(|i| world[i as usize]);
+                    if triangle_is_degenerate(vertices) {
+                        *degenerate_triangles += 1;
+                        continue;
+                    }
+                    triangles.push(Triangle {
+                        vertices,
+                        material,
+                        importance,
+                    });
+                }
+            }
             _ => {
                 let min = t.require("min", t.vec3("min", ok)?)?;
                 let max = t.require("max", t.vec3("max", ok)?)?;
@@ -573,7 +636,16 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<(Vec<Quad>, Vec<Sp
             }
         }
     }
-    Ok((quads, spheres))
+    Ok(objects)
+}
+
+/// A face with no usable area in 32-bit floats (collinear or coincident
+/// vertices): it can be neither hit nor sampled, so it is dropped and counted.
+fn triangle_is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
+    let (e1, e2) = ((b - a).as_dvec3(), (c - a).as_dvec3());
+    let n = e1.cross(e2);
+    !usable_length_squared(n.as_vec3().length_squared())
+        || n.length() <= DEGENERATE * e1.length() * e2.length()
 }
 
 /// The six outward-facing sides of an axis-aligned box, as the book's `box()`.
@@ -631,7 +703,11 @@ impl Transform {
                     t.at("matrix"),
                     format!(
                         "must be affine: its last row must be [0, 0, 0, 1], got [{}]",
-                        m[12..].iter().map(|&x| fmt_num(x)).collect::<Vec<_>>().join(", ")
+                        m[12..]
+                            .iter()
+                            .map(|&x| fmt_num(x))
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ),
                 ));
             }
@@ -650,13 +726,16 @@ impl Transform {
         };
         let rotation = match (t.table.contains_key("rotate_y"), t.sub("rotate")?) {
             (true, Some(_)) => {
-                return Err(t.err(t.at("rotate"), "give either `rotate_y` or `rotate`, not both"));
+                return Err(t.err(
+                    t.at("rotate"),
+                    "give either `rotate_y` or `rotate`, not both",
+                ));
             }
             (_, Some(r)) => {
                 r.check_keys(&["axis", "angle"], Some("a rotation"))?;
                 let axis = r.require("axis", r.vec3("axis", ok)?)?.as_dvec3();
                 let angle = f64::from(r.require("angle", r.float("angle", ok)?)?);
-                if !(axis.length_squared() > 0.0) {
+                if axis.length_squared() == 0.0 {
                     return Err(r.err(r.at("axis"), "must not be the zero vector"));
                 }
                 let (sin, cos) = sin_cos_degrees(angle);
@@ -687,8 +766,11 @@ impl Transform {
     }
 
     fn checked(t: &Tab, key: &str, linear: DMat3, translate: DVec3) -> Result<Transform> {
-        if !(linear.determinant().abs() > 0.0) || !linear.is_finite() || !translate.is_finite() {
-            return Err(t.err(t.at(key), "the transform is singular: it flattens the object"));
+        if !linear.is_finite() || !translate.is_finite() || linear.determinant() == 0.0 {
+            return Err(t.err(
+                t.at(key),
+                "the transform is singular: it flattens the object",
+            ));
         }
         Ok(Transform { linear, translate })
     }
@@ -707,7 +789,8 @@ impl Transform {
         let columns = [self.linear.x_axis, self.linear.y_axis, self.linear.z_axis];
         let lengths = columns.map(DVec3::length);
         let tolerance = 1e-6 * lengths[0];
-        let orthogonal = (0..3).all(|i| columns[i].dot(columns[(i + 1) % 3]).abs() <= tolerance * lengths[0]);
+        let orthogonal =
+            (0..3).all(|i| columns[i].dot(columns[(i + 1) % 3]).abs() <= tolerance * lengths[0]);
         let equal = lengths.iter().all(|&l| (l - lengths[0]).abs() <= tolerance);
         (orthogonal && equal).then_some(lengths[0])
     }
@@ -1002,7 +1085,10 @@ impl<'a> Tab<'a> {
             Value::Array(items) => {
                 return Err(self.err(
                     loc,
-                    format!("expected an array of {N} numbers, got {} elements", items.len()),
+                    format!(
+                        "expected an array of {N} numbers, got {} elements",
+                        items.len()
+                    ),
                 ));
             }
             other => {
@@ -1970,5 +2056,126 @@ material = "white"
             }
         }
         assert!(oks > 0 && errs > 0, "oks {oks}, errs {errs}");
+    }
+
+    /// A scene file in a fresh folder with `mesh.obj` beside it, for mesh objects.
+    fn scene_with_mesh(obj: &str, object_keys: &str) -> std::result::Result<Scene, SceneError> {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static NEXT: AtomicUsize = AtomicUsize::new(0);
+        let dir = std::env::temp_dir().join(format!(
+            "pathmix-parse-mesh-{}-{}",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::SeqCst)
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("mesh.obj"), obj).unwrap();
+        let path = dir.join("scene.toml");
+        let text =
+            format!("{BASE}\n[[objects]]\ntype = \"mesh\"\nmaterial = \"white\"\n{object_keys}\n");
+        std::fs::write(&path, text).unwrap();
+        Scene::load(&path)
+    }
+
+    const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+    #[test]
+    fn mesh_files_are_relative_to_the_scene_and_transformed() {
+        let s = scene_with_mesh(
+            TRIANGLE_OBJ,
+            "file = \"mesh.obj\"\nscale = [2, 3, 4]\nrotate = { axis = [0, 0, 1], angle = 90 }\ntranslate = [10, 0, 0]",
+        )
+        .unwrap();
+        assert_eq!(s.triangles.len(), 1);
+        // Scale, then rotate (x -> y, y -> -x), then translate.
+        assert_eq!(
+            s.triangles[0].vertices,
+            [
+                Vec3::new(10.0, 0.0, 0.0),
+                Vec3::new(10.0, 2.0, 0.0),
+                Vec3::new(7.0, 0.0, 0.0)
+            ]
+        );
+        let m = scene_with_mesh(
+            TRIANGLE_OBJ,
+            "file = \"mesh.obj\"\nmatrix = [0, -3, 0, 10,  2, 0, 0, 0,  0, 0, 4, 0,  0, 0, 0, 1]",
+        )
+        .unwrap();
+        assert_eq!(m.triangles, s.triangles, "the same transform as a matrix");
+    }
+
+    #[test]
+    fn mirroring_keeps_the_face_side() {
+        let s = scene_with_mesh(TRIANGLE_OBJ, "file = \"mesh.obj\"\nscale = [-1, 1, 1]").unwrap();
+        let [a, b, c] = s.triangles[0].vertices;
+        // The original faces +z; mirrored in x it still does.
+        assert!((b - a).cross(c - a).z > 0.0);
+    }
+
+    #[test]
+    fn degenerate_faces_are_dropped_and_counted() {
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
+        let s = scene_with_mesh(obj, "file = \"mesh.obj\"").unwrap();
+        assert_eq!((s.triangles.len(), s.degenerate_triangles), (1, 1));
+    }
+
+    #[test]
+    fn mesh_errors_name_the_object_and_the_mesh_file() {
+        let e = scene_with_mesh(TRIANGLE_OBJ, "file = \"missing.obj\"").unwrap_err();
+        assert!(e.file.ends_with("scene.toml"), "{e}");
+        assert_eq!(e.location, "objects[2].file", "{e}");
+        assert!(e.message.contains("missing.obj"), "{e}");
+        let e = scene_with_mesh("v 0 0 0\nv 1 0 0\nf 1 2 3\n", "file = \"mesh.obj\"").unwrap_err();
+        assert_eq!(e.location, "objects[2].file", "{e}");
+        assert!(
+            e.message.contains("mesh.obj") && e.message.contains("line 3"),
+            "{e}"
+        );
+        let e = scene_with_mesh(TRIANGLE_OBJ, "").unwrap_err();
+        assert!(e.message.contains("missing required key `file`"), "{e}");
+    }
+
+    #[test]
+    fn transform_errors() {
+        let sphere = "type = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1";
+        let e = error(sphere, &format!("{sphere}\nscale = [1, 2, 1]"));
+        assert_error(&e, "objects[0]", &["non-uniform scale"]);
+        let e = error(
+            sphere,
+            &format!(
+                "{sphere}\nscale = 2\nmatrix = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]"
+            ),
+        );
+        assert_error(
+            &e,
+            "objects[0].scale",
+            &["cannot be combined with `matrix`"],
+        );
+        let e = error(
+            sphere,
+            &format!("{sphere}\nmatrix = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 1, 1]"),
+        );
+        assert_error(&e, "objects[0].matrix", &["affine", "[0, 0, 1, 1]"]);
+        let e = error(sphere, &format!("{sphere}\nmatrix = [1, 0, 0]"));
+        assert_error(&e, "objects[0].matrix", &["16 numbers", "3 elements"]);
+        let e = error(
+            sphere,
+            &format!("{sphere}\nrotate_y = 3\nrotate = {{ axis = [0, 1, 0], angle = 3 }}"),
+        );
+        assert_error(&e, "objects[0].rotate", &["either `rotate_y` or `rotate`"]);
+        let e = error(
+            sphere,
+            &format!("{sphere}\nrotate = {{ axis = [0, 0, 0], angle = 3 }}"),
+        );
+        assert_error(&e, "objects[0].rotate.axis", &["zero vector"]);
+        let e = error(sphere, &format!("{sphere}\nscale = 0"));
+        assert_error(&e, "objects[0].scale", &["singular"]);
+        // A uniform scale, also as a rotation matrix times a scale, is fine for a sphere.
+        let ok = BASE.replacen(
+            sphere,
+            &format!("{sphere}\nscale = 2\nrotate = {{ axis = [1, 1, 0], angle = 30 }}"),
+            1,
+        );
+        let s = parse(&ok);
+        assert!((s.spheres[0].radius - 2.0).abs() < 1e-6);
     }
 }
