@@ -410,3 +410,63 @@ fn compare_exits_0_within_the_tolerance_1_beyond_it_2_for_unreadable_files() {
     assert_eq!(output.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A scene whose mesh file is missing, malformed or empty exits with code 2,
+/// names the scene file, the object, the mesh file and (where the reader knows
+/// it) the line, and writes nothing.
+#[test]
+fn bad_mesh_files_are_refused_naming_object_and_file() {
+    let dir = temp_dir("bad-meshes");
+    let cases = [
+        ("missing.obj", None, "cannot read the mesh file"),
+        ("short.obj", Some("v 0 0 0\nv 1 0 0\nf 1 2\n"), "line 3"),
+        (
+            "range.obj",
+            Some("v 0 0 0\nv 1 0 0\nf 1 2 9\n"),
+            "out of range",
+        ),
+        (
+            "nan.obj",
+            Some("v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+            "non-finite",
+        ),
+        (
+            "empty.ply",
+            Some(
+                "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n",
+            ),
+            "no triangles",
+        ),
+        ("mesh.stl", Some("solid x\n"), "unknown mesh format"),
+    ];
+    for (file, contents, problem) in cases {
+        if let Some(contents) = contents {
+            std::fs::write(dir.join(file), contents).unwrap();
+        }
+        let scene_path = dir.join(format!("{file}.toml"));
+        std::fs::write(
+            &scene_path,
+            format!(
+                "[camera]\nlookfrom = [0, 0, -5]\nlookat = [0, 0, 0]\n\
+                 [materials.white]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                 [[objects]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"white\"\n\
+                 [[objects]]\ntype = \"mesh\"\nfile = \"{file}\"\nmaterial = \"white\"\n"
+            ),
+        )
+        .unwrap();
+        let out = dir.join(format!("{file}.png"));
+        let output = pathmix(&[
+            "render",
+            scene_path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{file}: {message}");
+        for part in [&format!("{file}.toml"), "objects[1].file", file, problem] {
+            assert!(message.contains(part), "{file}: no {part:?} in {message}");
+        }
+        assert!(!message.contains("panicked"), "{message}");
+        assert!(!out.exists(), "{file}: an image was written");
+    }
+}
