@@ -244,7 +244,7 @@ fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
 /// build, overflows on (indices out of range; indices count from 1, negative ones
 /// back from the last element so far).
 fn check_obj(path: &Path, text: &str) -> Result<(), MeshError> {
-    const KINDS: [&str; 3] = ["v", "vt", "vn"];
+    // By kind: v, vt, vn.
     const OF: [&str; 3] = [
         "positions before this line",
         "texture coordinates before this line",
@@ -256,9 +256,11 @@ fn check_obj(path: &Path, text: &str) -> Result<(), MeshError> {
         let mut words = line.split_whitespace();
         match words.next() {
             Some(kind @ ("v" | "vt" | "vn")) => {
-                if let Some(k) = KINDS.iter().position(|&k| k == kind) {
-                    counts[k] += 1;
-                }
+                counts[match kind {
+                    "v" => 0,
+                    "vt" => 1,
+                    _ => 2,
+                }] += 1;
                 // Words that are no number are tobj's to report.
                 if let Some(value) = words
                     .filter_map(|w| w.parse::<f32>().ok())
