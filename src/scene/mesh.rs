@@ -1,16 +1,18 @@
-//! Mesh files for `type = "mesh"` objects: Wavefront OBJ (read by `tobj`) and PLY,
-//! ASCII or binary (read by `ply-rs-bw`), each into one indexed triangle mesh.
+//! Mesh files for `type = "mesh"` objects: Wavefront OBJ (read by `tobj`), PLY,
+//! ASCII or binary (read by `ply-rs-bw`), and glTF 2.0, `.gltf` or `.glb` (read by
+//! `gltf`), each into one indexed triangle mesh.
 //! Every problem is a [`MeshError`] that names the file and, where the reader
 //! knows it, the line or the element; no input makes these readers panic.
 
-use glam::{Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use ply_rs_bw::parser::{ParseError, Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property};
 use std::fmt;
 use std::io::{self, BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
-/// A triangle mesh as read from a file, in the file's own coordinates.
+/// A triangle mesh as read from a file, in the file's own coordinates (for glTF,
+/// the default scene's: the node transforms applied).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
     pub positions: Vec<glam::Vec3>,
@@ -23,7 +25,7 @@ pub struct Mesh {
 }
 
 /// The extensions [`load_mesh`] reads, for the message that names them.
-const SUPPORTED: &str = ".obj, .ply";
+const SUPPORTED: &str = ".obj, .ply, .gltf, .glb";
 
 /// Where in a mesh file a problem lies.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -39,6 +41,8 @@ pub enum Location {
         index: usize,
         line: Option<usize>,
     },
+    /// A primitive of a glTF mesh, both counted from 0 as glTF's indices are.
+    Primitive { mesh: usize, primitive: usize },
 }
 
 impl fmt::Display for Location {
@@ -56,6 +60,9 @@ impl fmt::Display for Location {
                 index,
                 line: Some(line),
             } => write!(f, ": line {line} ({name} {index})"),
+            Location::Primitive { mesh, primitive } => {
+                write!(f, ": mesh {mesh}, primitive {primitive}")
+            }
         }
     }
 }
@@ -130,6 +137,7 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
     let mesh = match extension.as_str() {
         "obj" => load_obj(path)?,
         "ply" => load_ply(path)?,
+        "gltf" | "glb" => load_gltf(path)?,
         _ => {
             return Err(MeshError::UnknownFormat {
                 path: path.into(),
@@ -236,7 +244,7 @@ fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
 /// build, overflows on (indices out of range; indices count from 1, negative ones
 /// back from the last element so far).
 fn check_obj(path: &Path, text: &str) -> Result<(), MeshError> {
-    const KINDS: [&str; 3] = ["v", "vt", "vn"];
+    // By kind: v, vt, vn.
     const OF: [&str; 3] = [
         "positions before this line",
         "texture coordinates before this line",
@@ -248,9 +256,11 @@ fn check_obj(path: &Path, text: &str) -> Result<(), MeshError> {
         let mut words = line.split_whitespace();
         match words.next() {
             Some(kind @ ("v" | "vt" | "vn")) => {
-                if let Some(k) = KINDS.iter().position(|&k| k == kind) {
-                    counts[k] += 1;
-                }
+                counts[match kind {
+                    "v" => 0,
+                    "vt" => 1,
+                    _ => 2,
+                }] += 1;
                 // Words that are no number are tobj's to report.
                 if let Some(value) = words
                     .filter_map(|w| w.parse::<f32>().ok())
@@ -496,6 +506,177 @@ fn index_list(element: &DefaultElement, name: &str) -> Option<Vec<i64>> {
         Property::ListUInt(list) => widen(list),
         _ => return None,
     })
+}
+
+fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
+    let malformed = |message: String| MeshError::Malformed {
+        path: path.into(),
+        at: Location::File,
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(read_error(path))?;
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| malformed(e.to_string()))?;
+    // gltf-json's validation looks up each POSITION accessor before it checks the
+    // index, and panics on one out of range: check that first.
+    let json = document.into_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) =
+                (primitive.attributes.values()).find(|i| i.value() >= json.accessors.len())
+            {
+                return Err(MeshError::IndexOutOfRange {
+                    path: path.into(),
+                    at: Location::Primitive {
+                        mesh: m,
+                        primitive: p,
+                    },
+                    index: index.value() as i64,
+                    count: json.accessors.len(),
+                    of: "accessors in the file",
+                });
+            }
+        }
+    }
+    let gltf = gltf::Document::from_json(json).map_err(|e| malformed(e.to_string()))?;
+    // External buffers resolve against the file's folder, as glTF says.
+    let buffers =
+        gltf::import_buffers(&gltf, path.parent(), blob).map_err(|e| malformed(e.to_string()))?;
+    let mut mesh = Mesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+        normals: Some(Vec::new()),
+        uvs: Some(Vec::new()),
+    };
+    // A file without a default scene shows its first, as viewers do.
+    let Some(scene) = gltf.default_scene().or_else(|| gltf.scenes().next()) else {
+        return Ok(mesh);
+    };
+    // Depth first, with each node's transform composed onto its parent's.
+    let mut stack: Vec<_> = scene.nodes().map(|node| (node, Mat4::IDENTITY)).collect();
+    // glTF's nodes form disjoint trees; validation lets cycles and shared nodes
+    // through, which would never end or multiply the work.
+    let mut reached = vec![false; gltf.nodes().len()];
+    while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut reached[node.index()], true) {
+            return Err(malformed(format!(
+                "node {} is reached twice (nodes must form disjoint trees)",
+                node.index()
+            )));
+        }
+        let transform = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(m) = node.mesh() {
+            for primitive in m.primitives() {
+                let at = Location::Primitive {
+                    mesh: m.index(),
+                    primitive: primitive.index(),
+                };
+                add_primitive(path, &mut mesh, &primitive, &buffers, transform, at)?;
+            }
+        }
+        stack.extend(node.children().map(|child| (child, transform)));
+    }
+    Ok(mesh)
+}
+
+/// Appends one glTF primitive to `mesh`, transformed into the scene's coordinates.
+fn add_primitive(
+    path: &Path,
+    mesh: &mut Mesh,
+    primitive: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    transform: Mat4,
+    at: Location,
+) -> Result<(), MeshError> {
+    let malformed = |message: &str| MeshError::Malformed {
+        path: path.into(),
+        at: at.clone(),
+        message: message.into(),
+    };
+    if primitive.mode() != gltf::mesh::Mode::Triangles {
+        return Err(MeshError::Unsupported {
+            path: path.into(),
+            at,
+            what: format!("primitive mode {:?} (only triangles)", primitive.mode()),
+        });
+    }
+    let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|data| &data[..]));
+    // The reader answers None where an accessor lies outside its buffer.
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| malformed("no readable POSITION accessor"))?
+        .map(|p| transform.transform_point3(Vec3::from(p)))
+        .collect();
+    if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+        let value = p
+            .to_array()
+            .into_iter()
+            .find(|v| !v.is_finite())
+            .unwrap_or(f32::NAN);
+        return Err(MeshError::NonFinite {
+            path: path.into(),
+            at,
+            what: "POSITION (node transforms applied)".into(),
+            value,
+        });
+    }
+    let count = positions.len();
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(indices) => indices.into_u32().collect(),
+        // Unindexed triangles take the vertices in order; count fits u32 as glTF's indices do.
+        None => (0..count as u32).collect(),
+    };
+    if indices.len() % 3 != 0 {
+        return Err(malformed(&format!(
+            "{} triangle indices, not a multiple of 3",
+            indices.len()
+        )));
+    }
+    if let Some(&index) = indices.iter().find(|&&i| i as usize >= count) {
+        return Err(MeshError::IndexOutOfRange {
+            path: path.into(),
+            at,
+            index: index.into(),
+            count,
+            of: "vertices in the primitive",
+        });
+    }
+
+    let base = mesh.positions.len() as u32;
+    mesh.positions.extend(positions);
+    mesh.triangles.extend(
+        indices
+            .chunks_exact(3)
+            .map(|t| [base + t[0], base + t[1], base + t[2]]),
+    );
+    // Normals turn by the inverse transpose, so that they stay perpendicular
+    // under non-uniform scale.
+    let normal_matrix = Mat3::from_mat4(transform).inverse().transpose();
+    let normals = reader.read_normals().map(|n| n.collect::<Vec<_>>());
+    mesh.normals = mesh
+        .normals
+        .take()
+        .zip(normals)
+        .and_then(|(mut all, normals)| {
+            (normals.len() == count).then(|| {
+                all.extend(
+                    normals
+                        .into_iter()
+                        .map(|n| (normal_matrix * Vec3::from(n)).normalize_or_zero()),
+                );
+                all
+            })
+        });
+    let uvs = reader
+        .read_tex_coords(0)
+        .map(|t| t.into_f32().collect::<Vec<_>>());
+    mesh.uvs = mesh.uvs.take().zip(uvs).and_then(|(mut all, uvs)| {
+        (uvs.len() == count).then(|| {
+            all.extend(uvs.into_iter().map(Vec2::from));
+            all
+        })
+    });
+    Ok(())
 }
 
 #[cfg(test)]
@@ -894,11 +1075,13 @@ end_header
             seed ^= seed << 17;
             seed
         };
-        let goods: [(&str, Vec<u8>); 4] = [
+        let goods: [(&str, Vec<u8>); 6] = [
             ("fuzz.obj", CUBE_OBJ.into()),
             ("fuzz.ply", ASCII_PLY.into()),
             ("fuzz.ply", binary_ply(false, 2)),
             ("fuzz.ply", binary_ply(true, 2)),
+            ("fuzz.gltf", gltf(SQUARE, 4, NODES)),
+            ("fuzz.glb", glb()),
         ];
         for (name, good) in goods {
             for len in 0..good.len() {
@@ -915,6 +1098,185 @@ end_header
                     };
                 }
                 let _ = load_mesh(&scratch.file(name, &bytes));
+            }
+        }
+    }
+
+    /// Standard base64, for the glTF test files' data URIs.
+    fn base64(bytes: &[u8]) -> String {
+        const DIGITS: &[u8; 64] =
+            b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut out = String::new();
+        for chunk in bytes.chunks(3) {
+            let n = (chunk.iter().enumerate())
+                .fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+            for i in 0..4 {
+                out.push(if i <= chunk.len() {
+                    DIGITS[(n >> (18 - 6 * i) & 63) as usize] as char
+                } else {
+                    '='
+                });
+            }
+        }
+        out
+    }
+
+    /// A glTF document and its buffer: a unit square with normals (mesh 0: positions,
+    /// normals, `indices` as u16) and its first triangle unindexed (mesh 1), drawn in
+    /// `mode`, with the given nodes and scenes. The buffer is a data URI where `embed`,
+    /// else left for a GLB's binary chunk.
+    fn gltf_parts(indices: [u16; 6], mode: u32, nodes: &str, embed: bool) -> (String, Vec<u8>) {
+        let mut buffer = Vec::new();
+        for p in [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ] {
+            p.iter().for_each(|c: &f32| buffer.extend(c.to_le_bytes()));
+        }
+        for _ in 0..4 {
+            [0.0f32, 0.0, 1.0]
+                .iter()
+                .for_each(|c| buffer.extend(c.to_le_bytes()));
+        }
+        indices.iter().for_each(|i| buffer.extend(i.to_le_bytes()));
+        let uri = if embed {
+            format!(
+                r#""uri": "data:application/octet-stream;base64,{}", "#,
+                base64(&buffer)
+            )
+        } else {
+            String::new()
+        };
+        let json = format!(
+            r#"{{
+  "asset": {{"version": "2.0"}},
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}, {{"nodes": [2]}}],
+  "nodes": {nodes},
+  "meshes": [
+    {{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1}}, "indices": 2, "mode": {mode}}}]}},
+    {{"primitives": [{{"attributes": {{"POSITION": 3}}}}]}}
+  ],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}},
+    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}}
+  ],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 96, "byteLength": 12}}
+  ],
+  "buffers": [{{{uri}"byteLength": 108}}]
+}}"#
+        );
+        (json, buffer)
+    }
+
+    /// Node 0 (mesh 0, moved by 10 in x) with child node 1 (mesh 1, scaled by 2) in
+    /// the default scene; node 2 only in the other scene.
+    const NODES: &str = r#"[{"mesh": 0, "translation": [10, 0, 0], "children": [1]},
+        {"mesh": 1, "scale": [2, 2, 2]}, {"mesh": 0}]"#;
+    const SQUARE: [u16; 6] = [0, 1, 2, 0, 2, 3];
+
+    fn gltf(indices: [u16; 6], mode: u32, nodes: &str) -> Vec<u8> {
+        gltf_parts(indices, mode, nodes, true).0.into_bytes()
+    }
+
+    fn glb() -> Vec<u8> {
+        let (json, mut bin) = gltf_parts(SQUARE, 4, NODES, false);
+        let mut json = json.into_bytes();
+        // Chunks are padded to 4 bytes: JSON with spaces, binary with zeros.
+        json.resize(json.len().next_multiple_of(4), b' ');
+        bin.resize(bin.len().next_multiple_of(4), 0);
+        let mut glb = b"glTF".to_vec();
+        glb.extend(2u32.to_le_bytes());
+        glb.extend(((12 + 8 + json.len() + 8 + bin.len()) as u32).to_le_bytes());
+        for (chunk, kind) in [(json, b"JSON"), (bin, b"BIN\0")] {
+            glb.extend((chunk.len() as u32).to_le_bytes());
+            glb.extend(kind);
+            glb.extend(chunk);
+        }
+        glb
+    }
+
+    #[test]
+    fn gltf_default_scene_with_node_transforms() {
+        for (name, bytes) in [("scene.gltf", gltf(SQUARE, 4, NODES)), ("scene.GLB", glb())] {
+            let mesh = load(name, &bytes).unwrap();
+            assert_eq!(
+                mesh.positions,
+                vec![
+                    Vec3::new(10.0, 0.0, 0.0),
+                    Vec3::new(11.0, 0.0, 0.0),
+                    Vec3::new(11.0, 1.0, 0.0),
+                    Vec3::new(10.0, 1.0, 0.0),
+                    Vec3::new(10.0, 0.0, 0.0),
+                    Vec3::new(12.0, 0.0, 0.0),
+                    Vec3::new(12.0, 2.0, 0.0),
+                ],
+                "{name}"
+            );
+            assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [4, 5, 6]]);
+            // Mesh 1 has none.
+            assert_eq!(mesh.normals, None);
+            assert_eq!(mesh.uvs, None);
+        }
+    }
+
+    #[test]
+    fn gltf_normals_follow_the_inverse_transpose() {
+        let nodes = r#"[{"mesh": 0, "scale": [1, 1, -2]}, {}, {}]"#;
+        let mesh = load("mirrored.gltf", &gltf(SQUARE, 4, nodes)).unwrap();
+        assert_eq!(mesh.positions[2], Vec3::new(1.0, 1.0, 0.0));
+        assert_eq!(mesh.normals, Some(vec![Vec3::NEG_Z; 4]));
+    }
+
+    #[test]
+    fn bad_gltf_files_name_the_file_the_primitive_and_the_problem() {
+        let cycle = r#"[{"mesh": 0, "children": [1]}, {"children": [0]}, {}]"#;
+        let external = gltf_parts(SQUARE, 4, NODES, false).0.replace(
+            r#""byteLength": 108"#,
+            r#""uri": "absent.bin", "byteLength": 108"#,
+        );
+        let cases: Vec<(&str, Vec<u8>, &[&str])> = vec![
+            (
+                "lines.gltf",
+                gltf(SQUARE, 1, NODES),
+                &["mesh 0, primitive 0", "unsupported", "Lines"],
+            ),
+            (
+                "index.gltf",
+                gltf([0, 1, 2, 0, 2, 4], 4, NODES),
+                &["mesh 0, primitive 0", "index 4 out of range", "4 vertices"],
+            ),
+            (
+                "cycle.gltf",
+                gltf(SQUARE, 4, cycle),
+                &["malformed", "node 0 is reached twice"],
+            ),
+            ("external.gltf", external.into_bytes(), &["malformed"]),
+            ("broken.gltf", b"{\"asset\": ".to_vec(), &["malformed"]),
+            ("empty.glb", Vec::new(), &["malformed"]),
+            (
+                "accessor.gltf",
+                gltf_parts(SQUARE, 4, NODES, true)
+                    .0
+                    .replace(r#""NORMAL": 1"#, r#""NORMAL": 9"#)
+                    .into_bytes(),
+                &["mesh 0, primitive 0", "index 9 out of range", "4 accessors"],
+            ),
+        ];
+        for (name, bytes, expected) in cases {
+            let text = load(name, &bytes)
+                .expect_err(&format!("{name} should not load"))
+                .to_string();
+            assert!(text.contains(name), "{name}: {text}");
+            for part in expected {
+                assert!(text.contains(part), "{name}: {part:?} not in {text:?}");
             }
         }
     }
