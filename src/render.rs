@@ -490,9 +490,12 @@ pub fn plan_kernel(
     let (width, height) = (scene.camera.width, scene.camera.height);
     let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
     // The general kernel reads the scene from buffers, as a kernel not specialised
-    // to any scene would.
+    // to any scene would (through the BVH where the scene is large).
     let scene_storage = match options.scene_storage {
-        _ if options.general_kernel => SceneStorage::Buffers,
+        _ if options.general_kernel => match SceneStorage::auto(&data) {
+            SceneStorage::Baked => SceneStorage::Buffers,
+            storage => storage,
+        },
         Some(storage) => storage,
         None => SceneStorage::auto(&data),
     };

@@ -35,7 +35,7 @@ struct Case {
 }
 
 /// The shipped scenes at fixed sizes.
-const CASES: [Case; 3] = [
+const CASES: [Case; 4] = [
     Case {
         scene: "cornell-boxes.toml",
         width: 256,
@@ -57,7 +57,69 @@ const CASES: [Case; 3] = [
         samples: 64,
         quick_samples: 4,
     },
+    Case {
+        scene: "knot.toml",
+        width: 256,
+        height: 192,
+        samples: 16,
+        quick_samples: 1,
+    },
 ];
+
+/// Sphere counts of the scale curve (`sphere_field`).
+const FIELD_SIZES: [usize; 3] = [100, 1000, 4000];
+
+/// `n` small diffuse spheres in a grid on a ground sphere, under a sky colour
+/// and a sphere light: how the cost grows with the scene (256x256, max depth 8).
+fn sphere_field(n: usize) -> Scene {
+    let mut text = String::from(
+        "[camera]\nlookfrom = [0, 6, 14]\nlookat = [0, 0, 0]\nwidth = 256\nheight = 256\n\
+         [render]\nmax_depth = 8\nbackground = [0.5, 0.7, 1.0]\n\
+         [materials.ground]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [materials.ball]\ntype = \"lambertian\"\nalbedo = [0.7, 0.3, 0.2]\n\
+         [materials.lamp]\ntype = \"light\"\nemit = [10, 10, 10]\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [0, -1000, 0]\nradius = 1000\nmaterial = \"ground\"\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [0, 12, 0]\nradius = 2\nmaterial = \"lamp\"\n",
+    );
+    let side = (n as f64).sqrt().ceil() as usize;
+    let radius = 0.35 * 10.0 / side as f64;
+    for i in 0..n {
+        let x = (i % side) as f64 / side as f64 * 20.0 - 10.0;
+        let z = (i / side) as f64 / side as f64 * 20.0 - 10.0;
+        text.push_str(&format!(
+            "[[objects]]\ntype = \"sphere\"\ncenter = [{x}, {radius}, {z}]\nradius = {radius}\nmaterial = \"ball\"\n"
+        ));
+    }
+    Scene::parse(&text, "sphere-field.toml").expect("the sphere field is a valid scene")
+}
+
+/// Paths/s of the sphere field against its sphere count, in the default storage
+/// (baked up to 128 objects, the BVH above).
+fn scale_curve(ctx: &GpuContext, samples: u32, repetitions: usize) -> Result<(), Failure> {
+    println!("\nscale curve (a field of spheres, 256x256, {samples} spp, max depth 8, mixture):\n");
+    println!(
+        "| spheres | storage | M paths/s | vs {} spheres |",
+        FIELD_SIZES[0]
+    );
+    println!("|--:|---|--:|--:|");
+    let mut first: Option<f64> = None;
+    for n in FIELD_SIZES {
+        let scene = sphere_field(n);
+        let options = RenderOptions::default();
+        let storage = pathmix::render::Renderer::new(ctx, &scene, &options)
+            .map_err(Failure::runtime)?
+            .config()
+            .scene_storage();
+        let m = bench::measure(ctx, &scene, &options, samples, repetitions)
+            .map_err(Failure::runtime)?;
+        let ratio = m.paths_per_second / *first.get_or_insert(m.paths_per_second);
+        println!(
+            "| {n} | {storage:?} | {:.2} | {ratio:.2}x |",
+            m.paths_per_second / 1e6
+        );
+    }
+    Ok(())
+}
 
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
@@ -164,6 +226,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             baseline.get_or_insert(m);
         }
     }
+    scale_curve(&ctx, if args.quick { 1 } else { 16 }, repetitions)?;
     if !args.no_startup {
         startup(args.adapter.as_deref())?;
     }

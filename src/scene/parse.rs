@@ -67,7 +67,9 @@
 //! - `"box"`: `min`, `max` (vectors, `max > min` in every axis): an axis-aligned box,
 //!   expanded into six outward-facing quads exactly like the book's `box()`.
 //! - `"mesh"`: `file` (string, required): a triangle mesh, `.obj` (Wavefront, polygons
-//!   fanned into triangles), `.ply` (ASCII or binary), relative to the scene file. The
+//!   fanned into triangles), `.ply` (ASCII or binary) or `.gltf`/`.glb` (every mesh of the
+//!   default scene, with its node transforms; its materials are not read, `material`
+//!   applies to all), relative to the scene file. The
 //!   face normal `normalize((v1 - v0) x (v2 - v0))` faces the side the vertices wind
 //!   counter-clockwise around, and shading is flat (face normals) for now; normals and
 //!   texture coordinates in the file are read but not used yet. Faces with no area are
