@@ -118,13 +118,23 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
             );
         }
     }
+    let mut scene_bytes = 0;
     for array in config.scene_arrays() {
         let count = data.array_bytes(array.source).len() / array.element_size;
+        scene_bytes += count * array.element_size;
         println!(
             "  {}: {count} x {} B = {} B",
             array.name.replace('_', " "),
             array.element_size,
             count * array.element_size
+        );
+    }
+    let triangles = scene.triangles.len();
+    if triangles > 0 {
+        println!(
+            "  in all {scene_bytes} B: {:.1} B per triangle; {} faces with no area dropped",
+            scene_bytes as f64 / triangles as f64,
+            scene.degenerate_triangles
         );
     }
     let accumulator = config.accumulator;
