@@ -157,10 +157,6 @@ impl KindSet {
         self.0 == 0
     }
 
-    pub fn intersection(self, other: KindSet) -> KindSet {
-        KindSet(self.0 & other.0)
-    }
-
     /// The indices in the set, in table order.
     pub fn iter(self) -> impl Iterator<Item = usize> {
         (0..32).filter(move |&k| self.contains(k))
