@@ -46,11 +46,6 @@ fn furnace_mesh(name: &str, strategy: Strategy, spp: u32, max_depth: u32) -> Sce
     scene
 }
 
-/// E (1 + a + ... + a^depth) for emission E and albedo a.
-fn furnace_value(depth: u32) -> f64 {
-    (0..=depth).map(|k| 0.5f64.powi(k as i32)).sum()
-}
-
 /// BSDF sampling weighs each bounce by exactly the albedo, so every path that
 /// stays inside sees exactly the analytic value; a ray slipping through an edge
 /// or a corner shared by two triangles (the test is watertight) would escape to
@@ -59,7 +54,7 @@ fn furnace_value(depth: u32) -> f64 {
 fn mesh_furnace_bsdf_is_exact() {
     let ctx = gpu_or_skip!();
     let scene = furnace_mesh("exact", Strategy::Bsdf, 64, 4);
-    let expected = furnace_value(4) as f32;
+    let expected = common::furnace_value(1.0, 0.5, 4) as f32;
     for storage in [
         SceneStorage::Baked,
         SceneStorage::Buffers,
@@ -70,14 +65,7 @@ fn mesh_furnace_bsdf_is_exact() {
             ..RenderOptions::default()
         };
         let acc = common::render(ctx, &scene, &options);
-        for pixel in acc.mean().pixels {
-            for channel in pixel {
-                assert!(
-                    (channel - expected).abs() <= 1e-6 * expected,
-                    "{storage:?}: {channel} != {expected}"
-                );
-            }
-        }
+        common::assert_every_pixel_is(&acc, expected, 1e-6, &format!("{storage:?}"));
     }
 }
 
@@ -86,7 +74,7 @@ fn mesh_furnace_bsdf_is_exact() {
 #[test]
 fn emissive_triangles_are_sampled_without_bias() {
     let ctx = gpu_or_skip!();
-    let expected = furnace_value(4);
+    let expected = common::furnace_value(1.0, 0.5, 4);
     for strategy in [Strategy::Mixture, Strategy::Light, Strategy::NeeMis] {
         let scene = furnace_mesh("lights", strategy, 256, 4);
         let renderer = Renderer::new(ctx, &scene, &common::with_variance()).unwrap();

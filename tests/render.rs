@@ -8,10 +8,6 @@ use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::stats;
 
 /// Every pixel of the white furnace converges to E * sum_{k=0}^{D} a^k.
-fn furnace_value(emit: f64, albedo: f64, max_depth: u32) -> f64 {
-    (0..=max_depth).map(|k| emit * albedo.powi(k as i32)).sum()
-}
-
 fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scene {
     furnace_sampled(strategy, Sampler::Sobol, spp, max_depth)
 }
@@ -45,15 +41,8 @@ fn furnace_cosine_is_exact() {
         };
         for depth in [0, 1, 4] {
             let acc = common::render(ctx, &furnace(Strategy::Bsdf, 8, depth), &options);
-            let expected = furnace_value(1.0, 0.5, depth) as f32;
-            for pixel in acc.mean().pixels {
-                for channel in pixel {
-                    assert!(
-                        (channel - expected).abs() <= 1e-6 * expected,
-                        "{storage:?}: {channel} != {expected}"
-                    );
-                }
-            }
+            let expected = common::furnace_value(1.0, 0.5, depth) as f32;
+            common::assert_every_pixel_is(&acc, expected, 1e-6, &format!("{storage:?}"));
         }
     }
 }
@@ -63,7 +52,7 @@ fn furnace_cosine_is_exact() {
 #[test]
 fn furnace_mixture_light_and_nee_are_unbiased() {
     let ctx = gpu_or_skip!();
-    let expected = furnace_value(1.0, 0.5, 4);
+    let expected = common::furnace_value(1.0, 0.5, 4);
     for (strategy, sampler) in [Strategy::Mixture, Strategy::Light, Strategy::NeeMis]
         .into_iter()
         .flat_map(|strategy| Sampler::ALL.map(|sampler| (strategy, sampler)))
@@ -185,26 +174,19 @@ fn baked_scene_matches_scene_buffers() {
     }
 }
 
-/// A field of `n` small spheres on a ground sphere under a sphere light.
-fn sphere_field(n: usize) -> Scene {
-    let mut text = String::from(
-        "[camera]\nlookfrom = [0, 6, 14]\nlookat = [0, 0, 0]\nwidth = 24\nheight = 20\n\
-         [render]\nspp = 4\nmax_depth = 6\nbackground = [0.5, 0.7, 1.0]\n\
-         [materials.ground]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
-         [materials.ball]\ntype = \"metal\"\nalbedo = [0.7, 0.6, 0.5]\nfuzz = 0.2\n\
-         [materials.lamp]\ntype = \"light\"\nemit = [10, 10, 10]\n\
-         [[objects]]\ntype = \"sphere\"\ncenter = [0, -1000, 0]\nradius = 1000\nmaterial = \"ground\"\n\
-         [[objects]]\ntype = \"quad\"\nq = [-2, 12, -2]\nu = [4, 0, 0]\nv = [0, 0, 4]\nmaterial = \"lamp\"\n",
-    );
-    let side = (n as f64).sqrt().ceil() as usize;
-    for i in 0..n {
-        let (x, z) = ((i % side) as f64, (i / side) as f64);
-        let (x, z) = (x / side as f64 * 20.0 - 10.0, z / side as f64 * 20.0 - 10.0);
-        text.push_str(&format!(
-            "[[objects]]\ntype = \"sphere\"\ncenter = [{x}, 0.3, {z}]\nradius = 0.3\nmaterial = \"ball\"\n"
-        ));
-    }
-    Scene::parse(&text, "field.toml").unwrap()
+/// The benchmark's field of `n` spheres, small.
+fn small_field(n: usize) -> Scene {
+    let mut scene = pathmix::bench::sphere_field(n);
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(24),
+            height: Some(20),
+            spp: Some(4),
+            max_depth: Some(6),
+            ..Default::default()
+        })
+        .unwrap();
+    scene
 }
 
 /// Closest hits through the BVH are the ones the loop over every primitive
@@ -227,7 +209,7 @@ fn bvh_matches_scene_buffers() {
     let scenes = [
         ("cornell.toml", small("cornell.toml")),
         ("cornell-boxes.toml", small("cornell-boxes.toml")),
-        ("field.toml", sphere_field(300)),
+        ("sphere field", small_field(300)),
     ];
     for (name, scene) in scenes {
         for strategy in Strategy::ALL {
@@ -445,7 +427,7 @@ fn general_kernel_matches_specialised_kernel() {
 #[test]
 fn russian_roulette_is_unbiased_in_the_furnace() {
     let ctx = gpu_or_skip!();
-    let expected = furnace_value(1.0, 0.5, 6);
+    let expected = common::furnace_value(1.0, 0.5, 6);
     for strategy in [Strategy::Bsdf, Strategy::Mixture, Strategy::NeeMis] {
         let mut scene = furnace(strategy, 256, 6);
         scene

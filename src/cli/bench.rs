@@ -4,7 +4,8 @@ use super::Failure;
 use clap::Args;
 use pathmix::bench::{self, Measurement};
 use pathmix::gpu::GpuContext;
-use pathmix::kernel::AccumulatorKind;
+use pathmix::gpu::layout::SceneData;
+use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::render::RenderOptions;
 use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use std::path::{Path, PathBuf};
@@ -66,32 +67,8 @@ const CASES: [Case; 4] = [
     },
 ];
 
-/// Sphere counts of the scale curve (`sphere_field`).
+/// Sphere counts of the scale curve (`bench::sphere_field`).
 const FIELD_SIZES: [usize; 3] = [100, 1000, 4000];
-
-/// `n` small diffuse spheres in a grid on a ground sphere, under a sky colour
-/// and a sphere light: how the cost grows with the scene (256x256, max depth 8).
-fn sphere_field(n: usize) -> Scene {
-    let mut text = String::from(
-        "[camera]\nlookfrom = [0, 6, 14]\nlookat = [0, 0, 0]\nwidth = 256\nheight = 256\n\
-         [render]\nmax_depth = 8\nbackground = [0.5, 0.7, 1.0]\n\
-         [materials.ground]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
-         [materials.ball]\ntype = \"lambertian\"\nalbedo = [0.7, 0.3, 0.2]\n\
-         [materials.lamp]\ntype = \"light\"\nemit = [10, 10, 10]\n\
-         [[objects]]\ntype = \"sphere\"\ncenter = [0, -1000, 0]\nradius = 1000\nmaterial = \"ground\"\n\
-         [[objects]]\ntype = \"sphere\"\ncenter = [0, 12, 0]\nradius = 2\nmaterial = \"lamp\"\n",
-    );
-    let side = (n as f64).sqrt().ceil() as usize;
-    let radius = 0.35 * 10.0 / side as f64;
-    for i in 0..n {
-        let x = (i % side) as f64 / side as f64 * 20.0 - 10.0;
-        let z = (i / side) as f64 / side as f64 * 20.0 - 10.0;
-        text.push_str(&format!(
-            "[[objects]]\ntype = \"sphere\"\ncenter = [{x}, {radius}, {z}]\nradius = {radius}\nmaterial = \"ball\"\n"
-        ));
-    }
-    Scene::parse(&text, "sphere-field.toml").expect("the sphere field is a valid scene")
-}
 
 /// Paths/s of the sphere field against its sphere count, in the default storage
 /// (baked up to 128 objects, the BVH above).
@@ -104,12 +81,9 @@ fn scale_curve(ctx: &GpuContext, samples: u32, repetitions: usize) -> Result<(),
     println!("|--:|---|--:|--:|");
     let mut first: Option<f64> = None;
     for n in FIELD_SIZES {
-        let scene = sphere_field(n);
+        let scene = bench::sphere_field(n);
         let options = RenderOptions::default();
-        let storage = pathmix::render::Renderer::new(ctx, &scene, &options)
-            .map_err(Failure::runtime)?
-            .config()
-            .scene_storage();
+        let storage = SceneStorage::auto(&SceneData::pack(&scene));
         let m = bench::measure(ctx, &scene, &options, samples, repetitions)
             .map_err(Failure::runtime)?;
         let ratio = m.paths_per_second / *first.get_or_insert(m.paths_per_second);

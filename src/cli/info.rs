@@ -7,9 +7,7 @@ use pathmix::gpu::GpuContext;
 use pathmix::gpu::layout::PackedArray;
 use pathmix::kernel::SceneStorage;
 use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
-use pathmix::render::{
-    KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel, prepare_scene,
-};
+use pathmix::render::{KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel};
 use pathmix::scene::{Scene, Strategy};
 use std::path::PathBuf;
 
@@ -29,10 +27,21 @@ pub struct InfoArgs {
 }
 
 pub fn info(args: InfoArgs) -> Result<(), Failure> {
-    let scene = Scene::load(&args.scene).map_err(Failure::input)?;
+    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
     let strategy = args.strategy.map_or(scene.render.strategy, Strategy::from);
-    let (data, _, _) = prepare_scene(&scene, strategy).map_err(Failure::input)?;
+    scene.render.strategy = strategy;
     let (width, height) = (scene.camera.width, scene.camera.height);
+    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
+    let options = RenderOptions {
+        variance: args.variance,
+        ..RenderOptions::default()
+    };
+    // The kernel `render` would build: the scene packed once, for all that follows.
+    let KernelPlan {
+        data,
+        config,
+        warnings,
+    } = plan_kernel(&ctx, &scene, &options).map_err(Failure::input)?;
 
     println!("scene: {}", scene.source);
     println!(
@@ -65,19 +74,6 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         kinds.join(", "),
         counts(&data.lights).join(", ")
     );
-
-    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
-    let options = RenderOptions {
-        variance: args.variance,
-        ..RenderOptions::default()
-    };
-    let mut scene = scene;
-    scene.render.strategy = strategy;
-    let KernelPlan {
-        data,
-        config,
-        warnings,
-    } = plan_kernel(&ctx, &scene, &options).map_err(Failure::input)?;
     println!("kernel:");
     for warning in warnings {
         println!("  note: {warning}");

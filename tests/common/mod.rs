@@ -149,3 +149,21 @@ pub fn image_mean_and_error(acc: &Accumulation) -> (f64, f64) {
     }
     (mean, variance_of_mean.sqrt())
 }
+
+/// The white furnace's pixel value: E (1 + a + ... + a^max_depth) for emission E
+/// and albedo a.
+pub fn furnace_value(emit: f64, albedo: f64, max_depth: u32) -> f64 {
+    (0..=max_depth).map(|k| emit * albedo.powi(k as i32)).sum()
+}
+
+/// Every channel of every pixel of the mean is `expected` within relative `tolerance`.
+pub fn assert_every_pixel_is(acc: &Accumulation, expected: f32, tolerance: f32, what: &str) {
+    for pixel in acc.mean().pixels {
+        for channel in pixel {
+            assert!(
+                (channel - expected).abs() <= tolerance * expected,
+                "{what}: {channel} != {expected}"
+            );
+        }
+    }
+}
