@@ -730,6 +730,130 @@ fn rr_text(depth: Option<u32>) -> String {
     depth.map_or_else(|| "off".to_string(), |d| d.to_string())
 }
 
+/// Refuses to let a checkpoint replace a file that is not one (a scene file, an
+/// image, anything a mistyped `--checkpoint` names): only a missing file or a
+/// pathmix checkpoint (by its magic bytes) may be replaced.
+pub fn check_replaceable(path: &Path) -> Result<(), String> {
+    let mut start = Vec::with_capacity(MAGIC.len());
+    match std::fs::File::open(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(format!("cannot read `{}`: {e}", path.display())),
+        Ok(file) => {
+            use std::io::Read;
+            file.take(MAGIC.len() as u64)
+                .read_to_end(&mut start)
+                .map_err(|e| format!("cannot read `{}`: {e}", path.display()))?;
+        }
+    }
+    if start != MAGIC {
+        return Err(format!(
+            "`{}` exists and is not a pathmix checkpoint: pathmix will not replace it \
+             (delete it or choose another path)",
+            path.display()
+        ));
+    }
+    Ok(())
+}
+
+/// An advisory lock on a checkpoint, held while a run saves to it, so that two
+/// runs (two resumes of one checkpoint) cannot both write it. The lock is on
+/// `.NAME.lock` beside it (the checkpoint itself is replaced by renames), which
+/// holds the owner's process id for the message the second run gets.
+#[derive(Debug)]
+pub struct CheckpointLock {
+    file: std::fs::File,
+    path: PathBuf,
+}
+
+/// Why a checkpoint could not be locked.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    #[error(
+        "checkpoint `{}` is in use by another run ({owner}); wait for it to end or stop it",
+        .checkpoint.display()
+    )]
+    InUse { checkpoint: PathBuf, owner: String },
+    #[error("cannot lock checkpoint `{}` ({}): {source}", .checkpoint.display(), .lock.display())]
+    Io {
+        checkpoint: PathBuf,
+        lock: PathBuf,
+        source: io::Error,
+    },
+}
+
+impl CheckpointLock {
+    pub fn acquire(checkpoint: &Path) -> Result<CheckpointLock, LockError> {
+        let mut name = std::ffi::OsString::from(".");
+        name.push(checkpoint.file_name().unwrap_or_default());
+        name.push(".lock");
+        let lock = checkpoint.with_file_name(name);
+        let io_error = |source| LockError::Io {
+            checkpoint: checkpoint.to_owned(),
+            lock: lock.clone(),
+            source,
+        };
+        loop {
+            let mut file = std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(&lock)
+                .map_err(io_error)?;
+            match file.try_lock() {
+                Ok(()) => {}
+                Err(std::fs::TryLockError::WouldBlock) => {
+                    let mut owner = String::new();
+                    use std::io::Read;
+                    let _ = file.read_to_string(&mut owner);
+                    let owner = match owner.trim() {
+                        "" => "a process that has not said its id yet".to_string(),
+                        pid => format!("process {pid}"),
+                    };
+                    return Err(LockError::InUse {
+                        checkpoint: checkpoint.to_owned(),
+                        owner,
+                    });
+                }
+                Err(std::fs::TryLockError::Error(e)) => return Err(io_error(e)),
+            }
+            // The owner before may have removed the file between our open and lock:
+            // then the lock is on a file no one else will find; take the new one.
+            if !same_file(&file, &lock) {
+                continue;
+            }
+            file.set_len(0).map_err(io_error)?;
+            file.write_all(std::process::id().to_string().as_bytes())
+                .map_err(io_error)?;
+            output::register_temporary(&lock);
+            return Ok(CheckpointLock { file, path: lock });
+        }
+    }
+}
+
+#[cfg(unix)]
+fn same_file(file: &std::fs::File, path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (file.metadata(), std::fs::metadata(path)) {
+        (Ok(a), Ok(b)) => (a.dev(), a.ino()) == (b.dev(), b.ino()),
+        _ => false,
+    }
+}
+
+#[cfg(not(unix))]
+fn same_file(_file: &std::fs::File, path: &Path) -> bool {
+    path.exists()
+}
+
+impl Drop for CheckpointLock {
+    fn drop(&mut self) {
+        // Removed while still locked, so a waiting run finds it gone and retries.
+        let _ = std::fs::remove_file(&self.path);
+        output::unregister_temporary(&self.path);
+        let _ = self.file.unlock();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,7 +5,8 @@
 //! and compose the WGSL for it; `gpu` owns the device, buffers and pipeline;
 //! `render` runs the progressive accumulation; `checkpoint` saves and restores
 //! it; `shard` writes and merges partial results; `output` and `stats` work on
-//! plain arrays; `converge` measures the strategies' speed/accuracy trade.
+//! plain arrays; `paths` finds a command's paths that name one file;
+//! `converge` measures the strategies' speed/accuracy trade.
 
 pub mod accel;
 pub mod bench;
@@ -15,6 +16,7 @@ pub mod gpu;
 pub mod kernel;
 pub mod kinds;
 pub mod output;
+pub mod paths;
 pub mod render;
 pub mod scene;
 pub mod shader;

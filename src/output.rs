@@ -133,17 +133,147 @@ pub fn check_output_path(path: &Path, expected: ImageFormat) -> Result<(), Outpu
 }
 
 /// Checks that a file can be written at `path`: the parent folder exists and is a
-/// folder, `path` is not a folder, and a file can be created in that folder.
+/// folder, `path` is not a folder, an existing file there is one the user may write
+/// (not read-only), and a file can be created in that folder. Also removes what
+/// interrupted writes of `path` by processes no longer running left beside it.
 pub fn check_writable(path: &Path) -> Result<(), OutputError> {
     let name = file_name(path)?;
     let folder = parent_folder(path)?;
     if path.is_dir() {
         return Err(OutputError::writing(path, "it is a folder"));
     }
+    check_not_read_only(path)?;
+    remove_stale_temporaries(folder, name);
     // Creating a file is the only reliable permission check (ACLs, read-only mounts).
-    let probe = hidden_sibling(folder, name, "probe");
-    File::create(&probe).map_err(|e| OutputError::writing(path, e))?;
-    fs::remove_file(&probe).map_err(|e| OutputError::writing(path, e))
+    tempfile::Builder::new()
+        .prefix(&temporary_prefix(name, "probe"))
+        .tempfile_in(folder)
+        .map(drop)
+        .map_err(|e| OutputError::writing(path, e))
+}
+
+/// Refuses to replace a file its owner made read-only (no write bit: root could
+/// replace it, but nobody meant it to change) or one this user may not write
+/// (`access(W_OK)`: permissions, ACLs, an immutable file).
+fn check_not_read_only(path: &Path) -> Result<(), OutputError> {
+    let Ok(metadata) = fs::metadata(path) else {
+        return Ok(());
+    };
+    if metadata.permissions().readonly() {
+        return Err(OutputError::writing(
+            path,
+            "the file is read-only: pathmix will not replace it (make it writable or \
+             choose another path)",
+        ));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let c_path = std::ffi::CString::new(path.as_os_str().as_bytes())
+            .map_err(|_| OutputError::writing(path, "the path contains a NUL byte"))?;
+        // SAFETY: a valid NUL-terminated string; access(2) only reads it.
+        if unsafe { libc::access(c_path.as_ptr(), libc::W_OK) } != 0 {
+            let error = io::Error::last_os_error();
+            return Err(OutputError::writing(
+                path,
+                format!(
+                    "you may not write the existing file ({error}); pathmix will not replace it"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `.NAME.TAG-PID-`: how the temporaries of `NAME` begin (a random part follows).
+fn temporary_prefix(name: &std::ffi::OsStr, tag: &str) -> OsString {
+    let mut prefix = OsString::from(".");
+    prefix.push(name);
+    prefix.push(format!(".{tag}-{}-", std::process::id()));
+    prefix
+}
+
+/// Temporaries of `name` in `folder` (`.NAME.tmp-PID...`, `.NAME.probe-PID...`)
+/// whose process is gone: a write cut short by SIGKILL or a crash. Best effort:
+/// a file that cannot be removed stays, and is nothing but hidden clutter.
+fn remove_stale_temporaries(folder: &Path, name: &std::ffi::OsStr) {
+    let Ok(entries) = fs::read_dir(folder) else {
+        return;
+    };
+    let mut stem = OsString::from(".");
+    stem.push(name);
+    stem.push(".");
+    let stem = stem.to_string_lossy().into_owned();
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(&stem)) else {
+            continue;
+        };
+        let Some(pid) = ["tmp-", "probe-"].iter().find_map(|tag| {
+            let digits: String = rest
+                .strip_prefix(tag)?
+                .chars()
+                .take_while(char::is_ascii_digit)
+                .collect();
+            digits.parse::<u32>().ok()
+        }) else {
+            continue;
+        };
+        if !process_is_running(pid) {
+            let _ = fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// Whether process `pid` exists (on other platforms than Unix: assumed so).
+pub fn process_is_running(pid: u32) -> bool {
+    #[cfg(unix)]
+    {
+        let Ok(pid) = libc::pid_t::try_from(pid) else {
+            return false;
+        };
+        // SAFETY: signal 0 only checks that the process exists.
+        if unsafe { libc::kill(pid, 0) } == 0 {
+            return true;
+        }
+        io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = pid;
+        true
+    }
+}
+
+/// The temporaries being written now, so that a second Ctrl-C can remove them
+/// before the process exits ([`remove_temporaries_for_exit`]).
+static LIVE_TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn live_temporaries() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    LIVE_TEMPORARIES
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Marks `path` as removable by [`remove_temporaries_for_exit`] (a lock file).
+pub fn register_temporary(path: &Path) {
+    live_temporaries().push(path.to_owned());
+}
+
+pub fn unregister_temporary(path: &Path) {
+    live_temporaries().retain(|p| p != path);
+}
+
+/// For an exit that cannot wait for the writes in flight (a second signal):
+/// removes every temporary being written and keeps any new one from being
+/// made or renamed until the process is gone. Call, then exit.
+pub fn remove_temporaries_for_exit() {
+    let live = live_temporaries();
+    for path in live.iter() {
+        let _ = fs::remove_file(path);
+    }
+    // Held until exit: a write now waiting to create or rename its file never does.
+    std::mem::forget(live);
 }
 
 /// Linear → 8-bit sRGB: multiply by 2^exposure, clamp to [0, 1] (NaN → 0), apply the sRGB
@@ -259,7 +389,13 @@ pub fn read_exr_with_attributes(
         .first_valid_layer()
         .all_attributes()
         .from_file(path)
-        .map_err(|e| OutputError::reading(path, e))?;
+        .map_err(|e| match exr_file_is_truncated(path) {
+            true => OutputError::reading(
+                path,
+                "the file is truncated (shorter than its EXR header says)",
+            ),
+            false => OutputError::reading(path, e),
+        })?;
 
     let layer = &mut exr_image.layer_data;
     let mut attributes: Vec<(String, String)> = STANDARD_TEXT_ATTRIBUTES
@@ -282,6 +418,27 @@ pub fn read_exr_with_attributes(
     attributes.sort();
     let image = std::mem::replace(&mut layer.channel_data.pixels, Image::new(0, 0));
     Ok((image, attributes))
+}
+
+/// Whether the EXR file at `path` ends before its header or one of its chunks
+/// does (the exr crate reports that as missing bytes, or as no layer matching).
+fn exr_file_is_truncated(path: &Path) -> bool {
+    let missing = |e: &exr::error::Error| matches!(e, exr::error::Error::Invalid(message) if message.contains("missing bytes"));
+    let Ok(file) = File::open(path) else {
+        return false;
+    };
+    let chunks = match exr::block::read(io::BufReader::new(file), false)
+        .and_then(|reader| reader.all_chunks(false))
+    {
+        Ok(chunks) => chunks,
+        Err(e) => return missing(&e),
+    };
+    for chunk in chunks {
+        if let Err(e) = chunk {
+            return missing(&e);
+        }
+    }
+    false
 }
 
 /// Text attributes that the exr crate reads into dedicated `LayerAttributes` fields instead
@@ -396,9 +553,10 @@ pub fn compare(a: &Image, b: &Image, tolerance: f64) -> Option<Comparison> {
     Some(comparison)
 }
 
-/// Atomic write: writes to a temporary file `.NAME.tmp-PID` in the same folder, fsyncs it and
-/// renames it over `path`. On any error the temporary is removed and `path` is untouched (a
-/// previous file stays intact; no partial file appears).
+/// Atomic write: writes to a temporary file `.NAME.tmp-PID-RANDOM` (unique, made by
+/// `tempfile`) in the same folder, fsyncs it and renames it over `path`. On any error the
+/// temporary is removed and `path` is untouched (a previous file stays intact; no partial
+/// file appears).
 pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
@@ -406,13 +564,27 @@ pub fn write_atomically(
     let name = file_name(path)?;
     let folder = parent_folder(path)?;
     // Same folder, so the rename cannot cross file systems.
-    let temporary = hidden_sibling(folder, name, &format!("tmp-{}", std::process::id()));
-    let file = File::create(&temporary).map_err(|e| OutputError::writing(path, e))?;
-    if let Err(e) = write_and_rename(file, &temporary, path, write) {
-        // The write error is the one worth reporting; a failed cleanup adds nothing to act on.
-        let _ = fs::remove_file(&temporary);
-        return Err(OutputError::writing(path, e));
-    }
+    let (file, temporary) = {
+        let mut live = live_temporaries();
+        let prefix = temporary_prefix(name, "tmp");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix);
+        // What `File::create` gives (0666 less the umask), not a temporary's owner-only
+        // mode: the result is an ordinary file.
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+        let (file, temporary) = builder
+            .tempfile_in(folder)
+            .map_err(|e| OutputError::writing(path, e))?
+            .into_parts();
+        live.push(temporary.to_path_buf());
+        (file, temporary)
+    };
+    let temporary_path = temporary.to_path_buf();
+    let written = write_and_rename(file, temporary, path, write);
+    unregister_temporary(&temporary_path);
+    // On error the temporary is gone already (dropped); the write error is the one to report.
+    written.map_err(|e| OutputError::writing(path, e))?;
     // Makes the rename itself durable; best effort, as not every platform can open folders.
     if let Ok(folder) = File::open(folder) {
         let _ = folder.sync_all();
@@ -422,7 +594,7 @@ pub fn write_atomically(
 
 fn write_and_rename(
     file: File,
-    temporary: &Path,
+    temporary: tempfile::TempPath,
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 ) -> io::Result<()> {
@@ -434,7 +606,10 @@ fn write_and_rename(
     // Without fsync a crash after the rename could leave an empty file under the final name.
     file.sync_all()?;
     drop(file);
-    fs::rename(temporary, path)
+    // Under the registry's lock, so that a second signal's cleanup sees it either
+    // renamed or still a temporary.
+    let _live = live_temporaries();
+    temporary.persist(path).map_err(|e| e.error)
 }
 
 fn file_name(path: &Path) -> Result<&std::ffi::OsStr, OutputError> {
@@ -461,15 +636,6 @@ fn parent_folder(path: &Path) -> Result<&Path, OutputError> {
         ));
     }
     Ok(folder)
-}
-
-/// `folder/.NAME.SUFFIX`: hidden, so a half-written file is not mistaken for a result.
-fn hidden_sibling(folder: &Path, name: &std::ffi::OsStr, suffix: &str) -> PathBuf {
-    let mut sibling = OsString::from(".");
-    sibling.push(name);
-    sibling.push(".");
-    sibling.push(suffix);
-    folder.join(sibling)
 }
 
 fn check_pixel_count(path: &Path, image: &Image) -> Result<(), OutputError> {
@@ -836,10 +1002,8 @@ mod tests {
         let error = write_atomically(&path, |w| {
             // Enough to spill past BufWriter's buffer into the temporary file.
             w.write_all(&[7; 100_000])?;
-            assert!(
-                dir.entries()
-                    .contains(&format!(".out.png.tmp-{}", std::process::id()))
-            );
+            let prefix = format!(".out.png.tmp-{}-", std::process::id());
+            assert!(dir.entries().iter().any(|e| e.starts_with(&prefix)));
             Err(io::Error::other("encoder exploded"))
         })
         .unwrap_err();
@@ -935,5 +1099,56 @@ mod tests {
         fs::create_dir(dir.0.join("folder.png")).unwrap();
         let error = check_output_path(&dir.0.join("folder.png"), ImageFormat::Png).unwrap_err();
         assert!(error.message.ends_with("it is a folder"), "{error}");
+    }
+
+    #[test]
+    fn read_only_files_are_refused_before_anything_is_written() {
+        let dir = TestDir::new("read-only");
+        let path = dir.0.join("kept.png");
+        fs::write(&path, "precious").unwrap();
+        let mut permissions = fs::metadata(&path).unwrap().permissions();
+        permissions.set_readonly(true);
+        fs::set_permissions(&path, permissions).unwrap();
+        let error = check_output_path(&path, ImageFormat::Png).unwrap_err();
+        assert!(error.to_string().contains("read-only"), "{error}");
+        assert_eq!(fs::read_to_string(&path).unwrap(), "precious");
+        assert_eq!(dir.entries(), ["kept.png"]);
+    }
+
+    #[test]
+    fn temporaries_of_dead_processes_are_removed_and_live_ones_kept() {
+        let dir = TestDir::new("stale");
+        // A pid above Linux's largest (2^22) never runs; this process does.
+        let dead = dir.0.join(".out.exr.tmp-4999999-abc123");
+        let dead_old_form = dir.0.join(".out.exr.tmp-4999998");
+        let alive = dir
+            .0
+            .join(format!(".out.exr.tmp-{}-xyz", std::process::id()));
+        let other = dir.0.join(".other.exr.tmp-4999999-abc");
+        for path in [&dead, &dead_old_form, &alive, &other] {
+            fs::write(path, "x").unwrap();
+        }
+        check_output_path(&dir.0.join("out.exr"), ImageFormat::Exr).unwrap();
+        let mut expected = vec![
+            format!(".out.exr.tmp-{}-xyz", std::process::id()),
+            ".other.exr.tmp-4999999-abc".to_string(),
+        ];
+        expected.sort();
+        assert_eq!(dir.entries(), expected);
+    }
+
+    #[test]
+    fn temporaries_have_unique_names() {
+        let dir = TestDir::new("unique");
+        let path = dir.0.join("out.txt");
+        // Two writes of one path in flight at once, as two renders would make.
+        write_atomically(&path, |outer| {
+            outer.write_all(b"first")?;
+            outer.flush()?;
+            write_atomically(&path, |inner| inner.write_all(b"second")).map_err(io::Error::other)
+        })
+        .unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "first");
+        assert_eq!(dir.entries(), ["out.txt"]);
     }
 }

@@ -107,6 +107,39 @@ pub enum RenderError {
          would be wrong; render with a smaller maximum depth or a simpler scene on this adapter"
     )]
     TruncatedInvocations { count: u32 },
+    #[error(
+        "internal error: the kernel for this scene did not build (a pathmix bug: please \
+         report it with the scene file): {message}"
+    )]
+    KernelBuild { message: String },
+    #[error("{scene}: {what} needs {figure}, over {limit}")]
+    ResourceLimit {
+        scene: String,
+        what: String,
+        figure: String,
+        limit: String,
+    },
+    #[error(
+        "{scene}: emission (or background) up to {radiance:e} could make the f32 sums \
+         overflow in {samples} samples per pixel (a path can meet an emitter {hits} times; \
+         the largest f32 is {max:e}){squares}: scale the emission down (the image scales \
+         with it), or render fewer samples per pixel",
+        max = f32::MAX,
+        squares = if *.variance { ", counting the sums of squares of the variance" } else { "" }
+    )]
+    EmissionTooBright {
+        scene: String,
+        radiance: f32,
+        samples: u32,
+        hits: u32,
+        variance: bool,
+    },
+    #[error(
+        "{count} of the image's sums overflowed to infinity or NaN: the scene's emission is \
+         too bright for f32 sums over this many samples; scale it down (the image scales \
+         with it). Nothing was written"
+    )]
+    SumsOverflowed { count: usize },
 }
 
 /// One scene on one device: the specialised kernel, its buffers and the sums so far.
@@ -146,8 +179,12 @@ impl<'a> Renderer<'a> {
             data,
             config,
             warnings,
+            dropped_materials: _,
         } = plan_kernel(ctx, scene, options)?;
         let max_samples_per_dispatch = max_samples_per_dispatch(&data, &config);
+        // A kernel or buffer the device refuses is a bug (the limits were checked):
+        // reported as an error, not wgpu's default panic.
+        let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let kernel = Kernel::new(ctx, config)?;
         let accumulator = Accumulator::new(
             ctx,
@@ -214,6 +251,11 @@ impl<'a> Renderer<'a> {
                         never_hit = (PRIMITIVE_KINDS[k].never_hit)();
                         &never_hit[..]
                     }
+                    // A scene without objects has no materials, and nothing reads one.
+                    ArraySource::Materials if data.materials.is_empty() => {
+                        never_hit = vec![0; size_of::<crate::gpu::layout::Material>()];
+                        &never_hit[..]
+                    }
                     source => data.array_bytes(source),
                 };
                 let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -236,6 +278,11 @@ impl<'a> Renderer<'a> {
             layout: &kernel.scene_layout,
             entries: &scene_entries,
         });
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::KernelBuild {
+                message: error.to_string(),
+            });
+        }
 
         Ok(Renderer {
             ctx,
@@ -477,6 +524,8 @@ pub struct KernelPlan {
     pub data: SceneData,
     pub config: KernelConfig,
     pub warnings: Vec<String>,
+    /// Materials of the scene file that no object uses, left out of the kernel.
+    pub dropped_materials: usize,
 }
 
 /// The kernel `Renderer::new` builds for `scene` under `options` on `ctx`.
@@ -486,7 +535,8 @@ pub fn plan_kernel(
     options: &RenderOptions,
 ) -> Result<KernelPlan, RenderError> {
     let settings = &scene.render;
-    let (data, strategy, warnings) = prepare_scene(scene, settings.strategy)?;
+    let (used, dropped_materials) = scene.without_unused_materials();
+    let (data, strategy, warnings) = prepare_scene(&used, settings.strategy)?;
     let (width, height) = (scene.camera.width, scene.camera.height);
     let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
     // The general kernel reads the scene from buffers, as a kernel not specialised
@@ -530,11 +580,66 @@ pub fn plan_kernel(
         config
     };
     check_size(ctx, &config, width, height)?;
+    check_scene_limits(ctx, scene, &data, &config)?;
     Ok(KernelPlan {
         data,
         config,
         warnings,
+        dropped_materials,
     })
+}
+
+/// Refuses, before the device is asked, a scene whose buffers exceed the
+/// adapter's limits or whose loops cannot fit one sample in the loop budget.
+fn check_scene_limits(
+    ctx: &GpuContext,
+    scene: &Scene,
+    data: &SceneData,
+    config: &KernelConfig,
+) -> Result<(), RenderError> {
+    let limits = ctx.limits();
+    let limit = |what: String, figure: String, limit: String| RenderError::ResourceLimit {
+        scene: scene.source.clone(),
+        what,
+        figure,
+        limit,
+    };
+    for binding in config.scene_bindings() {
+        let bytes = data.array_bytes(binding.source).len() as u64;
+        for (max, name) in [
+            (
+                limits.max_storage_buffer_binding_size,
+                "max_storage_buffer_binding_size",
+            ),
+            (limits.max_buffer_size, "max_buffer_size"),
+        ] {
+            if bytes > max {
+                return Err(limit(
+                    format!("the scene array `{}`", binding.name),
+                    format!("{bytes} bytes"),
+                    format!("this adapter's {name} of {max} bytes"),
+                ));
+            }
+        }
+    }
+    // One path vertex past the driver's limit is cut short whatever the path does.
+    let per_vertex = loop_iterations_per_vertex(data, config);
+    if per_vertex > DRIVER_LOOP_LIMIT {
+        return Err(limit(
+            format!(
+                "one path vertex over {} objects and {} lights (scene storage {:?})",
+                data.primitive_count(),
+                data.light_count(),
+                config.scene_storage()
+            ),
+            format!("{per_vertex} loop iterations"),
+            format!(
+                "the {DRIVER_LOOP_LIMIT} loop iterations lavapipe allows an invocation \
+                 (the BVH, --scene-storage bvh, needs far fewer)"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Whether saved sums fit a render of `width` x `height` with `layers` layers:
@@ -617,12 +722,18 @@ pub fn prepare_scene(
         ));
         strategy = Strategy::Bsdf;
     }
-    if strategy == Strategy::Light {
-        warnings.push(
-            "strategy `light` is biased: it never samples directions that miss the lights, \
-             so indirect light is lost (a diagnostic; use `mixture` for correct images)"
-                .to_string(),
-        );
+    // At weight 1 the mixture never samples the material: it is `light`, biased alike.
+    let all_light = strategy == Strategy::Mixture && scene.render.light_weight >= 1.0;
+    if strategy == Strategy::Light || all_light {
+        let (name, fix) = if all_light {
+            ("mixture` with `light_weight = 1", "a weight below 1")
+        } else {
+            ("light", "`mixture`")
+        };
+        warnings.push(format!(
+            "strategy `{name}` is biased: it never samples directions that miss the lights, \
+             so indirect light is lost (a diagnostic; use {fix} for correct images)"
+        ));
     }
     Ok((data, strategy, warnings))
 }
@@ -658,6 +769,9 @@ pub fn choose_accumulator(
 /// budget, at half that limit, keeps them from happening.
 const LOOP_ITERATION_BUDGET: u64 = 32768;
 
+/// lavapipe's limit itself: loop iterations of one invocation, all loops together.
+const DRIVER_LOOP_LIMIT: u64 = 65535;
+
 /// Loop iterations allowed for one ray's BVH traversal (see `max_samples_per_dispatch`).
 const BVH_ITERATIONS_PER_RAY: u64 = 256;
 
@@ -670,6 +784,12 @@ const BVH_ITERATIONS_PER_RAY: u64 = 256;
 /// primitives tested) have no tight bound: `BVH_ITERATIONS_PER_RAY` is a
 /// generous allowance, and the truncation guard reports a ray that needs more.
 pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
+    let per_sample = loop_iterations_per_vertex(data, config) * (config.max_depth as u64 + 1);
+    (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
+}
+
+/// The most loop iterations one path vertex can take (see `max_samples_per_dispatch`).
+fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     let mut inner_loops = match config.scene_storage() {
         SceneStorage::Baked => 0,
         SceneStorage::Buffers => (data.primitive_count() + data.light_count()) as u64,
@@ -679,8 +799,7 @@ pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 
         inner_loops *= 2;
     }
     // One spare iteration per vertex, for safety.
-    let per_sample = (inner_loops + 2) * (config.max_depth as u64 + 1);
-    (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
+    inner_loops + 2
 }
 
 fn check_size(
@@ -714,6 +833,52 @@ fn check_size(
         }
     }
     Ok(())
+}
+
+/// Refuses a scene whose brightest emission (or background) could overflow the
+/// f32 running sums within `max_samples` samples per pixel: a path meets an
+/// emitter at most once per vertex, and `max_depth + 1` vertices (twice that with
+/// next-event estimation's shadow rays), each adding at most the brightest
+/// radiance times a throughput of about 1; with `variance` the squares must fit
+/// too. Paths whose throughput grows past 1 are caught after the run by
+/// [`check_sums_finite`].
+pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result<(), RenderError> {
+    let (used, _) = scene.without_unused_materials();
+    let radiance = used
+        .materials
+        .iter()
+        .map(|m| m.emit.max_element())
+        .chain([scene.render.background.max_element()])
+        .fold(0.0f32, f32::max);
+    let depth = scene.render.max_depth.saturating_add(1);
+    let hits = match scene.render.strategy {
+        Strategy::NeeMis => depth.saturating_mul(2),
+        _ => depth,
+    };
+    let per_sample = radiance as f64 * hits as f64;
+    let samples = max_samples as f64;
+    let largest = f32::MAX as f64;
+    let overflows =
+        per_sample * samples > largest || (variance && per_sample * per_sample * samples > largest);
+    if overflows {
+        return Err(RenderError::EmissionTooBright {
+            scene: scene.source.clone(),
+            radiance,
+            samples: max_samples,
+            hits,
+            variance,
+        });
+    }
+    Ok(())
+}
+
+/// Refuses sums that overflowed (infinite or NaN): whatever the emission, an
+/// image is never written from them.
+pub fn check_sums_finite(accumulation: &Accumulation) -> Result<(), RenderError> {
+    match accumulation.non_finite_sums() {
+        0 => Ok(()),
+        count => Err(RenderError::SumsOverflowed { count }),
+    }
 }
 
 /// When a progressive run stops: at `max_samples` per pixel, or earlier when the
@@ -827,9 +992,11 @@ pub fn run_with<E: From<RenderError>>(
         if renderer.samples() >= stop.max_samples {
             break StopReason::Samples;
         }
-        if stop
-            .time_budget
-            .is_some_and(|budget| started.elapsed() >= budget)
+        // However small the budget, the image gets a sample per pixel.
+        if renderer.samples() > 0
+            && stop
+                .time_budget
+                .is_some_and(|budget| started.elapsed() >= budget)
         {
             break StopReason::TimeBudget;
         }

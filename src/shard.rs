@@ -29,9 +29,13 @@ use std::path::{Path, PathBuf};
 /// Channel groups in accumulator layer order (`gpu::accumulator::LAYER_*`).
 pub const LAYER_NAMES: [&str; 4] = ["sum", "sum_compensation", "squares", "squares_compensation"];
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
+/// `pathmix.requested` of a run whose end a time budget or error target decided.
+const OPEN_ENDED: &str = "open";
 const PREFIX: &str = "pathmix.";
 /// `pathmix.format`. 2: the scene hashes come from the whole scene's `Debug` text.
-const FORMAT: u32 = 2;
+/// 3: the range asked for and whether the run was interrupted (`pathmix.requested`,
+/// `pathmix.interrupted`), so that a merge can tell a part cut short.
+const FORMAT: u32 = 3;
 
 /// A sample range or shard given as text that does not make one.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -129,6 +133,11 @@ pub struct Partial {
     pub pathmix_version: String,
     /// The sample indices in the sums.
     pub range: Range<u32>,
+    /// The sample indices the run was asked for; `None` when a time budget or
+    /// an error target decided its end.
+    pub requested: Option<Range<u32>>,
+    /// The run was stopped (a signal) before its stopping rule ended it.
+    pub interrupted: bool,
     /// Samples discarded as NaN or infinite (counted as zero).
     pub discarded: u64,
     /// The raw accumulator: `layers * width * height` texels, layer-major (w unused).
@@ -148,9 +157,33 @@ impl Partial {
             scene_path,
             pathmix_version: env!("CARGO_PKG_VERSION").to_string(),
             range: state.first_sample..state.first_sample + state.samples,
+            requested: Some(state.first_sample..state.first_sample + state.samples),
+            interrupted: false,
             discarded,
             layers: state.layers,
             texels: state.texels,
+        }
+    }
+
+    /// What the run was asked for (see `requested`) and whether it was interrupted.
+    pub fn asked_for(mut self, requested: Option<Range<u32>>, interrupted: bool) -> Partial {
+        self.requested = requested;
+        self.interrupted = interrupted;
+        self
+    }
+
+    /// Why this part holds fewer samples than it was asked for, if it does.
+    pub fn shortfall(&self) -> Option<String> {
+        let reached = format!("{}..{}", self.range.start, self.range.end);
+        match &self.requested {
+            Some(r) if *r != self.range => Some(format!(
+                "holds samples {reached} of the {}..{} it was asked for",
+                r.start, r.end
+            )),
+            _ if self.interrupted => Some(format!(
+                "holds samples {reached}: its run was interrupted before its stopping rule ended it"
+            )),
+            _ => None,
         }
     }
 
@@ -182,6 +215,13 @@ impl Partial {
             format!("{}..{}", self.range.start, self.range.end),
         );
         a.insert(format!("{PREFIX}discarded"), self.discarded.to_string());
+        let requested = match &self.requested {
+            Some(r) => format!("{}..{}", r.start, r.end),
+            None => OPEN_ENDED.to_string(),
+        };
+        a.insert(format!("{PREFIX}requested"), requested);
+        let interrupted = if self.interrupted { "yes" } else { "no" };
+        a.insert(format!("{PREFIX}interrupted"), interrupted.to_string());
         a
     }
 
@@ -314,6 +354,8 @@ pub enum Corruption {
     ChannelSize { channel: String },
     #[error("bad `pathmix.discarded`")]
     Discarded,
+    #[error("bad `pathmix.requested` or `pathmix.interrupted`")]
+    Request,
     #[error("its checksum does not match its contents")]
     Checksum,
 }
@@ -419,6 +461,16 @@ pub fn read_partial(path: &Path) -> Result<Partial, PartialError> {
         scene_path: get("scene").unwrap_or_default(),
         pathmix_version: get("version").unwrap_or_default(),
         range,
+        requested: match get("requested").as_deref() {
+            Some(OPEN_ENDED) => None,
+            Some(text) => Some(parse_samples(text).map_err(|_| corrupted(Corruption::Request))?),
+            None => return Err(corrupted(Corruption::Request)),
+        },
+        interrupted: match get("interrupted").as_deref() {
+            Some("yes") => true,
+            Some("no") => false,
+            _ => return Err(corrupted(Corruption::Request)),
+        },
         discarded: get("discarded")
             .and_then(|d| d.parse().ok())
             .ok_or_else(|| corrupted(Corruption::Discarded))?,
@@ -494,6 +546,12 @@ pub enum MergeError {
         differences: Vec<String>,
     },
     #[error(
+        "{}; merge it when its run is complete (resume it from its checkpoint), or give \
+         --allow-incomplete to merge what it holds",
+        .0.join("; ")
+    )]
+    Incomplete(Vec<String>),
+    #[error(
         "parts overlap, so some samples would count twice: {}",
         .0.iter().map(Overlap::to_string).collect::<Vec<_>>().join("; ")
     )]
@@ -526,11 +584,34 @@ impl fmt::Display for Overlap {
 /// Merges partial results of one image: same scene (hash), seed and size,
 /// disjoint sample ranges. Sums are added in f64. Gaps in the ranges are
 /// listed, not refused: any set of sample indices gives an unbiased image.
+/// A part short of what its run was asked for (interrupted) is refused.
 pub fn merge(parts: &[(String, Partial)]) -> Result<Merged, MergeError> {
+    merge_with(parts, false)
+}
+
+/// [`merge`], with `allow_incomplete` turning a part cut short into a warning.
+pub fn merge_with(
+    parts: &[(String, Partial)],
+    allow_incomplete: bool,
+) -> Result<Merged, MergeError> {
     let Some((first_name, first)) = parts.first() else {
         return Err(MergeError::NoParts);
     };
     let mut warnings = Vec::new();
+    let short: Vec<String> = parts
+        .iter()
+        .filter_map(|(name, part)| Some(format!("`{name}` {}", part.shortfall()?)))
+        .collect();
+    if !short.is_empty() {
+        if !allow_incomplete {
+            return Err(MergeError::Incomplete(short));
+        }
+        warnings.extend(
+            short
+                .into_iter()
+                .map(|s| format!("{s}; merged what it holds")),
+        );
+    }
     for (name, part) in &parts[1..] {
         let (a, b) = (&first.identity, &part.identity);
         if (a.width, a.height) != (b.width, b.height) {
@@ -753,6 +834,40 @@ mod tests {
             let e = read_partial_bytes(&b);
             assert!(e.contains("checksum"), "{e}");
         }
+    }
+
+    #[test]
+    fn parts_short_of_their_request_are_refused_unless_allowed() {
+        let cut = part(10..15, 1.0, 2).asked_for(Some(10..20), true);
+        let path = temp("short.exr");
+        write_partial(&path, &cut).unwrap();
+        let read = read_partial(&path).unwrap();
+        assert_eq!(
+            (read.requested.clone(), read.interrupted),
+            (Some(10..20), true)
+        );
+        let parts = [
+            ("a".to_string(), part(0..10, 1.0, 2)),
+            ("b".to_string(), read),
+        ];
+        let e = merge(&parts).unwrap_err().to_string();
+        assert!(
+            e.contains("`b` holds samples 10..15 of the 10..20 it was asked for")
+                && e.contains("--allow-incomplete"),
+            "{e}"
+        );
+        let merged = merge_with(&parts, true).unwrap();
+        assert_eq!(merged.accumulation.samples, 15);
+        assert!(
+            merged
+                .warnings
+                .iter()
+                .any(|w| w.contains("`b` holds samples 10..15"))
+        );
+        // An open-ended run (a time budget) is short only when interrupted.
+        let timed = part(10..15, 1.0, 2).asked_for(None, false);
+        assert_eq!(timed.shortfall(), None);
+        assert!(timed.asked_for(None, true).shortfall().is_some());
     }
 
     #[test]

@@ -17,6 +17,17 @@ pub struct Accumulation {
 }
 
 impl Accumulation {
+    /// How many sums (and sums of squares) are infinite or NaN: f32 sums that overflowed.
+    pub fn non_finite_sums(&self) -> usize {
+        let squares = self.sum_sq.iter().flatten();
+        self.sum
+            .iter()
+            .chain(squares)
+            .flatten()
+            .filter(|v| !v.is_finite())
+            .count()
+    }
+
     /// `sum / samples` as f32; all zeros when `samples == 0`.
     pub fn mean(&self) -> Image {
         let n = self.samples as f64;

@@ -310,6 +310,11 @@ fn second_interrupt_exits_at_once_leaving_whole_files() {
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(130));
     assert!(checkpoint::read(&ckpt).unwrap().state.samples > 0);
+    assert_eq!(
+        debris(&dir),
+        Vec::<String>::new(),
+        "temporaries and the lock removed"
+    );
 }
 
 #[cfg(unix)]
@@ -607,4 +612,205 @@ fn shards_from_the_deploy_scripts_merge_to_one_run() {
         "{}",
         text(&output.stderr)
     );
+}
+
+/// Hidden files beside the outputs (temporaries, probes, locks).
+fn debris(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name.starts_with('.'))
+        .collect()
+}
+
+/// An interrupted last shard is refused by the merge, which names what it
+/// holds and what it was asked for; `--allow-incomplete` merges it with a warning.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_shard_is_refused_by_merge() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("short-shard");
+    let scene = repo("scenes/furnace.toml");
+    let size = ["--width", "16", "--height", "16", "--quiet"];
+    let (q0, q1, ckpt) = (dir.join("q0.exr"), dir.join("q1.exr"), dir.join("q1.ckpt"));
+    // Shard 0 stands in for a complete part (a few of its samples: the gap is only warned about).
+    let shard0 = pathmix(
+        &[
+            &[
+                "render",
+                &scene,
+                "--sample-range",
+                "0..8",
+                "--partial",
+                p(&q0),
+            ][..],
+            &size,
+        ]
+        .concat(),
+    );
+    assert!(shard0.status.success(), "{}", text(&shard0.stderr));
+    let mut child = Command::new(bin())
+        .args(["render", &scene, "--spp", "2000000", "--shard", "1/2"])
+        .args(size)
+        .args(["--partial", p(&q1), "--checkpoint", p(&ckpt)])
+        .args(["--checkpoint-every", "100ms"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for(&ckpt, &mut child);
+    signal(&child, libc::SIGTERM);
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(143), "{}", text(&output.stderr));
+    let part = shard::read_partial(&q1).unwrap();
+    assert!(part.interrupted);
+    assert_eq!(part.requested, Some(1000000..2000000));
+    assert!(part.range.end < 2000000);
+
+    let merge = |extra: &[&str]| {
+        pathmix(
+            &[
+                &["merge", p(&q0), p(&q1), "-o", p(&dir.join("m.png"))][..],
+                extra,
+            ]
+            .concat(),
+        )
+    };
+    let refused = merge(&[]);
+    let stderr = text(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("q1.exr") && stderr.contains("1000000..2000000"),
+        "{stderr}"
+    );
+    assert!(!dir.join("m.png").exists());
+    let allowed = merge(&["--allow-incomplete"]);
+    let stderr = text(&allowed.stderr);
+    assert!(allowed.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning") && stderr.contains("q1.exr"),
+        "{stderr}"
+    );
+}
+
+/// Two resumes of one checkpoint cannot both run: the second is refused, naming
+/// the process that holds it, and leaves the checkpoint alone.
+#[cfg(unix)]
+#[test]
+fn two_resumes_of_one_checkpoint_cannot_both_run() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("two-resumes");
+    let ckpt = dir.join("run.ckpt");
+    let started = pathmix(&[
+        "render",
+        &repo("scenes/furnace.toml"),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "4",
+        "--quiet",
+        "--checkpoint",
+        p(&ckpt),
+        "-o",
+        p(&dir.join("out.png")),
+    ]);
+    assert!(started.status.success(), "{}", text(&started.stderr));
+    let lock = dir.join(".run.ckpt.lock");
+    let mut first = Command::new(bin())
+        .args([
+            "render",
+            "--resume",
+            p(&ckpt),
+            "--spp",
+            "5000000",
+            "--quiet",
+        ])
+        .args(["--checkpoint-every", "100ms"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    wait_for(&lock, &mut first);
+    let second = pathmix(&["render", "--resume", p(&ckpt), "--spp", "8", "--quiet"]);
+    let stderr = text(&second.stderr);
+    signal(&first, libc::SIGINT);
+    let status = first.wait().unwrap();
+    assert_eq!(second.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("in use") && stderr.contains(&format!("process {}", first.id())),
+        "{stderr}"
+    );
+    assert_eq!(status.code(), Some(130));
+    assert!(checkpoint::read(&ckpt).unwrap().state.samples >= 4);
+    assert_eq!(
+        debris(&dir),
+        Vec::<String>::new(),
+        "the lock is removed at the end"
+    );
+}
+
+/// SIGKILL at random moments of a run that checkpoints as often as it can:
+/// the checkpoint on disk is always whole (the old one or the new one), and the
+/// next run removes the temporaries the killed ones left.
+#[cfg(unix)]
+#[test]
+fn sigkill_during_checkpoint_writes_never_damages_the_checkpoint() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("kill-loop");
+    let ckpt = dir.join("run.ckpt");
+    let png = dir.join("out.png");
+    let run = || {
+        Command::new(bin())
+            .args(["render", &repo("scenes/furnace.toml"), "--spp", "100000000"])
+            .args(["--width", "64", "--height", "64", "--quiet"])
+            .args(["--checkpoint", p(&ckpt), "--checkpoint-every", "1ms"])
+            .args(["--preview-every", "1ms", "-o", p(&png)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap()
+    };
+    // A fixed sequence of delays (a simple LCG): random moments, reproducible.
+    let mut state = 12345u64;
+    for _ in 0..20 {
+        let mut child = run();
+        wait_for(&ckpt, &mut child);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        std::thread::sleep(Duration::from_millis((state >> 33) % 150));
+        signal(&child, libc::SIGKILL);
+        child.wait().unwrap();
+        let saved = checkpoint::read(&ckpt).expect("the checkpoint on disk is whole");
+        assert!(saved.state.samples > 0);
+        if png.exists() {
+            image::open(&png).expect("the preview on disk is whole");
+        }
+    }
+    // The next run starts by clearing what the killed runs left.
+    let cleaned = pathmix(&[
+        "render",
+        &repo("scenes/furnace.toml"),
+        "--spp",
+        "1",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--quiet",
+        "--checkpoint",
+        p(&ckpt),
+        "-o",
+        p(&png),
+    ]);
+    assert!(cleaned.status.success(), "{}", text(&cleaned.stderr));
+    assert_eq!(debris(&dir), Vec::<String>::new());
 }

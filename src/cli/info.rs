@@ -41,6 +41,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         data,
         config,
         warnings,
+        dropped_materials,
     } = plan_kernel(&ctx, &scene, &options).map_err(Failure::input)?;
 
     println!("scene: {}", scene.source);
@@ -74,6 +75,9 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         kinds.join(", "),
         counts(&data.lights).join(", ")
     );
+    if dropped_materials > 0 {
+        println!("  {dropped_materials} materials no object uses: dropped before packing");
+    }
     println!("kernel:");
     for warning in warnings {
         println!("  note: {warning}");

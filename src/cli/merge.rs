@@ -3,6 +3,7 @@
 use super::Failure;
 use clap::Args;
 use pathmix::output::{self, ImageFormat};
+use pathmix::paths::{self, PathUse};
 use pathmix::shard::{self, PartialError, describe_ranges};
 use std::path::PathBuf;
 
@@ -23,9 +24,29 @@ pub struct MergeArgs {
     /// with variance).
     #[arg(long, value_name = "FILE")]
     pub variance: Option<PathBuf>,
+    /// Merge parts whose run was interrupted before it rendered the samples it was
+    /// asked for (they are refused otherwise), with a warning naming each.
+    #[arg(long)]
+    pub allow_incomplete: bool,
 }
 
 pub fn merge(args: MergeArgs) -> Result<(), Failure> {
+    // No output may replace a part (or another output) before the parts are read.
+    let mut uses: Vec<PathUse> = args
+        .parts
+        .iter()
+        .map(|part| PathUse::input("PART", part))
+        .collect();
+    uses.push(PathUse::output("-o", &args.output));
+    uses.extend(args.exr.as_deref().map(|p| PathUse::output("--exr", p)));
+    uses.extend(
+        args.variance
+            .as_deref()
+            .map(|p| PathUse::output("--variance", p)),
+    );
+    if let Some(message) = paths::collision(&uses) {
+        return Err(Failure::input(message));
+    }
     output::check_output_path(&args.output, ImageFormat::Png).map_err(Failure::input)?;
     for exr in [&args.exr, &args.variance].into_iter().flatten() {
         output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
@@ -40,7 +61,8 @@ pub fn merge(args: MergeArgs) -> Result<(), Failure> {
         })?;
         parts.push((path.display().to_string(), part));
     }
-    let merged = shard::merge(&parts).map_err(|e| Failure::input(format!("cannot merge: {e}")))?;
+    let merged = shard::merge_with(&parts, args.allow_incomplete)
+        .map_err(|e| Failure::input(format!("cannot merge: {e}")))?;
     for warning in &merged.warnings {
         eprintln!("pathmix: warning: {warning}");
     }

@@ -4,11 +4,12 @@ use super::Failure;
 use super::progress::ProgressDisplay;
 use super::signals::Signals;
 use clap::{Args, ValueEnum};
-use pathmix::checkpoint::{self, Checkpoint, SceneIdentity};
+use pathmix::checkpoint::{self, Checkpoint, CheckpointLock, SceneIdentity};
 use pathmix::gpu::GpuContext;
 use pathmix::gpu::accumulator::LAYER_SQUARES_COMPENSATION;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::output::{self, ImageFormat};
+use pathmix::paths::{self, PathUse};
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopReason, StopRule};
 use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::shard::{self, Partial};
@@ -119,7 +120,8 @@ pub struct RenderArgs {
     /// partial result (OpenEXR), for `pathmix merge`.
     #[arg(long, value_name = "FILE")]
     pub partial: Option<PathBuf>,
-    /// No progress output.
+    /// Nothing on stderr but warnings and errors (no progress, adapter or scene
+    /// lines); the summary on stdout stays, for scripts.
     #[arg(short, long)]
     pub quiet: bool,
 }
@@ -243,7 +245,18 @@ struct Plan {
     resume: Option<Checkpoint>,
 }
 
+impl Plan {
+    /// The sample indices this run was asked for (a partial result records them):
+    /// `None` when a time budget or error target decides the end.
+    fn requested_range(&self) -> Option<Range<u32>> {
+        let open = self.stop.time_budget.is_some() || self.stop.target_error.is_some();
+        (self.stop.max_samples != u32::MAX && !open)
+            .then(|| self.first_sample..self.first_sample.saturating_add(self.stop.max_samples))
+    }
+}
+
 fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
+    refuse_unrecordable_paths(args)?;
     let resume = match &args.resume {
         Some(path) => Some(
             checkpoint::read(path).map_err(|e| Failure::input(format!("cannot resume: {e}")))?,
@@ -269,6 +282,31 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         (None, Some(c)) => c.scene_path.clone(),
         (None, None) => return Err(Failure::input("no scene file given")),
     };
+    let recorded = |key: &str| resume.as_ref().and_then(|c| c.run.get(key));
+    let recorded_path = |key: &str| recorded(key).and_then(|v| v.as_str()).map(PathBuf::from);
+    let recorded_seconds = |key: &str| {
+        recorded(key)
+            .and_then(|v| v.as_float())
+            .map(|s| Duration::from_secs_f64(s.max(0.0)))
+    };
+
+    let outputs = Outputs {
+        png: args.output.clone().or_else(|| match &resume {
+            Some(_) => recorded_path("output"),
+            None if args.partial.is_some() => None,
+            None => Some(PathBuf::from("out.png")),
+        }),
+        exr: args.exr.clone().or_else(|| recorded_path("exr")),
+        variance: args.variance.clone().or_else(|| recorded_path("variance")),
+        partial: args.partial.clone().or_else(|| recorded_path("partial")),
+    };
+    let checkpoint = args.checkpoint.clone().or_else(|| args.resume.clone());
+    if checkpoint.is_none() && args.checkpoint_every.is_some() {
+        return Err(Failure::input(
+            "--checkpoint-every: give --checkpoint FILE to say where",
+        ));
+    }
+    check_collisions(args, &scene_path, &outputs, checkpoint.as_deref())?;
     let mut scene = Scene::load(&scene_path).map_err(Failure::input)?;
     scene
         .apply_overrides(&SceneOverrides {
@@ -278,14 +316,6 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         .map_err(Failure::input)?;
     let identity = SceneIdentity::of(&scene);
     let open_ended = args.time.is_some() || args.target_error.is_some();
-    let recorded = |key: &str| resume.as_ref().and_then(|c| c.run.get(key));
-    let recorded_path = |key: &str| recorded(key).and_then(|v| v.as_str()).map(PathBuf::from);
-    let recorded_seconds = |key: &str| {
-        recorded(key)
-            .and_then(|v| v.as_float())
-            .map(|s| Duration::from_secs_f64(s.max(0.0)))
-    };
-
     let (first_sample, stop, variance) = match &resume {
         Some(c) => {
             let differences = SceneIdentity::differences(
@@ -336,17 +366,11 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
             (c.state.first_sample, stop, variance)
         }
         None => {
+            // A shard may be empty (fewer samples than shards): a valid, empty part.
             let range = match (&args.sample_range, args.shard) {
                 (Some(range), _) => Some(range.clone()),
                 (None, Some((index, count))) => {
-                    let range = shard::shard_range(index, count, scene.render.spp);
-                    if range.is_empty() {
-                        return Err(Failure::input(format!(
-                            "--shard {index}/{count}: {} samples make no samples for this shard",
-                            scene.render.spp
-                        )));
-                    }
-                    Some(range)
+                    Some(shard::shard_range(index, count, scene.render.spp))
                 }
                 (None, None) => None,
             };
@@ -367,22 +391,6 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         }
     };
 
-    let outputs = Outputs {
-        png: args.output.clone().or_else(|| match &resume {
-            Some(_) => recorded_path("output"),
-            None if args.partial.is_some() => None,
-            None => Some(PathBuf::from("out.png")),
-        }),
-        exr: args.exr.clone().or_else(|| recorded_path("exr")),
-        variance: args.variance.clone().or_else(|| recorded_path("variance")),
-        partial: args.partial.clone().or_else(|| recorded_path("partial")),
-    };
-    let checkpoint = args.checkpoint.clone().or_else(|| args.resume.clone());
-    if checkpoint.is_none() && args.checkpoint_every.is_some() {
-        return Err(Failure::input(
-            "--checkpoint-every: give --checkpoint FILE to say where",
-        ));
-    }
     let checkpoint_every = args
         .checkpoint_every
         .or_else(|| recorded_seconds("checkpoint_every_s"))
@@ -396,6 +404,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         ));
     }
 
+    check_collisions(args, &scene_path, &outputs, checkpoint.as_deref())?;
     // Refuse unwritable outputs before spending the render time.
     if let Some(png) = &outputs.png {
         output::check_output_path(png, ImageFormat::Png).map_err(Failure::input)?;
@@ -408,7 +417,11 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
     }
     if let Some(path) = &checkpoint {
         output::check_writable(path).map_err(|e| Failure::input(format!("--checkpoint: {e}")))?;
+        checkpoint::check_replaceable(path)
+            .map_err(|e| Failure::input(format!("--checkpoint: {e}")))?;
     }
+    render::check_emission(&scene, stop.max_samples, variance)
+        .map_err(|e| Failure::input(with_flag(&e)))?;
     Ok(Plan {
         scene,
         scene_path,
@@ -423,6 +436,86 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         first_sample,
         resume,
     })
+}
+
+/// A checkpoint records its scene and output paths as text (TOML): a path that is
+/// not UTF-8 could not be found again on resume, so it is refused at the start.
+fn refuse_unrecordable_paths(args: &RenderArgs) -> Result<(), Failure> {
+    if args.checkpoint.is_none() && args.resume.is_none() {
+        return Ok(());
+    }
+    let paths = [
+        ("SCENE", &args.scene),
+        ("-o", &args.output),
+        ("--exr", &args.exr),
+        ("--variance", &args.variance),
+        ("--partial", &args.partial),
+        ("--checkpoint", &args.checkpoint),
+        ("--resume", &args.resume),
+    ];
+    for (flag, path) in paths {
+        if let Some(path) = path {
+            let absolute = absolute(path);
+            if absolute.to_str().is_none() {
+                return Err(Failure::input(format!(
+                    "{flag} `{}`: the path is not UTF-8, and a checkpoint records its paths as \
+                     text; rename it (or render without --checkpoint)",
+                    path.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every path this render reads or writes, compared with every other before any
+/// work: no output may replace an input or another output.
+fn check_collisions(
+    args: &RenderArgs,
+    scene_path: &Path,
+    outputs: &Outputs,
+    checkpoint: Option<&Path>,
+) -> Result<(), Failure> {
+    let recorded = |flag: &str, given: &Option<PathBuf>| match given {
+        Some(_) => flag.to_string(),
+        None => format!("{flag} (recorded in the checkpoint)"),
+    };
+    let scene_flag = if args.scene.is_some() {
+        "SCENE"
+    } else {
+        "SCENE (recorded in the checkpoint)"
+    };
+    let mut uses = vec![PathUse::input(scene_flag, scene_path)];
+    match (&args.resume, checkpoint) {
+        // Resuming saves to the checkpoint it read, as it was meant to.
+        (Some(resume), Some(to))
+            if paths::collision(&[
+                PathUse::input("--resume", resume),
+                PathUse::output("--checkpoint", to),
+            ])
+            .is_some() =>
+        {
+            uses.push(PathUse::output("--resume", resume));
+        }
+        (resume, to) => {
+            uses.extend(resume.as_deref().map(|r| PathUse::input("--resume", r)));
+            uses.extend(to.map(|c| PathUse::output("--checkpoint", c)));
+        }
+    }
+    for (flag, path, given) in [
+        ("-o", &outputs.png, &args.output),
+        ("--exr", &outputs.exr, &args.exr),
+        ("--variance", &outputs.variance, &args.variance),
+        ("--partial", &outputs.partial, &args.partial),
+    ] {
+        if let Some(path) = path {
+            uses.push(PathUse::output(recorded(flag, given), path));
+        }
+    }
+    match paths::collision(&uses) {
+        Some(message) => Err(Failure::input(message)),
+        None => Ok(()),
+    }
 }
 
 fn absolute(path: &Path) -> PathBuf {
@@ -499,6 +592,14 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     let plan = plan(&args)?;
     let scene = &plan.scene;
     let stop = plan.stop;
+    // From here on a signal stops the run cleanly (during the kernel's build too).
+    let signals = Signals::install().map_err(Failure::runtime)?;
+    // Held to the end: a second run saving to the same checkpoint is refused.
+    let _lock = match &plan.checkpoint {
+        Some(path) => Some(CheckpointLock::acquire(path).map_err(Failure::input)?),
+        None => None,
+    };
+    let quiet = args.quiet;
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let options = RenderOptions {
@@ -522,30 +623,31 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         eprintln!("pathmix: warning: {warning}");
     }
     let (width, height) = renderer.size();
-    eprintln!("adapter: {}", ctx.describe());
-    eprintln!(
-        "scene: {}  {width}x{height}  strategy {}  {} sampler  max depth {}  stop: {}",
-        scene.source,
-        renderer.config().strategy,
-        renderer.config().sampler,
-        scene.render.max_depth,
-        describe_stop(&stop),
-    );
-    if let Some(c) = &plan.resume {
+    if !quiet {
+        eprintln!("adapter: {}", ctx.describe());
+        eprintln!(
+            "scene: {}  {width}x{height}  strategy {}  {} sampler  max depth {}  stop: {}",
+            scene.source,
+            renderer.config().strategy,
+            renderer.config().sampler,
+            scene.render.max_depth,
+            describe_stop(&stop),
+        );
+    }
+    if let (Some(c), false) = (&plan.resume, quiet) {
         eprintln!(
             "resuming from {} at {} spp",
             args.resume.as_ref().unwrap().display(),
             c.state.samples
         );
     }
-    if plan.first_sample > 0 || args.sample_range.is_some() || args.shard.is_some() {
+    if !quiet && (plan.first_sample > 0 || args.sample_range.is_some() || args.shard.is_some()) {
         eprintln!(
             "sample indices from {} (scene hash {})",
             plan.first_sample,
             checkpoint::hex(plan.identity.hash())
         );
     }
-    let signals = Signals::install().map_err(Failure::runtime)?;
     let saved_discarded = plan.resume.as_ref().map_or(0, |c| c.discarded);
     let mut display = ProgressDisplay::new(args.quiet);
     let mut first_sample = None;
@@ -571,12 +673,22 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     display.finish();
     let summary = summary?;
     let discarded = saved_discarded + summary.discarded;
+    let interrupted = summary.reason == StopReason::Interrupted;
+    let (signal, signal_code) = signals.received().unwrap_or(("an interrupt", 130));
+    if interrupted && summary.samples == 0 {
+        // Nothing rendered: writing would only replace earlier files with black.
+        return Err(Failure {
+            message: format!("interrupted by {signal} before the first sample; nothing written"),
+            code: signal_code,
+        });
+    }
+    let accumulation = renderer.accumulation();
+    render::check_sums_finite(&accumulation)?;
 
     // The state first: once it is saved, nothing of the run can be lost.
     if let Some(path) = &plan.checkpoint {
         save_checkpoint(&plan, path, &renderer, discarded, summary.elapsed)?;
     }
-    let accumulation = renderer.accumulation();
     let mean = accumulation.mean();
     let outputs = &plan.outputs;
     if let Some(png) = &outputs.png {
@@ -591,7 +703,8 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             plan.scene_path.display().to_string(),
             discarded,
             renderer.export_state(),
-        );
+        )
+        .asked_for(plan.requested_range(), interrupted);
         shard::write_partial(path, &partial).map_err(Failure::runtime)?;
     }
     if let Some(path) = &outputs.variance {
@@ -599,6 +712,12 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             Failure::runtime("--variance: a standard error needs at least 2 samples per pixel")
         })?;
         output::write_exr(path, &error, &[]).map_err(Failure::runtime)?;
+    }
+    if discarded > 0 {
+        eprintln!("pathmix: warning: {discarded} samples were NaN or infinite and counted as zero");
+    }
+    if interrupted {
+        return Err(interruption(&plan, &summary, signal, signal_code));
     }
     let stopped = match summary.reason {
         StopReason::Samples => "sample count reached".to_string(),
@@ -628,9 +747,6 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             first.as_secs_f64() * 1e3
         );
     }
-    if discarded > 0 {
-        eprintln!("pathmix: warning: {discarded} samples were NaN or infinite and counted as zero");
-    }
     for path in [
         outputs.png.as_ref(),
         outputs.exr.as_ref(),
@@ -643,29 +759,31 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     {
         println!("wrote {}", path.display());
     }
-    if summary.reason == StopReason::Interrupted {
-        let (signal, code) = signals.received().unwrap_or(("an interrupt", 130));
-        match &plan.checkpoint {
-            Some(path) => {
-                eprintln!(
-                    "pathmix: {signal}: saved {} samples per pixel in {}",
-                    summary.samples,
-                    path.display()
-                );
-                eprintln!("resume with: {}", resume_command(path));
-            }
-            None => eprintln!(
-                "pathmix: {signal}: the images hold the {} samples per pixel done; without \
-                 --checkpoint FILE the run cannot be resumed",
-                summary.samples
-            ),
-        }
-        return Err(Failure {
-            message: format!("interrupted by {signal} at {} spp", summary.samples),
-            code,
-        });
-    }
     Ok(())
+}
+
+/// What an interrupted run tells the user (what was saved, how to go on) and its
+/// exit: 130 for SIGINT, 143 for SIGTERM.
+fn interruption(plan: &Plan, summary: &render::RunSummary, signal: &str, code: u8) -> Failure {
+    match &plan.checkpoint {
+        Some(path) => {
+            eprintln!(
+                "pathmix: {signal}: saved {} samples per pixel in {}",
+                summary.samples,
+                path.display()
+            );
+            eprintln!("resume with: {}", resume_command(path));
+        }
+        None => eprintln!(
+            "pathmix: {signal}: the images hold the {} samples per pixel done; without \
+             --checkpoint FILE the run cannot be resumed",
+            summary.samples
+        ),
+    }
+    Failure {
+        message: format!("interrupted by {signal} at {} spp", summary.samples),
+        code,
+    }
 }
 
 /// The command that continues from `checkpoint`: the checkpoint records the

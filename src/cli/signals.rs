@@ -1,7 +1,8 @@
 //! Ctrl-C (SIGINT) and SIGTERM during a render: the first asks the run to stop
 //! after the submission in flight, so the command can save what it has; a
-//! second one exits at once (every file is written atomically, so nothing is
-//! left half-written under its own name).
+//! second one exits at once, after removing the temporaries being written (every
+//! file is written atomically, so nothing is left half-written under its own
+//! name, and no temporary is left beside it).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -23,16 +24,20 @@ impl Signals {
         #[cfg(unix)]
         {
             use signal_hook::consts::{SIGINT, SIGTERM};
-            use signal_hook::flag;
-            let error = |e: std::io::Error| format!("cannot install signal handlers: {e}");
-            for (signal, code) in [(SIGINT, 130), (SIGTERM, 143)] {
-                // Runs before the flag is set, so only a second signal exits here.
-                flag::register_conditional_shutdown(signal, code, Arc::clone(&signals.stop))
-                    .map_err(error)?;
-                flag::register(signal, Arc::clone(&signals.stop)).map_err(error)?;
-                flag::register_usize(signal, Arc::clone(&signals.which), signal as usize)
-                    .map_err(error)?;
-            }
+            let mut incoming = signal_hook::iterator::Signals::new([SIGINT, SIGTERM])
+                .map_err(|e| format!("cannot install signal handlers: {e}"))?;
+            let (stop, which) = (Arc::clone(&signals.stop), Arc::clone(&signals.which));
+            // A thread, not the handler, so the second signal may remove files.
+            std::thread::spawn(move || {
+                for signal in incoming.forever() {
+                    if stop.load(Ordering::SeqCst) {
+                        pathmix::output::remove_temporaries_for_exit();
+                        std::process::exit(128 + signal);
+                    }
+                    which.store(signal as usize, Ordering::SeqCst);
+                    stop.store(true, Ordering::SeqCst);
+                }
+            });
         }
         Ok(signals)
     }

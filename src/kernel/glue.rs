@@ -126,6 +126,13 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             writeln!(out, "        {label}: {{ return {constant}; }}").unwrap();
         }
         out.push_str("    }\n}\n");
+    } else if array.indexed {
+        // Nothing to index (a scene without objects has no materials): never called.
+        writeln!(
+            out,
+            "fn {name}_at(i: u32) -> {wgsl_type} {{ return {wgsl_type}(); }}"
+        )
+        .unwrap();
     }
 }
 

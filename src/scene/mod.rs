@@ -3,6 +3,7 @@
 
 pub mod mesh;
 mod parse;
+mod prune;
 
 use glam::Vec3;
 use std::fmt;

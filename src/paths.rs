@@ -1,0 +1,190 @@
+//! Which of a command's paths name the same file: checked before any work, so
+//! that no output overwrites an input or another output.
+//!
+//! Two paths are the same file when they resolve to one device and inode
+//! (symlinks followed, hard links included), or, for a file that does not exist
+//! yet, to the same file name in the same canonical folder.
+
+use std::io;
+use std::path::{Path, PathBuf};
+
+/// Whether a command reads or writes a path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    Input,
+    Output,
+}
+
+/// One path a command takes, with the flag that gave it (for messages).
+#[derive(Clone, Debug)]
+pub struct PathUse {
+    pub flag: String,
+    pub path: PathBuf,
+    pub role: Role,
+}
+
+impl PathUse {
+    pub fn input(flag: impl Into<String>, path: &Path) -> PathUse {
+        PathUse {
+            flag: flag.into(),
+            path: path.to_owned(),
+            role: Role::Input,
+        }
+    }
+
+    pub fn output(flag: impl Into<String>, path: &Path) -> PathUse {
+        PathUse {
+            flag: flag.into(),
+            path: path.to_owned(),
+            role: Role::Output,
+        }
+    }
+}
+
+/// What identifies a file on this machine.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum FileKey {
+    /// An existing file: device and inode.
+    Inode(u64, u64),
+    /// A file to be made: its canonical folder and its name.
+    Planned(PathBuf),
+}
+
+/// Most symlinks followed to a file that does not exist (as Linux's `ELOOP`).
+const MAX_LINKS: usize = 40;
+
+fn key(path: &Path) -> io::Result<FileKey> {
+    let mut path = path.to_owned();
+    for _ in 0..MAX_LINKS {
+        match std::fs::metadata(&path) {
+            Ok(metadata) => return Ok(inode(&path, &metadata)),
+            Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
+            Err(_) => {}
+        }
+        let folder = match path.parent() {
+            Some(parent) if !parent.as_os_str().is_empty() => parent.to_owned(),
+            _ => PathBuf::from("."),
+        };
+        // A dangling symlink: the file it will make is its target's.
+        if let Ok(target) = std::fs::read_link(&path) {
+            path = folder.join(target);
+            continue;
+        }
+        let name = path
+            .file_name()
+            .ok_or_else(|| io::Error::other("the path does not name a file"))?;
+        return Ok(FileKey::Planned(std::fs::canonicalize(folder)?.join(name)));
+    }
+    Err(io::Error::other("too many levels of symbolic links"))
+}
+
+#[cfg(unix)]
+fn inode(_path: &Path, metadata: &std::fs::Metadata) -> FileKey {
+    use std::os::unix::fs::MetadataExt;
+    FileKey::Inode(metadata.dev(), metadata.ino())
+}
+
+#[cfg(not(unix))]
+fn inode(path: &Path, _metadata: &std::fs::Metadata) -> FileKey {
+    FileKey::Planned(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_owned()))
+}
+
+/// The first pair of `uses` that name one file where at least one of the two is
+/// written, as a message naming both flags. Paths that cannot be resolved (a
+/// missing folder) are left to the checks that report them.
+pub fn collision(uses: &[PathUse]) -> Option<String> {
+    let keys: Vec<Option<FileKey>> = uses.iter().map(|u| key(&u.path).ok()).collect();
+    for (i, a) in uses.iter().enumerate() {
+        for (j, b) in uses.iter().enumerate().skip(i + 1) {
+            if a.role == Role::Input && b.role == Role::Input {
+                continue;
+            }
+            if keys[i].is_some() && keys[i] == keys[j] {
+                let what = match (a.role, b.role) {
+                    (Role::Output, Role::Output) => "both would be written to it".to_string(),
+                    (Role::Input, _) => format!("{} would overwrite what {} reads", b.flag, a.flag),
+                    (_, Role::Input) => format!("{} would overwrite what {} reads", a.flag, b.flag),
+                };
+                return Some(format!(
+                    "{} `{}` and {} `{}` are the same file ({what}): give each its own path",
+                    a.flag,
+                    a.path.display(),
+                    b.flag,
+                    b.path.display()
+                ));
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("pathmix-paths-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn the_same_file_is_found_however_it_is_named() {
+        let dir = temp_dir("same");
+        let file = dir.join("a.exr");
+        std::fs::write(&file, "x").unwrap();
+        std::fs::hard_link(&file, dir.join("hard.exr")).unwrap();
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(&file, dir.join("soft.exr")).unwrap();
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(dir.join("later.exr"), dir.join("dangling.exr")).unwrap();
+        std::fs::create_dir(dir.join("sub")).unwrap();
+        let mut names = vec![
+            dir.join("hard.exr"),
+            dir.join("sub/../a.exr"),
+            dir.join("./a.exr"),
+        ];
+        if cfg!(unix) {
+            names.push(dir.join("soft.exr"));
+        }
+        for other in names {
+            let uses = [
+                PathUse::input("SCENE", &file),
+                PathUse::output("--exr", &other),
+            ];
+            let message = collision(&uses).unwrap_or_else(|| panic!("{}", other.display()));
+            assert!(
+                message.contains("SCENE") && message.contains("--exr"),
+                "{message}"
+            );
+        }
+        // Files to be made: the same name in the same folder, or through a dangling link.
+        let planned = [
+            PathUse::output("-o", &dir.join("new.exr")),
+            PathUse::output("--exr", &dir.join("sub/../new.exr")),
+        ];
+        assert!(collision(&planned).is_some());
+        #[cfg(unix)]
+        assert!(
+            collision(&[
+                PathUse::output("--exr", &dir.join("dangling.exr")),
+                PathUse::output("--variance", &dir.join("later.exr")),
+            ])
+            .is_some()
+        );
+        // Distinct files, and two inputs of one file, are fine.
+        assert_eq!(
+            collision(&[
+                PathUse::output("-o", &dir.join("a.exr")),
+                PathUse::output("--exr", &dir.join("b.exr")),
+            ]),
+            None
+        );
+        assert_eq!(
+            collision(&[PathUse::input("PART", &file), PathUse::input("PART", &file)]),
+            None
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,100 @@
+//! Only what a scene uses reaches the kernel: definitions no object refers to
+//! (materials today, the only named definitions) are dropped before packing.
+
+use super::Scene;
+
+impl Scene {
+    /// This scene without the materials no object uses, the objects' material
+    /// indices renumbered, and how many were dropped. Rendering it gives the
+    /// same image: the kernel only ever reads the materials of what a ray hits.
+    pub fn without_unused_materials(&self) -> (Scene, usize) {
+        let mut used = vec![false; self.materials.len()];
+        let references = self
+            .quads
+            .iter()
+            .map(|q| q.material)
+            .chain(self.spheres.iter().map(|s| s.material))
+            .chain(self.triangles.iter().map(|t| t.material));
+        for material in references {
+            used[material as usize] = true;
+        }
+        let mut renumbered = vec![u32::MAX; self.materials.len()];
+        let mut materials = Vec::new();
+        for (index, material) in self.materials.iter().enumerate() {
+            if used[index] {
+                renumbered[index] = materials.len() as u32;
+                materials.push(material.clone());
+            }
+        }
+        let dropped = self.materials.len() - materials.len();
+        let mut scene = Scene {
+            materials,
+            ..self.clone()
+        };
+        for q in &mut scene.quads {
+            q.material = renumbered[q.material as usize];
+        }
+        for s in &mut scene.spheres {
+            s.material = renumbered[s.material as usize];
+        }
+        for t in &mut scene.triangles {
+            t.material = renumbered[t.material as usize];
+        }
+        (scene, dropped)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::Scene;
+
+    #[test]
+    fn unused_materials_are_dropped_and_the_rest_renumbered() {
+        let text = r#"
+            [camera]
+            lookfrom = [0, 0, 5]
+            lookat = [0, 0, 0]
+            [materials.unused_a]
+            type = "lambertian"
+            albedo = [0.1, 0.1, 0.1]
+            [materials.red]
+            type = "lambertian"
+            albedo = [0.9, 0.1, 0.1]
+            [materials.unused_b]
+            type = "light"
+            emit = [4, 4, 4]
+            [materials.glass]
+            type = "dielectric"
+            ior = 1.5
+            [[objects]]
+            type = "sphere"
+            center = [0, 0, 0]
+            radius = 1
+            material = "glass"
+            [[objects]]
+            type = "quad"
+            q = [0, 0, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "red"
+        "#;
+        let scene = Scene::parse(text, "t.toml").unwrap();
+        assert_eq!(scene.materials.len(), 4);
+        let (pruned, dropped) = scene.without_unused_materials();
+        assert_eq!(dropped, 2);
+        let name = |i: u32| pruned.materials[i as usize].name.as_str();
+        assert_eq!(name(pruned.spheres[0].material), "glass");
+        assert_eq!(name(pruned.quads[0].material), "red");
+        assert_eq!(pruned.materials.len(), 2);
+        // Nothing left to drop, and a scene without objects keeps no material.
+        assert_eq!(pruned.without_unused_materials(), (pruned.clone(), 0));
+        let empty = Scene {
+            quads: Vec::new(),
+            spheres: Vec::new(),
+            ..scene
+        };
+        let (none, dropped) = empty.without_unused_materials();
+        assert!(none.materials.is_empty());
+        assert_eq!(dropped, 4);
+    }
+}
