@@ -761,7 +761,8 @@ pub fn check_replaceable(path: &Path) -> Result<(), String> {
 /// holds the owner's process id for the message the second run gets.
 #[derive(Debug)]
 pub struct CheckpointLock {
-    file: std::fs::File,
+    /// Held open: the lock lasts as long as its descriptor.
+    _file: std::fs::File,
     path: PathBuf,
 }
 
@@ -800,9 +801,9 @@ impl CheckpointLock {
                 .truncate(false)
                 .open(&lock)
                 .map_err(io_error)?;
-            match file.try_lock() {
-                Ok(()) => {}
-                Err(std::fs::TryLockError::WouldBlock) => {
+            match try_lock(&file) {
+                Ok(true) => {}
+                Ok(false) => {
                     let mut owner = String::new();
                     use std::io::Read;
                     let _ = file.read_to_string(&mut owner);
@@ -815,7 +816,7 @@ impl CheckpointLock {
                         owner,
                     });
                 }
-                Err(std::fs::TryLockError::Error(e)) => return Err(io_error(e)),
+                Err(e) => return Err(io_error(e)),
             }
             // The owner before may have removed the file between our open and lock:
             // then the lock is on a file no one else will find; take the new one.
@@ -826,9 +827,35 @@ impl CheckpointLock {
             file.write_all(std::process::id().to_string().as_bytes())
                 .map_err(io_error)?;
             output::register_temporary(&lock);
-            return Ok(CheckpointLock { file, path: lock });
+            return Ok(CheckpointLock {
+                _file: file,
+                path: lock,
+            });
         }
     }
+}
+
+/// An exclusive advisory lock (`flock`), without waiting: false when another
+/// process holds it. The lock goes with the file's descriptor, so a process that
+/// dies (even by SIGKILL) releases it. On other platforms than Unix, runs are not
+/// locked.
+#[cfg(unix)]
+fn try_lock(file: &std::fs::File) -> io::Result<bool> {
+    use std::os::fd::AsRawFd;
+    // SAFETY: flock(2) on a descriptor this `File` owns.
+    if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0 {
+        return Ok(true);
+    }
+    let error = io::Error::last_os_error();
+    match error.raw_os_error() {
+        Some(libc::EWOULDBLOCK) => Ok(false),
+        _ => Err(error),
+    }
+}
+
+#[cfg(not(unix))]
+fn try_lock(_file: &std::fs::File) -> io::Result<bool> {
+    Ok(true)
 }
 
 #[cfg(unix)]
@@ -850,7 +877,7 @@ impl Drop for CheckpointLock {
         // Removed while still locked, so a waiting run finds it gone and retries.
         let _ = std::fs::remove_file(&self.path);
         output::unregister_temporary(&self.path);
-        let _ = self.file.unlock();
+        // Closing the file (dropping it) releases the lock.
     }
 }
 
