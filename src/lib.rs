@@ -14,6 +14,7 @@ pub mod converge;
 pub mod gpu;
 pub mod kernel;
 pub mod kinds;
+pub mod lights;
 pub mod output;
 pub mod render;
 pub mod scene;
