@@ -501,3 +501,29 @@ fn cornell_box_meshes_and_bunny_match_mitsuba() {
         }
     }
 }
+
+/// `importance = true` puts a mesh that does not emit in the light density too:
+/// each mesh is one group, its faces weighed by area (by power, area times
+/// luminance, when it emits).
+#[test]
+fn importance_meshes_are_light_groups_weighed_by_area() {
+    // Two faces of areas 1 and 3 in the plane z = 0.
+    let obj = "v 0 0 0\nv 2 0 0\nv 0 1 0\nv 8 0 0\nv 8 1 0\nf 1 2 3\nf 2 4 5\n";
+    let text = "[camera]\nlookfrom = [0, 0, 5]\nlookat = [0, 0, 0]\nwidth = 8\nheight = 8\n\
+         [materials.white]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [materials.lamp]\ntype = \"light\"\nemit = [2, 2, 2]\n\
+         [[objects]]\ntype = \"mesh\"\nfile = \"two.obj\"\nmaterial = \"white\"\nimportance = true\n\
+         [[objects]]\ntype = \"mesh\"\nfile = \"two.obj\"\nmaterial = \"lamp\"\ntranslate = [0, 0, -1]\n";
+    let scene = scene_beside_mesh("importance", "two.obj", obj, text);
+    let data = pathmix::gpu::layout::SceneData::pack(&scene);
+    let triangle = pathmix::kinds::PRIMITIVE_KINDS
+        .iter()
+        .position(|k| k.name == "triangle")
+        .unwrap();
+    let tables = data.light_tables[triangle]
+        .as_ref()
+        .expect("triangles in the light density");
+    assert_eq!(tables.groups.len(), 2);
+    let pmf: Vec<f32> = tables.picks.iter().map(|p| p.pmf).collect();
+    assert_eq!(pmf, [0.25, 0.75, 0.25, 0.75]);
+}
