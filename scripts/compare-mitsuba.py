@@ -9,9 +9,20 @@ paths/s, RMSE and the efficiency 1 / (MSE x seconds) of both, with their ratio.
 Run by hand, not in CI:
 
     python3 scripts/compare-mitsuba.py [--scene scenes/cornell-boxes.toml]
-        [--size 256] [--spp 256] [--reference-spp 4096]
+        [--size 256] [--spp 256] [--reference-spp 4096] [--reference-renderer pathmix|mitsuba]
         [--pathmix mixture/sobol,mixture/independent,nee-mis/sobol/5]
-        [--mitsuba-samplers independent,multijitter]
+        [--mitsuba-samplers independent,multijitter] [--max-depth 50]
+    python3 scripts/compare-mitsuba.py --scene S.toml --size 64 --reference-spp 65536 \
+        --mitsuba-reference-only out.exr
+
+Scenes may hold quads, boxes, spheres and meshes (OBJ and PLY files, with their
+scale, rotate_y / rotate and translate; Mitsuba computes smooth normals where the
+file has none, as pathmix does). With `--reference-renderer mitsuba` the common
+reference is Mitsuba's `path` integrator (independent sampler) at
+`--reference-spp`, and the script also prints each image's mean against the
+reference's and its worst 16x16 block. `--mitsuba-reference-only OUT` only writes
+that Mitsuba render (the test fixture `tests/fixtures/mitsuba-cbox-bunny-64.exr`
+was made so).
 
 `--pathmix` lists pathmix runs as strategy/sampler, with an optional third part,
 the Russian roulette depth (default off); `--mitsuba-samplers` lists
@@ -88,7 +99,22 @@ def box_quads(lo, hi):
     ]
 
 
-def mitsuba_scene(mi, scene, size, spp, max_depth, sampler):
+def object_transform(mi, obj):
+    """An object's scale, rotation and translation (in that order) as pathmix applies them."""
+    T = mi.ScalarTransform4f
+    if "matrix" in obj:
+        m = obj["matrix"]
+        return T([m[0:4], m[4:8], m[8:12], m[12:16]])
+    scale = obj.get("scale", 1.0)
+    scale = [scale] * 3 if isinstance(scale, (int, float)) else scale
+    if "rotate" in obj:
+        axis, angle = obj["rotate"]["axis"], obj["rotate"]["angle"]
+    else:
+        axis, angle = [0, 1, 0], obj.get("rotate_y", 0.0)
+    return T().translate(obj.get("translate", [0, 0, 0])) @ T().rotate(axis, angle) @ T().scale(scale)
+
+
+def mitsuba_scene(mi, scene, size, spp, max_depth, sampler, scene_dir=Path(".")):
     """The pathmix scene file as a Mitsuba scene dictionary."""
     T = mi.ScalarTransform4f
     materials = {}
@@ -132,6 +158,15 @@ def mitsuba_scene(mi, scene, size, spp, max_depth, sampler):
         elif obj["type"] == "box":
             for q, u, v in box_quads(obj["min"], obj["max"]):
                 quad(place(q), turn(u), turn(v), obj["material"])
+        elif obj["type"] == "mesh":
+            bsdf, emit = materials[obj["material"]]
+            path = (scene_dir / obj["file"]).resolve()
+            shape = {"type": path.suffix.lstrip(".").lower(), "filename": str(path),
+                     "to_world": object_transform(mi, obj), "bsdf": bsdf,
+                     "face_normals": not obj.get("smooth", True)}
+            if emit and max(emit) > 0:
+                shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": emit}}
+            shapes[f"shape{len(shapes)}"] = shape
         elif obj["type"] == "sphere":
             bsdf, emit = materials[obj["material"]]
             shape = {"type": "sphere", "center": place(obj["center"]), "radius": obj["radius"], "bsdf": bsdf}
@@ -165,7 +200,8 @@ def mitsuba_scene(mi, scene, size, spp, max_depth, sampler):
 
 
 def pathmix(args, spp, out, seed, strategy="mixture", sampler="sobol", rr_depth="off"):
-    """Renders with the release binary; returns the seconds it reports."""
+    """Renders with the release binary; returns the seconds it reports, or with
+    `--whole-process` the wall-clock seconds of the whole command."""
     cmd = [
         str(ROOT / "target" / "release" / "pathmix"), "render", str(args.scene),
         "--width", str(args.size), "--height", str(args.size), "--spp", str(spp),
@@ -173,7 +209,10 @@ def pathmix(args, spp, out, seed, strategy="mixture", sampler="sobol", rr_depth=
         "--strategy", strategy, "--sampler", sampler, "--rr-depth", rr_depth,
         "-o", str(out.with_suffix(".png")), "--exr", str(out),
     ]
+    started = time.perf_counter()
     result = subprocess.run(cmd, capture_output=True, text=True, check=True)
+    if args.whole_process:
+        return time.perf_counter() - started
     return float(re.search(r"in ([0-9.]+) s", result.stdout).group(1))
 
 
@@ -193,17 +232,37 @@ def main():
                         help="pathmix runs, comma-separated strategy/sampler[/roulette depth]")
     parser.add_argument("--mitsuba-samplers", default="independent,multijitter",
                         help="Mitsuba samplers, comma-separated")
+    parser.add_argument("--reference-renderer", choices=["pathmix", "mitsuba"], default="pathmix")
+    parser.add_argument("--whole-process", action="store_true",
+                        help="time each render from start to end: pathmix's whole command (no warm-up run), "
+                             "Mitsuba's scene loading, kernel compilation and render")
+    parser.add_argument("--mitsuba-reference-only", type=Path, metavar="OUT",
+                        help="only render Mitsuba's reference into OUT (EXR)")
     args = parser.parse_args()
     args.out.mkdir(exist_ok=True)
 
-    subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
     mi.set_variant("llvm_ad_rgb")
     scene = tomllib.loads(args.scene.read_text())
 
-    reference_path = args.out / f"reference-{args.size}-{args.reference_spp}-sobol.exr"
+    def mitsuba_render(spp, sampler, seed):
+        description = mitsuba_scene(mi, scene, args.size, spp, args.max_depth, sampler,
+                                    args.scene.resolve().parent)
+        return mi.render(mi.load_dict(description), spp=spp, seed=seed)
+
+    if args.mitsuba_reference_only:
+        mi.Bitmap(mitsuba_render(args.reference_spp, "independent", 12345)).write(
+            str(args.mitsuba_reference_only))
+        return
+    subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+
+    reference_path = args.out / f"reference-{args.reference_renderer}-{args.size}-{args.reference_spp}.exr"
     if not reference_path.exists():
-        print(f"rendering the reference with pathmix ({args.reference_spp} spp)...", file=sys.stderr)
-        pathmix(args, args.reference_spp, reference_path, seed=12345)
+        print(f"rendering the reference with {args.reference_renderer} ({args.reference_spp} spp)...",
+              file=sys.stderr)
+        if args.reference_renderer == "pathmix":
+            pathmix(args, args.reference_spp, reference_path, seed=12345)
+        else:
+            mi.Bitmap(mitsuba_render(args.reference_spp, "independent", 12345)).write(str(reference_path))
     reference = np.array(mi.Bitmap(str(reference_path)), dtype=np.float64)[..., :3]
 
     paths = args.size * args.size * args.spp
@@ -213,7 +272,8 @@ def main():
     for variant in args.pathmix.split(","):
         strategy, sampler, rr_depth = (variant.split("/") + ["off"])[:3]
         out = args.out / f"pathmix-{strategy}-{sampler}-rr{rr_depth}.exr"
-        pathmix(args, 1, args.out / "pathmix-warm.exr", 1, strategy, sampler, rr_depth)
+        if not args.whole_process:
+            pathmix(args, 1, args.out / "pathmix-warm.exr", 1, strategy, sampler, rr_depth)
         seconds = pathmix(args, args.spp, out, 1, strategy, sampler, rr_depth)
         image = np.array(mi.Bitmap(str(out)), dtype=np.float64)[..., :3]
         roulette = "" if rr_depth == "off" else f", roulette from {rr_depth}"
@@ -222,10 +282,15 @@ def main():
 
     # Mitsuba: the first render JIT-compiles its kernels; time a second one.
     for sampler in args.mitsuba_samplers.split(","):
-        description = mitsuba_scene(mi, scene, args.size, args.spp, args.max_depth, sampler)
-        mitsuba = mi.load_dict(description)
-        mi.render(mitsuba, spp=1, seed=0)
-        started = time.perf_counter()
+        description = mitsuba_scene(mi, scene, args.size, args.spp, args.max_depth, sampler,
+                                    args.scene.resolve().parent)
+        if args.whole_process:
+            started = time.perf_counter()
+            mitsuba = mi.load_dict(description)
+        else:
+            mitsuba = mi.load_dict(description)
+            mi.render(mitsuba, spp=1, seed=0)
+            started = time.perf_counter()
         result = mi.render(mitsuba, spp=args.spp, seed=1)
         image = np.array(result, dtype=np.float64)[..., :3]
         rows.append((f"Mitsuba 3 llvm_ad_rgb (path, NEE+MIS, {sampler})",
@@ -233,7 +298,7 @@ def main():
         mi.Bitmap(result).write(str(args.out / f"mitsuba-{sampler}.exr"))
 
     print(f"\n{args.scene.name}, {args.size}x{args.size}, {args.spp} spp, max depth {args.max_depth}; "
-          f"reference: pathmix {args.reference_spp} spp\n")
+          f"reference: {args.reference_renderer} {args.reference_spp} spp\n")
     print("| renderer | seconds | M paths/s | RMSE | efficiency 1/(MSE s) |")
     print("|---|---|---|---|---|")
     efficiencies = []
@@ -246,9 +311,11 @@ def main():
     for i in range(ours):
         ratios = [efficiencies[i] / efficiencies[j] for j in range(ours, len(rows))]
         print(f"  {rows[i][0]}: " + ", ".join(f"{r:.2f}x" for r in ratios))
+    blocks = lambda image: image.reshape(args.size // 16, 16, args.size // 16, 16, 3).mean(axis=(1, 3, 4))
     for name, _, image in rows:
         mean_ratio = float(np.mean(image)) / float(np.mean(reference))
-        print(f"{name}: mean / reference mean {mean_ratio:.4f}")
+        worst = float(np.max(np.abs(blocks(image) / blocks(reference) - 1.0)))
+        print(f"{name}: mean / reference mean {mean_ratio:.4f}, worst 16x16 block off by {100 * worst:.2f}%")
     mitsuba = rows[ours][2]
     mirrored = math.sqrt(float(np.mean((mitsuba[:, ::-1] - reference) ** 2)))
     print(f"RMSE of Mitsuba's image mirrored: {mirrored:.4f} (the scenes match when the mean "

@@ -59,6 +59,9 @@ struct Hit {
     p: vec3<f32>,
     // Geometric normal on the object's outward side (not flipped toward the ray).
     normal: vec3<f32>,
+    // The normal shading uses, on the same side: interpolated on a smooth mesh,
+    // else `normal`.
+    shading_normal: vec3<f32>,
     material: u32,
 }
 
@@ -76,7 +79,7 @@ fn load_params() {
 @group(0) @binding(BINDING_COUNTERS) var<storage, read_write> counters: Counters;
 
 fn no_hit() -> Hit {
-    return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), 0u);
+    return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), 0u);
 }
 
 // Moves a point off a surface on the side `dir` leaves toward.

@@ -106,8 +106,12 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             if depth == MAX_DEPTH {
                 path_done = true;
             } else {
-                let frame = Frame(select(-hit.normal, hit.normal, front_face), front_face);
-                let scattered = scatter(material, frame, -ray.dir, hit.p + frame.n * params.ray_offset);
+                let frame = Frame(
+                    select(-hit.shading_normal, hit.shading_normal, front_face),
+                    front_face,
+                    select(-hit.normal, hit.normal, front_face),
+                );
+                let scattered = scatter(material, frame, -ray.dir, hit.p + frame.ng * params.ray_offset);
 #if STRATEGY_NEE
                 // The shadow ray is traced within the vertex's iteration. As an
                 // iteration of its own, lanes drifted out of step (some tracing

@@ -30,11 +30,14 @@ struct Material {
     param: f32,
 }
 
-// Where a BSDF is evaluated: `n` is the geometric normal turned to the side of
-// `wo`, and `front_face` says whether that is the outward side.
+// Where a BSDF is evaluated: `n` is the normal the BSDF uses (the shading
+// normal: interpolated on smooth meshes, else the geometric one) and `ng` the
+// geometric normal, both turned to the side of `wo`; `front_face` says whether
+// that is the outward side.
 struct Frame {
     n: vec3<f32>,
     front_face: bool,
+    ng: vec3<f32>,
 }
 
 struct BsdfSample {
@@ -50,3 +53,21 @@ struct BsdfSample {
 fn bsdf_absorbed() -> BsdfSample {
     return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
 }
+
+#if SHADING_NORMALS
+// With a shading normal, a direction can be on one side of `n` and the other of
+// the true surface: reflected light would leak through it (or transmitted light
+// stay above it). Such a direction carries nothing, as in pbrt-v3's BSDF::f
+// (reflection only where wo and wi are on one side of the geometric normal).
+// The density is left as it is: it stays the density the sampling draws with.
+fn bsdf_leaks(frame: Frame, wi: vec3<f32>) -> bool {
+    return (dot(wi, frame.n) > 0.0) != (dot(wi, frame.ng) > 0.0);
+}
+
+fn bsdf_sample_checked(frame: Frame, s: BsdfSample) -> BsdfSample {
+    if bsdf_leaks(frame, s.wi) {
+        return bsdf_absorbed();
+    }
+    return s;
+}
+#endif

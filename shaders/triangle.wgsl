@@ -1,16 +1,23 @@
 // Triangles (mesh faces): vertices p0, p1, p2, counter-clockwise seen from the
 // side the normal normalize((p1 - p0) x (p2 - p0)) faces.
 
-// Mirrors `kinds::Triangle`.
+// Mirrors `kinds::Triangle`: the vertices as arrays (4-byte aligned, 40 bytes a
+// triangle); the face normal and area are computed where needed.
 struct Triangle {
-    p0: vec3<f32>,
+    p0: array<f32, 3>,
+    p1: array<f32, 3>,
+    p2: array<f32, 3>,
     material: u32,
-    p1: vec3<f32>,
-    area: f32,
-    p2: vec3<f32>,
-    _pad0: u32,
-    normal: vec3<f32>,
-    _pad1: u32,
+}
+
+fn triangle_point(p: array<f32, 3>) -> vec3<f32> {
+    return vec3<f32>(p[0], p[1], p[2]);
+}
+
+// (p1 - p0) x (p2 - p0): the face normal times twice the area.
+fn triangle_cross(tri: Triangle) -> vec3<f32> {
+    let p0 = triangle_point(tri.p0);
+    return cross(triangle_point(tri.p1) - p0, triangle_point(tri.p2) - p0);
 }
 
 // a b - c d with one rounding (Kahan's algorithm with fma).
@@ -35,9 +42,9 @@ fn triangle_hit_t(tri: Triangle, ray: Ray, t_max: f32) -> f32 {
     let kx = (kz + 1u) % 3u;
     let ky = (kx + 1u) % 3u;
     let d = vec3<f32>(ray.dir[kx], ray.dir[ky], ray.dir[kz]);
-    let a = tri.p0 - ray.origin;
-    let b = tri.p1 - ray.origin;
-    let c = tri.p2 - ray.origin;
+    let a = triangle_point(tri.p0) - ray.origin;
+    let b = triangle_point(tri.p1) - ray.origin;
+    let c = triangle_point(tri.p2) - ray.origin;
     var p0 = vec3<f32>(a[kx], a[ky], a[kz]);
     var p1 = vec3<f32>(b[kx], b[ky], b[kz]);
     var p2 = vec3<f32>(c[kx], c[ky], c[kz]);
@@ -71,27 +78,72 @@ fn triangle_hit_t(tri: Triangle, ray: Ray, t_max: f32) -> f32 {
 
 // The closest hit keeps the face normal.
 fn triangle_hit_keep(tri: Triangle) -> vec4<f32> {
-    return vec4<f32>(tri.normal, 0.0);
+    return vec4<f32>(normalize(triangle_cross(tri)), 0.0);
 }
 
 fn triangle_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
     return keep.xyz;
 }
 
+#if TRIANGLE_NORMALS
+// Mirrors `kinds::TriangleNormals`: the vertex normals of a smooth triangle,
+// octahedral-encoded in two snorm16 each (`kinds::triangle::oct_encode`).
+struct TriangleNormals {
+    n0: u32,
+    n1: u32,
+    n2: u32,
+}
+
+fn oct_decode(bits: u32) -> vec3<f32> {
+    let e = unpack2x16snorm(bits);
+    let z = 1.0 - abs(e.x) - abs(e.y);
+    let t = max(-z, 0.0);
+    return normalize(vec3<f32>(e.x - sign_or_one(e.x) * t, e.y - sign_or_one(e.y) * t, z));
+}
+
+fn sign_or_one(x: f32) -> f32 {
+    return select(-1.0, 1.0, x >= 0.0);
+}
+
+// The vertex normals interpolated at p (barycentric, from the areas of the
+// sub-triangles), turned to the side of the geometric normal `ng` where they
+// point away from it, and `ng` itself where they cancel out.
+fn triangle_shading_normal(index: u32, p: vec3<f32>, ng: vec3<f32>) -> vec3<f32> {
+    let tri = triangles_at(index);
+    let normals = triangle_normals_at(index);
+    let p0 = triangle_point(tri.p0);
+    let p1 = triangle_point(tri.p1);
+    let p2 = triangle_point(tri.p2);
+    let n = cross(p1 - p0, p2 - p0);
+    let inv_n2 = 1.0 / dot(n, n);
+    let b0 = dot(cross(p1 - p, p2 - p), n) * inv_n2;
+    let b1 = dot(cross(p2 - p, p0 - p), n) * inv_n2;
+    let b2 = 1.0 - b0 - b1;
+    let interpolated = b0 * oct_decode(normals.n0) + b1 * oct_decode(normals.n1) + b2 * oct_decode(normals.n2);
+    let length2 = dot(interpolated, interpolated);
+    if !(length2 > 1e-12) {
+        return ng;
+    }
+    let shading = interpolated * inverseSqrt(length2);
+    return select(-shading, shading, dot(shading, ng) >= 0.0);
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point of the triangle.
 fn triangle_light_sample(tri: Triangle, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let s = sqrt(u.x);
     let b0 = 1.0 - s;
     let b1 = u.y * s;
-    let target_point = b0 * tri.p0 + b1 * tri.p1 + (1.0 - b0 - b1) * tri.p2;
+    let target_point = b0 * triangle_point(tri.p0) + b1 * triangle_point(tri.p1) + (1.0 - b0 - b1) * triangle_point(tri.p2);
     return normalize(target_point - origin);
 }
 
-// Solid-angle density of `triangle_light_sample`: d^2 / (|cos| A) where the ray meets it.
+// Solid-angle density of `triangle_light_sample`: d^2 / (|cos| A) where the ray
+// meets it (|dir . n| A = |dir . (p1 - p0) x (p2 - p0)| / 2).
 fn triangle_light_pdf(tri: Triangle, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
     let t = triangle_hit_t(tri, Ray(origin, dir), F32_MAX);
     if t < 0.0 {
         return 0.0;
     }
-    return (t * t) / (abs(dot(dir, tri.normal)) * tri.area);
+    return (2.0 * t * t) / abs(dot(dir, triangle_cross(tri)));
 }

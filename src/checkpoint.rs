@@ -103,6 +103,8 @@ impl SceneIdentity {
             triangles,
             // Follows from the mesh files, whose faces are hashed.
             degenerate_triangles: _,
+            // Messages only: what they describe is in the materials.
+            warnings: _,
         } = scene;
         let Camera {
             lookfrom,

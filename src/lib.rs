@@ -15,6 +15,7 @@ pub mod converge;
 pub mod gpu;
 pub mod kernel;
 pub mod kinds;
+pub mod lights;
 pub mod output;
 pub mod paths;
 pub mod render;

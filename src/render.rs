@@ -708,7 +708,7 @@ pub fn prepare_scene(
     if wanted == Strategy::NeeMis {
         data.keep_emitting_lights();
     }
-    let mut warnings = Vec::new();
+    let mut warnings = scene.warnings.clone();
     let mut strategy = wanted;
     if data.light_count() == 0 && strategy != Strategy::Bsdf {
         if strategy == Strategy::Light {
@@ -791,9 +791,14 @@ pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 
 /// The most loop iterations one path vertex can take (see `max_samples_per_dispatch`).
 fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     let mut inner_loops = match config.scene_storage() {
-        SceneStorage::Baked => 0,
-        SceneStorage::Buffers => (data.primitive_count() + data.light_count()) as u64,
-        SceneStorage::Bvh => BVH_ITERATIONS_PER_RAY + data.light_count() as u64,
+        SceneStorage::Baked => data.light_density_iterations(BVH_ITERATIONS_PER_RAY, true),
+        SceneStorage::Buffers => {
+            data.primitive_count() as u64
+                + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, false)
+        }
+        SceneStorage::Bvh => {
+            BVH_ITERATIONS_PER_RAY + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, false)
+        }
     };
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;

@@ -4,7 +4,8 @@
 //! - `#if FLAG` / `#if !FLAG`, `#else`, `#endif` (nestable) keep or drop lines
 //!   according to the flags set;
 //! - `#for_each ITEM in ARRAY` ... `#end_for` repeats its body for every element
-//!   of a scene array, with `ITEM` bound to the element. An array in a storage
+//!   of a scene array, with `ITEM` bound to the element and `ITEM_index` to its
+//!   index. An array in a storage
 //!   buffer becomes a loop; an array baked into the kernel becomes one copy of
 //!   the body per element, each reading a module constant, which the driver's
 //!   compiler folds into the code (3x faster on lavapipe than a loop over a
@@ -225,7 +226,7 @@ fn expand(block: &ForEach, form: ArrayForm) -> String {
         ArrayForm::Constants(count) => (0..count)
             .map(|i| {
                 let constant = element_constant(array, i);
-                format!("{{\nlet {item} = {constant};\n{body}}}\n")
+                format!("{{\nlet {item}_index = {i}u;\nlet {item} = {constant};\n{body}}}\n")
             })
             .collect(),
     }
@@ -341,8 +342,8 @@ mod tests {
     fn for_each_over_constants_repeats_the_body() {
         assert_eq!(
             run_with(WALK, &["A"], &[("quads", ArrayForm::Constants(2))]).unwrap(),
-            "a\n{\nlet q = QUADS_0;\nuse(q);\nonly_a(q);\n}\n\
-             {\nlet q = QUADS_1;\nuse(q);\nonly_a(q);\n}\nb\n"
+            "a\n{\nlet q_index = 0u;\nlet q = QUADS_0;\nuse(q);\nonly_a(q);\n}\n\
+             {\nlet q_index = 1u;\nlet q = QUADS_1;\nuse(q);\nonly_a(q);\n}\nb\n"
         );
         assert_eq!(
             run_with(WALK, &[], &[("quads", ArrayForm::Constants(0))]).unwrap(),

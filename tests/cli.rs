@@ -471,3 +471,37 @@ fn bad_mesh_files_are_refused_naming_object_and_file() {
         assert!(!out.exists(), "{file}: an image was written");
     }
 }
+
+/// Output piped into a reader that has gone (`pathmix info | head -1`) ends the
+/// process quietly, as SIGPIPE does for Unix tools, instead of a panic.
+#[cfg(unix)]
+#[test]
+fn a_closed_pipe_ends_printing_commands_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    for args in [
+        vec!["info", "scenes/cornell.toml"],
+        vec!["render", "--help"],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_pathmix"))
+            .args(&args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Closed before the command prints its first line.
+        drop(child.stdout.take());
+        let output = child.wait_with_output().unwrap();
+        let status = output.status;
+        assert!(
+            status.success() || status.signal() == Some(libc::SIGPIPE),
+            "{args:?}: {status:?}\n{}",
+            stderr(&output)
+        );
+        assert!(
+            !stderr(&output).contains("panicked"),
+            "{args:?}: {}",
+            stderr(&output)
+        );
+    }
+}

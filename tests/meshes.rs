@@ -131,3 +131,399 @@ fn stanford_bunny_renders_through_the_bvh() {
     let mean = renderer.accumulation().mean();
     assert!(mean.pixels.iter().flatten().all(|c| c.is_finite()));
 }
+
+/// A scene file beside a mesh file `name` with `contents`, in a folder of its
+/// own (named after `tag`).
+fn scene_beside_mesh(tag: &str, name: &str, contents: &str, scene: &str) -> Scene {
+    let dir = std::env::temp_dir().join(format!("pathmix-meshes-{}-{tag}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join(name), contents).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    Scene::load(&path).unwrap()
+}
+
+/// A square floor at y = 0 (two triangles, face normal +y) whose file normals
+/// are all tilted by `tilt_degrees` toward +z, under a white sky, seen from
+/// straight above; one Lambertian bounce (albedo 0.5) under BSDF sampling.
+fn tilted_floor(tilt_degrees: f32, object_keys: &str) -> Scene {
+    let (sin, cos) = tilt_degrees.to_radians().sin_cos();
+    let obj = format!(
+        "v -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\nvn 0 {cos} {sin}\nf 1//1 2//1 3//1 4//1\n"
+    );
+    let scene = format!(
+        "[camera]\nlookfrom = [0, 1, 0]\nlookat = [0, 0, 0]\nvup = [0, 0, -1]\nvfov = 30\n\
+         width = 16\nheight = 16\n\
+         [render]\nspp = 64\nmax_depth = 1\nstrategy = \"bsdf\"\nbackground = [1, 1, 1]\n\
+         [materials.floor]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [[objects]]\ntype = \"mesh\"\nfile = \"floor.obj\"\nmaterial = \"floor\"\n{object_keys}\n"
+    );
+    scene_beside_mesh(
+        &format!("floor-{tilt_degrees}-{}", object_keys.len()),
+        "floor.obj",
+        &obj,
+        &scene,
+    )
+}
+
+/// The file's vertex normals shade the floor: cosine sampling about a normal
+/// tilted by 60 degrees sends (1 - cos 60) / 2 of its directions below the
+/// surface, which the geometric-normal check absorbs instead of letting them
+/// through to the sky, so the floor reflects 0.5 (1 + cos 60) / 2 of the sky
+/// (the view factor of a tilted plane); `smooth = false` shades with the face
+/// normal and reflects exactly 0.5. Checked in every scene storage.
+#[test]
+fn shading_normals_from_the_file_light_a_floor_as_a_tilted_plane() {
+    let ctx = gpu_or_skip!();
+    let tilted = tilted_floor(60.0, "");
+    assert!(tilted.triangles.iter().all(|t| t.normals.is_some()));
+    let flat = tilted_floor(60.0, "smooth = false");
+    assert!(flat.triangles.iter().all(|t| t.normals.is_none()));
+    let expected = 0.5 * (1.0 + 60f64.to_radians().cos()) / 2.0;
+    for storage in [
+        SceneStorage::Baked,
+        SceneStorage::Buffers,
+        SceneStorage::Bvh,
+    ] {
+        let options = RenderOptions {
+            scene_storage: Some(storage),
+            variance: true,
+            ..RenderOptions::default()
+        };
+        let (mean, error) = common::image_mean_and_error(&common::render(ctx, &tilted, &options));
+        assert!(
+            (mean - expected).abs() < 4.0 * error + 1e-4,
+            "{storage:?}: {mean} ± {error}, expected {expected}"
+        );
+        let acc = common::render(ctx, &flat, &options);
+        common::assert_every_pixel_is(&acc, 0.5, 1e-6, &format!("flat, {storage:?}"));
+    }
+}
+
+/// A mesh without normals in its file is smooth by default: its vertices get
+/// the angle-weighted average of their faces' normals (a cube's corners the
+/// diagonals, however its faces are split), carried through the transform.
+#[test]
+fn meshes_without_normals_get_angle_weighted_vertex_normals() {
+    let mut obj = String::new();
+    for z in [0, 1] {
+        for y in [0, 1] {
+            for x in [0, 1] {
+                writeln!(obj, "v {x} {y} {z}").unwrap();
+            }
+        }
+    }
+    // Outward, counter-clockwise: -z, +z, -y, +y, -x, +x; two faces fanned
+    // from different corners, so corners see one or two triangles of a face.
+    obj.push_str("f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n");
+    let keys = "rotate = { axis = [0, 0, 1], angle = 90 }\nscale = 2";
+    let scene_text = |keys: &str| {
+        format!(
+            "[camera]\nlookfrom = [0, 0, 9]\nlookat = [0, 0, 0]\nvfov = 40\nwidth = 8\nheight = 8\n\
+             [materials.white]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+             [[objects]]\ntype = \"mesh\"\nfile = \"cube.obj\"\nmaterial = \"white\"\n{keys}\n"
+        )
+    };
+    let scene = scene_beside_mesh("cube", "cube.obj", &obj, &scene_text(keys));
+    assert_eq!(scene.triangles.len(), 12);
+    // The cube spans [-2, 0] x [0, 2] x [0, 2] once rotated and scaled.
+    let centre = glam::Vec3::new(-1.0, 1.0, 1.0);
+    for t in &scene.triangles {
+        let normals = t.normals.expect("smooth by default");
+        for (v, n) in t.vertices.iter().zip(normals) {
+            let diagonal = (*v - centre).normalize();
+            assert!(
+                (n - diagonal).length() < 1e-5,
+                "{v}: {n}, expected {diagonal}"
+            );
+        }
+    }
+    let flat = scene_beside_mesh("cube", "cube.obj", &obj, &scene_text("smooth = false"));
+    assert!(flat.triangles.iter().all(|t| t.normals.is_none()));
+}
+
+/// The furnace's cube [-1, 1]^3 as one mesh of `2 * 6 * n * n` triangles of
+/// unequal sizes (each wall an n x n grid, finer toward its edges), normals
+/// inward. Every wall takes its vertices from one lattice of coordinates, so
+/// walls meet at identical vertices and the mesh stays watertight.
+fn subdivided_furnace(n: usize, strategy: Strategy, spp: u32) -> Scene {
+    let lattice: Vec<f64> = (0..=n)
+        .map(|i| -(std::f64::consts::PI * i as f64 / n as f64).cos())
+        .collect();
+    let mut obj = String::new();
+    let mut vertices = 0;
+    for axis in 0..3 {
+        for side in [-1.0f64, 1.0] {
+            let point = |i: usize, j: usize| {
+                let mut p = [0.0; 3];
+                p[axis] = side;
+                p[(axis + 1) % 3] = lattice[i];
+                p[(axis + 2) % 3] = lattice[j];
+                p
+            };
+            for i in 0..n {
+                for j in 0..n {
+                    let corners = [
+                        point(i, j),
+                        point(i + 1, j),
+                        point(i + 1, j + 1),
+                        point(i, j + 1),
+                    ];
+                    for p in corners {
+                        writeln!(obj, "v {} {} {}", p[0], p[1], p[2]).unwrap();
+                    }
+                    // (i, j, axis) is right-handed, so this order faces +axis:
+                    // inward on the -1 side, reversed on the +1 side.
+                    let face = if side < 0.0 {
+                        [1, 2, 3, 4]
+                    } else {
+                        [4, 3, 2, 1]
+                    };
+                    let face = face.map(|k| vertices + k);
+                    writeln!(obj, "f {} {} {} {}", face[0], face[1], face[2], face[3]).unwrap();
+                    vertices += 4;
+                }
+            }
+        }
+    }
+    let text = format!(
+        "[camera]\nlookfrom = [0, 0, 0]\nlookat = [0, 0, 1]\nvfov = 90\nwidth = 16\nheight = 16\n\
+         [render]\nspp = {spp}\nmax_depth = 4\nstrategy = \"{strategy}\"\n\
+         [materials.wall]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\nemit = [1, 1, 1]\n\
+         [[objects]]\ntype = \"mesh\"\nfile = \"furnace.obj\"\nmaterial = \"wall\"\nsmooth = false\n"
+    );
+    let scene = scene_beside_mesh(
+        &format!("furnace-{n}-{strategy}"),
+        "furnace.obj",
+        &obj,
+        &text,
+    );
+    assert_eq!(scene.triangles.len(), 12 * n * n);
+    scene
+}
+
+/// Thousands of emitting triangles of unequal areas are one object of the light
+/// density: a face is picked by power (here in proportion to its area) and the
+/// density of a direction is found through the lights' BVH, not a loop over
+/// every face. The mixture and `nee-mis` stay unbiased (a pick probability
+/// that the density did not match would bias them here). `light` alone is
+/// left out: near the cube's edges a face's area density weighs a sample by
+/// 1 / distance^2 without bound, so its mean has no useful error bar.
+#[test]
+fn thousands_of_light_triangles_are_picked_by_power_without_bias() {
+    let ctx = gpu_or_skip!();
+    let expected = common::furnace_value(1.0, 0.5, 4);
+    for strategy in [Strategy::Mixture, Strategy::NeeMis] {
+        let scene = subdivided_furnace(14, strategy, 128);
+        let renderer = Renderer::new(ctx, &scene, &common::with_variance()).unwrap();
+        let source = renderer.config().source().unwrap();
+        assert!(
+            !source.contains("light_index < arrayLength(&light_triangles)"),
+            "{strategy}: the light density loops over every light triangle"
+        );
+        let acc = common::render(ctx, &scene, &common::with_variance());
+        let (mean, error) = common::image_mean_and_error(&acc);
+        assert!(error > 0.0, "{strategy}: no noise at all");
+        assert!(
+            (mean - expected).abs() < 4.0 * error,
+            "{strategy}: {mean} ± {error}, expected {expected}"
+        );
+    }
+}
+
+/// A glTF file with two triangles, each a primitive of its own material: a red
+/// diffuse one and an emitting one (`KHR_materials_emissive_strength` 4), its
+/// buffer in a file beside it.
+fn gltf_two_materials(dir: &std::path::Path, second_material: &str) {
+    let positions: [[f32; 3]; 6] = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let bytes: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    std::fs::write(dir.join("two.bin"), &bytes).unwrap();
+    let accessor = |offset: usize, z: f32| {
+        format!(
+            r#"{{"bufferView": 0, "byteOffset": {offset}, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, {z}], "max": [1, 1, {z}]}}"#
+        )
+    };
+    let gltf = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "material": 0}}, {{"attributes": {{"POSITION": 1}}{second_material}}}]}}],
+        "materials": [
+            {{"name": "paint", "pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.1, 0.1, 1], "metallicFactor": 0}}}},
+            {{"name": "glow", "emissiveFactor": [1, 0.5, 0.25], "extensions": {{"KHR_materials_emissive_strength": {{"emissiveStrength": 4}}}}}}
+        ],
+        "buffers": [{{"uri": "two.bin", "byteLength": {}}}],
+        "bufferViews": [{{"buffer": 0, "byteLength": {}}}],
+        "accessors": [{}, {}]}}"#,
+        bytes.len(),
+        bytes.len(),
+        accessor(0, 0.0),
+        accessor(36, 1.0)
+    );
+    std::fs::write(dir.join("two.gltf"), gltf).unwrap();
+}
+
+/// A glTF file's materials map to the nearest pathmix has (Lambertian with the
+/// base colour, emitting the emission), said once as a warning; an emitting one
+/// puts its faces in the light density; the object's `material` overrides them;
+/// a face without a material needs `material`.
+#[test]
+fn gltf_materials_map_to_the_nearest_pathmix_material() {
+    let dir = std::env::temp_dir().join(format!("pathmix-meshes-{}-gltf", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = |second_material: &str, keys: &str| {
+        gltf_two_materials(&dir, second_material);
+        let text = format!(
+            "[camera]\nlookfrom = [0, 0, 5]\nlookat = [0, 0, 0]\nwidth = 8\nheight = 8\n\
+             [materials.white]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+             [[objects]]\ntype = \"mesh\"\nfile = \"two.gltf\"\n{keys}\n"
+        );
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, text).unwrap();
+        Scene::load(&path)
+    };
+    let mapped = scene(r#", "material": 1"#, "").unwrap();
+    assert_eq!(mapped.materials.len(), 3);
+    let [paint, glow] = [1, 2].map(|i| &mapped.materials[i]);
+    assert_eq!(
+        (paint.albedo, paint.emit),
+        (glam::Vec3::new(0.8, 0.1, 0.1), glam::Vec3::ZERO)
+    );
+    assert_eq!(glow.emit, glam::Vec3::new(4.0, 2.0, 1.0));
+    let faces: Vec<(u32, bool)> = mapped
+        .triangles
+        .iter()
+        .map(|t| (t.material, t.importance))
+        .collect();
+    assert_eq!(faces, [(1, false), (2, true)]);
+    assert_eq!(mapped.warnings.len(), 1, "{:?}", mapped.warnings);
+    assert!(
+        mapped.warnings[0].contains("nearest"),
+        "{}",
+        mapped.warnings[0]
+    );
+
+    let overridden = scene(r#", "material": 1"#, "material = \"white\"").unwrap();
+    assert_eq!(overridden.materials.len(), 1);
+    assert!(
+        overridden
+            .triangles
+            .iter()
+            .all(|t| t.material == 0 && !t.importance)
+    );
+    assert!(overridden.warnings.is_empty());
+
+    let error = scene("", "").unwrap_err();
+    assert!(error.to_string().contains("objects[0]"), "{error}");
+    assert!(
+        error
+            .to_string()
+            .contains("missing required key `material`"),
+        "{error}"
+    );
+}
+
+/// pathmix against Mitsuba 3 on Mitsuba's own Cornell box (its OBJ meshes,
+/// materials and light) with the Stanford bunny, both from `../shared/`:
+/// `tests/fixtures/mitsuba-cbox-bunny-64.exr` is Mitsuba's `path` integrator at
+/// 64x64 and 65 536 spp (independent sampler, max_depth 8; made by
+/// `scripts/compare-mitsuba.py --mitsuba-reference-only`). pathmix (`nee-mis`,
+/// max depth 7) renders 32x32, each pixel the box of four reference pixels.
+/// The image mean and every 8x8 block must agree within 4 standard errors of
+/// pathmix's noise plus 1% (the reference's own noise and f32 rounding).
+#[test]
+fn cornell_box_meshes_and_bunny_match_mitsuba() {
+    let ctx = gpu_or_skip!();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    if !root
+        .join("../shared/mitsuba-scenes/meshes/bunny.ply")
+        .exists()
+    {
+        eprintln!("skipped: ../shared/mitsuba-scenes is not there");
+        return;
+    }
+    let reference =
+        pathmix::output::read_exr(&root.join("tests/fixtures/mitsuba-cbox-bunny-64.exr")).unwrap();
+    let mut scene = Scene::load(&root.join("tests/fixtures/mitsuba-cbox-bunny.toml")).unwrap();
+    let size = reference.width / 2;
+    (scene.camera.width, scene.camera.height) = (size, size);
+    scene.render.spp = 256;
+    let acc = common::render(ctx, &scene, &common::with_variance());
+    let n = acc.samples as f64;
+    let sum_sq = acc.sum_sq.as_ref().unwrap();
+    // Per block of `side` x `side` pixels: pathmix's mean, its standard
+    // error (channels averaged, bounded as in `common::image_mean_and_error`),
+    // and the reference's mean.
+    let blocks = |side: u32| {
+        let per_row = size / side;
+        let mut out = vec![(0.0f64, 0.0f64, 0.0f64); (per_row * per_row) as usize];
+        for y in 0..size {
+            for x in 0..size {
+                let i = (y * size + x) as usize;
+                let block = &mut out[((y / side) * per_row + x / side) as usize];
+                let weight = 1.0 / (3.0 * (side * side) as f64);
+                for (c, (&sum, &sq)) in acc.sum[i].iter().zip(&sum_sq[i]).enumerate() {
+                    let m = sum / n;
+                    let variance = (sq - n * m * m).max(0.0) / (n - 1.0) / n;
+                    block.0 += m * weight;
+                    block.1 += variance * weight / (side * side) as f64;
+                    let quad = [(0, 0), (1, 0), (0, 1), (1, 1)];
+                    let r: f64 = quad
+                        .iter()
+                        .map(|&(dx, dy)| reference.get(2 * x + dx, 2 * y + dy)[c] as f64)
+                        .sum();
+                    block.2 += r / 4.0 * weight;
+                }
+            }
+        }
+        out.into_iter()
+            .map(|(m, v, r)| (m, v.sqrt(), r))
+            .collect::<Vec<_>>()
+    };
+    for (side, what) in [(size, "image mean"), (8, "8x8 block")] {
+        for (i, (mean, error, expected)) in blocks(side).into_iter().enumerate() {
+            let tolerance = 4.0 * error + 0.01 * expected;
+            assert!(
+                (mean - expected).abs() < tolerance,
+                "{what} {i}: pathmix {mean} ± {error}, Mitsuba {expected} (off by {:.2}%)",
+                100.0 * (mean / expected - 1.0)
+            );
+        }
+    }
+}
+
+/// `importance = true` puts a mesh that does not emit in the light density too:
+/// each mesh is one group, its faces weighed by area (by power, area times
+/// luminance, when it emits).
+#[test]
+fn importance_meshes_are_light_groups_weighed_by_area() {
+    // Two faces of areas 1 and 3 in the plane z = 0.
+    let obj = "v 0 0 0\nv 2 0 0\nv 0 1 0\nv 8 0 0\nv 8 1 0\nf 1 2 3\nf 2 4 5\n";
+    let text = "[camera]\nlookfrom = [0, 0, 5]\nlookat = [0, 0, 0]\nwidth = 8\nheight = 8\n\
+         [materials.white]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [materials.lamp]\ntype = \"light\"\nemit = [2, 2, 2]\n\
+         [[objects]]\ntype = \"mesh\"\nfile = \"two.obj\"\nmaterial = \"white\"\nimportance = true\n\
+         [[objects]]\ntype = \"mesh\"\nfile = \"two.obj\"\nmaterial = \"lamp\"\ntranslate = [0, 0, -1]\n";
+    let scene = scene_beside_mesh("importance", "two.obj", obj, text);
+    let data = pathmix::gpu::layout::SceneData::pack(&scene);
+    let triangle = pathmix::kinds::PRIMITIVE_KINDS
+        .iter()
+        .position(|k| k.name == "triangle")
+        .unwrap();
+    let tables = data.light_tables[triangle]
+        .as_ref()
+        .expect("triangles in the light density");
+    assert_eq!(tables.groups.len(), 2);
+    let pmf: Vec<f32> = tables.picks.iter().map(|p| p.pmf).collect();
+    assert_eq!(pmf, [0.25, 0.75, 0.25, 0.75]);
+}

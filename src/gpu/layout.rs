@@ -3,6 +3,7 @@
 
 use crate::accel::Bvh;
 use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, material_kind};
+use crate::lights::LightTables;
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
 use glam::Vec3;
@@ -172,6 +173,14 @@ pub struct SceneData {
     pub primitives: Vec<PackedArray>,
     /// Per kind: copies of the primitives in the light density.
     pub lights: Vec<PackedArray>,
+    /// Per kind: the shading normals of `primitives`, one element each, where
+    /// any of them is smooth (else empty).
+    pub normals: Vec<Vec<u8>>,
+    /// Per kind with grouped lights: each light's group and area, as `lights`.
+    pub light_members: Vec<Vec<(u32, f32)>>,
+    /// Per kind with grouped lights that has some: their groups, alias tables
+    /// and BVH (`lights`), from `lights` and `light_members`.
+    pub light_tables: Vec<Option<LightTables>>,
     /// Over `primitives`, when the kernel traverses one.
     pub bvh: Option<Bvh>,
 }
@@ -182,6 +191,9 @@ impl Default for SceneData {
             materials: Vec::new(),
             primitives: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
             lights: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
+            normals: vec![Vec::new(); PRIMITIVE_KINDS.len()],
+            light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
+            light_tables: vec![None; PRIMITIVE_KINDS.len()],
             bvh: None,
         }
     }
@@ -198,15 +210,23 @@ impl SceneData {
             ..SceneData::default()
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            let mut smooth = false;
             for primitive in (kind.pack)(scene) {
                 if !invisible(primitive.material) {
                     data.primitives[k].push(&primitive);
+                    data.normals[k].extend_from_slice(&primitive.normals);
+                    smooth |= primitive.smooth;
                 }
                 if primitive.importance && kind.light_density {
                     data.lights[k].push(&primitive);
+                    data.light_members[k].extend(primitive.light_group);
                 }
             }
+            if !smooth {
+                data.normals[k] = Vec::new();
+            }
         }
+        data.build_light_tables();
         data
     }
 
@@ -218,22 +238,38 @@ impl SceneData {
                 .iter()
                 .any(|&e| e > 0.0)
         };
+        let mut members = vec![Vec::new(); PRIMITIVE_KINDS.len()];
         let kept: Vec<PackedArray> = PRIMITIVE_KINDS
             .iter()
-            .zip(&self.lights)
-            .map(|(kind, lights)| {
+            .enumerate()
+            .map(|(k, kind)| {
+                let lights = &self.lights[k];
                 let mut kept = PackedArray::default();
                 for (i, &material) in lights.materials.iter().enumerate() {
                     if emits(material) {
                         kept.bytes
                             .extend_from_slice(lights.element(i, kind.layout.size));
                         kept.materials.push(material);
+                        members[k].extend(self.light_members[k].get(i));
                     }
                 }
                 kept
             })
             .collect();
         self.lights = kept;
+        self.light_members = members;
+        self.build_light_tables();
+    }
+
+    fn build_light_tables(&mut self) {
+        for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            let lights = &self.lights[k];
+            self.light_tables[k] = (kind.grouped_lights && !lights.is_empty()).then(|| {
+                let (groups, areas): (Vec<u32>, Vec<f32>) =
+                    self.light_members[k].iter().copied().unzip();
+                LightTables::build(k, lights, &groups, &areas, &self.materials)
+            });
+        }
     }
 
     /// Whether every float is finite (has a WGSL literal, so it can be baked).
@@ -255,6 +291,25 @@ impl SceneData {
         self.lights.iter().map(PackedArray::len).sum()
     }
 
+    /// Loop iterations of one evaluation of the light density: one per light of
+    /// a kind walked in a loop (none when `baked`: the loops are unrolled); for
+    /// grouped lights, a walk of their BVH (nodes visited plus lights tested,
+    /// a loop even when baked), counted as at most `bvh_allowance`.
+    pub fn light_density_iterations(&self, bvh_allowance: u64, baked: bool) -> u64 {
+        PRIMITIVE_KINDS
+            .iter()
+            .zip(&self.lights)
+            .zip(&self.light_tables)
+            .map(|((kind, lights), tables)| match tables {
+                Some(tables) if kind.grouped_lights => {
+                    bvh_allowance.min((tables.bvh.nodes.len() + tables.bvh.refs.len()) as u64)
+                }
+                _ if baked => 0,
+                _ => lights.len() as u64,
+            })
+            .sum()
+    }
+
     /// The material kinds referenced by geometry the kernel sees.
     pub fn material_kinds(&self) -> KindSet {
         self.primitives
@@ -268,6 +323,13 @@ impl SceneData {
     pub fn primitive_kinds(&self) -> KindSet {
         (0..PRIMITIVE_KINDS.len())
             .filter(|&k| !self.primitives[k].is_empty())
+            .collect()
+    }
+
+    /// The primitive kinds shaded with interpolated normals.
+    pub fn normal_kinds(&self) -> KindSet {
+        (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| !self.normals[k].is_empty())
             .collect()
     }
 

@@ -3,14 +3,14 @@
 //! The generated modules go through the same composer as the files in
 //! `shaders/`, so they may use `#for_each`.
 
-use super::{ArraySource, KernelConfig, SceneArray, WORKGROUP_SIZE};
+use super::{ArraySource, KernelConfig, LightTablePart, SceneArray, WORKGROUP_SIZE};
 use crate::accel;
 use crate::gpu::accumulator::{
     LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
 };
 use crate::gpu::layout::{GpuLayout, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
-use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS};
+use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS, PrimitiveKind};
 use crate::shader::element_constant;
 use std::fmt::Write;
 
@@ -102,6 +102,30 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
                 .map(|i| (layout.wgsl_value)(packed.element(i, layout.size)))
                 .collect()
         }
+        ArraySource::Normals(k) => {
+            let layout = PRIMITIVE_KINDS[k]
+                .shading_normals
+                .expect("only kinds with shading normals have them");
+            data.normals[k]
+                .chunks_exact(layout.size)
+                .map(layout.wgsl_value)
+                .collect()
+        }
+        ArraySource::LightTable(k, part) => {
+            let tables = data.light_tables[k]
+                .as_ref()
+                .expect("a kernel with grouped lights has their tables");
+            match part {
+                LightTablePart::Groups => tables.groups.iter().map(GpuLayout::wgsl_value).collect(),
+                LightTablePart::Picks => tables.picks.iter().map(GpuLayout::wgsl_value).collect(),
+                LightTablePart::BvhNodes => {
+                    tables.bvh.nodes.iter().map(GpuLayout::wgsl_value).collect()
+                }
+                LightTablePart::BvhRefs => {
+                    tables.bvh.refs.iter().map(|r| format!("{r}u")).collect()
+                }
+            }
+        }
         ArraySource::BvhNodes | ArraySource::BvhRefs => unreachable!("a baked scene has no BVH"),
     };
     let n = values.len();
@@ -137,8 +161,9 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
 }
 
 /// The closest hit keeps only each kind's `NAME_hit_keep` of the closest
-/// primitive, and computes the normal from it once at the end. The primitives
-/// are walked by `#for_each`, or reached through the BVH.
+/// primitive (and its index, for kinds with shading normals), and computes the
+/// normals from it once at the end. The primitives are walked by `#for_each`,
+/// or reached through the BVH.
 fn closest_hit(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.primitive_kinds.iter().collect();
     out.push_str("fn intersect_scene(ray: Ray) -> Hit {\n    var hit = no_hit();\n");
@@ -147,6 +172,9 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         return;
     }
     out.push_str("    var hit_keep = vec4<f32>(0.0);\n");
+    if !config.normal_kinds.is_empty() {
+        out.push_str("    var hit_index = 0u;\n");
+    }
     let several = kinds.len() > 1;
     if several {
         out.push_str("    var hit_kind = 0xffffffffu;\n");
@@ -154,11 +182,14 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
     // The test of `primitive`, a kind-`k` element in scope.
     let test = |k: usize, indent: &str| {
         let name = PRIMITIVE_KINDS[k].name;
-        let tag = if several {
+        let mut tag = if several {
             format!("{indent}    hit_kind = {k}u;\n")
         } else {
             String::new()
         };
+        if config.normal_kinds.contains(k) {
+            writeln!(tag, "{indent}    hit_index = primitive_index;").unwrap();
+        }
         format!(
             "{indent}let t = {name}_hit_t(primitive, ray, hit.t);
 {indent}if t > 0.0 {{
@@ -183,22 +214,27 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         }
     }
     out.push_str("    hit.p = ray.origin + hit.t * ray.dir;\n");
+    // Both normals of the closest hit of kind `k`.
+    let normals = |k: usize| {
+        let name = PRIMITIVE_KINDS[k].name;
+        let shading = if config.normal_kinds.contains(k) {
+            format!("{name}_shading_normal(hit_index, hit.p, hit.normal)")
+        } else {
+            "hit.normal".to_string()
+        };
+        format!("hit.normal = {name}_hit_normal(hit_keep, hit.p); hit.shading_normal = {shading};")
+    };
     if several {
         out.push_str("    switch hit_kind {\n");
         for &k in &kinds {
-            let name = PRIMITIVE_KINDS[k].name;
-            writeln!(
-                out,
-                "        case {k}u: {{ hit.normal = {name}_hit_normal(hit_keep, hit.p); }}"
-            )
-            .unwrap();
+            writeln!(out, "        case {k}u: {{ {} }}", normals(k)).unwrap();
         }
         out.push_str("        default: {}\n    }\n");
     } else {
-        let name = PRIMITIVE_KINDS[kinds[0]].name;
         writeln!(
             out,
-            "    if hit.t < F32_MAX {{\n        hit.normal = {name}_hit_normal(hit_keep, hit.p);\n    }}"
+            "    if hit.t < F32_MAX {{\n        {}\n    }}",
+            normals(kinds[0])
         )
         .unwrap();
     }
@@ -246,7 +282,7 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
         let array = PRIMITIVE_KINDS[k].array;
         writeln!(
             out,
-            "                    case {k}u: {{\n                        let primitive = {array}_at(index);\n{}                    }}",
+            "                    case {k}u: {{\n                        let primitive_index = index;\n                        let primitive = {array}_at(index);\n{}                    }}",
             test(k, "                        ")
         )
         .unwrap();
@@ -267,13 +303,25 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
 }
 
 /// The light density p_light: the average of the solid-angle densities of every
-/// object in it (emitters, and objects marked for importance). Choosing one
-/// object uniformly and sampling it draws from exactly this density.
+/// object in it (emitters, and objects marked for importance), where a group of
+/// a grouped kind (a mesh) is one object whose density is its members', each
+/// weighted by its probability within the group. Choosing one object uniformly
+/// and sampling it draws from exactly this density.
 fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
+    let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
+    for &k in kinds.iter().filter(|&&k| grouped(k)) {
+        grouped_lights(out, PRIMITIVE_KINDS[k]);
+    }
     let counts: Vec<String> = kinds
         .iter()
-        .map(|&k| format!("{}_count()", PRIMITIVE_KINDS[k].light_array()))
+        .map(|&k| match grouped(k) {
+            true => format!(
+                "{}_count()",
+                LightTablePart::Groups.array(PRIMITIVE_KINDS[k].name)
+            ),
+            false => format!("{}_count()", PRIMITIVE_KINDS[k].light_array()),
+        })
         .collect();
     writeln!(
         out,
@@ -281,7 +329,8 @@ fn light_density(out: &mut String, config: &KernelConfig) {
         counts.join(" + ")
     )
     .unwrap();
-    // `select` (uniform in [0, 1)) picks the object, `u` the point on it.
+    // `select` (uniform in [0, 1)) picks the object, `u` the point on it; what
+    // is left of `select` picks a group's member.
     out.push_str(
         "fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {
     let count = light_count();
@@ -291,11 +340,17 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     );
     for (i, &k) in kinds.iter().enumerate() {
         let kind = PRIMITIVE_KINDS[k];
-        let call = format!(
-            "{}_light_sample({}_at(k - first), origin, u)",
-            kind.name,
-            kind.light_array()
-        );
+        let call = match grouped(k) {
+            true => format!(
+                "{}_group_sample(k - first, select * f32(count) - f32(k), origin, u)",
+                kind.light_array()
+            ),
+            false => format!(
+                "{}_light_sample({}_at(k - first), origin, u)",
+                kind.name,
+                kind.light_array()
+            ),
+        };
         if i + 1 == kinds.len() {
             writeln!(out, "    return {call};").unwrap();
         } else {
@@ -313,18 +368,83 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     );
     for &k in &kinds {
         let kind = PRIMITIVE_KINDS[k];
-        write!(
-            out,
-            "#for_each light in {}
+        if grouped(k) {
+            writeln!(
+                out,
+                "    total += {}_groups_pdf(origin, dir);",
+                kind.light_array()
+            )
+            .unwrap();
+        } else {
+            write!(
+                out,
+                "#for_each light in {}
     total += {}_light_pdf(light, origin, dir);
 #end_for
 ",
-            kind.light_array(),
-            kind.name
-        )
-        .unwrap();
+                kind.light_array(),
+                kind.name
+            )
+            .unwrap();
+        }
     }
     out.push_str("    return total / f32(light_count());\n}\n");
+}
+
+/// Sampling and density of the groups of grouped light kind `name`
+/// (`lights::LightTables`): `LIGHTS_group_sample` (LIGHTS: the kind's light
+/// array) picks a member of a group
+/// by its alias table, `LIGHTS_groups_pdf` sums over every member the ray
+/// meets (not only the first: a direction's density counts every point that
+/// could have been sampled along it) through the lights' own BVH, each member's
+/// density weighted by its probability within its group.
+fn grouped_lights(out: &mut String, kind: &PrimitiveKind) {
+    let (name, lights) = (kind.name, kind.light_array());
+    let groups = LightTablePart::Groups.array(name);
+    let picks = LightTablePart::Picks.array(name);
+    let nodes = LightTablePart::BvhNodes.array(name);
+    let refs = LightTablePart::BvhRefs.array(name);
+    write!(
+        out,
+        "fn {lights}_group_sample(group_index: u32, choice: f32, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {{
+    let group = {groups}_at(group_index);
+    let scaled = choice * f32(group.count);
+    let slot = min(u32(scaled), group.count - 1u);
+    let pick = {picks}_at(group.first + slot);
+    let member = select(pick.other, slot, scaled - f32(slot) < pick.threshold);
+    return {name}_light_sample({lights}_at(group.first + member), origin, u);
+}}
+fn {lights}_groups_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {{
+    var total = 0.0;
+    let inv_dir = 1.0 / dir;
+    var stack: array<u32, BVH_STACK>;
+    var depth = 0u;
+    var node_index = 0u;
+    loop {{
+        let node = {nodes}_at(node_index);
+        if bvh_box_t(node, origin, inv_dir, F32_MAX) < F32_MAX {{
+            if node.count == 0u {{
+                stack[depth] = node.first;
+                depth += 1u;
+                node_index += 1u;
+                continue;
+            }}
+            for (var r = node.first; r < node.first + node.count; r += 1u) {{
+                let index = {refs}_at(r) & BVH_REF_INDEX_MASK;
+                total += {picks}_at(index).pmf * {name}_light_pdf({lights}_at(index), origin, dir);
+            }}
+        }}
+        if depth == 0u {{
+            break;
+        }}
+        depth -= 1u;
+        node_index = stack[depth];
+    }}
+    return total;
+}}
+"
+    )
+    .unwrap();
 }
 
 /// The BSDF interface's dispatch by material kind (materials.wgsl), over the
@@ -344,9 +464,13 @@ pub fn bsdf(config: &KernelConfig) -> String {
         .copied()
         .filter(|&k| MATERIAL_KINDS[k].lobe == Lobe::Smooth)
         .collect();
+    // With shading normals, each entry point of the interface passes through
+    // the leak check of materials.wgsl (`shading_`: the material's own answer).
+    let shading = !config.normal_kinds.is_empty();
+    let prefix = if shading { "shading_" } else { "" };
     dispatch(
         &mut out,
-        "bsdf_sample",
+        &format!("{prefix}bsdf_sample"),
         "sample",
         "wo: vec3<f32>",
         "wo",
@@ -354,6 +478,14 @@ pub fn bsdf(config: &KernelConfig) -> String {
         &scattering,
         Some("bsdf_absorbed()"),
     );
+    if shading {
+        out.push_str(
+            "fn bsdf_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
+    return bsdf_sample_checked(frame, shading_bsdf_sample(m, frame, wo));
+}
+",
+        );
+    }
     if !config.samples_lights() {
         return out;
     }
@@ -374,7 +506,7 @@ pub fn bsdf(config: &KernelConfig) -> String {
     let wi = "wo: vec3<f32>, wi: vec3<f32>";
     dispatch(
         &mut out,
-        "bsdf_eval",
+        &format!("{prefix}bsdf_eval"),
         "eval",
         wi,
         "wo, wi",
@@ -387,7 +519,7 @@ pub fn bsdf(config: &KernelConfig) -> String {
     );
     dispatch(
         &mut out,
-        "smooth_bsdf_sample",
+        &format!("{prefix}smooth_bsdf_sample"),
         "sample",
         "wo: vec3<f32>",
         "wo",
@@ -395,6 +527,17 @@ pub fn bsdf(config: &KernelConfig) -> String {
         &smooth,
         None,
     );
+    if shading {
+        out.push_str(
+            "fn bsdf_eval(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    return select(shading_bsdf_eval(m, frame, wo, wi), vec3<f32>(0.0), bsdf_leaks(frame, wi));
+}
+fn smooth_bsdf_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
+    return bsdf_sample_checked(frame, shading_smooth_bsdf_sample(m, frame, wo));
+}
+",
+        );
+    }
     out
 }
 

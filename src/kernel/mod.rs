@@ -8,6 +8,7 @@ mod glue;
 use crate::accel::BvhNode;
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS};
+use crate::lights::{LightGroup, LightPick};
 use crate::scene::{RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
@@ -16,6 +17,7 @@ pub const COMMON: ShaderModule = shader_module!("common");
 pub const RNG: ShaderModule = shader_module!("rng");
 pub const SAMPLING: ShaderModule = shader_module!("sampling");
 pub const BVH: ShaderModule = shader_module!("bvh");
+pub const LIGHT_GROUPS: ShaderModule = shader_module!("light_groups");
 pub const MATERIALS: ShaderModule = shader_module!("materials");
 pub const STRATEGY: ShaderModule = shader_module!("strategy");
 pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture");
@@ -31,13 +33,15 @@ const FEATURE_FLAGS: &[&str] = &[
     "VARIANCE",
     "SAMPLER_SOBOL",
     "BVH",
+    "SHADING_NORMALS",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
 pub fn known_flags() -> Vec<String> {
-    let primitives = PRIMITIVE_KINDS
-        .iter()
-        .flat_map(|kind| [kind.flag(), kind.light_flag()]);
+    let primitives = PRIMITIVE_KINDS.iter().flat_map(|kind| {
+        let normals = kind.shading_normals.is_some().then(|| kind.normals_flag());
+        [kind.flag(), kind.light_flag()].into_iter().chain(normals)
+    });
     let materials = MATERIAL_KINDS.iter().map(|kind| kind.flag());
     FEATURE_FLAGS
         .iter()
@@ -102,8 +106,50 @@ pub enum ArraySource {
     Primitives(usize),
     /// The primitives of kind `k` in the light density.
     Lights(usize),
+    /// The shading normals of the primitives of kind `k`.
+    Normals(usize),
+    /// The light tables (`lights::LightTables`) of grouped light kind `k`.
+    LightTable(usize, LightTablePart),
     BvhNodes,
     BvhRefs,
+}
+
+/// One of the arrays of `lights::LightTables`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightTablePart {
+    Groups,
+    Picks,
+    BvhNodes,
+    BvhRefs,
+}
+
+impl LightTablePart {
+    const ALL: [LightTablePart; 4] = [
+        LightTablePart::Groups,
+        LightTablePart::Picks,
+        LightTablePart::BvhNodes,
+        LightTablePart::BvhRefs,
+    ];
+
+    /// Its array for kind `name`: `light_triangle_groups`, ...
+    fn array(self, name: &str) -> String {
+        let part = match self {
+            LightTablePart::Groups => "groups",
+            LightTablePart::Picks => "picks",
+            LightTablePart::BvhNodes => "nodes",
+            LightTablePart::BvhRefs => "refs",
+        };
+        format!("light_{name}_{part}")
+    }
+
+    fn layout(self) -> (&'static str, usize) {
+        match self {
+            LightTablePart::Groups => (LightGroup::WGSL_NAME, size_of::<LightGroup>()),
+            LightTablePart::Picks => (LightPick::WGSL_NAME, size_of::<LightPick>()),
+            LightTablePart::BvhNodes => (BvhNode::WGSL_NAME, size_of::<BvhNode>()),
+            LightTablePart::BvhRefs => ("u32", size_of::<u32>()),
+        }
+    }
 }
 
 /// One array of the scene the kernel declares.
@@ -128,6 +174,10 @@ pub struct KernelConfig {
     /// Primitive kinds in the light density; empty: no light sampling compiled in
     /// (no smooth material, the `bsdf` strategy, or nothing to aim at).
     pub light_kinds: KindSet,
+    /// Primitive kinds shaded with interpolated normals (smooth meshes); empty:
+    /// every surface shades with its geometric normal, and no code for the
+    /// shading normals' problems is compiled in.
+    pub normal_kinds: KindSet,
     /// Material kinds, by index into `MATERIAL_KINDS`.
     pub material_kinds: KindSet,
     pub strategy: Strategy,
@@ -170,6 +220,7 @@ impl KernelConfig {
             } else {
                 KindSet::default()
             },
+            normal_kinds: data.normal_kinds(),
             material_kinds,
             strategy,
             max_depth: settings.max_depth,
@@ -199,6 +250,9 @@ impl KernelConfig {
         let all_primitives = KindSet::all(PRIMITIVE_KINDS.len());
         KernelConfig {
             primitive_kinds: all_primitives,
+            normal_kinds: (0..PRIMITIVE_KINDS.len())
+                .filter(|&k| PRIMITIVE_KINDS[k].shading_normals.is_some())
+                .collect(),
             light_kinds: if strategy == Strategy::Bsdf {
                 KindSet::default()
             } else {
@@ -229,6 +283,13 @@ impl KernelConfig {
         !self.light_kinds.is_empty()
     }
 
+    /// The kinds in the light density whose lights come in groups.
+    pub fn grouped_light_kinds(&self) -> impl Iterator<Item = usize> {
+        self.light_kinds
+            .iter()
+            .filter(|&k| PRIMITIVE_KINDS[k].grouped_lights)
+    }
+
     pub fn flags(&self) -> BTreeSet<String> {
         let mut flags = BTreeSet::new();
         for k in self.primitive_kinds.iter() {
@@ -236,6 +297,9 @@ impl KernelConfig {
         }
         for k in self.light_kinds.iter() {
             flags.insert(PRIMITIVE_KINDS[k].light_flag());
+        }
+        for k in self.normal_kinds.iter() {
+            flags.insert(PRIMITIVE_KINDS[k].normals_flag());
         }
         for k in self.material_kinds.iter() {
             flags.insert(MATERIAL_KINDS[k].flag());
@@ -248,6 +312,7 @@ impl KernelConfig {
             ("VARIANCE", self.variance),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh),
+            ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
         ];
         for (flag, on) in features {
             if on {
@@ -273,8 +338,13 @@ impl KernelConfig {
         let geometry = self.primitive_kinds.iter().chain(self.light_kinds.iter());
         let geometry: KindSet = geometry.collect();
         modules.extend(geometry.iter().map(|k| PRIMITIVE_KINDS[k].module.clone()));
-        if self.bvh {
+        let grouped_lights = self.grouped_light_kinds().next().is_some();
+        // The light groups' density walks a BVH of its own.
+        if self.bvh || grouped_lights {
             modules.push(BVH);
+        }
+        if grouped_lights {
+            modules.push(LIGHT_GROUPS);
         }
         modules.push(generated("scene", glue::scene(self)));
         modules.push(MATERIALS);
@@ -329,10 +399,38 @@ impl KernelConfig {
                 wgsl_type: kind.layout.wgsl_name,
                 element_size: kind.layout.size,
                 binding: 1 + k as u32,
-                // The BVH's leaves look primitives up by index.
-                indexed: self.bvh,
+                // The BVH's leaves, and the shading normal at the closest hit,
+                // look primitives up by index.
+                indexed: self.bvh || self.normal_kinds.contains(k),
                 source: ArraySource::Primitives(k),
             });
+        }
+        for k in self.normal_kinds.iter() {
+            let kind = PRIMITIVE_KINDS[k];
+            let layout = kind
+                .shading_normals
+                .expect("only kinds with shading normals have them");
+            arrays.push(SceneArray {
+                name: kind.normals_array(),
+                wgsl_type: layout.wgsl_name,
+                element_size: layout.size,
+                binding: 3 + 2 * count + k as u32,
+                indexed: true,
+                source: ArraySource::Normals(k),
+            });
+        }
+        for k in self.grouped_light_kinds() {
+            for (j, part) in LightTablePart::ALL.into_iter().enumerate() {
+                let (wgsl_type, element_size) = part.layout();
+                arrays.push(SceneArray {
+                    name: part.array(PRIMITIVE_KINDS[k].name),
+                    wgsl_type,
+                    element_size,
+                    binding: 3 + 3 * count + 4 * k as u32 + j as u32,
+                    indexed: true,
+                    source: ArraySource::LightTable(k, part),
+                });
+            }
         }
         for k in self.light_kinds.iter() {
             let kind = PRIMITIVE_KINDS[k];
@@ -373,6 +471,10 @@ impl KernelConfig {
                 ArraySource::Materials => data.materials.len(),
                 ArraySource::Primitives(k) => data.primitives[k].len(),
                 ArraySource::Lights(k) => data.lights[k].len(),
+                ArraySource::Normals(k) => data.primitives[k].len(),
+                ArraySource::LightTable(..) => {
+                    data.array_bytes(array.source).len() / array.element_size
+                }
                 ArraySource::BvhNodes | ArraySource::BvhRefs => {
                     unreachable!("a baked scene has no BVH")
                 }
@@ -411,6 +513,18 @@ impl SceneData {
             ArraySource::Materials => bytemuck::cast_slice(&self.materials),
             ArraySource::Primitives(k) => &self.primitives[k].bytes,
             ArraySource::Lights(k) => &self.lights[k].bytes,
+            ArraySource::Normals(k) => &self.normals[k],
+            ArraySource::LightTable(k, part) => {
+                let tables = self.light_tables[k]
+                    .as_ref()
+                    .expect("a kernel with grouped lights has their tables");
+                match part {
+                    LightTablePart::Groups => bytemuck::cast_slice(&tables.groups),
+                    LightTablePart::Picks => bytemuck::cast_slice(&tables.picks),
+                    LightTablePart::BvhNodes => bytemuck::cast_slice(&tables.bvh.nodes),
+                    LightTablePart::BvhRefs => bytemuck::cast_slice(&tables.bvh.refs),
+                }
+            }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
             ArraySource::BvhRefs => bytemuck::cast_slice(&self.bvh_part().refs),
         }
@@ -466,11 +580,19 @@ mod tests {
                         (true, true) => KindSet::all(primitives),
                         (true, false) => primitive_kinds,
                     };
+                    let variance = mask >> (primitives + materials) & 1 != 0;
+                    // Smooth shading goes with variance (two independent features
+                    // on one bit, to keep the variants few).
+                    let normal_kinds = primitive_kinds
+                        .iter()
+                        .filter(|&k| variance && general.normal_kinds.contains(k))
+                        .collect();
                     configs.push(KernelConfig {
                         primitive_kinds,
                         light_kinds,
+                        normal_kinds,
                         material_kinds,
-                        variance: mask >> (primitives + materials) & 1 != 0,
+                        variance,
                         bvh: mask >> (primitives + materials + 1) != 0,
                         ..general.clone()
                     });
@@ -637,6 +759,7 @@ mod tests {
         let config = KernelConfig {
             primitive_kinds: KindSet::default(),
             light_kinds: KindSet::default(),
+            normal_kinds: KindSet::default(),
             baked_scene: Some(data.clone()),
             ..KernelConfig::general(Strategy::Bsdf, AccumulatorKind::Buffer)
         };
@@ -658,6 +781,7 @@ mod tests {
         let config = KernelConfig {
             primitive_kinds: KindSet::default().with(kind_index("quad")),
             light_kinds: KindSet::default().with(kind_index("quad")),
+            normal_kinds: KindSet::default(),
             material_kinds: KindSet::default()
                 .with(kind_index("lambertian"))
                 .with(kind_index("light")),
@@ -670,6 +794,8 @@ mod tests {
             "metal_sample",
             "light_spheres",
             "hit_kind",
+            "shading_normal(",
+            "bsdf_leaks",
         ] {
             assert!(!source.contains(absent), "{absent} compiled in");
         }
@@ -819,8 +945,13 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<Params>());
         check_layout(&module, ErasedLayout::of::<Counters>());
         check_layout(&module, ErasedLayout::of::<Material>());
+        check_layout(&module, ErasedLayout::of::<crate::lights::LightGroup>());
+        check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
+            if let Some(normals) = kind.shading_normals {
+                check_layout(&module, normals);
+            }
         }
     }
 }

@@ -16,7 +16,7 @@ mod triangle;
 pub use material::{Lobe, MATERIAL_KINDS, MaterialKind, material_kind};
 pub use quad::Quad;
 pub use sphere::Sphere;
-pub use triangle::Triangle;
+pub use triangle::{Triangle, TriangleNormals};
 
 use crate::gpu::layout::GpuLayout;
 use crate::scene::Scene;
@@ -38,7 +38,12 @@ pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[&quad::QUAD, &sphere::SPHERE, &
 /// - with `light_density`, `fn NAME_light_sample(p: S, origin: vec3<f32>, u:
 ///   vec2<f32>) -> vec3<f32>` (a direction toward the primitive) and `fn
 ///   NAME_light_pdf(p: S, origin: vec3<f32>, dir: vec3<f32>) -> f32` (its
-///   solid-angle density).
+///   solid-angle density);
+/// - with `shading_normals`, under the flag `NAME_NORMALS` (`TRIANGLE_NORMALS`),
+///   `fn NAME_shading_normal(index: u32, p: vec3<f32>, normal: vec3<f32>) ->
+///   vec3<f32>`: the shading normal at `p` on primitive `index`, on the side of
+///   the geometric `normal`, from the array `NAME_normals` (one element per
+///   primitive). Kinds without it shade with the geometric normal.
 ///
 /// The WGSL struct's first `u32` field named `material` indexes the materials.
 pub struct PrimitiveKind {
@@ -58,6 +63,15 @@ pub struct PrimitiveKind {
     pub never_hit: fn() -> Vec<u8>,
     /// The axis-aligned box around one packed element (for the BVH).
     pub bounds: fn(&[u8]) -> (glam::Vec3, glam::Vec3),
+    /// The packed per-primitive shading normals (`PackedPrimitive::normals`),
+    /// for kinds that can be shaded smooth; the array and its code exist only in
+    /// kernels of scenes with such a primitive.
+    pub shading_normals: Option<ErasedLayout>,
+    /// Its lights come in groups (a mesh's faces), each group one object of the
+    /// light density, a member picked by power (`lights::LightTables`). The
+    /// module then defines `fn NAME_light_sample` and `NAME_light_pdf` per
+    /// primitive, and the generated light density walks the groups.
+    pub grouped_lights: bool,
 }
 
 impl PrimitiveKind {
@@ -74,6 +88,15 @@ impl PrimitiveKind {
     pub fn light_flag(&self) -> String {
         self.light_array().to_uppercase()
     }
+
+    /// The shading normals' array of this kind (`triangle_normals`).
+    pub fn normals_array(&self) -> String {
+        format!("{}_normals", self.name)
+    }
+
+    pub fn normals_flag(&self) -> String {
+        self.normals_array().to_uppercase()
+    }
 }
 
 /// One packed primitive and what the host needs to know of it.
@@ -85,6 +108,14 @@ pub struct PackedPrimitive {
     pub material: u32,
     /// In the light density.
     pub importance: bool,
+    /// Its packed shading normals, for kinds with `PrimitiveKind::shading_normals`
+    /// (a flat primitive's are its face normal, for scenes that mix flat and smooth).
+    pub normals: Vec<u8>,
+    /// Shaded with interpolated normals: the scene needs the kind's normals array.
+    pub smooth: bool,
+    /// For kinds with `PrimitiveKind::grouped_lights`: its group (the object it
+    /// belongs to) and its area, for picking it by power (`lights`).
+    pub light_group: Option<(u32, f32)>,
 }
 
 impl PackedPrimitive {
@@ -93,6 +124,9 @@ impl PackedPrimitive {
             bytes: bytemuck::bytes_of(value).to_vec(),
             material,
             importance,
+            normals: Vec::new(),
+            smooth: false,
+            light_group: None,
         }
     }
 }

@@ -33,6 +33,8 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
             .fold(glam::Vec3::NEG_INFINITY, |m, &c| m.max(c));
         (min, max)
     },
+    shading_normals: None,
+    grouped_lights: false,
 };
 
 gpu_struct! {

@@ -39,6 +39,8 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
         let center = glam::Vec3::from(sphere.center);
         (center - sphere.radius, center + sphere.radius)
     },
+    shading_normals: None,
+    grouped_lights: false,
 };
 
 gpu_struct! {

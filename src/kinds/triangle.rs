@@ -1,9 +1,10 @@
 //! Triangles: the faces of meshes.
 
 use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
-use crate::gpu::layout::gpu_struct;
+use crate::gpu::layout::{WgslValue, gpu_struct};
 use crate::scene::Scene;
 use crate::shader::shader_module;
+use glam::Vec3;
 
 pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     name: "triangle",
@@ -15,52 +16,151 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
         scene
             .triangles
             .iter()
-            .map(|t| PackedPrimitive::new(&Triangle::new(t), t.material, t.importance))
+            .map(|t| PackedPrimitive {
+                normals: bytemuck::bytes_of(&TriangleNormals::new(t)).to_vec(),
+                smooth: t.normals.is_some(),
+                light_group: Some((t.mesh, t.area())),
+                ..PackedPrimitive::new(&Triangle::new(t), t.material, t.importance)
+            })
             .collect()
     },
     never_hit: || {
-        let nan = [f32::NAN; 3];
+        let nan = Point([f32::NAN; 3]);
         let never = Triangle {
             p0: nan,
             p1: nan,
             p2: nan,
-            normal: nan,
             ..Triangle::default()
         };
         bytemuck::bytes_of(&never).to_vec()
     },
     bounds: |bytes| {
         let t: Triangle = bytemuck::pod_read_unaligned(bytes);
-        let [a, b, c] = [t.p0, t.p1, t.p2].map(glam::Vec3::from);
+        let [a, b, c] = [t.p0, t.p1, t.p2].map(|p| Vec3::from(p.0));
         (a.min(b).min(c), a.max(b).max(c))
     },
+    shading_normals: Some(ErasedLayout::of::<TriangleNormals>()),
+    grouped_lights: true,
 };
 
+/// A point as WGSL's `array<f32, 3>`: 4-byte aligned where a `vec3<f32>` takes
+/// 16, so a triangle packs into 40 bytes instead of 48 (device memory per
+/// triangle, with the BVH, stays under 96 bytes).
+#[repr(transparent)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Point(pub [f32; 3]);
+
+impl WgslValue for Point {
+    fn wgsl_value(&self) -> String {
+        let [x, y, z] = self.0.map(|c| c.wgsl_value());
+        format!("array<f32, 3>({x}, {y}, {z})")
+    }
+
+    fn is_finite(&self) -> bool {
+        self.0.is_finite()
+    }
+}
+
 gpu_struct! {
+    /// The vertices only: the face normal and area are computed where needed
+    /// (at the closest hit, in the light density), which costs less than the
+    /// memory traffic of storing them.
     pub struct Triangle {
-        pub p0: [f32; 3],
+        pub p0: Point,
+        pub p1: Point,
+        pub p2: Point,
         pub material: u32,
-        pub p1: [f32; 3],
-        pub area: f32,
-        pub p2: [f32; 3],
-        pub _pad0: u32,
-        pub normal: [f32; 3],
-        pub _pad1: u32,
     }
 }
 
 impl Triangle {
     pub fn new(triangle: &crate::scene::Triangle) -> Triangle {
-        let [p0, p1, p2] = triangle.vertices;
-        let n = (p1 - p0).cross(p2 - p0);
+        let [p0, p1, p2] = triangle.vertices.map(|p| Point(p.to_array()));
         Triangle {
-            p0: p0.to_array(),
+            p0,
+            p1,
+            p2,
             material: triangle.material,
-            p1: p1.to_array(),
-            area: 0.5 * n.length(),
-            p2: p2.to_array(),
-            normal: n.normalize().to_array(),
-            ..Triangle::default()
         }
+    }
+}
+
+gpu_struct! {
+    /// A smooth triangle's vertex normals, octahedral-encoded (`oct_encode`).
+    pub struct TriangleNormals {
+        pub n0: u32,
+        pub n1: u32,
+        pub n2: u32,
+    }
+}
+
+impl TriangleNormals {
+    /// The vertex normals of `triangle`, or its face normal at every vertex if it
+    /// is flat; a zero normal (a vertex of degenerate faces only, or one the file
+    /// gives as zero) becomes the face normal.
+    fn new(triangle: &crate::scene::Triangle) -> TriangleNormals {
+        let [a, b, c] = triangle.vertices;
+        let face = (b - a).cross(c - a).normalize();
+        let normals = triangle.normals.unwrap_or([face; 3]);
+        let [n0, n1, n2] = normals.map(|n| oct_encode(if n == Vec3::ZERO { face } else { n }));
+        TriangleNormals { n0, n1, n2 }
+    }
+}
+
+/// A unit vector in 32 bits: the octahedral map (Cigolle et al. 2014) with two
+/// signed 16-bit components, as WGSL's `unpack2x16snorm` reads them (x in the
+/// low half). Worst-case error about 0.005 degrees.
+pub fn oct_encode(n: Vec3) -> u32 {
+    let n = n / (n.x.abs() + n.y.abs() + n.z.abs());
+    let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+    let (x, y) = if n.z >= 0.0 {
+        (n.x, n.y)
+    } else {
+        ((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
+    };
+    let snorm = |v: f32| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16 as u16 as u32;
+    snorm(x) | snorm(y) << 16
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The inverse of [`oct_encode`], as `triangle.wgsl` decodes.
+    fn oct_decode(bits: u32) -> Vec3 {
+        let unorm = |v: u32| (v as u16 as i16 as f32 / 32767.0).max(-1.0);
+        let (x, y) = (unorm(bits & 0xffff), unorm(bits >> 16));
+        let z = 1.0 - x.abs() - y.abs();
+        let t = (-z).max(0.0);
+        let shift = |v: f32| if v >= 0.0 { v - t } else { v + t };
+        Vec3::new(shift(x), shift(y), z).normalize()
+    }
+
+    #[test]
+    fn octahedral_normals_round_trip_within_a_hundredth_of_a_degree() {
+        let mut worst: f32 = 0.0;
+        let mut directions = vec![
+            Vec3::X,
+            Vec3::NEG_X,
+            Vec3::Y,
+            Vec3::NEG_Y,
+            Vec3::Z,
+            Vec3::NEG_Z,
+        ];
+        // A Fibonacci sphere covers both hemispheres and every octant.
+        let n = 20_000;
+        for i in 0..n {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let phi = i as f32 * 2.399_963;
+            let r = (1.0 - z * z).sqrt();
+            directions.push(Vec3::new(r * phi.cos(), r * phi.sin(), z));
+        }
+        for d in directions {
+            let back = oct_decode(oct_encode(d));
+            // atan2 of sine and cosine keeps small angles exact, where acos does not.
+            let angle = d.cross(back).length().atan2(d.dot(back));
+            worst = worst.max(angle.to_degrees());
+        }
+        assert!(worst < 0.01, "worst error {worst} degrees");
     }
 }

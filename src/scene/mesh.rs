@@ -22,6 +22,22 @@ pub struct Mesh {
     pub normals: Option<Vec<glam::Vec3>>,
     /// Per-vertex texture coordinates, where the file has them.
     pub uvs: Option<Vec<glam::Vec2>>,
+    /// glTF: the file's materials that its triangles use, in order of first use.
+    pub materials: Vec<MeshMaterial>,
+    /// glTF: each triangle's index into `materials`, or `None` for a primitive
+    /// without a material (empty for OBJ and PLY, whose materials are not read).
+    pub triangle_materials: Vec<Option<usize>>,
+}
+
+/// A glTF metallic-roughness material, as far as pathmix can render it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshMaterial {
+    /// Its name in the file, or `material N` (its index).
+    pub name: String,
+    /// `baseColorFactor` (RGB; the alpha and any texture are not read).
+    pub base_color: Vec3,
+    /// `emissiveFactor` times `KHR_materials_emissive_strength`.
+    pub emission: Vec3,
 }
 
 /// The extensions [`load_mesh`] reads, for the message that names them.
@@ -151,6 +167,30 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
     Ok(mesh)
 }
 
+/// Smooth vertex normals for a mesh without its own: each face's unit normal
+/// added to its vertices weighted by the face's angle there (Thürrner and
+/// Wüthrich 1998, as Mitsuba does), so the result does not depend on how a
+/// surface is split into triangles. Unit length, or zero at a vertex of only
+/// degenerate faces.
+pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut sums = vec![glam::DVec3::ZERO; positions.len()];
+    for triangle in triangles {
+        let p = triangle.map(|i| positions[i as usize].as_dvec3());
+        let face = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+        for corner in 0..3 {
+            let to_next = p[(corner + 1) % 3] - p[corner];
+            let to_previous = p[(corner + 2) % 3] - p[corner];
+            let angle = to_next.angle_between(to_previous);
+            if angle.is_finite() {
+                sums[triangle[corner] as usize] += angle * face;
+            }
+        }
+    }
+    sums.iter()
+        .map(|n| n.normalize_or_zero().as_vec3())
+        .collect()
+}
+
 /// The triangles (0,i,i+1) of a polygon.
 fn fan(face: &[u32]) -> impl Iterator<Item = [u32; 3]> + '_ {
     (1..face.len().saturating_sub(1)).map(move |i| [face[0], face[i], face[i + 1]])
@@ -205,6 +245,8 @@ fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
         triangles: Vec::new(),
         normals: Some(Vec::new()),
         uvs: Some(Vec::new()),
+        materials: Vec::new(),
+        triangle_materials: Vec::new(),
     };
     for tobj::Model { mesh: m, .. } in models {
         // Indices fit u32: tobj numbers its vertices with u32.
@@ -355,6 +397,8 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
         triangles: Vec::new(),
         normals: normal_names.then(Vec::new),
         uvs: uv_names.map(|_| Vec::new()),
+        materials: Vec::new(),
+        triangle_materials: Vec::new(),
     };
 
     // ASCII elements are one a line, from the line after `end_header`.
@@ -547,7 +591,11 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
         triangles: Vec::new(),
         normals: Some(Vec::new()),
         uvs: Some(Vec::new()),
+        materials: Vec::new(),
+        triangle_materials: Vec::new(),
     };
+    // The file's material index of each of `mesh.materials`.
+    let mut material_indices: Vec<usize> = Vec::new();
     // A file without a default scene shows its first, as viewers do.
     let Some(scene) = gltf.default_scene().or_else(|| gltf.scenes().next()) else {
         return Ok(mesh);
@@ -571,12 +619,42 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
                     mesh: m.index(),
                     primitive: primitive.index(),
                 };
+                let triangles_before = mesh.triangles.len();
                 add_primitive(path, &mut mesh, &primitive, &buffers, transform, at)?;
+                let material = primitive.material();
+                let used = material.index().map(|index| {
+                    material_indices
+                        .iter()
+                        .position(|&i| i == index)
+                        .unwrap_or_else(|| {
+                            material_indices.push(index);
+                            mesh.materials.push(mesh_material(&material, index));
+                            mesh.materials.len() - 1
+                        })
+                });
+                let added = mesh.triangles.len() - triangles_before;
+                mesh.triangle_materials
+                    .extend(std::iter::repeat_n(used, added));
             }
         }
         stack.extend(node.children().map(|child| (child, transform)));
     }
+    if mesh.materials.is_empty() {
+        mesh.triangle_materials.clear();
+    }
     Ok(mesh)
+}
+
+fn mesh_material(material: &gltf::Material, index: usize) -> MeshMaterial {
+    let [r, g, b, _] = material.pbr_metallic_roughness().base_color_factor();
+    let strength = material.emissive_strength().unwrap_or(1.0);
+    MeshMaterial {
+        name: material
+            .name()
+            .map_or_else(|| format!("material {index}"), str::to_string),
+        base_color: Vec3::new(r, g, b),
+        emission: Vec3::from(material.emissive_factor()) * strength,
+    }
 }
 
 /// Appends one glTF primitive to `mesh`, transformed into the scene's coordinates.

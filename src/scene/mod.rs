@@ -172,8 +172,20 @@ pub struct Sphere {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Triangle {
     pub vertices: [Vec3; 3],
+    /// Unit shading normals at the vertices, interpolated across the face (a
+    /// smooth mesh); `None`: shaded with the face normal.
+    pub normals: Option<[Vec3; 3]>,
     pub material: u32,
     pub importance: bool,
+    /// The index of the mesh object it belongs to: its group in the light density.
+    pub mesh: u32,
+}
+
+impl Triangle {
+    pub fn area(&self) -> f32 {
+        let [a, b, c] = self.vertices;
+        0.5 * (b - a).cross(c - a).length()
+    }
 }
 
 /// A validated scene: world-space primitives after box expansion and transforms.
@@ -190,6 +202,9 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     /// Mesh faces dropped for having no area.
     pub degenerate_triangles: usize,
+    /// What the user should know about how the file was read (glTF materials
+    /// mapped to pathmix's).
+    pub warnings: Vec<String>,
 }
 
 /// A problem with a scene file: which file, where in it, and what is wrong.

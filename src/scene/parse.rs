@@ -68,18 +68,25 @@
 //!   expanded into six outward-facing quads exactly like the book's `box()`.
 //! - `"mesh"`: `file` (string, required): a triangle mesh, `.obj` (Wavefront, polygons
 //!   fanned into triangles), `.ply` (ASCII or binary) or `.gltf`/`.glb` (every mesh of the
-//!   default scene, with its node transforms; its materials are not read, `material`
-//!   applies to all), relative to the scene file. The
+//!   default scene, with its node transforms), relative to the scene file. The
 //!   face normal `normalize((v1 - v0) x (v2 - v0))` faces the side the vertices wind
-//!   counter-clockwise around, and shading is flat (face normals) for now; normals and
-//!   texture coordinates in the file are read but not used yet. Faces with no area are
-//!   dropped and counted (`pathmix info`). A mesh whose material emits is a light: every
-//!   face is in the light density. An unreadable or malformed file is an error naming
-//!   the object (`objects[4].file`), the mesh file and, where the reader knows it, the
-//!   line or element.
+//!   counter-clockwise around. `smooth` (bool, default true): shade with vertex normals
+//!   interpolated across each face, the file's where it has them, else the angle-weighted
+//!   average of the normals of the faces around each vertex (as Mitsuba does); `smooth =
+//!   false` shades with the face normals. Texture coordinates are read but not used yet.
+//!   Faces with no area are dropped and counted (`pathmix info`). A mesh whose material
+//!   emits is a light: one object of the light density, its faces picked by power. A
+//!   glTF file's materials apply where the object has no `material`: each becomes a
+//!   Lambertian material with the base colour (`baseColorFactor`), emitting the emission
+//!   (`emissiveFactor` times `KHR_materials_emissive_strength`), with a warning that
+//!   textures, metalness and roughness are not read; `material` overrides them, and is
+//!   required where a face has no glTF material. An unreadable or malformed file is an
+//!   error naming the object (`objects[4].file`), the mesh file and, where the reader
+//!   knows it, the line or element.
 //!
 //! Keys common to every object:
-//! - `material` (string, required): the `NAME` of a `[materials.NAME]` table.
+//! - `material` (string, required except for a glTF mesh with its own materials): the
+//!   `NAME` of a `[materials.NAME]` table.
 //! - `scale` (float, or vector for a per-axis scale, default 1): applied first. A
 //!   sphere takes only a uniform scale.
 //! - `rotate_y` (float, degrees, default 0): rotation about the y axis through the
@@ -102,7 +109,7 @@ use std::fmt::{Display, LowerExp};
 use glam::{DMat3, DVec3, Vec3};
 use toml::{Table, Value};
 
-use super::mesh::load_mesh;
+use super::mesh::{load_mesh, vertex_normals};
 use super::{
     Camera, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene, SceneError, Sphere,
     Strategy, Triangle,
@@ -198,8 +205,9 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         Some(t) => parse_render(&t)?,
         None => default_render(),
     };
-    let materials = parse_materials(&top)?;
+    let mut materials = parse_materials(&top)?;
     let objects = parse_objects(&top, &materials)?;
+    materials.extend(objects.extra_materials);
 
     let scene = Scene {
         source: file.to_string(),
@@ -210,6 +218,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         spheres: objects.spheres,
         triangles: objects.triangles,
         degenerate_triangles: objects.degenerate_triangles,
+        warnings: objects.warnings,
     };
     if scale == 1.0 {
         return Ok(scene);
@@ -463,6 +472,9 @@ struct Objects {
     spheres: Vec<Sphere>,
     triangles: Vec<Triangle>,
     degenerate_triangles: usize,
+    /// Materials taken from mesh files, after the scene's own.
+    extra_materials: Vec<Material>,
+    warnings: Vec<String>,
 }
 
 fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
@@ -472,6 +484,8 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
         spheres,
         triangles,
         degenerate_triangles,
+        extra_materials,
+        warnings,
     } = &mut objects;
     let Some(value) = top.table.get("objects") else {
         return Ok(objects);
@@ -509,7 +523,7 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
             "sphere" => (&["center", "radius"], "a sphere"),
             "quad" => (&["q", "u", "v"], "a quad"),
             "box" => (&["min", "max"], "a box"),
-            "mesh" => (&["file"], "a mesh"),
+            "mesh" => (&["file", "smooth"], "a mesh"),
             other => {
                 return Err(t.err(
                     t.at("type"),
@@ -525,19 +539,33 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
             .collect();
         t.check_keys(&known, Some(what))?;
 
-        let name = t.require("material", t.string("material")?)?;
-        let Some(material) = materials.iter().position(|m| m.name == name) else {
-            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
-            let message = if names.is_empty() {
-                format!("unknown material `{name}` (no `[materials.NAME]` tables are defined)")
-            } else {
-                unknown_name("material", name, &names)
-            };
-            return Err(t.err(t.at("material"), message));
+        // A mesh may take its materials from its file (glTF) instead.
+        let name = match t.string("material")? {
+            None if ty == "mesh" => None,
+            name => Some(t.require("material", name)?),
         };
-        let importance = t.boolean("importance")?.unwrap_or(false) || materials[material].emits();
+        let chosen = match name {
+            None => None,
+            Some(name) => match materials.iter().position(|m| m.name == name) {
+                Some(material) => Some(material),
+                None => {
+                    let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+                    let message = if names.is_empty() {
+                        format!(
+                            "unknown material `{name}` (no `[materials.NAME]` tables are defined)"
+                        )
+                    } else {
+                        unknown_name("material", name, &names)
+                    };
+                    return Err(t.err(t.at("material"), message));
+                }
+            },
+        };
+        let marked = t.boolean("importance")?.unwrap_or(false);
+        let importance = marked || chosen.is_some_and(|m| materials[m].emits());
         let xf = Transform::parse(&t)?;
-        let material = material as u32;
+        // Only a mesh has no `material`; it resolves its faces' below.
+        let material = chosen.unwrap_or_default() as u32;
 
         match ty {
             "sphere" => {
@@ -583,24 +611,59 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                     .parent()
                     .unwrap_or(Path::new(""))
                     .join(name);
+                let smooth = t.boolean("smooth")?.unwrap_or(true);
                 let mesh = load_mesh(&path).map_err(|e| t.err(t.at("file"), e.to_string()))?;
                 let world: Vec<Vec3> = mesh
                     .positions
                     .iter()
                     .map(|p| xf.point(p.as_dvec3()))
                     .collect();
-                for &[a, b, c] in &mesh.triangles {
-                    // A mirroring transform reverses the winding; keep the face's side.
-                    let (b, c) = if xf.mirrors() { (c, b) } else { (b, c) };
-                    let vertices = [a, b, c].map(|i| world[i as usize]);
+                // A mirroring transform reverses the winding; keep the face's side.
+                let faces: Vec<[u32; 3]> = mesh
+                    .triangles
+                    .iter()
+                    .map(|&[a, b, c]| if xf.mirrors() { [a, c, b] } else { [a, b, c] })
+                    .collect();
+                let normals = smooth.then(|| match &mesh.normals {
+                    Some(normals) => normals.iter().map(|&n| xf.normal(n)).collect(),
+                    None => vertex_normals(&world, &faces),
+                });
+                // Each face's material and whether it is in the light density.
+                let face_materials: Vec<(u32, bool)> = match chosen {
+                    Some(_) => vec![(material, importance); faces.len()],
+                    None => {
+                        let base = (materials.len() + extra_materials.len()) as u32;
+                        let mapped = file_materials(&t, &mesh, base)?;
+                        warnings.push(format!(
+                            "{}: {}: materials from {} mapped to the nearest pathmix has: \
+                             lambertian with the base colour, emitting the emission \
+                             (textures, metalness, roughness and transmission are not read); \
+                             `material` overrides them",
+                            t.file,
+                            t.at("file"),
+                            path.display()
+                        ));
+                        let faces = mesh.triangle_materials.iter().map(|&m| {
+                            let m = m.expect("file_materials checked every face has one");
+                            (base + m as u32, marked || mapped[m].emits())
+                        });
+                        let faces = faces.collect();
+                        extra_materials.extend(mapped);
+                        faces
+                    }
+                };
+                for (face, (material, importance)) in faces.into_iter().zip(face_materials) {
+                    let vertices = face.map(|i| world[i as usize]);
                     if triangle_is_degenerate(vertices) {
                         *degenerate_triangles += 1;
                         continue;
                     }
                     triangles.push(Triangle {
                         vertices,
+                        normals: normals.as_ref().map(|n| face.map(|i| n[i as usize])),
                         material,
                         importance,
+                        mesh: i as u32,
                     });
                 }
             }
@@ -639,6 +702,44 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
         }
     }
     Ok(objects)
+}
+
+/// The scene materials nearest to a mesh file's own (glTF), named after the
+/// object and the file's names, numbered from `base` in the scene; an error
+/// where a face has none (it needs the object's `material`) or a colour is
+/// out of range.
+fn file_materials(t: &Tab, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Material>> {
+    let missing = || {
+        t.err(
+            t.here(),
+            "missing required key `material` (the mesh file gives not every face a material)",
+        )
+    };
+    if mesh.triangle_materials.is_empty() || mesh.triangle_materials.iter().any(Option::is_none) {
+        return Err(missing());
+    }
+    mesh.materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let in_range = |c: Vec3, max: f32| c.is_finite() && c.min_element() >= 0.0 && c.max_element() <= max;
+            if !in_range(m.base_color, 1.0) || !in_range(m.emission, f32::MAX) {
+                return Err(t.err(
+                    t.at("file"),
+                    format!(
+                        "material `{}` of the mesh file: base colour {} must be in [0, 1] and emission {} finite and >= 0",
+                        m.name, m.base_color, m.emission
+                    ),
+                ));
+            }
+            Ok(Material {
+                name: format!("{}.file:{} (scene material {})", t.path, m.name, base as usize + i),
+                kind: MaterialKind::Lambertian,
+                albedo: m.base_color,
+                emit: m.emission,
+            })
+        })
+        .collect()
 }
 
 /// A face with no usable area in 32-bit floats (collinear or coincident
@@ -800,6 +901,14 @@ impl Transform {
     /// Whether the transform mirrors (turns counter-clockwise windings clockwise).
     fn mirrors(&self) -> bool {
         self.linear.determinant() < 0.0
+    }
+
+    /// A surface normal carried to world space (by the inverse transpose, so it
+    /// stays perpendicular under a non-uniform scale), unit length; zero where
+    /// the file's normal is zero or not finite.
+    fn normal(&self, n: Vec3) -> Vec3 {
+        let world = self.linear.inverse().transpose() * n.as_dvec3();
+        world.normalize_or_zero().as_vec3()
     }
 }
 
