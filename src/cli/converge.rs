@@ -15,8 +15,11 @@ const DEFAULT_SIDE: u32 = 128;
 
 #[derive(Args, Debug)]
 pub struct ConvergeArgs {
-    /// Scene file (TOML; see docs/scene-format.md).
+    /// Scene file (TOML, see docs/scene-format.md, or Mitsuba 3 XML).
     pub scene: PathBuf,
+    /// Set the Mitsuba scene's `$NAME` parameter, as `mitsuba -D` (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<pathmix::scene::mitsuba::Define>,
     /// Output folder (created if missing): converge.md, converge.csv, converge.png and
     /// the cached reference.
     #[arg(long, value_name = "DIR", default_value = "converge-out")]
@@ -96,9 +99,13 @@ fn failure(e: ConvergeError) -> Failure {
 }
 
 pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
-    let scene_bytes = std::fs::read(&args.scene)
+    let mut scene_bytes = std::fs::read(&args.scene)
         .map_err(|e| Failure::input(format!("{}: {e}", args.scene.display())))?;
-    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
+    // The parameters change the scene, so they key the cached reference too.
+    for d in &args.define {
+        scene_bytes.extend(format!("\0-D {}={}", d.name, d.value).bytes());
+    }
+    let mut scene = super::load_scene(&args.scene, &args.define)?;
     let (mut width, mut height) = (args.width, args.height);
     let mut size_note = "";
     if let (Some(path), None, None) = (&args.reference, width, height) {
