@@ -899,16 +899,16 @@ impl<'a> Builder<'a> {
                     self.background = Some(radiance);
                     Ok(())
                 }
-                other => Err(e.origin.error(format!(
-                    "emitter `{other}`: not supported (supported: area, constant; envmap and \
+                _ => Err(e.origin.error(format!(
+                    "not supported (supported: area, constant; envmap and \
                      point wait for pathmix's environment maps and delta lights)"
                 ))),
             },
             "texture" => Err(e
                 .origin
                 .error("textures (bitmap, checkerboard) are not supported yet")),
-            other => Err(e.origin.error(format!(
-                "<{other}>: not supported at the top level (supported: {SUPPORTED_TOP})"
+            _ => Err(e.origin.error(format!(
+                "not supported at the top level (supported: {SUPPORTED_TOP})"
             ))),
         }
     }
@@ -1174,10 +1174,10 @@ impl<'a> Builder<'a> {
                 object.insert("radius".into(), Value::Float(radius * scale));
                 push(self, object);
             }
-            other => {
-                return Err(e.origin.error(format!(
-                    "shape `{other}`: not supported (supported: {SUPPORTED_SHAPES})"
-                )));
+            _ => {
+                return Err(e
+                    .origin
+                    .error(format!("not supported (supported: {SUPPORTED_SHAPES})")));
             }
         }
         Ok(())
