@@ -7,6 +7,7 @@ use pathmix::converge::{
     self, ConvergeError, Event, ReferenceChoice, ReferenceSource, Study, Variant,
 };
 use pathmix::gpu::GpuContext;
+use pathmix::scene::mitsuba::{self, Converted};
 use pathmix::scene::{Scene, SceneOverrides};
 use std::path::PathBuf;
 
@@ -101,9 +102,13 @@ fn failure(e: ConvergeError) -> Failure {
 pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
     let mut scene_bytes = std::fs::read(&args.scene)
         .map_err(|e| Failure::input(format!("{}: {e}", args.scene.display())))?;
-    // The parameters change the scene, so they key the cached reference too.
-    for d in &args.define {
-        scene_bytes.extend(format!("\0-D {}={}", d.name, d.value).bytes());
+    // A Mitsuba scene is keyed by the document it means: its includes and `-D`
+    // parameters change the scene as much as its own text does.
+    if mitsuba::is_mitsuba(&args.scene, &String::from_utf8_lossy(&scene_bytes)) {
+        let converted = Converted::read(&args.scene, &args.define).map_err(Failure::input)?;
+        scene_bytes = toml::to_string(&converted.document)
+            .expect("a TOML table serializes")
+            .into_bytes();
     }
     let mut scene = super::load_scene(&args.scene, &args.define)?;
     let (mut width, mut height) = (args.width, args.height);

@@ -6,7 +6,7 @@
 //! The subset: `<default>`, `$name` and `-D name=value`, `<include>`, `<path>`,
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
-//! `flip_normals`, `face_normals` and an area emitter; BSDFs through [`surface`];
+//! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
 //! `constant` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
 //! `gaussian` filter and a sampler; the `path` and `direct` integrators. Anything
 //! else is an error naming `file:line:col` and the element; an approximation is a
@@ -111,7 +111,8 @@ pub struct Converted {
     pub warnings: Vec<String>,
     /// The element each object (`objects[i]`) and material came from, for messages.
     origins: Vec<(String, Origin)>,
-    sensor: Option<Origin>,
+    /// The `<sensor>`, for errors in `[camera]` and `[render]`.
+    sensor: Origin,
 }
 
 impl Converted {
@@ -155,7 +156,7 @@ impl Converted {
             })
             .map(|(_, origin)| origin)
             .or(match error.location.split('.').next() {
-                Some("camera" | "render") => self.sensor.as_ref(),
+                Some("camera" | "render") => Some(&self.sensor),
                 _ => None,
             });
         match origin {
@@ -881,8 +882,9 @@ impl<'a> Builder<'a> {
                 Ok(())
             }
             "shape" => self.shape(e),
-            // Definitions, used through <ref>; checked here so errors show even if unused.
-            "bsdf" => self.surface(e, false).map(drop),
+            // Definitions, used through <ref>; checked here so errors show even if
+            // unused (as twosided: a one-sided use warns where a shape makes it).
+            "bsdf" => self.surface(e, true).map(drop),
             "emitter" => match e.ty() {
                 "area" if e.attr("id").is_some() => self.radiance(e).map(drop),
                 "area" => Err(e
@@ -899,10 +901,10 @@ impl<'a> Builder<'a> {
                     self.background = Some(radiance);
                     Ok(())
                 }
-                _ => Err(e.origin.error(format!(
-                    "not supported (supported: area, constant; envmap and \
-                     point wait for pathmix's environment maps and delta lights)"
-                ))),
+                _ => Err(e.origin.error(
+                    "not supported (supported: area, constant; envmap and point wait for \
+                     pathmix's environment maps and delta lights)",
+                )),
             },
             "texture" => Err(e
                 .origin
@@ -1210,7 +1212,7 @@ impl<'a> Builder<'a> {
             document,
             warnings: self.warnings,
             origins: self.origins,
-            sensor: Some(sensor.origin.clone()),
+            sensor: sensor.origin.clone(),
         })
     }
 
@@ -1763,6 +1765,19 @@ mod tests {
         let (_, c) = read(
             "twosided",
             r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>"#,
+            &[],
+        )
+        .unwrap();
+        assert!(
+            c.warnings.iter().all(|w| !w.contains("diffuse")),
+            "{:?}",
+            c.warnings
+        );
+        // A diffuse defined at the top level and used only inside a twosided: exact too.
+        let (_, c) = read(
+            "twosided-ref",
+            r#"<bsdf type="diffuse" id="d"/>
+               <shape type="rectangle"><bsdf type="twosided"><ref id="d"/></bsdf></shape>"#,
             &[],
         )
         .unwrap();

@@ -118,13 +118,6 @@ pub enum Filter {
 impl Filter {
     /// Mitsuba's default Gaussian: standard deviation 0.5 pixels.
     pub const GAUSSIAN_DEFAULT_STDDEV: f32 = 0.5;
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Filter::Box => "box",
-            Filter::Gaussian { .. } => "gaussian",
-        }
-    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
