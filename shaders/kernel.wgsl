@@ -44,13 +44,82 @@ fn all_finite(v: vec3<f32>) -> bool {
     return all(exponent != vec3<u32>(0x7f800000u));
 }
 
-// A camera ray through a uniformly jittered point of the pixel (box filter).
-fn camera_ray(pixel: vec2<u32>) -> Ray {
+// A camera ray and the weight its sample carries (filter importance sampling:
+// the offset from the pixel centre is drawn from the pixel filter).
+struct CameraRay {
+    ray: Ray,
+    weight: f32,
+}
+
+#if FILTER_GAUSSIAN
+// Terms computed on the host (`GaussianFilterTerms` in src/kernel/mod.rs).
+override FILTER_STDDEV: f32;
+override FILTER_RADIUS: f32;
+override FILTER_ERF_RADIUS: f32;
+override FILTER_FLOOR: f32;
+override FILTER_WEIGHT_SCALE: f32;
+
+// The inverse error function in single precision (Giles 2010, "Approximating the
+// erfinv function"): relative error below 4e-7 on (-1, 1).
+fn erfinv(x: f32) -> f32 {
+    var w = -log((1.0 - x) * (1.0 + x));
+    var p: f32;
+    if w < 5.0 {
+        w = w - 2.5;
+        p = 2.81022636e-08;
+        p = 3.43273939e-07 + p * w;
+        p = -3.5233877e-06 + p * w;
+        p = -4.39150654e-06 + p * w;
+        p = 0.00021858087 + p * w;
+        p = -0.00125372503 + p * w;
+        p = -0.00417768164 + p * w;
+        p = 0.246640727 + p * w;
+        p = 1.50140941 + p * w;
+    } else {
+        w = sqrt(w) - 3.0;
+        p = -0.000200214257;
+        p = 0.000100950558 + p * w;
+        p = 0.00134934322 + p * w;
+        p = -0.00367342844 + p * w;
+        p = 0.00573950773 + p * w;
+        p = -0.0076224613 + p * w;
+        p = 0.00943887047 + p * w;
+        p = 1.00167406 + p * w;
+        p = 2.83297682 + p * w;
+    }
+    return p * x;
+}
+
+// Offsets (in pixels) drawn from the Gaussian truncated to [-r, r] by inverting its
+// CDF per axis, and the weight f/g * Z_g/Z_f that makes the estimate the one of the
+// filter f = g - g(r) (mean weight 1).
+fn gaussian_filter_offset(u: vec2<f32>) -> vec3<f32> {
+    let x = clamp(
+        FILTER_STDDEV * 1.41421356 * vec2<f32>(erfinv((2.0 * u.x - 1.0) * FILTER_ERF_RADIUS), erfinv((2.0 * u.y - 1.0) * FILTER_ERF_RADIUS)),
+        vec2<f32>(-FILTER_RADIUS),
+        vec2<f32>(FILTER_RADIUS),
+    );
+    let g = exp(-0.5 * (x / FILTER_STDDEV) * (x / FILTER_STDDEV));
+    let weight = max(g - FILTER_FLOOR, vec2<f32>(0.0)) / g * FILTER_WEIGHT_SCALE;
+    return vec3<f32>(x, weight.x * weight.y);
+}
+#endif
+
+fn camera_ray(pixel: vec2<u32>) -> CameraRay {
+#if FILTER_GAUSSIAN
+    let offset = gaussian_filter_offset(sample_2d());
+    let to_film = params.to_pixel00
+        + (f32(pixel.x) + offset.x) * params.delta_u
+        + (f32(pixel.y) + offset.y) * params.delta_v;
+    return CameraRay(Ray(params.origin, normalize(to_film)), offset.z);
+#else
+    // Box filter: a uniformly jittered point of the pixel.
     let jitter = sample_2d();
     let to_film = params.to_pixel00
         + (f32(pixel.x) + jitter.x - 0.5) * params.delta_u
         + (f32(pixel.y) + jitter.y - 0.5) * params.delta_v;
-    return Ray(params.origin, normalize(to_film));
+    return CameraRay(Ray(params.origin, normalize(to_film)), 1.0);
+#endif
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE_X, WORKGROUP_SIZE_Y, 1)
@@ -70,8 +139,9 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     var samples_done = 0u;
     var segments = 0u;
     sampler_begin(pixel_index, params.sample_start);
-    var ray = camera_ray(pixel);
-    var throughput = vec3<f32>(1.0);
+    let camera = camera_ray(pixel);
+    var ray = camera.ray;
+    var throughput = vec3<f32>(camera.weight);
     var radiance = vec3<f32>(0.0);
     var depth = 0u;
 #if STRATEGY_NEE
@@ -164,8 +234,9 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
                 break;
             }
             sampler_begin(pixel_index, params.sample_start + samples_done);
-            ray = camera_ray(pixel);
-            throughput = vec3<f32>(1.0);
+            let camera = camera_ray(pixel);
+            ray = camera.ray;
+            throughput = vec3<f32>(camera.weight);
             radiance = vec3<f32>(0.0);
             depth = 0u;
 #if STRATEGY_NEE

@@ -16,7 +16,7 @@
 
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
-use crate::scene::{Camera, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
+use crate::scene::{Camera, Filter, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
 use std::fmt;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -66,7 +66,7 @@ impl Fnv64 {
 /// path and the sample count (`spp`), which only says when to stop.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneIdentity {
-    /// Position, direction, up, field of view and image size.
+    /// Position, direction, up, field of view, image size and filter.
     pub camera_hash: u64,
     /// Every material, each whole (name, kind with its parameters, colours).
     pub materials_hash: u64,
@@ -113,6 +113,7 @@ impl SceneIdentity {
             vfov_degrees,
             width,
             height,
+            filter,
         } = camera;
         let RenderSettings {
             // Only says when to stop: a resume or a shard may ask for more.
@@ -126,7 +127,11 @@ impl SceneIdentity {
             sampler,
         } = render;
         SceneIdentity {
-            camera_hash: debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height)),
+            // The box filter hashes as before filters existed, so older checkpoints resume.
+            camera_hash: match filter {
+                Filter::Box => debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height)),
+                _ => debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height, filter)),
+            },
             materials_hash: debug_hash(materials),
             geometry_hash: debug_hash(&(quads, spheres, triangles)),
             settings_hash: debug_hash(&(
@@ -179,7 +184,8 @@ impl SceneIdentity {
                 ));
             } else {
                 out.push(
-                    "the camera differs (position, direction, up vector or field of view)".into(),
+                    "the camera differs (position, direction, up vector, field of view or filter)"
+                        .into(),
                 );
             }
         }

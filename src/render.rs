@@ -570,6 +570,7 @@ pub fn plan_kernel(
         &data,
         strategy,
         settings,
+        scene.camera.filter,
         accumulator_kind,
         options.variance,
         scene_storage,

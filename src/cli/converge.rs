@@ -7,6 +7,7 @@ use pathmix::converge::{
     self, ConvergeError, Event, ReferenceChoice, ReferenceSource, Study, Variant,
 };
 use pathmix::gpu::GpuContext;
+use pathmix::scene::mitsuba::{self, Converted};
 use pathmix::scene::{Scene, SceneOverrides};
 use std::path::PathBuf;
 
@@ -15,8 +16,11 @@ const DEFAULT_SIDE: u32 = 128;
 
 #[derive(Args, Debug)]
 pub struct ConvergeArgs {
-    /// Scene file (TOML; see docs/scene-format.md).
+    /// Scene file (TOML, see docs/scene-format.md, or Mitsuba 3 XML).
     pub scene: PathBuf,
+    /// Set the Mitsuba scene's `$NAME` parameter, as `mitsuba -D` (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<pathmix::scene::mitsuba::Define>,
     /// Output folder (created if missing): converge.md, converge.csv, converge.png and
     /// the cached reference.
     #[arg(long, value_name = "DIR", default_value = "converge-out")]
@@ -96,9 +100,17 @@ fn failure(e: ConvergeError) -> Failure {
 }
 
 pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
-    let scene_bytes = std::fs::read(&args.scene)
+    let mut scene_bytes = std::fs::read(&args.scene)
         .map_err(|e| Failure::input(format!("{}: {e}", args.scene.display())))?;
-    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
+    // A Mitsuba scene is keyed by the document it means: its includes and `-D`
+    // parameters change the scene as much as its own text does.
+    if mitsuba::is_mitsuba(&args.scene, &String::from_utf8_lossy(&scene_bytes)) {
+        let converted = Converted::read(&args.scene, &args.define).map_err(Failure::input)?;
+        scene_bytes = toml::to_string(&converted.document)
+            .expect("a TOML table serializes")
+            .into_bytes();
+    }
+    let mut scene = super::load_scene(&args.scene, &args.define)?;
     let (mut width, mut height) = (args.width, args.height);
     let mut size_note = "";
     if let (Some(path), None, None) = (&args.reference, width, height) {

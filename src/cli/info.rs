@@ -8,13 +8,16 @@ use pathmix::gpu::layout::PackedArray;
 use pathmix::kernel::SceneStorage;
 use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
 use pathmix::render::{KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel};
-use pathmix::scene::{Scene, Strategy};
+use pathmix::scene::Strategy;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
-    /// Scene file (TOML).
+    /// Scene file (TOML, or Mitsuba 3 XML).
     pub scene: PathBuf,
+    /// Set the Mitsuba scene's `$NAME` parameter, as `mitsuba -D` (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<pathmix::scene::mitsuba::Define>,
     /// Show the kernel for this strategy [scene: render.strategy].
     #[arg(long, value_enum)]
     pub strategy: Option<StrategyArg>,
@@ -27,7 +30,7 @@ pub struct InfoArgs {
 }
 
 pub fn info(args: InfoArgs) -> Result<(), Failure> {
-    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
+    let mut scene = super::load_scene(&args.scene, &args.define)?;
     let strategy = args.strategy.map_or(scene.render.strategy, Strategy::from);
     scene.render.strategy = strategy;
     let (width, height) = (scene.camera.width, scene.camera.height);

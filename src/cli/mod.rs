@@ -3,6 +3,7 @@
 mod bench;
 mod compare;
 mod converge;
+mod convert;
 mod info;
 mod merge;
 mod progress;
@@ -10,6 +11,9 @@ mod render;
 mod signals;
 
 use clap::{Parser, Subcommand};
+use pathmix::scene::Scene;
+use pathmix::scene::mitsuba::Define;
+use std::path::Path;
 use std::time::Instant;
 
 #[derive(Parser, Debug)]
@@ -41,6 +45,8 @@ enum Command {
     Converge(converge::ConvergeArgs),
     /// Check that two linear EXR images agree within a relative tolerance (exit 1 if not).
     Compare(compare::CompareArgs),
+    /// Write a Mitsuba 3 XML scene as the pathmix TOML scene it renders as.
+    Convert(convert::ConvertArgs),
 }
 
 /// A failed command: what to tell the user, and the exit code.
@@ -75,5 +81,24 @@ pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
         Command::Bench(args) => bench::bench(args),
         Command::Converge(args) => converge::converge(args),
         Command::Compare(args) => compare::compare(args),
+        Command::Convert(args) => convert::convert(args),
+    }
+}
+
+/// Reads a scene file (TOML or Mitsuba XML with its `-D` parameters), warning once
+/// about what was approximated.
+pub fn load_scene(path: &Path, defines: &[Define]) -> Result<Scene, Failure> {
+    let loaded = Scene::load_with(path, defines).map_err(Failure::input)?;
+    print_approximations(path, &loaded.warnings);
+    Ok(loaded.scene)
+}
+
+fn print_approximations(path: &Path, warnings: &[String]) {
+    if !warnings.is_empty() {
+        eprintln!(
+            "pathmix: warning: {}: approximated: {}",
+            path.display(),
+            warnings.join("; ")
+        );
     }
 }

@@ -22,10 +22,14 @@ const DEFAULT_CHECKPOINT_EVERY: Duration = Duration::from_secs(60);
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (TOML; see docs/scene-format.md). With --resume it may be left
+    /// Scene file (TOML, see docs/scene-format.md, or Mitsuba 3 XML). With --resume it may be left
     /// out: the checkpoint's recorded scene file is read (give it when the file moved).
     #[arg(required_unless_present = "resume")]
     pub scene: Option<PathBuf>,
+    /// Set the Mitsuba scene's `$NAME` parameter, as `mitsuba -D` (repeatable; give
+    /// the same ones again with --resume).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<pathmix::scene::mitsuba::Define>,
     /// Output image: 8-bit sRGB PNG (linear radiance clamped to [0, 1], then the sRGB
     /// curve). Default: out.png, except with --partial (no PNG unless asked) and
     /// with --resume (the checkpoint's recorded outputs).
@@ -307,7 +311,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         ));
     }
     check_collisions(args, &scene_path, &outputs, checkpoint.as_deref())?;
-    let mut scene = Scene::load(&scene_path).map_err(Failure::input)?;
+    let mut scene = super::load_scene(&scene_path, &args.define)?;
     scene
         .apply_overrides(&SceneOverrides {
             spp: args.spp,

@@ -9,7 +9,7 @@ use crate::accel::BvhNode;
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS};
 use crate::lights::{LightGroup, LightPick};
-use crate::scene::{RenderSettings, Sampler, Strategy};
+use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -34,6 +34,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "SAMPLER_SOBOL",
     "BVH",
     "SHADING_NORMALS",
+    "FILTER_GAUSSIAN",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -194,6 +195,8 @@ pub struct KernelConfig {
     pub baked_scene: Option<SceneData>,
     /// Closest hits through the scene's BVH (`SceneStorage::Bvh`).
     pub bvh: bool,
+    /// The pixel filter camera rays are drawn from.
+    pub filter: Filter,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -207,6 +210,7 @@ impl KernelConfig {
         data: &SceneData,
         strategy: Strategy,
         settings: &RenderSettings,
+        filter: Filter,
         accumulator: AccumulatorKind,
         variance: bool,
         scene_storage: SceneStorage,
@@ -231,6 +235,7 @@ impl KernelConfig {
             variance,
             baked_scene: (scene_storage == SceneStorage::Baked).then(|| data.clone()),
             bvh: scene_storage == SceneStorage::Bvh,
+            filter,
         }
     }
 
@@ -268,6 +273,7 @@ impl KernelConfig {
             variance: true,
             baked_scene: None,
             bvh: false,
+            filter: Filter::Box,
         }
     }
 
@@ -313,6 +319,10 @@ impl KernelConfig {
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
+            (
+                "FILTER_GAUSSIAN",
+                matches!(self.filter, Filter::Gaussian { .. }),
+            ),
         ];
         for (flag, on) in features {
             if on {
@@ -485,11 +495,22 @@ impl KernelConfig {
 
     /// Values of the WGSL `override` constants.
     pub fn constants(&self) -> Vec<(&'static str, f64)> {
-        vec![
+        let mut constants = vec![
             ("MAX_DEPTH", self.max_depth as f64),
             ("LIGHT_WEIGHT", self.light_weight as f64),
             ("RR_DEPTH", self.rr_depth.unwrap_or(u32::MAX) as f64),
-        ]
+        ];
+        if let Filter::Gaussian { stddev } = self.filter {
+            let g = GaussianFilterTerms::new(stddev.into());
+            constants.extend([
+                ("FILTER_STDDEV", g.stddev),
+                ("FILTER_RADIUS", g.radius),
+                ("FILTER_ERF_RADIUS", g.erf_radius),
+                ("FILTER_FLOOR", g.floor),
+                ("FILTER_WEIGHT_SCALE", g.weight_scale),
+            ]);
+        }
+        constants
     }
 
     /// Scene arrays read from storage buffers (group 1): none when the scene is baked.
@@ -503,6 +524,40 @@ impl KernelConfig {
     /// Running sums the accumulator holds: each sum and its compensation.
     pub fn accumulator_layers(&self) -> u32 {
         if self.variance { 4 } else { 2 }
+    }
+}
+
+/// The host-side terms of the Gaussian filter's sampling (`shaders/kernel.wgsl`).
+/// Per axis the filter is `f(x) = g(x) - g(r)` on `[-r, r]`, `g(x) = exp(-x^2 / 2s^2)`,
+/// `r = 4s`. The kernel draws `x` from the truncated Gaussian `g / Z_g` exactly, by
+/// inverting its CDF, and weights the sample by `f(x) / g(x) * Z_g / Z_f`, whose mean
+/// is 1: the estimate is `integral f L / integral f`, unbiased.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GaussianFilterTerms {
+    pub stddev: f64,
+    pub radius: f64,
+    /// `erf(r / (s sqrt 2))`: the CDF's range to invert into.
+    pub erf_radius: f64,
+    /// `g(r)`, subtracted so the filter reaches zero at its radius.
+    pub floor: f64,
+    /// `Z_g / Z_f`, with `Z_g = s sqrt(2 pi) erf(r / (s sqrt 2))` and `Z_f = Z_g - 2 r g(r)`.
+    pub weight_scale: f64,
+}
+
+impl GaussianFilterTerms {
+    pub fn new(stddev: f64) -> GaussianFilterTerms {
+        let radius = 4.0 * stddev;
+        let erf_radius = libm::erf(radius / (stddev * std::f64::consts::SQRT_2));
+        let floor = (-radius * radius / (2.0 * stddev * stddev)).exp();
+        let z_g = stddev * (2.0 * std::f64::consts::PI).sqrt() * erf_radius;
+        let z_f = z_g - 2.0 * radius * floor;
+        GaussianFilterTerms {
+            stddev,
+            radius,
+            erf_radius,
+            floor,
+            weight_scale: z_g / z_f,
+        }
     }
 }
 
@@ -633,6 +688,7 @@ mod tests {
                                 &data,
                                 strategy,
                                 &scene.render,
+                                scene.camera.filter,
                                 accumulator,
                                 variance,
                                 storage,
@@ -690,6 +746,7 @@ mod tests {
                 &data,
                 Strategy::Mixture,
                 &scene.render,
+                scene.camera.filter,
                 AccumulatorKind::Buffer,
                 false,
                 SceneStorage::Baked,
@@ -774,6 +831,46 @@ mod tests {
         let primitive = PRIMITIVE_KINDS.iter().position(|k| k.name == name);
         let material = || MATERIAL_KINDS.iter().position(|k| k.name == name);
         primitive.or_else(material).unwrap()
+    }
+
+    /// The Gaussian filter's code, with every strategy and both samplers: it
+    /// validates, declares each override constant `constants()` sets, and is absent
+    /// under the box filter.
+    #[test]
+    fn gaussian_filter_kernels_validate() {
+        for strategy in Strategy::ALL {
+            for sampler in Sampler::ALL {
+                let config = KernelConfig {
+                    filter: Filter::Gaussian { stddev: 0.5 },
+                    sampler,
+                    ..KernelConfig::general(strategy, AccumulatorKind::Buffer)
+                };
+                let module = validate(&config);
+                let overrides: Vec<&str> = module
+                    .overrides
+                    .iter()
+                    .filter_map(|(_, o)| o.name.as_deref())
+                    .collect();
+                for (name, _) in config.constants() {
+                    assert!(overrides.contains(&name), "{name} not declared");
+                }
+            }
+        }
+        let boxed = KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer);
+        assert!(!boxed.source().unwrap().contains("erfinv"));
+        assert!(boxed.constants().iter().all(|(n, _)| !n.starts_with("FILTER")));
+    }
+
+    /// The host terms against values computed independently (Mitsuba's default).
+    #[test]
+    fn gaussian_filter_terms() {
+        let g = GaussianFilterTerms::new(0.5);
+        assert_eq!(g.radius, 2.0);
+        assert!((g.erf_radius - 0.999_936_657_516_333_8).abs() < 1e-15);
+        assert!((g.floor - (-8f64).exp()).abs() < 1e-18);
+        // Z_g = 0.5 sqrt(2 pi) erf(2 sqrt 2); Z_f = Z_g - 4 exp(-8).
+        let z_g = 0.5 * (2.0 * std::f64::consts::PI).sqrt() * 0.999_936_657_516_333_8;
+        assert!((g.weight_scale - z_g / (z_g - 4.0 * (-8f64).exp())).abs() < 1e-12);
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! primitives. Knows nothing of devices or runs.
 
 pub mod mesh;
+pub mod mitsuba;
 mod parse;
 mod prune;
 
@@ -100,6 +101,24 @@ pub struct Camera {
     pub vfov_degrees: f32,
     pub width: u32,
     pub height: u32,
+    pub filter: Filter,
+}
+
+/// The pixel reconstruction filter, applied by filter importance sampling: each
+/// camera ray's offset from the pixel centre is drawn from the filter itself, so
+/// every sample stays in its own pixel (unbiased, no splatting).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Filter {
+    /// Uniform over the pixel (offsets in [-0.5, 0.5) per axis): the default.
+    Box,
+    /// Per axis `exp(-x^2 / (2 stddev^2))` minus its value at the radius `4 stddev`
+    /// (in pixels), as Mitsuba's and pbrt-v4's Gaussian filters.
+    Gaussian { stddev: f32 },
+}
+
+impl Filter {
+    /// Mitsuba's default Gaussian: standard deviation 0.5 pixels.
+    pub const GAUSSIAN_DEFAULT_STDDEV: f32 = 0.5;
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -207,6 +226,14 @@ pub struct Scene {
     pub warnings: Vec<String>,
 }
 
+/// A scene as read, with the approximations made reading it (Mitsuba scenes).
+#[derive(Clone, Debug)]
+pub struct LoadedScene {
+    pub scene: Scene,
+    /// One phrase per approximation, for a warning.
+    pub warnings: Vec<String>,
+}
+
 /// A problem with a scene file: which file, where in it, and what is wrong.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneError {
@@ -229,15 +256,43 @@ impl fmt::Display for SceneError {
 impl std::error::Error for SceneError {}
 
 impl Scene {
-    /// Reads, parses and validates a scene file.
+    /// Reads, parses and validates a scene file (TOML or Mitsuba XML).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Scene::load_with(path, &[]).map(|loaded| loaded.scene)
+    }
+
+    /// Reads a scene file: pathmix TOML, or a Mitsuba 3 XML scene (a `.xml` name or
+    /// a `<scene version=...>` root) with its `-D name=value` parameters.
+    pub fn load_with(path: &Path, defines: &[mitsuba::Define]) -> Result<LoadedScene, SceneError> {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| SceneError {
             file: file.clone(),
             location: String::new(),
             message: format!("cannot read the scene file: {e}"),
         })?;
-        Scene::parse(&text, &file)
+        if mitsuba::is_mitsuba(path, &text) {
+            let converted = mitsuba::Converted::read(path, defines)?;
+            let toml = toml::to_string(&converted.document).expect("a TOML table serializes");
+            let scene = Scene::parse(&toml, &file).map_err(|e| converted.locate(e))?;
+            return Ok(LoadedScene {
+                scene,
+                warnings: converted.warnings,
+            });
+        }
+        if let Some(define) = defines.first() {
+            return Err(SceneError {
+                file,
+                location: String::new(),
+                message: format!(
+                    "-D {}=...: parameters apply to Mitsuba XML scenes only",
+                    define.name
+                ),
+            });
+        }
+        Ok(LoadedScene {
+            scene: Scene::parse(&text, &file)?,
+            warnings: Vec::new(),
+        })
     }
 
     /// Parses and validates scene text; `file` names it in messages.

@@ -1,0 +1,1848 @@
+//! Mitsuba 3 XML scenes, read (with `roxmltree`, which keeps positions) into the
+//! pathmix TOML document they mean, which the TOML parser then validates into a
+//! [`Scene`]. `pathmix convert` writes that same document, so what a user sees is
+//! exactly what renders.
+//!
+//! The subset: `<default>`, `$name` and `-D name=value`, `<include>`, `<path>`,
+//! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
+//! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
+//! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
+//! `constant` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
+//! `gaussian` filter and a sampler; the `path` and `direct` integrators. Anything
+//! else is an error naming `file:line:col` and the element; an approximation is a
+//! warning.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use glam::{DMat4, DVec3, DVec4};
+use toml::{Table, Value};
+
+use super::SceneError;
+use super::parse::sin_cos_degrees;
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// pathmix's largest `max_depth`, for Mitsuba's unbounded `max_depth = -1`.
+const UNBOUNDED_DEPTH: i64 = 100_000;
+
+/// Mitsuba's named indices of refraction (`mitsuba/render/ior.h`).
+const NAMED_IORS: &[(&str, f64)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+const SUPPORTED_BSDFS: &str = "diffuse, dielectric, twosided; conductor, roughconductor, \
+                               roughdielectric, plastic and roughplastic wait for pathmix's \
+                               microfacet materials";
+const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, sphere";
+const SUPPORTED_TOP: &str = "default, include, path, integrator, sensor, shape, bsdf, emitter";
+
+/// A `-D name=value` parameter, as `mitsuba -D`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Define {
+    pub name: String,
+    pub value: String,
+}
+
+impl FromStr for Define {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Define, String> {
+        match s.split_once('=') {
+            Some((name, value)) if is_param_name(name) => Ok(Define {
+                name: name.to_string(),
+                value: value.to_string(),
+            }),
+            _ => Err(format!(
+                "expected NAME=VALUE with NAME of letters, digits and `_`, got `{s}`"
+            )),
+        }
+    }
+}
+
+fn is_param_name(name: &str) -> bool {
+    !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// Whether `path` holds a Mitsuba scene: a `.xml` name, or text that opens with
+/// markup (which no TOML file can).
+pub fn is_mitsuba(path: &Path, text: &str) -> bool {
+    let xml_name = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"));
+    xml_name
+        || text
+            .trim_start_matches('\u{feff}')
+            .trim_start()
+            .starts_with('<')
+}
+
+/// A Mitsuba scene as a pathmix TOML document.
+#[derive(Clone, Debug)]
+pub struct Converted {
+    /// The pathmix scene; mesh paths are absolute.
+    pub document: Table,
+    /// Each approximation made, once.
+    pub warnings: Vec<String>,
+    /// The element each object (`objects[i]`) and material came from, for messages.
+    origins: Vec<(String, Origin)>,
+    /// The `<sensor>`, for errors in `[camera]` and `[render]`.
+    sensor: Origin,
+}
+
+impl Converted {
+    /// Reads the scene at `path` with the `-D` parameters `defines`.
+    pub fn read(path: &Path, defines: &[Define]) -> Result<Converted> {
+        let top_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+        let mut reader = Reader {
+            params: defines
+                .iter()
+                .map(|d| (d.name.clone(), d.value.clone()))
+                .collect(),
+            used_params: HashSet::new(),
+            search: vec![top_dir],
+            includes: Vec::new(),
+        };
+        let elements = reader.read_file(path, None)?;
+        let mut builder = Builder::new(path, &reader.search, &elements)?;
+        for define in defines {
+            if !reader.used_params.contains(&define.name) {
+                builder.warn(format!(
+                    "-D {}: the scene has no `${}`",
+                    define.name, define.name
+                ));
+            }
+        }
+        for element in &elements {
+            builder.top_level(element)?;
+        }
+        builder.finish()
+    }
+
+    /// A parse error of the TOML document, placed at the XML element it came from.
+    pub fn locate(&self, error: SceneError) -> SceneError {
+        let origin = self
+            .origins
+            .iter()
+            .find(|(prefix, _)| {
+                error.location == *prefix
+                    || error.location.starts_with(&format!("{prefix}."))
+                    || error.location.starts_with(&format!("{prefix}["))
+            })
+            .map(|(_, origin)| origin)
+            .or(match error.location.split('.').next() {
+                Some("camera" | "render") => Some(&self.sensor),
+                _ => None,
+            });
+        match origin {
+            Some(origin) => origin.error(format!(
+                "{} (pathmix field `{}`)",
+                error.message, error.location
+            )),
+            None => error,
+        }
+    }
+
+    /// The document as TOML text, mesh paths relative to `folder` where they can be.
+    pub fn to_toml(&self, folder: &Path, source: &Path) -> String {
+        let mut document = self.document.clone();
+        if let Some(Value::Array(objects)) = document.get_mut("objects") {
+            for object in objects {
+                if let Some(Value::String(file)) = object.get_mut("file") {
+                    let absolute = Path::new(file.as_str());
+                    if let Some(relative) = pathdiff::diff_paths(absolute, folder) {
+                        *file = relative.to_string_lossy().into_owned();
+                    }
+                }
+            }
+        }
+        let mut text = format!(
+            "# Converted by pathmix {} from the Mitsuba scene {}.\n",
+            env!("CARGO_PKG_VERSION"),
+            source.display()
+        );
+        for warning in &self.warnings {
+            let _ = writeln!(text, "# approximated: {warning}");
+        }
+        text.push('\n');
+        text + &toml::to_string(&document).expect("a TOML table serializes")
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Reading: files, includes and parameters into one owned element tree
+
+/// Where an element is: file, line, column, and the element as the user wrote it.
+#[derive(Clone, Debug)]
+struct Origin {
+    file: String,
+    line: u32,
+    col: u32,
+    element: String,
+}
+
+impl Origin {
+    fn error(&self, message: impl Into<String>) -> SceneError {
+        SceneError {
+            file: format!("{}:{}:{}", self.file, self.line, self.col),
+            location: self.element.clone(),
+            message: message.into(),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+struct Elem {
+    tag: String,
+    attrs: Vec<(String, String)>,
+    children: Vec<Elem>,
+    origin: Origin,
+}
+
+impl Elem {
+    fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    fn require(&self, name: &str) -> Result<&str> {
+        self.attr(name)
+            .ok_or_else(|| self.origin.error(format!("missing attribute `{name}`")))
+    }
+
+    fn name(&self) -> Option<&str> {
+        self.attr("name")
+    }
+
+    fn ty(&self) -> &str {
+        self.attr("type").unwrap_or("")
+    }
+
+    /// Only these attributes are allowed (no silent drops).
+    fn check_attrs(&self, allowed: &[&str]) -> Result<()> {
+        match self
+            .attrs
+            .iter()
+            .find(|(n, _)| !allowed.contains(&n.as_str()))
+        {
+            Some((n, _)) => Err(self.origin.error(format!(
+                "unknown attribute `{n}` (expected {})",
+                allowed.join(", ")
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
+struct Reader {
+    params: HashMap<String, String>,
+    used_params: HashSet<String>,
+    /// Folders relative file names resolve against, latest `<path>` first.
+    search: Vec<PathBuf>,
+    /// The include chain, for cycles.
+    includes: Vec<PathBuf>,
+}
+
+impl Reader {
+    /// The top-level elements of the scene file at `path`, includes expanded in place.
+    fn read_file(&mut self, path: &Path, from: Option<&Origin>) -> Result<Vec<Elem>> {
+        let file = path.display().to_string();
+        let whole_file = |message: String| match from {
+            Some(origin) => origin.error(message),
+            None => SceneError {
+                file: file.clone(),
+                location: String::new(),
+                message,
+            },
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| whole_file(format!("cannot read `{file}`: {e}")))?;
+        let document = roxmltree::Document::parse(&text).map_err(|e| {
+            let pos = e.pos();
+            SceneError {
+                file: format!("{file}:{}:{}", pos.row, pos.col),
+                location: String::new(),
+                message: format!("malformed XML: {e}"),
+            }
+        })?;
+        let root = document.root_element();
+        let root_origin = origin_of(&file, &document, root);
+        if root.tag_name().name() != "scene" || root.attribute("version").is_none() {
+            return Err(root_origin
+                .error("not a Mitsuba scene: the root element must be <scene version=\"...\">"));
+        }
+        let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        self.includes.push(canonical);
+        let mut out = Vec::new();
+        for node in root.children() {
+            if let Some(text) = node.text().filter(|_| node.is_text()) {
+                if !text.trim().is_empty() {
+                    return Err(root_origin.error(format!("unexpected text `{}`", text.trim())));
+                }
+            }
+            if !node.is_element() {
+                continue;
+            }
+            let elem = self.element(&file, &document, node)?;
+            match elem.tag.as_str() {
+                "default" => {
+                    elem.check_attrs(&["name", "value"])?;
+                    let name = elem.require("name")?;
+                    let value = elem.require("value")?;
+                    self.params
+                        .entry(name.to_string())
+                        .or_insert_with(|| value.to_string());
+                }
+                "path" => {
+                    elem.check_attrs(&["value"])?;
+                    let folder = self
+                        .search
+                        .last()
+                        .expect("the top folder")
+                        .join(elem.require("value")?);
+                    self.search.insert(0, folder);
+                }
+                "include" => {
+                    elem.check_attrs(&["filename"])?;
+                    let name = elem.require("filename")?;
+                    let included = resolve(&self.search, name).ok_or_else(|| {
+                        elem.origin
+                            .error(format!("cannot find the included file `{name}`"))
+                    })?;
+                    let canonical = included.canonicalize().unwrap_or_else(|_| included.clone());
+                    if self.includes.contains(&canonical) {
+                        return Err(elem.origin.error(format!(
+                            "include cycle: `{}` is already being read",
+                            included.display()
+                        )));
+                    }
+                    out.extend(self.read_file(&included, Some(&elem.origin))?);
+                }
+                _ => out.push(elem),
+            }
+        }
+        self.includes.pop();
+        Ok(out)
+    }
+
+    /// An element and its children as owned values, `$name` substituted.
+    fn element(
+        &mut self,
+        file: &str,
+        document: &roxmltree::Document,
+        node: roxmltree::Node,
+    ) -> Result<Elem> {
+        let origin = origin_of(file, document, node);
+        let mut attrs = Vec::new();
+        for a in node.attributes() {
+            attrs.push((a.name().to_string(), self.substitute(a.value(), &origin)?));
+        }
+        let mut children = Vec::new();
+        for child in node.children() {
+            if child.is_text() && !child.text().unwrap_or("").trim().is_empty() {
+                return Err(origin.error("unexpected text inside the element"));
+            }
+            if child.is_element() {
+                children.push(self.element(file, document, child)?);
+            }
+        }
+        let mut origin = origin;
+        // Shown with the substituted values, as Mitsuba's own messages do.
+        origin.element = describe(node.tag_name().name(), &attrs);
+        Ok(Elem {
+            tag: node.tag_name().name().to_string(),
+            attrs,
+            children,
+            origin,
+        })
+    }
+
+    /// `value` with every `$name` replaced by its `-D` or `<default>` value.
+    fn substitute(&mut self, value: &str, origin: &Origin) -> Result<String> {
+        let mut out = String::with_capacity(value.len());
+        let mut rest = value;
+        while let Some(at) = rest.find('$') {
+            out.push_str(&rest[..at]);
+            let after = &rest[at + 1..];
+            let end = after
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            let name = &after[..end];
+            if name.is_empty() {
+                return Err(origin.error(format!("`$` without a parameter name in `{value}`")));
+            }
+            match self.params.get(name) {
+                Some(v) => out.push_str(v),
+                None => {
+                    return Err(origin.error(format!(
+                        "`${name}` has no value: give `-D {name}=VALUE` or a \
+                         <default name=\"{name}\" value=\"...\"/>"
+                    )));
+                }
+            }
+            self.used_params.insert(name.to_string());
+            rest = &after[end..];
+        }
+        out.push_str(rest);
+        Ok(out)
+    }
+}
+
+fn origin_of(file: &str, document: &roxmltree::Document, node: roxmltree::Node) -> Origin {
+    let pos = document.text_pos_at(node.range().start);
+    let attrs: Vec<(String, String)> = node
+        .attributes()
+        .map(|a| (a.name().to_string(), a.value().to_string()))
+        .collect();
+    Origin {
+        file: file.to_string(),
+        line: pos.row,
+        col: pos.col,
+        element: describe(node.tag_name().name(), &attrs),
+    }
+}
+
+/// `<shape type="obj">`: the element's tag with its `type`, `name` or `id`.
+fn describe(tag: &str, attrs: &[(String, String)]) -> String {
+    let mut s = format!("<{tag}");
+    for key in ["type", "name", "id"] {
+        if let Some((_, v)) = attrs.iter().find(|(n, _)| n == key) {
+            let _ = write!(s, " {key}=\"{v}\"");
+        }
+    }
+    s + ">"
+}
+
+/// A file name against the search folders (an absolute name as it is).
+fn resolve(search: &[PathBuf], name: &str) -> Option<PathBuf> {
+    let path = Path::new(name);
+    if path.is_absolute() {
+        return path.exists().then(|| path.to_path_buf());
+    }
+    search.iter().map(|d| d.join(path)).find(|p| p.exists())
+}
+
+// ---------------------------------------------------------------------------------
+// Properties
+
+/// An object's property and nested-object children, each of which must be used.
+struct Props<'e> {
+    elem: &'e Elem,
+    used: Vec<bool>,
+}
+
+const PROPERTY_TAGS: &[&str] = &[
+    "float",
+    "integer",
+    "boolean",
+    "string",
+    "rgb",
+    "spectrum",
+    "point",
+    "vector",
+    "transform",
+];
+
+impl<'e> Props<'e> {
+    fn new(elem: &'e Elem) -> Props<'e> {
+        Props {
+            elem,
+            used: vec![false; elem.children.len()],
+        }
+    }
+
+    /// The property child called `name`.
+    fn get(&mut self, name: &str) -> Option<&'e Elem> {
+        let i = self
+            .elem
+            .children
+            .iter()
+            .position(|c| PROPERTY_TAGS.contains(&c.tag.as_str()) && c.name() == Some(name))?;
+        self.used[i] = true;
+        Some(&self.elem.children[i])
+    }
+
+    /// The nested objects (`<bsdf>`, `<ref>`, ...) among the children.
+    fn objects(&mut self, tags: &[&str]) -> Vec<&'e Elem> {
+        let mut out = Vec::new();
+        for (i, c) in self.elem.children.iter().enumerate() {
+            if tags.contains(&c.tag.as_str()) {
+                self.used[i] = true;
+                out.push(c);
+            }
+        }
+        out
+    }
+
+    fn value(&mut self, name: &str, tag: &str) -> Result<Option<&'e Elem>> {
+        match self.get(name) {
+            Some(e) if e.tag == tag => Ok(Some(e)),
+            Some(e) => Err(e.origin.error(format!("expected <{tag} name=\"{name}\">"))),
+            None => Ok(None),
+        }
+    }
+
+    fn float(&mut self, name: &str) -> Result<Option<f64>> {
+        let Some(e) = self.get(name) else {
+            return Ok(None);
+        };
+        if !matches!(e.tag.as_str(), "float" | "integer") {
+            return Err(e.origin.error(format!("expected <float name=\"{name}\">")));
+        }
+        e.check_attrs(&["name", "value"])?;
+        number(e, e.require("value")?).map(Some)
+    }
+
+    fn integer(&mut self, name: &str) -> Result<Option<i64>> {
+        let Some(e) = self.value(name, "integer")? else {
+            return Ok(None);
+        };
+        e.check_attrs(&["name", "value"])?;
+        let v = e.require("value")?;
+        v.trim()
+            .parse()
+            .map(Some)
+            .map_err(|_| e.origin.error(format!("`value=\"{v}\"` is not an integer")))
+    }
+
+    fn boolean(&mut self, name: &str) -> Result<Option<bool>> {
+        let Some(e) = self.value(name, "boolean")? else {
+            return Ok(None);
+        };
+        e.check_attrs(&["name", "value"])?;
+        match e.require("value")?.trim() {
+            "true" => Ok(Some(true)),
+            "false" => Ok(Some(false)),
+            v => Err(e
+                .origin
+                .error(format!("`value=\"{v}\"` is not `true` or `false`"))),
+        }
+    }
+
+    fn string(&mut self, name: &str) -> Result<Option<(&'e str, &'e Elem)>> {
+        let Some(e) = self.value(name, "string")? else {
+            return Ok(None);
+        };
+        e.check_attrs(&["name", "value"])?;
+        Ok(Some((e.require("value")?, e)))
+    }
+
+    /// A colour: `<rgb>`, a uniform `<spectrum>` or a `<float>` (grey).
+    fn color(&mut self, name: &str) -> Result<Option<[f64; 3]>> {
+        if let Some(texture) = self
+            .elem
+            .children
+            .iter()
+            .find(|c| c.tag == "texture" && c.name() == Some(name))
+        {
+            return Err(texture.origin.error(
+                "textures (bitmap, checkerboard) are not supported yet: give a constant <rgb>",
+            ));
+        }
+        let Some(e) = self.get(name) else {
+            return Ok(None);
+        };
+        e.check_attrs(&["name", "value"])?;
+        let text = e.require("value")?;
+        match e.tag.as_str() {
+            "rgb" => {
+                let values = numbers(e, text)?;
+                match values[..] {
+                    [g] => Ok(Some([g; 3])),
+                    [r, g, b] => Ok(Some([r, g, b])),
+                    _ => Err(e
+                        .origin
+                        .error(format!("expected 1 or 3 numbers, got {}", values.len()))),
+                }
+            }
+            "spectrum" if text.contains(':') => Err(e.origin.error(
+                "spectra by wavelength are not supported (pathmix renders RGB): give an <rgb>",
+            )),
+            "spectrum" | "float" => Ok(Some([number(e, text)?; 3])),
+            _ => Err(e.origin.error(format!("expected <rgb name=\"{name}\">"))),
+        }
+    }
+
+    fn point(&mut self, name: &str) -> Result<Option<DVec3>> {
+        let Some(e) = self.get(name) else {
+            return Ok(None);
+        };
+        if !matches!(e.tag.as_str(), "point" | "vector") {
+            return Err(e.origin.error(format!("expected <point name=\"{name}\">")));
+        }
+        vector_of(e, 0.0).map(Some)
+    }
+
+    fn transform(&mut self, name: &str) -> Result<DMat4> {
+        match self.value(name, "transform")? {
+            Some(e) => transform(e),
+            None => Ok(DMat4::IDENTITY),
+        }
+    }
+
+    /// Errors on the first child nothing used.
+    fn finish(self) -> Result<()> {
+        match self.used.iter().position(|&u| !u) {
+            Some(i) => {
+                let child = &self.elem.children[i];
+                Err(child.origin.error(format!(
+                    "not supported in {} (pathmix would have to ignore it)",
+                    self.elem.origin.element
+                )))
+            }
+            None => Ok(()),
+        }
+    }
+}
+
+fn number(e: &Elem, text: &str) -> Result<f64> {
+    match text.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(e
+            .origin
+            .error(format!("`{}` is not a finite number", text.trim()))),
+    }
+}
+
+/// Numbers separated by commas and/or spaces.
+fn numbers(e: &Elem, text: &str) -> Result<Vec<f64>> {
+    text.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|s| !s.is_empty())
+        .map(|s| number(e, s))
+        .collect()
+}
+
+fn three(e: &Elem, text: &str) -> Result<DVec3> {
+    match numbers(e, text)?[..] {
+        [x, y, z] => Ok(DVec3::new(x, y, z)),
+        ref other => Err(e.origin.error(format!(
+            "expected 3 numbers, got {} in `{text}`",
+            other.len()
+        ))),
+    }
+}
+
+/// `value="x, y, z"` or `x=".." y=".." z=".."` (each defaulting to `default`).
+fn vector_of(e: &Elem, default: f64) -> Result<DVec3> {
+    if let Some(v) = e.attr("value") {
+        return three(e, v);
+    }
+    let axis = |name: &str| e.attr(name).map_or(Ok(default), |v| number(e, v));
+    Ok(DVec3::new(axis("x")?, axis("y")?, axis("z")?))
+}
+
+// ---------------------------------------------------------------------------------
+// Transforms
+
+/// A `<transform>`: its operations composed in Mitsuba's order, each applied after
+/// the ones before it.
+fn transform(e: &Elem) -> Result<DMat4> {
+    e.check_attrs(&["name"])?;
+    let mut m = DMat4::IDENTITY;
+    for op in &e.children {
+        let step = match op.tag.as_str() {
+            "translate" => {
+                op.check_attrs(&["x", "y", "z", "value"])?;
+                DMat4::from_translation(vector_of(op, 0.0)?)
+            }
+            "scale" => {
+                op.check_attrs(&["x", "y", "z", "value"])?;
+                let s = match op.attr("value") {
+                    Some(v) => match numbers(op, v)?[..] {
+                        [s] => DVec3::splat(s),
+                        [x, y, z] => DVec3::new(x, y, z),
+                        _ => return Err(op.origin.error("expected 1 or 3 numbers")),
+                    },
+                    None => vector_of(op, 1.0)?,
+                };
+                DMat4::from_scale(s)
+            }
+            "rotate" => {
+                op.check_attrs(&["x", "y", "z", "value", "angle"])?;
+                let axis = vector_of(op, 0.0)?;
+                let angle = number(op, op.require("angle")?)?;
+                if axis.length_squared() == 0.0 {
+                    return Err(op.origin.error("the rotation axis must not be zero"));
+                }
+                rotation(axis.normalize(), angle)
+            }
+            "matrix" => {
+                op.check_attrs(&["value"])?;
+                let v = numbers(op, op.require("value")?)?;
+                let rows: Vec<DVec4> = match v.len() {
+                    16 => v
+                        .chunks(4)
+                        .map(|r| DVec4::new(r[0], r[1], r[2], r[3]))
+                        .collect(),
+                    9 => v
+                        .chunks(3)
+                        .map(|r| DVec4::new(r[0], r[1], r[2], 0.0))
+                        .chain([DVec4::W])
+                        .collect(),
+                    n => {
+                        return Err(op
+                            .origin
+                            .error(format!("expected 9 or 16 numbers, got {n}")));
+                    }
+                };
+                if rows[3] != DVec4::W {
+                    return Err(op.origin.error(
+                        "a projective matrix is not supported: its last row must be 0, 0, 0, 1",
+                    ));
+                }
+                DMat4::from_cols(rows[0], rows[1], rows[2], rows[3]).transpose()
+            }
+            "lookat" => {
+                op.check_attrs(&["origin", "target", "up"])?;
+                let origin = three(op, op.require("origin")?)?;
+                let target = three(op, op.require("target")?)?;
+                let up = match op.attr("up") {
+                    Some(v) => three(op, v)?,
+                    None => DVec3::Y,
+                };
+                let dir = (target - origin).normalize();
+                let left = up.cross(dir);
+                if !dir.is_finite() || left.length() <= 1e-9 * up.length() {
+                    return Err(op.origin.error(
+                        "origin and target must differ, and up must not be parallel to the view",
+                    ));
+                }
+                let left = left.normalize();
+                let new_up = dir.cross(left);
+                DMat4::from_cols(
+                    left.extend(0.0),
+                    new_up.extend(0.0),
+                    dir.extend(0.0),
+                    origin.extend(1.0),
+                )
+            }
+            other => {
+                return Err(op.origin.error(format!(
+                    "unknown transform `{other}` (supported: translate, rotate, scale, matrix, lookat)"
+                )));
+            }
+        };
+        m = step * m;
+    }
+    if !m.is_finite() || m.determinant() == 0.0 {
+        return Err(e.origin.error("the transform is singular"));
+    }
+    Ok(m)
+}
+
+/// A right-handed rotation about the unit `axis` by `degrees` (Rodrigues' formula,
+/// exact at multiples of 90 degrees).
+fn rotation(axis: DVec3, degrees: f64) -> DMat4 {
+    let (sin, cos) = sin_cos_degrees(degrees);
+    let k = axis;
+    let cross = glam::DMat3::from_cols(
+        DVec3::new(0.0, k.z, -k.y),
+        DVec3::new(-k.z, 0.0, k.x),
+        DVec3::new(k.y, -k.x, 0.0),
+    );
+    let r = glam::DMat3::IDENTITY * cos
+        + cross * sin
+        + glam::DMat3::from_cols(k * k.x, k * k.y, k * k.z) * (1.0 - cos);
+    DMat4::from_mat3(r)
+}
+
+/// Row-major, as `matrix` in a pathmix scene.
+fn row_major(m: &DMat4) -> Value {
+    let t = m.transpose().to_cols_array();
+    Value::Array(t.iter().map(|&x| Value::Float(x)).collect())
+}
+
+fn vec_value(v: DVec3) -> Value {
+    Value::Array(v.to_array().iter().map(|&x| Value::Float(x)).collect())
+}
+
+fn color_value(c: [f64; 3]) -> Value {
+    Value::Array(c.iter().map(|&x| Value::Float(x)).collect())
+}
+
+// ---------------------------------------------------------------------------------
+// Interpretation
+
+/// A surface as pathmix can render it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Surface {
+    Lambertian { albedo: [f64; 3] },
+    Dielectric { ior: f64 },
+}
+
+struct Builder<'a> {
+    file: String,
+    search: &'a [PathBuf],
+    ids: HashMap<&'a str, &'a Elem>,
+    warnings: Vec<String>,
+    integrator: Option<&'a Elem>,
+    sensor: Option<&'a Elem>,
+    background: Option<[f64; 3]>,
+    materials: Table,
+    objects: Vec<Value>,
+    origins: Vec<(String, Origin)>,
+    anonymous: usize,
+}
+
+impl<'a> Builder<'a> {
+    fn new(path: &Path, search: &'a [PathBuf], elements: &'a [Elem]) -> Result<Builder<'a>> {
+        let mut ids: HashMap<&str, &Elem> = HashMap::new();
+        fn collect<'a>(e: &'a Elem, ids: &mut HashMap<&'a str, &'a Elem>) -> Result<()> {
+            if e.tag != "ref" {
+                if let Some(id) = e.attr("id") {
+                    if let Some(before) = ids.insert(id, e) {
+                        return Err(e.origin.error(format!(
+                            "the id `{id}` is already used at {}:{}:{}",
+                            before.origin.file, before.origin.line, before.origin.col
+                        )));
+                    }
+                }
+            }
+            e.children.iter().try_for_each(|c| collect(c, ids))
+        }
+        for e in elements {
+            collect(e, &mut ids)?;
+        }
+        Ok(Builder {
+            file: path.display().to_string(),
+            search,
+            ids,
+            warnings: Vec::new(),
+            integrator: None,
+            sensor: None,
+            background: None,
+            materials: Table::new(),
+            objects: Vec::new(),
+            origins: Vec::new(),
+            anonymous: 0,
+        })
+    }
+
+    fn warn(&mut self, warning: String) {
+        if !self.warnings.contains(&warning) {
+            self.warnings.push(warning);
+        }
+    }
+
+    /// `e`, or the element a `<ref id="...">` names.
+    fn resolve(&self, e: &'a Elem) -> Result<&'a Elem> {
+        if e.tag != "ref" {
+            return Ok(e);
+        }
+        e.check_attrs(&["id", "name"])?;
+        let id = e.require("id")?;
+        self.ids
+            .get(id)
+            .copied()
+            .ok_or_else(|| e.origin.error(format!("no element has the id `{id}`")))
+    }
+
+    fn top_level(&mut self, e: &'a Elem) -> Result<()> {
+        match e.tag.as_str() {
+            "integrator" | "sensor" => {
+                let slot = if e.tag == "sensor" {
+                    &mut self.sensor
+                } else {
+                    &mut self.integrator
+                };
+                if let Some(before) = slot {
+                    return Err(e.origin.error(format!(
+                        "a second <{}> (the first is at line {}): pathmix renders one",
+                        e.tag, before.origin.line
+                    )));
+                }
+                *slot = Some(e);
+                Ok(())
+            }
+            "shape" => self.shape(e),
+            // Definitions, used through <ref>; checked here so errors show even if
+            // unused (as twosided: a one-sided use warns where a shape makes it).
+            "bsdf" => self.surface(e, true).map(drop),
+            "emitter" => match e.ty() {
+                "area" if e.attr("id").is_some() => self.radiance(e).map(drop),
+                "area" => Err(e
+                    .origin
+                    .error("an area emitter outside a shape needs an `id` for shapes to refer to")),
+                "constant" => {
+                    if self.background.is_some() {
+                        return Err(e.origin.error("a second constant emitter"));
+                    }
+                    e.check_attrs(&["type", "id"])?;
+                    let mut props = Props::new(e);
+                    let radiance = props.color("radiance")?.unwrap_or([1.0; 3]);
+                    props.finish()?;
+                    self.background = Some(radiance);
+                    Ok(())
+                }
+                _ => Err(e.origin.error(
+                    "not supported (supported: area, constant; envmap and point wait for \
+                     pathmix's environment maps and delta lights)",
+                )),
+            },
+            "texture" => Err(e
+                .origin
+                .error("textures (bitmap, checkerboard) are not supported yet")),
+            _ => Err(e.origin.error(format!(
+                "not supported at the top level (supported: {SUPPORTED_TOP})"
+            ))),
+        }
+    }
+
+    /// The BSDF mapping: what each Mitsuba BSDF is in pathmix. `twosided`: inside a
+    /// `twosided` wrapper.
+    fn surface(&mut self, e: &'a Elem, twosided: bool) -> Result<Surface> {
+        e.check_attrs(&["type", "id", "name"])?;
+        let mut props = Props::new(e);
+        let surface = match e.ty() {
+            "diffuse" => {
+                if !twosided {
+                    self.warn(
+                        "one-sided `diffuse` BSDFs are two-sided in pathmix (the back of a \
+                         surface reflects instead of being black)"
+                            .into(),
+                    );
+                }
+                let albedo = props.color("reflectance")?.unwrap_or([0.5; 3]);
+                Surface::Lambertian { albedo }
+            }
+            "dielectric" => {
+                let int_ior = ior(&mut props, "int_ior", 1.5046)?;
+                let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
+                Surface::Dielectric {
+                    ior: int_ior / ext_ior,
+                }
+            }
+            "twosided" => {
+                let inner = props.objects(&["bsdf", "ref"]);
+                let [inner] = inner[..] else {
+                    return Err(e.origin.error(
+                        "a twosided BSDF with other than one nested BSDF is not supported",
+                    ));
+                };
+                let inner = self.resolve(inner)?;
+                self.surface(inner, true)?
+            }
+            _ => {
+                return Err(e
+                    .origin
+                    .error(format!("not supported (supported: {SUPPORTED_BSDFS})")));
+            }
+        };
+        props.finish()?;
+        Ok(surface)
+    }
+
+    fn radiance(&mut self, e: &'a Elem) -> Result<[f64; 3]> {
+        e.check_attrs(&["type", "id", "name"])?;
+        let mut props = Props::new(e);
+        let radiance = props
+            .color("radiance")?
+            .ok_or_else(|| e.origin.error("missing <rgb name=\"radiance\">"))?;
+        props.finish()?;
+        if radiance.iter().any(|&c| c < 0.0) {
+            return Err(e.origin.error("radiance must not be negative"));
+        }
+        Ok(radiance)
+    }
+
+    /// A material name for `e`: its id, or a counter for anonymous elements.
+    fn name_of(&mut self, e: &Elem) -> String {
+        match e.attr("id") {
+            Some(id) => id.to_string(),
+            None => {
+                self.anonymous += 1;
+                format!("{}-{}", e.tag, self.anonymous)
+            }
+        }
+    }
+
+    /// The name of a shape's material in the document (added on first use), its
+    /// surface, and whether it emits.
+    fn material(
+        &mut self,
+        shape: &'a Elem,
+        bsdf: Option<&'a Elem>,
+        emitter: Option<&'a Elem>,
+    ) -> Result<(String, Surface, bool)> {
+        let (base, surface) = match bsdf {
+            Some(b) => (self.name_of(b), self.surface(b, false)?),
+            None => {
+                self.warn("a shape without a BSDF is Mitsuba's default one-sided diffuse 0.5, two-sided in pathmix".into());
+                (
+                    "default-diffuse".to_string(),
+                    Surface::Lambertian { albedo: [0.5; 3] },
+                )
+            }
+        };
+        let emit = match emitter {
+            Some(em) => {
+                if em.ty() != "area" {
+                    return Err(em.origin.error(format!(
+                        "emitter `{}` inside a shape: only `area` emitters go on shapes",
+                        em.ty()
+                    )));
+                }
+                Some((self.name_of(em), self.radiance(em)?))
+            }
+            None => None,
+        };
+        let mut table = Table::new();
+        let full_name = match (surface, &emit) {
+            (Surface::Lambertian { albedo }, _) => {
+                table.insert("type".into(), Value::String("lambertian".into()));
+                table.insert("albedo".into(), color_value(albedo));
+                match &emit {
+                    Some((emitter_name, radiance)) => {
+                        table.insert("emit".into(), color_value(*radiance));
+                        format!("{base}+{emitter_name}")
+                    }
+                    None => base,
+                }
+            }
+            (Surface::Dielectric { ior }, None) => {
+                table.insert("type".into(), Value::String("dielectric".into()));
+                table.insert("ior".into(), Value::Float(ior));
+                base
+            }
+            (Surface::Dielectric { .. }, Some(_)) => {
+                return Err(shape.origin.error(
+                    "an emitting dielectric is not supported (pathmix's emitters are diffuse)",
+                ));
+            }
+        };
+        if !self.materials.contains_key(&full_name) {
+            let origin = bsdf.unwrap_or(shape).origin.clone();
+            self.origins
+                .push((format!("materials.{full_name}"), origin.clone()));
+            self.origins
+                .push((format!("materials.\"{full_name}\""), origin));
+            self.materials
+                .insert(full_name.clone(), Value::Table(table));
+        }
+        Ok((full_name, surface, emit.is_some()))
+    }
+
+    fn shape(&mut self, e: &'a Elem) -> Result<()> {
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e);
+        let to_world = props.transform("to_world")?;
+        let flip = props.boolean("flip_normals")?.unwrap_or(false);
+        let mut bsdf = None;
+        let mut emitter = None;
+        for child in props.objects(&["bsdf", "emitter", "ref"]) {
+            let target = self.resolve(child)?;
+            let slot = match target.tag.as_str() {
+                "bsdf" => &mut bsdf,
+                "emitter" => &mut emitter,
+                other => {
+                    return Err(child.origin.error(format!(
+                        "a shape takes a <bsdf> and an <emitter>, not a <{other}>"
+                    )));
+                }
+            };
+            if slot.replace(target).is_some() {
+                return Err(child
+                    .origin
+                    .error(format!("a second <{}> in one shape", target.tag)));
+            }
+        }
+        let (material, surface, emits) = self.material(e, bsdf, emitter)?;
+        // Where pathmix's surfaces have sides: emission and the inside of glass.
+        let sided = emits || matches!(surface, Surface::Dielectric { .. });
+        let mirrors = to_world.determinant() < 0.0;
+        let mut object = Table::new();
+        object.insert("material".into(), Value::String(material));
+        let push = |builder: &mut Builder, object: Table| {
+            builder.origins.push((
+                format!("objects[{}]", builder.objects.len()),
+                e.origin.clone(),
+            ));
+            builder.objects.push(Value::Table(object));
+        };
+        match e.ty() {
+            "obj" | "ply" => {
+                let (name, at) = props
+                    .string("filename")?
+                    .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
+                let path = resolve(self.search, name).ok_or_else(|| {
+                    at.origin
+                        .error(format!("cannot find the mesh file `{name}`"))
+                })?;
+                let path = path.canonicalize().unwrap_or(path);
+                // Mitsuba's meshes, like pathmix's, are smooth unless told otherwise:
+                // the file's vertex normals, or angle-weighted ones.
+                if props.boolean("face_normals")?.unwrap_or(false) {
+                    object.insert("smooth".into(), Value::Boolean(false));
+                }
+                if sided && (flip || mirrors) {
+                    return Err(e.origin.error(
+                        "flip_normals or a mirroring to_world on an emitting or glass mesh is \
+                         not supported",
+                    ));
+                }
+                object.insert("type".into(), Value::String("mesh".into()));
+                object.insert(
+                    "file".into(),
+                    Value::String(path.to_string_lossy().into_owned()),
+                );
+                if to_world != DMat4::IDENTITY {
+                    object.insert("matrix".into(), row_major(&to_world));
+                }
+                props.finish()?;
+                push(self, object);
+            }
+            "rectangle" | "cube" => {
+                props.finish()?;
+                // Mitsuba's normals transform by the inverse transpose: a mirroring
+                // transform keeps them, where u x v would turn.
+                let swap = mirrors != flip;
+                let faces: &[[DVec3; 3]] = if e.ty() == "rectangle" {
+                    &[[
+                        DVec3::new(-1.0, -1.0, 0.0),
+                        DVec3::new(2.0, 0.0, 0.0),
+                        DVec3::new(0.0, 2.0, 0.0),
+                    ]]
+                } else {
+                    &CUBE_FACES
+                };
+                for &[q, u, v] in faces {
+                    let (u, v) = if swap { (v, u) } else { (u, v) };
+                    let mut quad = object.clone();
+                    quad.insert("type".into(), Value::String("quad".into()));
+                    quad.insert("q".into(), vec_value(to_world.transform_point3(q)));
+                    quad.insert("u".into(), vec_value(to_world.transform_vector3(u)));
+                    quad.insert("v".into(), vec_value(to_world.transform_vector3(v)));
+                    push(self, quad);
+                }
+            }
+            "sphere" => {
+                let center = props.point("center")?.unwrap_or(DVec3::ZERO);
+                let radius = props.float("radius")?.unwrap_or(1.0);
+                props.finish()?;
+                if sided && flip {
+                    return Err(e
+                        .origin
+                        .error("flip_normals on an emitting or glass sphere is not supported"));
+                }
+                let columns =
+                    [to_world.x_axis, to_world.y_axis, to_world.z_axis].map(|c| c.truncate());
+                let scale = columns[0].length();
+                let uniform = (0..3).all(|i| {
+                    (columns[i].length() - scale).abs() <= 1e-6 * scale
+                        && columns[i].dot(columns[(i + 1) % 3]).abs() <= 1e-6 * scale * scale
+                });
+                if !uniform {
+                    return Err(e
+                        .origin
+                        .error("a sphere's to_world must scale every direction alike"));
+                }
+                object.insert("type".into(), Value::String("sphere".into()));
+                object.insert(
+                    "center".into(),
+                    vec_value(to_world.transform_point3(center)),
+                );
+                object.insert("radius".into(), Value::Float(radius * scale));
+                push(self, object);
+            }
+            _ => {
+                return Err(e
+                    .origin
+                    .error(format!("not supported (supported: {SUPPORTED_SHAPES})")));
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<Converted> {
+        let sensor = self.sensor.ok_or_else(|| SceneError {
+            file: self.file.clone(),
+            location: String::new(),
+            message: "the scene has no <sensor>: pathmix needs a camera".into(),
+        })?;
+        let (camera, sensor_render) = self.camera(sensor)?;
+        let mut render = self.integrator_settings()?;
+        render.extend(sensor_render);
+        if let Some(background) = self.background {
+            render.insert("background".into(), color_value(background));
+        }
+        let mut document = Table::new();
+        document.insert("camera".into(), Value::Table(camera));
+        document.insert("render".into(), Value::Table(render));
+        document.insert(
+            "materials".into(),
+            Value::Table(std::mem::take(&mut self.materials)),
+        );
+        document.insert(
+            "objects".into(),
+            Value::Array(std::mem::take(&mut self.objects)),
+        );
+        Ok(Converted {
+            document,
+            warnings: self.warnings,
+            origins: self.origins,
+            sensor: sensor.origin.clone(),
+        })
+    }
+
+    /// `[render]` from the integrator: Mitsuba's `max_depth` counts the camera
+    /// vertex, pathmix's counts scattering events.
+    fn integrator_settings(&mut self) -> Result<Table> {
+        let mut render = Table::new();
+        render.insert("strategy".into(), Value::String("nee-mis".into()));
+        let (max_depth, rr_depth) = match self.integrator {
+            None => (-1, Some(5)),
+            Some(e) => {
+                e.check_attrs(&["type", "id"])?;
+                let mut props = Props::new(e);
+                if props.boolean("hide_emitters")?.unwrap_or(false) {
+                    return Err(e.origin.error("hide_emitters=\"true\" is not supported"));
+                }
+                let depths = match e.ty() {
+                    "path" => {
+                        let max_depth = props.integer("max_depth")?.unwrap_or(-1);
+                        let rr_depth = props.integer("rr_depth")?.unwrap_or(5);
+                        if rr_depth < 1 {
+                            return Err(e
+                                .origin
+                                .error(format!("rr_depth must be >= 1, got {rr_depth}")));
+                        }
+                        (max_depth, Some(rr_depth))
+                    }
+                    // Mitsuba's direct: one emitter and one BSDF sample, MIS-combined, at
+                    // the first vertex: pathmix's nee-mis ending after one bounce.
+                    "direct" => {
+                        for key in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+                            if let Some(n) = props.integer(key)? {
+                                if n != 1 {
+                                    return Err(e.origin.error(format!(
+                                        "{key} = {n} is not supported (pathmix takes one of each)"
+                                    )));
+                                }
+                            }
+                        }
+                        (2, None)
+                    }
+                    other => {
+                        return Err(e.origin.error(format!(
+                            "integrator `{other}`: not supported (supported: path, direct)"
+                        )));
+                    }
+                };
+                props.finish()?;
+                if depths.0 == 0 || depths.0 < -1 {
+                    return Err(e.origin.error(format!(
+                        "max_depth = {} is not supported (-1 for unbounded, or >= 1)",
+                        depths.0
+                    )));
+                }
+                depths
+            }
+        };
+        let max_depth = if max_depth == -1 {
+            self.warn(format!(
+                "max_depth -1 (unbounded) is pathmix's largest, {UNBOUNDED_DEPTH} bounces"
+            ));
+            UNBOUNDED_DEPTH
+        } else {
+            (max_depth - 1).min(UNBOUNDED_DEPTH)
+        };
+        render.insert("max_depth".into(), Value::Integer(max_depth));
+        if let Some(rr) = rr_depth {
+            render.insert("rr_depth".into(), Value::Integer(rr));
+        }
+        Ok(render)
+    }
+
+    /// `[camera]`, and the sampler's part of `[render]`.
+    fn camera(&mut self, e: &'a Elem) -> Result<(Table, Table)> {
+        e.check_attrs(&["type", "id"])?;
+        if e.ty() != "perspective" {
+            return Err(e.origin.error(format!(
+                "sensor `{}`: not supported (supported: perspective)",
+                e.ty()
+            )));
+        }
+        let mut props = Props::new(e);
+        let to_world = props.transform("to_world")?;
+        let fov = props
+            .float("fov")?
+            .ok_or_else(|| e.origin.error("missing <float name=\"fov\">"))?;
+        let axis = props.string("fov_axis")?;
+        // A pinhole has no focal plane: Mitsuba's perspective sensor ignores it too.
+        props.float("focus_distance")?;
+        for clip in ["near_clip", "far_clip"] {
+            if props.float(clip)?.is_some() {
+                self.warn(
+                    "near_clip and far_clip are ignored: pathmix does not clip camera rays".into(),
+                );
+            }
+        }
+        let mut film = None;
+        let mut sampler = None;
+        for child in props.objects(&["film", "sampler", "ref"]) {
+            let target = self.resolve(child)?;
+            match target.tag.as_str() {
+                "film" => film = Some(target),
+                "sampler" => sampler = Some(target),
+                other => {
+                    return Err(child.origin.error(format!(
+                        "a sensor takes a <film> and a <sampler>, not a <{other}>"
+                    )));
+                }
+            }
+        }
+        props.finish()?;
+
+        let mut camera = Table::new();
+        let (width, height, filter) = match film {
+            Some(f) => self.film(f)?,
+            None => (768, 576, gaussian_filter(0.5)),
+        };
+        camera.insert("width".into(), Value::Integer(width));
+        camera.insert("height".into(), Value::Integer(height));
+        camera.insert("filter".into(), filter);
+        let (w, h) = (width as f64, height as f64);
+        let axis_name = axis.map_or("x", |(a, _)| a);
+        let axis_name = match axis_name {
+            "smaller" => {
+                if w / h > 1.0 {
+                    "y"
+                } else {
+                    "x"
+                }
+            }
+            "larger" => {
+                if w / h > 1.0 {
+                    "x"
+                } else {
+                    "y"
+                }
+            }
+            other => other,
+        };
+        // tan(vfov / 2) over tan(fov / 2).
+        let ratio = match axis_name {
+            "x" => h / w,
+            "y" => 1.0,
+            "diagonal" => h / w.hypot(h),
+            other => {
+                let at = axis.map_or(e, |(_, at)| at);
+                return Err(at.origin.error(format!(
+                    "unknown fov_axis `{other}` (expected x, y, smaller, larger or diagonal)"
+                )));
+            }
+        };
+        let vfov = if ratio == 1.0 {
+            fov
+        } else {
+            2.0 * ((fov.to_radians() / 2.0).tan() * ratio).atan().to_degrees()
+        };
+        camera.insert("vfov".into(), Value::Float(vfov));
+        // Mitsuba's camera looks along +z with +y up, and the image's right is -x.
+        if to_world.determinant() < 0.0 {
+            return Err(e.origin.error(
+                "a mirroring sensor to_world is not supported (pathmix's image is never mirrored)",
+            ));
+        }
+        let eye = to_world.transform_point3(DVec3::ZERO);
+        let forward = to_world.transform_vector3(DVec3::Z).normalize();
+        camera.insert("lookfrom".into(), vec_value(eye));
+        camera.insert("lookat".into(), vec_value(eye + forward));
+        camera.insert(
+            "vup".into(),
+            vec_value(to_world.transform_vector3(DVec3::Y)),
+        );
+
+        let mut render = Table::new();
+        let (spp, seed, kind) = match sampler {
+            Some(s) => {
+                s.check_attrs(&["type", "id"])?;
+                let mut props = Props::new(s);
+                let spp = props.integer("sample_count")?.unwrap_or(4);
+                let seed = props.integer("seed")?.unwrap_or(0);
+                props.finish()?;
+                let kind = match s.ty() {
+                    "independent" => "independent",
+                    "stratified" | "multijitter" | "orthogonal" | "ldsampler" => {
+                        self.warn(format!(
+                            "the `{}` sampler is pathmix's Owen-scrambled Sobol sampler (another \
+                             stratification, the same expected image)",
+                            s.ty()
+                        ));
+                        "sobol"
+                    }
+                    other => {
+                        return Err(s.origin.error(format!(
+                            "sampler `{other}`: not supported (supported: independent, stratified, \
+                             multijitter, orthogonal, ldsampler)"
+                        )));
+                    }
+                };
+                (spp, seed, kind)
+            }
+            None => (4, 0, "independent"),
+        };
+        render.insert("spp".into(), Value::Integer(spp));
+        render.insert("seed".into(), Value::Integer(seed));
+        render.insert("sampler".into(), Value::String(kind.into()));
+        Ok((camera, render))
+    }
+
+    fn film(&mut self, e: &'a Elem) -> Result<(i64, i64, Value)> {
+        e.check_attrs(&["type", "id"])?;
+        if e.ty() != "hdrfilm" {
+            return Err(e.origin.error(format!(
+                "film `{}`: not supported (supported: hdrfilm)",
+                e.ty()
+            )));
+        }
+        let mut props = Props::new(e);
+        let width = props.integer("width")?.unwrap_or(768);
+        let height = props.integer("height")?.unwrap_or(576);
+        if let Some((format, at)) = props.string("pixel_format")? {
+            if !matches!(format, "rgb" | "rgba") {
+                return Err(at.origin.error(format!(
+                    "pixel_format `{format}`: not supported (supported: rgb, rgba)"
+                )));
+            }
+        }
+        // The output file's precision; pathmix writes 32-bit float EXR.
+        props.string("component_format")?;
+        let filters = props.objects(&["rfilter"]);
+        props.finish()?;
+        let filter = match filters[..] {
+            [] => gaussian_filter(0.5),
+            [f] => {
+                f.check_attrs(&["type", "id", "name"])?;
+                let mut props = Props::new(f);
+                let filter = match f.ty() {
+                    "box" => Value::String("box".into()),
+                    "gaussian" => gaussian_filter(props.float("stddev")?.unwrap_or(0.5)),
+                    other => {
+                        return Err(f.origin.error(format!(
+                            "rfilter `{other}`: not supported (supported: box, gaussian)"
+                        )));
+                    }
+                };
+                props.finish()?;
+                filter
+            }
+            [_, second, ..] => return Err(second.origin.error("a second <rfilter>")),
+        };
+        Ok((width, height, filter))
+    }
+}
+
+fn gaussian_filter(stddev: f64) -> Value {
+    let mut t = BTreeMap::new();
+    t.insert("type".to_string(), Value::String("gaussian".into()));
+    t.insert("stddev".to_string(), Value::Float(stddev));
+    Value::Table(t.into_iter().collect())
+}
+
+/// An `int_ior`/`ext_ior`: a number or one of Mitsuba's named materials.
+fn ior(props: &mut Props, name: &str, default: f64) -> Result<f64> {
+    if let Some(e) = props.get(name) {
+        e.check_attrs(&["name", "value"])?;
+        let value = e.require("value")?;
+        let ior = match e.tag.as_str() {
+            "float" => number(e, value)?,
+            "string" => match NAMED_IORS
+                .iter()
+                .find(|(n, _)| n.eq_ignore_ascii_case(value))
+            {
+                Some(&(_, ior)) => ior,
+                None => {
+                    let names: Vec<&str> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
+                    return Err(e.origin.error(format!(
+                        "unknown material `{value}` (Mitsuba's names: {})",
+                        names.join(", ")
+                    )));
+                }
+            },
+            _ => return Err(e.origin.error("expected a <float> or a named <string>")),
+        };
+        if ior <= 0.0 {
+            return Err(e.origin.error(format!("must be > 0, got {ior}")));
+        }
+        return Ok(ior);
+    }
+    Ok(default)
+}
+
+/// Mitsuba's cube, `[-1, 1]^3`: each face as a corner and two edges, `u x v` outwards.
+const CUBE_FACES: [[DVec3; 3]; 6] = [
+    [
+        DVec3::new(1.0, -1.0, -1.0),
+        DVec3::new(0.0, 2.0, 0.0),
+        DVec3::new(0.0, 0.0, 2.0),
+    ],
+    [
+        DVec3::new(-1.0, -1.0, -1.0),
+        DVec3::new(0.0, 0.0, 2.0),
+        DVec3::new(0.0, 2.0, 0.0),
+    ],
+    [
+        DVec3::new(-1.0, 1.0, -1.0),
+        DVec3::new(0.0, 0.0, 2.0),
+        DVec3::new(2.0, 0.0, 0.0),
+    ],
+    [
+        DVec3::new(-1.0, -1.0, -1.0),
+        DVec3::new(2.0, 0.0, 0.0),
+        DVec3::new(0.0, 0.0, 2.0),
+    ],
+    [
+        DVec3::new(-1.0, -1.0, 1.0),
+        DVec3::new(2.0, 0.0, 0.0),
+        DVec3::new(0.0, 2.0, 0.0),
+    ],
+    [
+        DVec3::new(-1.0, -1.0, -1.0),
+        DVec3::new(0.0, 2.0, 0.0),
+        DVec3::new(2.0, 0.0, 0.0),
+    ],
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Filter, Scene, Strategy};
+    use glam::Vec3;
+
+    /// `files` written into a fresh folder; the first is the scene.
+    fn folder(name: &str, files: &[(&str, &str)]) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("pathmix-mitsuba-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for (file, text) in files {
+            std::fs::write(dir.join(file), text).unwrap();
+        }
+        dir.join(files[0].0)
+    }
+
+    const QUAD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+
+    /// A scene with `body` inside, a sensor unless `body` has one.
+    fn scene_text(body: &str) -> String {
+        let sensor = if body.contains("<sensor") {
+            ""
+        } else {
+            r#"<sensor type="perspective"><float name="fov" value="45"/>
+               <transform name="to_world"><lookat origin="0, 0, -5" target="0, 0, 0" up="0, 1, 0"/></transform>
+               <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="16"/>
+               <rfilter type="box"/></film></sensor>"#
+        };
+        format!("<scene version=\"3.0.0\">\n{body}\n{sensor}\n</scene>\n")
+    }
+
+    fn read(name: &str, body: &str, defines: &[Define]) -> Result<(Scene, Converted)> {
+        let path = folder(
+            name,
+            &[("scene.xml", &scene_text(body)), ("quad.obj", QUAD_OBJ)],
+        );
+        let converted = Converted::read(&path, defines)?;
+        let loaded = Scene::load_with(&path, defines)?;
+        Ok((loaded.scene, converted))
+    }
+
+    fn scene(name: &str, body: &str) -> Scene {
+        read(name, body, &[]).unwrap_or_else(|e| panic!("{e}")).0
+    }
+
+    fn error(name: &str, body: &str) -> String {
+        match read(name, body, &[]) {
+            Ok(_) => panic!("{name}: expected an error"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn camera_follows_mitsubas_conventions() {
+        let s = scene("camera", "");
+        // lookat: +z is the view direction; the image's right is -x of the camera frame.
+        assert_eq!(s.camera.lookfrom, Vec3::new(0.0, 0.0, -5.0));
+        assert_eq!(s.camera.lookat, Vec3::new(0.0, 0.0, -4.0));
+        assert_eq!(s.camera.vup, Vec3::Y);
+        assert_eq!((s.camera.width, s.camera.height), (32, 16));
+        assert_eq!(s.camera.filter, Filter::Box);
+        // fov_axis defaults to x: at 2:1, tan(vfov / 2) = tan(45 deg / 2) / 2.
+        let expected = 2.0 * ((22.5f64).to_radians().tan() / 2.0).atan().to_degrees();
+        assert_eq!(s.camera.vfov_degrees, expected as f32);
+        // Mitsuba's default sampler and film filter.
+        let s = scene(
+            "camera-defaults",
+            r#"<sensor type="perspective"><float name="fov" value="30"/>
+               <string name="fov_axis" value="y"/></sensor>"#,
+        );
+        assert_eq!((s.camera.width, s.camera.height), (768, 576));
+        assert_eq!(s.camera.vfov_degrees, 30.0);
+        assert_eq!(s.camera.filter, Filter::Gaussian { stddev: 0.5 });
+        assert_eq!((s.render.spp, s.render.seed), (4, 0));
+    }
+
+    #[test]
+    fn fov_axes() {
+        let vfov = |axis: &str, w: u32, h: u32| {
+            let s = scene(
+                &format!("fov-{axis}-{w}"),
+                &format!(
+                    r#"<sensor type="perspective"><float name="fov" value="60"/>
+                       <string name="fov_axis" value="{axis}"/>
+                       <film type="hdrfilm"><integer name="width" value="{w}"/>
+                       <integer name="height" value="{h}"/></film></sensor>"#
+                ),
+            );
+            f64::from(s.camera.vfov_degrees)
+        };
+        let half = 30f64.to_radians().tan();
+        let deg = |t: f64| 2.0 * t.atan().to_degrees();
+        let close = |a: f64, b: f64| assert!((a - b).abs() < 1e-4, "{a} vs {b}");
+        close(vfov("y", 200, 100), 60.0);
+        close(vfov("x", 200, 100), deg(half / 2.0));
+        close(vfov("smaller", 200, 100), 60.0);
+        close(vfov("larger", 200, 100), deg(half / 2.0));
+        close(vfov("smaller", 100, 200), deg(half * 2.0));
+        close(vfov("diagonal", 300, 400), deg(half * 400.0 / 500.0));
+    }
+
+    #[test]
+    fn transforms_compose_in_mitsubas_order() {
+        // Scale, then rotate 90 degrees about z, then translate: (1, 0, 0) -> (0, 2, 0) -> (3, 2, 0).
+        let s = scene(
+            "order",
+            r#"<shape type="sphere"><point name="center" x="1" y="0" z="0"/>
+               <transform name="to_world"><scale value="2"/><rotate z="1" angle="90"/>
+               <translate x="3"/></transform><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>"#,
+        );
+        assert_eq!(s.spheres[0].center, Vec3::new(3.0, 2.0, 0.0));
+        assert_eq!(s.spheres[0].radius, 2.0);
+        // A row-major matrix: translation in the last column.
+        let s = scene(
+            "matrix",
+            r#"<shape type="obj"><string name="filename" value="quad.obj"/>
+               <transform name="to_world"><matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/></transform></shape>"#,
+        );
+        assert_eq!(s.triangles[0].vertices[0], Vec3::new(5.0, 6.0, 7.0));
+    }
+
+    #[test]
+    fn rectangles_and_cubes_keep_mitsubas_normals() {
+        let normal = |s: &Scene, i: usize| s.quads[i].u.cross(s.quads[i].v).normalize();
+        let rect = |name: &str, extra: &str| {
+            scene(
+                name,
+                &format!(
+                    r#"<shape type="rectangle"><transform name="to_world">{extra}</transform></shape>"#
+                ),
+            )
+        };
+        assert_eq!(normal(&rect("rect", ""), 0), Vec3::Z);
+        // Mirrored in x: Mitsuba's normal (inverse transpose) stays +z.
+        assert_eq!(
+            normal(&rect("rect-mirror", r#"<scale x="-1"/>"#), 0),
+            Vec3::Z
+        );
+        let flipped = scene(
+            "rect-flip",
+            r#"<shape type="rectangle"><boolean name="flip_normals" value="true"/></shape>"#,
+        );
+        assert_eq!(normal(&flipped, 0), -Vec3::Z);
+        let cube = scene("cube", r#"<shape type="cube"/>"#);
+        assert_eq!(cube.quads.len(), 6);
+        for (i, q) in cube.quads.iter().enumerate() {
+            let centre = q.q + (q.u + q.v) / 2.0;
+            assert_eq!(normal(&cube, i), centre, "face {i} faces outwards");
+        }
+    }
+
+    #[test]
+    fn integrators_map_onto_strategies_and_depths() {
+        let render = |name: &str, integrator: &str| read(name, integrator, &[]).unwrap();
+        let (s, _) = render(
+            "path",
+            r#"<integrator type="path"><integer name="max_depth" value="6"/></integrator>"#,
+        );
+        assert_eq!(s.render.strategy, Strategy::NeeMis);
+        assert_eq!((s.render.max_depth, s.render.rr_depth), (5, Some(5)));
+        let (s, c) = render("direct", r#"<integrator type="direct"/>"#);
+        assert_eq!((s.render.max_depth, s.render.rr_depth), (1, None));
+        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+        let (s, c) = render(
+            "unbounded",
+            r#"<integrator type="path"><integer name="rr_depth" value="3"/></integrator>"#,
+        );
+        assert_eq!((s.render.max_depth, s.render.rr_depth), (100_000, Some(3)));
+        assert!(c.warnings.iter().any(|w| w.contains("max_depth -1")));
+        assert!(
+            error(
+                "depth-0",
+                r#"<integrator type="path"><integer name="max_depth" value="0"/></integrator>"#
+            )
+            .contains("max_depth = 0")
+        );
+    }
+
+    #[test]
+    fn bsdfs_map_onto_materials() {
+        let s = scene(
+            "glass",
+            r#"<shape type="sphere"><bsdf type="dielectric"/></shape>
+               <shape type="sphere"><bsdf type="dielectric"><string name="int_ior" value="diamond"/>
+               <float name="ext_ior" value="1.333"/></bsdf></shape>"#,
+        );
+        let iors: Vec<_> = s.materials.iter().map(|m| m.kind).collect();
+        use crate::scene::MaterialKind::Dielectric;
+        assert!(iors.contains(&Dielectric {
+            ior: (1.5046f64 / 1.000277) as f32
+        }));
+        assert!(iors.contains(&Dielectric {
+            ior: (2.419f64 / 1.333) as f32
+        }));
+        // An emitter on a diffuse shape: the same albedo, emitting; in the light density.
+        let (s, c) = read(
+            "emitter",
+            r#"<bsdf type="diffuse" id="white"><rgb name="reflectance" value="0.2, 0.4, 0.6"/></bsdf>
+               <shape type="rectangle"><ref id="white"/><emitter type="area"><rgb name="radiance" value="5"/></emitter></shape>"#,
+            &[],
+        )
+        .unwrap();
+        let m = &s.materials[s.quads[0].material as usize];
+        assert_eq!(
+            (m.albedo, m.emit),
+            (Vec3::new(0.2, 0.4, 0.6), Vec3::splat(5.0))
+        );
+        assert!(s.quads[0].importance);
+        assert!(c.warnings.iter().any(|w| w.contains("one-sided `diffuse`")));
+        // Wrapped in twosided: exact, no warning.
+        let (_, c) = read(
+            "twosided",
+            r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>"#,
+            &[],
+        )
+        .unwrap();
+        assert!(
+            c.warnings.iter().all(|w| !w.contains("diffuse")),
+            "{:?}",
+            c.warnings
+        );
+        // A diffuse defined at the top level and used only inside a twosided: exact too.
+        let (_, c) = read(
+            "twosided-ref",
+            r#"<bsdf type="diffuse" id="d"/>
+               <shape type="rectangle"><bsdf type="twosided"><ref id="d"/></bsdf></shape>"#,
+            &[],
+        )
+        .unwrap();
+        assert!(
+            c.warnings.iter().all(|w| !w.contains("diffuse")),
+            "{:?}",
+            c.warnings
+        );
+        let s = scene(
+            "constant",
+            r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,
+        );
+        assert_eq!(s.render.background, Vec3::new(0.5, 1.0, 2.0));
+    }
+
+    #[test]
+    fn parameters_defaults_and_refs() {
+        let body = r#"<default name="r" value="2"/>
+            <shape type="sphere"><float name="radius" value="$r"/><ref id="later"/></shape>
+            <bsdf type="diffuse" id="later"/>"#;
+        let (s, _) = read("params", body, &[]).unwrap();
+        assert_eq!(s.spheres[0].radius, 2.0);
+        let three = Define::from_str("r=3").unwrap();
+        let (s, c) = read("params-d", body, &[three]).unwrap();
+        assert_eq!(s.spheres[0].radius, 3.0);
+        assert!(c.warnings.iter().all(|w| !w.contains("-D")));
+        let (_, c) = read("params-unused", body, &["q=1".parse().unwrap()]).unwrap();
+        assert!(c.warnings.iter().any(|w| w.contains("-D q")));
+        assert!(Define::from_str("no-equals").is_err());
+    }
+
+    #[test]
+    fn includes_resolve_against_the_top_folder() {
+        let path = folder(
+            "include",
+            &[
+                (
+                    "scene.xml",
+                    &scene_text(r#"<include filename="parts/shapes.xml"/>"#),
+                ),
+                (
+                    "shapes.xml",
+                    r#"<scene version="3.0.0"><shape type="obj"><string name="filename" value="quad.obj"/></shape></scene>"#,
+                ),
+                ("quad.obj", QUAD_OBJ),
+            ],
+        );
+        let parts = path.parent().unwrap().join("parts");
+        std::fs::create_dir_all(&parts).unwrap();
+        std::fs::rename(path.with_file_name("shapes.xml"), parts.join("shapes.xml")).unwrap();
+        let s = Scene::load(&path).unwrap();
+        assert_eq!(s.triangles.len(), 2);
+    }
+
+    #[test]
+    fn errors_name_the_file_line_column_and_element() {
+        let e = error(
+            "hair",
+            "<shape type=\"sphere\">\n  <bsdf type=\"hair\"/></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:")
+                && e.contains(":3:3: <bsdf type=\"hair\">: not supported (supported: diffuse,"),
+            "{e}"
+        );
+        let e = error(
+            "unused",
+            r#"<shape type="sphere"><float name="alpha" value="1"/></shape>"#,
+        );
+        assert!(
+            e.contains("<float name=\"alpha\">: not supported in <shape type=\"sphere\">"),
+            "{e}"
+        );
+        let e = error(
+            "fov",
+            r#"<sensor type="perspective"><float name="fov" value="wide"/></sensor>"#,
+        );
+        assert!(e.contains("`wide` is not a finite number"), "{e}");
+        let e = error(
+            "range",
+            r#"<shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="2"/></bsdf></shape>"#,
+        );
+        assert!(
+            e.contains("<bsdf type=\"diffuse\">") && e.contains("albedo"),
+            "{e}"
+        );
+    }
+}

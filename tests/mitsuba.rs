@@ -1,0 +1,407 @@
+//! Mitsuba 3 XML scenes: Mitsuba's Cornell box against a Mitsuba reference image,
+//! the Gaussian pixel filter against its analytic values, `convert` round trips,
+//! and a corpus of bad scene files refused with `file:line:col`.
+
+mod common;
+
+use pathmix::output::{Image, read_exr};
+use pathmix::scene::mitsuba::{Converted, Define};
+use pathmix::scene::{Sampler, Scene};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+fn cbox_xml() -> Option<PathBuf> {
+    let path = repo("../shared/mitsuba-scenes/cbox/cbox-rgb.xml");
+    if path.exists() {
+        Some(path)
+    } else {
+        eprintln!("skipped: {} is not there", path.display());
+        None
+    }
+}
+
+fn defines(pairs: &[(&str, &str)]) -> Vec<Define> {
+    pairs
+        .iter()
+        .map(|(n, v)| format!("{n}={v}").parse().unwrap())
+        .collect()
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pathmix-mitsuba-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn pathmix(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_pathmix"))
+        .args(args)
+        .env("NODEVICE_SELECT", "1")
+        .output()
+        .unwrap()
+}
+
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler) at
+/// 128x128 and 8192 spp, rendered once by `scripts/check-mitsuba-xml.py
+/// --write-reference`.
+const CBOX_REFERENCE: &str = "tests/data/cbox-rgb-mitsuba-128.exr";
+const CBOX_REFERENCE_SPP: f64 = 8192.0;
+
+/// `image` averaged over 2x2 blocks: with the box filter, the image at half the
+/// resolution.
+fn halved(image: &Image) -> Image {
+    let (w, h) = (image.width / 2, image.height / 2);
+    let mut out = Image::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = [0.0f32; 3];
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let p = image.get(2 * x + dx, 2 * y + dy);
+                for c in 0..3 {
+                    sum[c] += p[c] / 4.0;
+                }
+            }
+            out.pixels[(y * w + x) as usize] = sum;
+        }
+    }
+    out
+}
+
+/// How pathmix's render of `scene` departs from `reference`, in units of the noise
+/// both carry (pathmix's per-pixel standard error; the reference's from its sample
+/// count, at Mitsuba's per-sample variance, taken as 1.5x pathmix's): `Err` names the
+/// first check that fails.
+fn against_reference(scene: &Scene, reference: &Image) -> Result<String, String> {
+    let ctx = common::gpu().expect("GPU");
+    let acc = common::render(ctx, scene, &common::with_variance());
+    let (mean, se) = (acc.mean(), acc.standard_error().unwrap());
+    let reference_share = 1.5 * f64::from(scene.render.spp) / CBOX_REFERENCE_SPP;
+    let (w, h) = (mean.width as usize, mean.height as usize);
+    let variance =
+        |i: usize, c: usize| f64::from(se.pixels[i][c]).powi(2) * (1.0 + reference_share);
+    let diff =
+        |i: usize, c: usize| f64::from(mean.pixels[i][c]) - f64::from(reference.pixels[i][c]);
+    // Each channel's image mean within 4 standard errors.
+    for c in 0..3 {
+        let d: f64 = (0..w * h).map(|i| diff(i, c)).sum::<f64>() / (w * h) as f64;
+        let s = (0..w * h).map(|i| variance(i, c)).sum::<f64>().sqrt() / (w * h) as f64;
+        if d.abs() > 4.0 * s {
+            return Err(format!(
+                "channel {c}: image mean off by {d:.3e}, {:.1} standard errors",
+                d / s
+            ));
+        }
+    }
+    // Each 16x16 block within 4.5 standard errors (48 tests).
+    for by in 0..h / 16 {
+        for bx in 0..w / 16 {
+            for c in 0..3 {
+                let pixels = (0..256).map(|k| (by * 16 + k / 16) * w + bx * 16 + k % 16);
+                let (d, v) =
+                    pixels.fold((0.0, 0.0), |(d, v), i| (d + diff(i, c), v + variance(i, c)));
+                if d.abs() > 4.5 * v.sqrt() {
+                    return Err(format!(
+                        "block ({bx}, {by}) channel {c}: off by {:.1} standard errors",
+                        d / v.sqrt()
+                    ));
+                }
+            }
+        }
+    }
+    // The RMSE is what the noise explains.
+    let n = (w * h * 3) as f64;
+    let mse: f64 = (0..w * h)
+        .flat_map(|i| (0..3).map(move |c| (i, c)))
+        .map(|(i, c)| diff(i, c).powi(2))
+        .sum::<f64>()
+        / n;
+    let predicted: f64 = (0..w * h)
+        .flat_map(|i| (0..3).map(move |c| (i, c)))
+        .map(|(i, c)| variance(i, c))
+        .sum::<f64>()
+        / n;
+    let ratio = (mse / predicted).sqrt();
+    if !(0.7..=1.4).contains(&ratio) {
+        return Err(format!("RMSE is {ratio:.2}x what the noise explains"));
+    }
+    Ok(format!("RMSE / noise {ratio:.3}"))
+}
+
+/// Mitsuba's Cornell box, read unchanged, agrees with Mitsuba's own image; one
+/// bounce fewer (Mitsuba's max_depth 5) does not, so the check can tell.
+#[test]
+fn cornell_box_matches_mitsuba() {
+    let Some(xml) = cbox_xml() else { return };
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = halved(&read_exr(&repo(CBOX_REFERENCE)).unwrap());
+    let load = |max_depth: &str| {
+        let params = defines(&[("res", "64"), ("spp", "256"), ("max_depth", max_depth)]);
+        let scene = Scene::load_with(&xml, &params).unwrap().scene;
+        assert_eq!(scene.render.sampler, Sampler::Independent);
+        scene
+    };
+    let agreed = against_reference(&load("6"), &reference);
+    assert!(agreed.is_ok(), "{agreed:?}");
+    eprintln!("cbox-rgb.xml against Mitsuba: {}", agreed.unwrap());
+    let one_bounce_short = against_reference(&load("5"), &reference);
+    assert!(one_bounce_short.is_err(), "{one_bounce_short:?}");
+}
+
+/// Behind a vertical light edge through the image centre, pixel `k`'s value is
+/// the Gaussian filter's mass on the light's side: `F(-d)` for the pixel centre at
+/// `d` pixels from the edge, with `F` the CDF of `exp(-x^2 / 2s^2) - exp(-r^2 / 2s^2)`
+/// on `[-r, r]`, `r = 4s`. Pixels beyond the radius are exactly 0, or 1 on average.
+#[test]
+fn gaussian_filter_matches_its_analytic_values() {
+    let ctx = gpu_or_skip!();
+    let (width, stddev) = (10u32, 0.5f64);
+    // The camera at the origin looks down +z, so the image's right is world -x: a
+    // light on world x >= 0 fills the image's left half.
+    let scene = common::scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 0, 0]
+        lookat = [0, 0, 1]
+        vfov = 5
+        width = {width}
+        height = 1
+        filter = {{ type = "gaussian", stddev = {stddev} }}
+        [render]
+        spp = 8192
+        max_depth = 0
+        sampler = "independent"
+        [materials.glow]
+        type = "light"
+        emit = [1, 1, 1]
+        [[objects]]
+        type = "quad"
+        q = [0, -10, 1]
+        u = [0, 20, 0]
+        v = [10, 0, 0]
+        material = "glow"
+        "#
+    ));
+    let acc = common::render(ctx, &scene, &common::with_variance());
+    let (mean, se) = (acc.mean(), acc.standard_error().unwrap());
+    let r = 4.0 * stddev;
+    let floor = (-r * r / (2.0 * stddev * stddev)).exp();
+    let integral = |x: f64| {
+        stddev
+            * (std::f64::consts::PI / 2.0).sqrt()
+            * libm::erf(x / (stddev * std::f64::consts::SQRT_2))
+            - floor * x
+    };
+    let cdf = |x: f64| (integral(x.clamp(-r, r)) - integral(-r)) / (integral(r) - integral(-r));
+    for k in 0..width {
+        let d = f64::from(k) + 0.5 - f64::from(width) / 2.0;
+        let expected = cdf(-d);
+        let (value, error) = (f64::from(mean.get(k, 0)[0]), f64::from(se.get(k, 0)[0]));
+        if d >= r {
+            assert_eq!(value, 0.0, "pixel {k} is beyond the filter's reach");
+        } else {
+            assert!(
+                (value - expected).abs() <= 4.0 * error + 1e-6,
+                "pixel {k}: {value} against {expected} (standard error {error:.2e})"
+            );
+        }
+    }
+}
+
+/// `convert` writes TOML that reads back as the very scene the XML is.
+#[test]
+fn convert_round_trips_to_the_same_scene() {
+    let Some(xml) = cbox_xml() else { return };
+    let dir = temp_dir("convert");
+    let out = dir.join("nested/cbox.toml");
+    std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+    let output = pathmix(&[
+        "convert",
+        xml.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-D",
+        "res=96",
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text.contains("file = \"../"),
+        "mesh paths relative to the output:\n{text}"
+    );
+    let mut from_toml = Scene::load(&out).unwrap();
+    let from_xml = Scene::load_with(&xml, &defines(&[("res", "96")]))
+        .unwrap()
+        .scene;
+    from_toml.source = from_xml.source.clone();
+    assert_eq!(from_toml, from_xml);
+    assert_eq!((from_xml.camera.width, from_xml.render.max_depth), (96, 5));
+    // The library's own writer agrees with the command's file.
+    let converted = Converted::read(&xml, &defines(&[("res", "96")])).unwrap();
+    let folder = out.parent().unwrap().canonicalize().unwrap();
+    assert_eq!(converted.to_toml(&folder, &xml), text);
+}
+
+/// Each bad file: exit code 2, `file:line:col` and the element or problem named,
+/// nothing written, no panic.
+#[test]
+fn bad_scenes_are_refused_with_file_line_and_column() {
+    let dir = temp_dir("bad");
+    let sensor = r#"<sensor type="perspective"><float name="fov" value="40"/></sensor>"#;
+    std::fs::write(dir.join("quad.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(dir.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap();
+    std::fs::write(
+        dir.join("a.xml"),
+        r#"<scene version="3.0.0"><include filename="b.xml"/></scene>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("b.xml"),
+        r#"<scene version="3.0.0"><include filename="a.xml"/></scene>"#,
+    )
+    .unwrap();
+    let cases: &[(&str, &str, &str)] = &[
+        (
+            "malformed",
+            "<scene version=\"3.0.0\">\n<shape type=\"obj\">\n</scene>",
+            ":3:1: malformed XML",
+        ),
+        (
+            "not-mitsuba",
+            "<html></html>",
+            ":1:1: <html>: not a Mitsuba scene",
+        ),
+        (
+            "unknown-tag",
+            "<scene version=\"3.0.0\">\n  <medium type=\"homogeneous\"/>\n</scene>",
+            ":2:3: <medium type=\"homogeneous\">: not supported at the top level",
+        ),
+        (
+            "hair",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"hair\"/>\n</scene>",
+            ":2:1: <bsdf type=\"hair\">: not supported (supported: diffuse, dielectric, twosided",
+        ),
+        (
+            "param",
+            "<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"$depth\"/></integrator>\n</scene>",
+            ":2:25: <integer name=\"max_depth\">: `$depth` has no value",
+        ),
+        (
+            "cycle",
+            "<scene version=\"3.0.0\">\n<include filename=\"a.xml\"/>\n</scene>",
+            "b.xml:1:24: <include>: include cycle",
+        ),
+        (
+            "missing-ref",
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\"><ref id=\"nope\"/></shape>\n</scene>",
+            ":2:22: <ref id=\"nope\">: no element has the id `nope`",
+        ),
+        (
+            "missing-mesh",
+            "<scene version=\"3.0.0\">\n<shape type=\"ply\"><string name=\"filename\" value=\"gone.ply\"/></shape>\n</scene>",
+            ":2:19: <string name=\"filename\">: cannot find the mesh file `gone.ply`",
+        ),
+        (
+            "broken-mesh",
+            "<scene version=\"3.0.0\">\n<shape type=\"obj\"><string name=\"filename\" value=\"broken.obj\"/><boolean name=\"face_normals\" value=\"true\"/></shape>\n</scene>",
+            ":2:1: <shape type=\"obj\">: ",
+        ),
+        (
+            "number",
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"4O\"/></sensor>\n</scene>",
+            ":2:28: <float name=\"fov\">: `4O` is not a finite number",
+        ),
+        (
+            "integer",
+            "<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"6.5\"/></integrator>\n</scene>",
+            "`value=\"6.5\"` is not an integer",
+        ),
+        (
+            "texture",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"checkerboard\"/></bsdf>\n</scene>",
+            ":2:22: <texture type=\"checkerboard\" name=\"reflectance\">: textures (bitmap, checkerboard) are not supported yet",
+        ),
+        (
+            "disk",
+            "<scene version=\"3.0.0\">\n<shape type=\"disk\"/>\n</scene>",
+            ":2:1: <shape type=\"disk\">: not supported (supported: obj, ply, rectangle, cube, sphere)",
+        ),
+        (
+            "envmap",
+            "<scene version=\"3.0.0\">\n<emitter type=\"envmap\"/>\n</scene>",
+            ":2:1: <emitter type=\"envmap\">: not supported",
+        ),
+        (
+            "spectral",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\"><spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/></bsdf>\n</scene>",
+            "spectra by wavelength are not supported",
+        ),
+        (
+            "unused",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\"><float name=\"alpha\" value=\"0.1\"/></bsdf>\n</scene>",
+            ":2:22: <float name=\"alpha\">: not supported in <bsdf type=\"diffuse\">",
+        ),
+        (
+            "no-sensor",
+            "<scene version=\"3.0.0\"/>",
+            "the scene has no <sensor>",
+        ),
+        (
+            "mirrored-camera",
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><transform name=\"to_world\"><scale x=\"-1\"/></transform></sensor>\n</scene>",
+            "a mirroring sensor to_world is not supported",
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, text, expected) in cases {
+        let text = if text.contains("<sensor")
+            || *name == "no-sensor"
+            || *name == "not-mitsuba"
+            || *name == "malformed"
+        {
+            text.to_string()
+        } else {
+            text.replace("</scene>", &format!("{sensor}</scene>"))
+        };
+        let scene = dir.join(format!("{name}.xml"));
+        std::fs::write(&scene, &text).unwrap();
+        let png = dir.join(format!("{name}.png"));
+        let output = pathmix(&[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+            "--spp",
+            "1",
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        if output.status.code() != Some(2)
+            || !stderr.contains(expected)
+            || stderr.contains("panicked")
+            || png.exists()
+        {
+            failures.push(format!(
+                "{name}: expected exit 2, no image and `{expected}`, got {:?}:\n{stderr}",
+                output.status.code()
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    // -D on a TOML scene, and a malformed -D.
+    let toml = repo("scenes/furnace.toml");
+    let output = pathmix(&["info", toml.to_str().unwrap(), "-D", "x=1"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("Mitsuba XML scenes only"));
+    let output = pathmix(&["info", toml.to_str().unwrap(), "-D", "x"]);
+    assert_eq!(output.status.code(), Some(2));
+}
