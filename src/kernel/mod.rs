@@ -546,6 +546,20 @@ mod tests {
         }
     }
 
+    /// The BSDF probe of tests/bsdf.rs, with every material kind.
+    #[test]
+    fn bsdf_probe_validates() {
+        let source = KernelConfig::bsdf_probe_source(KindSet::all(MATERIAL_KINDS.len())).unwrap();
+        let module = naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+    }
+
     #[test]
     fn every_shipped_scene_specialisation_validates() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
@@ -764,6 +778,7 @@ mod tests {
             .map(|(id, kind)| (kind.id_constant(), id as u32))
             .collect();
         expected.extend(ids.iter().map(|(name, id)| (name.as_str(), *id)));
+        expected.extend(crate::gpu::layout::MATERIAL_FLAGS.iter().copied());
         for (name, rust) in expected {
             assert_eq!(value(name), Some(rust), "{name}");
         }
