@@ -178,7 +178,7 @@ fn run(
     }
     encoder.copy_buffer_to_buffer(&out, 0, &staging, 0, size);
     ctx.queue.submit([encoder.finish()]);
-    pathmix::gpu::accumulator::map_read(ctx, &staging, |bytes| bytemuck::pod_collect_to_vec(bytes))
+    pathmix::gpu::accumulator::map_read(ctx, &staging, bytemuck::pod_collect_to_vec)
 }
 
 /// A partition of the sphere into cells of (z = cos theta, phi) about the
