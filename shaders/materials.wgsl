@@ -11,6 +11,10 @@
 //   fn KIND_pdf(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> f32
 //       the solid-angle density with which KIND_sample draws wi;
 //   fn KIND_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample.
+// A kind with a smooth and a delta lobe (`Lobe::SmoothAndDelta`: a specular coat
+// over a diffuse base) defines the same three: eval and pdf cover the smooth
+// lobe only (pdf integrates to the probability of sampling it), and a sample
+// drawn from the delta lobe sets `delta`, with `pdf` the probability of that lobe.
 // A kind whose lobes are all delta (`Lobe::Delta`: specular, or with no density
 // to evaluate) defines only KIND_sample and sets `delta`: its eval and pdf are
 // zero for any direction a strategy could choose, so no strategy mixes it.
@@ -19,15 +23,20 @@
 // `sample_2d`) in a fixed order; a strategy draws its own before it, so the
 // mixture's light and BSDF branches use the same dimensions for their 2D point.
 
-// Mirrors `gpu::layout::Material`.
+// Mirrors `gpu::layout::Material`; what each field holds per kind is said in
+// `kinds::material::pack_material`.
 struct Material {
     albedo: vec3<f32>,
     // Index into `kinds::MATERIAL_KINDS` (the generated `MATERIAL_*` constants).
     kind: u32,
     // Radiance leaving the side the normal faces.
     emit: vec3<f32>,
-    // Metal: fuzz. Dielectric: index of refraction.
     param: f32,
+    color2: vec3<f32>,
+    param2: f32,
+    color3: vec3<f32>,
+    // Bits named by the generated `MATERIAL_BECKMANN`, `MATERIAL_NONLINEAR`.
+    flags: u32,
 }
 
 // Where a BSDF is evaluated: `n` is the normal the BSDF uses (the shading

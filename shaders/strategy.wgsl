@@ -1,5 +1,5 @@
 // Sampling strategies: how a path picks its next direction where the material
-// has a smooth lobe. Written once against the BSDF interface (materials.wgsl),
+// has a smooth lobe (its delta lobe, if it has one too, is followed). Written once against the BSDF interface (materials.wgsl),
 // so every material kind gets every strategy. At a delta lobe, and under the
 // `bsdf` strategy, the path follows the material's own sample.
 //
@@ -61,8 +61,9 @@ fn scatter_smooth(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -
         shadow_weight = f_light * (mis / light_density);
     }
     // BSDF sample: the continuation; its emitter hit is weighted in the kernel.
+    // A sample of a delta lobe (a plastic's coat) counts the emitter it finds fully.
     let s = smooth_bsdf_sample(m, frame, wo);
-    return Scatter(s.wi, s.weight, s.pdf <= 0.0, light_dir, shadow_weight, false, s.pdf, light_pdf(origin, s.wi));
+    return Scatter(s.wi, s.weight, s.pdf <= 0.0, light_dir, shadow_weight, s.delta, s.pdf, light_pdf(origin, s.wi));
 #else
 #if STRATEGY_LIGHT
     let light_select = sample_1d();
@@ -75,7 +76,13 @@ fn scatter_smooth(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -
     if choice < LIGHT_WEIGHT {
         wi = light_sample(origin, choice / LIGHT_WEIGHT, sample_2d());
     } else {
-        wi = smooth_bsdf_sample(m, frame, wo).wi;
+        let s = smooth_bsdf_sample(m, frame, wo);
+        // A delta lobe's direction has no density to mix: only this branch
+        // draws it, with (1 - w) times the probability the BSDF gives it.
+        if s.delta {
+            return Scatter(s.wi, s.weight / (1.0 - LIGHT_WEIGHT), false, vec3<f32>(0.0), vec3<f32>(0.0), true, 0.0, 0.0);
+        }
+        wi = s.wi;
     }
     // The full mixture density of the chosen direction, whichever part drew it.
     let pdf = LIGHT_WEIGHT * light_pdf(origin, wi) + (1.0 - LIGHT_WEIGHT) * bsdf_pdf(m, frame, wo, wi);

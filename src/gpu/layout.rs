@@ -2,7 +2,7 @@
 //! here is checked against naga's reading of the WGSL in `kernel::tests`.
 
 use crate::accel::Bvh;
-use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, material_kind};
+use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material};
 use crate::lights::LightTables;
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
@@ -123,15 +123,37 @@ impl Counters {
 }
 
 gpu_struct! {
-    /// Every material kind packs into this (see `kinds::material`).
+    /// Every material kind packs into this; what each field holds for each kind
+    /// is said once, in `kinds::material::pack_material`.
     pub struct Material {
         pub albedo: [f32; 3],
         /// Index into `kinds::MATERIAL_KINDS`.
         pub kind: u32,
         pub emit: [f32; 3],
-        /// Metal: fuzz. Dielectric: index of refraction.
         pub param: f32,
+        pub color2: [f32; 3],
+        pub param2: f32,
+        pub color3: [f32; 3],
+        /// Bits of [`MATERIAL_FLAGS`].
+        pub flags: u32,
     }
+}
+
+/// The bits of `Material::flags`, shared with WGSL (generated constants).
+pub const MATERIAL_FLAGS: &[(&str, u32)] = &[
+    // The Beckmann distribution (else GGX).
+    ("MATERIAL_BECKMANN", 1),
+    // Mitsuba's `nonlinear` for plastics.
+    ("MATERIAL_NONLINEAR", 2),
+];
+
+/// The value of the bit named `name` of [`MATERIAL_FLAGS`].
+pub fn material_flag(name: &str) -> u32 {
+    MATERIAL_FLAGS
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|&(_, bit)| bit)
+        .expect("a material flag")
 }
 
 /// Ray origins leave a surface by this fraction of the scene's extent.
@@ -338,16 +360,6 @@ impl SceneData {
         (0..PRIMITIVE_KINDS.len())
             .filter(|&k| !self.lights[k].is_empty())
             .collect()
-    }
-}
-
-fn pack_material(material: &crate::scene::Material) -> Material {
-    let (kind, param) = material_kind(&material.kind);
-    Material {
-        albedo: material.albedo.to_array(),
-        kind: kind as u32,
-        emit: material.emit.to_array(),
-        param,
     }
 }
 

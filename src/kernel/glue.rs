@@ -8,7 +8,7 @@ use crate::accel;
 use crate::gpu::accumulator::{
     LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
 };
-use crate::gpu::layout::{GpuLayout, SceneData};
+use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
 use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS, PrimitiveKind};
 use crate::shader::element_constant;
@@ -33,6 +33,9 @@ pub fn shared_constants() -> String {
     constant("LAYER_SQUARES_COMPENSATION", LAYER_SQUARES_COMPENSATION);
     for (id, kind) in MATERIAL_KINDS.iter().enumerate() {
         constant(&kind.id_constant(), id as u32);
+    }
+    for &(name, bit) in MATERIAL_FLAGS {
+        constant(name, bit);
     }
     constant("BVH_STACK", accel::MAX_DEPTH);
     constant("BVH_REF_KIND_SHIFT", accel::REF_KIND_SHIFT);
@@ -462,7 +465,7 @@ pub fn bsdf(config: &KernelConfig) -> String {
     let smooth: Vec<usize> = scattering
         .iter()
         .copied()
-        .filter(|&k| MATERIAL_KINDS[k].lobe == Lobe::Smooth)
+        .filter(|&k| MATERIAL_KINDS[k].lobe.has_density())
         .collect();
     // With shading normals, each entry point of the interface passes through
     // the leak check of materials.wgsl (`shading_`: the material's own answer).

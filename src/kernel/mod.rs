@@ -23,6 +23,7 @@ pub const STRATEGY: ShaderModule = shader_module!("strategy");
 pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture");
 pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
 pub const KERNEL: ShaderModule = shader_module!("kernel");
+pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -201,7 +202,7 @@ pub struct KernelConfig {
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
 fn has_smooth_lobe(kinds: KindSet) -> bool {
-    kinds.iter().any(|k| MATERIAL_KINDS[k].lobe == Lobe::Smooth)
+    kinds.iter().any(|k| MATERIAL_KINDS[k].lobe.has_density())
 }
 
 impl KernelConfig {
@@ -357,13 +358,7 @@ impl KernelConfig {
             modules.push(LIGHT_GROUPS);
         }
         modules.push(generated("scene", glue::scene(self)));
-        modules.push(MATERIALS);
-        modules.extend(
-            self.material_kinds
-                .iter()
-                .filter_map(|k| MATERIAL_KINDS[k].module.clone()),
-        );
-        modules.push(generated("bsdf", glue::bsdf(self)));
+        modules.extend(self.material_modules());
         modules.push(STRATEGY);
         modules.push(match self.accumulator {
             AccumulatorKind::Texture => ACCUMULATE_TEXTURE,
@@ -373,7 +368,34 @@ impl KernelConfig {
         modules
     }
 
+    /// The BSDF interface, the helpers the material kinds share (each once),
+    /// the kinds' modules and the generated dispatch.
+    fn material_modules(&self) -> Vec<ShaderModule> {
+        let mut modules = vec![MATERIALS];
+        for k in self.material_kinds.iter() {
+            for helper in MATERIAL_KINDS[k].helpers {
+                if !modules.iter().any(|m| m.name == helper.name) {
+                    modules.push(helper.clone());
+                }
+            }
+        }
+        modules.extend(
+            self.material_kinds
+                .iter()
+                .filter_map(|k| MATERIAL_KINDS[k].module.clone()),
+        );
+        modules.push(ShaderModule {
+            name: "bsdf",
+            source: glue::bsdf(self).into(),
+        });
+        modules
+    }
+
     pub fn source(&self) -> Result<String, ComposeError> {
+        self.compose(&self.modules())
+    }
+
+    fn compose(&self, modules: &[ShaderModule]) -> Result<String, ComposeError> {
         let flags = self.flags();
         let flags: BTreeSet<&str> = flags.iter().map(String::as_str).collect();
         let known = known_flags();
@@ -388,7 +410,38 @@ impl KernelConfig {
             known_flags: &known,
             arrays: &forms,
         };
-        compose(&self.modules(), &directives)
+        compose(modules, &directives)
+    }
+
+    /// A compute shader running the BSDF interface of `material_kinds` (plus
+    /// Lambertian) on its own, with independent random numbers: the entry
+    /// points `probe_sample` and `probe_eval` of `shaders/bsdf_probe.wgsl`, for
+    /// testing each material's sampling against its density on the device.
+    pub fn bsdf_probe_source(material_kinds: KindSet) -> Result<String, ComposeError> {
+        let lambertian = MATERIAL_KINDS
+            .iter()
+            .position(|k| k.name == "lambertian")
+            .expect("lambertian is a kind");
+        let config = KernelConfig {
+            primitive_kinds: KindSet::default(),
+            // Light sampling on: the dispatch then has `bsdf_eval` and `bsdf_pdf`.
+            light_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+            material_kinds: material_kinds.with(lambertian),
+            sampler: Sampler::Independent,
+            ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+        };
+        let mut modules = vec![
+            ShaderModule {
+                name: "constants",
+                source: glue::shared_constants().into(),
+            },
+            COMMON,
+            RNG,
+            SAMPLING,
+        ];
+        modules.extend(config.material_modules());
+        modules.push(BSDF_PROBE);
+        config.compose(&modules)
     }
 
     /// The scene arrays this kernel declares, in binding order.
@@ -596,7 +649,7 @@ impl SceneData {
 mod tests {
     use super::*;
     use crate::gpu::layout::{Counters, PackedArray, Params};
-    use crate::kinds::{ErasedLayout, Quad};
+    use crate::kinds::{ErasedLayout, Lobe, Quad};
 
     fn parse(config: &KernelConfig) -> naga::Module {
         let source = config.source().unwrap();
@@ -616,41 +669,47 @@ mod tests {
         module
     }
 
-    /// Every subset of primitive and material kinds, with and without variance
-    /// and the BVH, for every strategy and accumulator. Lights are sampled where a smooth
+    /// Every subset of primitive kinds with every set of at most two material
+    /// kinds and with all of them (what a module needs of another shows in
+    /// pairs: shared helpers, dispatch), with and without variance and the BVH,
+    /// for every strategy and accumulator. Lights are sampled where a smooth
     /// material exists: from the kinds present, or from all when none is.
     fn all_variants() -> Vec<KernelConfig> {
         let (primitives, materials) = (PRIMITIVE_KINDS.len(), MATERIAL_KINDS.len());
+        let material_sets: Vec<KindSet> = (0..1u32 << materials)
+            .filter(|mask| mask.count_ones() <= 2 || mask.count_ones() == materials as u32)
+            .map(KindSet::from_mask)
+            .collect();
         let mut configs = Vec::new();
         for strategy in Strategy::ALL {
             for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
                 let general = KernelConfig::general(strategy, accumulator);
-                for mask in 0..(1u32 << (primitives + materials + 2)) {
-                    let primitive_kinds = KindSet::from_mask(mask & ((1 << primitives) - 1));
-                    let material_kinds =
-                        KindSet::from_mask((mask >> primitives) & ((1 << materials) - 1));
-                    let samples = has_smooth_lobe(material_kinds) && strategy != Strategy::Bsdf;
-                    let light_kinds = match (samples, primitive_kinds.is_empty()) {
-                        (false, _) => KindSet::default(),
-                        (true, true) => KindSet::all(primitives),
-                        (true, false) => primitive_kinds,
-                    };
-                    let variance = mask >> (primitives + materials) & 1 != 0;
-                    // Smooth shading goes with variance (two independent features
-                    // on one bit, to keep the variants few).
-                    let normal_kinds = primitive_kinds
-                        .iter()
-                        .filter(|&k| variance && general.normal_kinds.contains(k))
-                        .collect();
-                    configs.push(KernelConfig {
-                        primitive_kinds,
-                        light_kinds,
-                        normal_kinds,
-                        material_kinds,
-                        variance,
-                        bvh: mask >> (primitives + materials + 1) != 0,
-                        ..general.clone()
-                    });
+                for mask in 0..(1u32 << (primitives + 2)) {
+                    for &material_kinds in &material_sets {
+                        let primitive_kinds = KindSet::from_mask(mask & ((1 << primitives) - 1));
+                        let samples = has_smooth_lobe(material_kinds) && strategy != Strategy::Bsdf;
+                        let light_kinds = match (samples, primitive_kinds.is_empty()) {
+                            (false, _) => KindSet::default(),
+                            (true, true) => KindSet::all(primitives),
+                            (true, false) => primitive_kinds,
+                        };
+                        let variance = mask >> primitives & 1 != 0;
+                        // Smooth shading goes with variance (two independent features
+                        // on one bit, to keep the variants few).
+                        let normal_kinds = primitive_kinds
+                            .iter()
+                            .filter(|&k| variance && general.normal_kinds.contains(k))
+                            .collect();
+                        configs.push(KernelConfig {
+                            primitive_kinds,
+                            light_kinds,
+                            normal_kinds,
+                            material_kinds,
+                            variance,
+                            bvh: mask >> (primitives + 1) != 0,
+                            ..general.clone()
+                        });
+                    }
                 }
             }
         }
@@ -662,6 +721,20 @@ mod tests {
         for config in all_variants() {
             validate(&config);
         }
+    }
+
+    /// The BSDF probe of tests/bsdf.rs, with every material kind.
+    #[test]
+    fn bsdf_probe_validates() {
+        let source = KernelConfig::bsdf_probe_source(KindSet::all(MATERIAL_KINDS.len())).unwrap();
+        let module = naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
     }
 
     #[test]
@@ -928,6 +1001,7 @@ mod tests {
             .map(|(id, kind)| (kind.id_constant(), id as u32))
             .collect();
         expected.extend(ids.iter().map(|(name, id)| (name.as_str(), *id)));
+        expected.extend(crate::gpu::layout::MATERIAL_FLAGS.iter().copied());
         for (name, rust) in expected {
             assert_eq!(value(name), Some(rust), "{name}");
         }
@@ -987,7 +1061,7 @@ mod tests {
         }
         for kind in MATERIAL_KINDS {
             let functions: &[&str] = match kind.lobe {
-                Lobe::Smooth => &["eval", "pdf", "sample"],
+                Lobe::Smooth | Lobe::SmoothAndDelta => &["eval", "pdf", "sample"],
                 Lobe::Delta => &["sample"],
                 Lobe::Absorbing => &[],
             };

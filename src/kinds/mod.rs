@@ -13,7 +13,7 @@ mod quad;
 mod sphere;
 mod triangle;
 
-pub use material::{Lobe, MATERIAL_KINDS, MaterialKind, material_kind};
+pub use material::{Lobe, MATERIAL_KINDS, MaterialKind, material_kind_id, pack_material};
 pub use quad::Quad;
 pub use sphere::Sphere;
 pub use triangle::{Triangle, TriangleNormals};

@@ -137,24 +137,91 @@ pub struct RenderSettings {
     pub sampler: Sampler,
 }
 
+/// The material kinds. The book's (`Lambertian`, `Metal`, `Dielectric`, `Light`)
+/// keep the book's parameters; the others are Mitsuba 3's plugins of the same
+/// names, with Mitsuba's parameter names, meanings and defaults (so a Mitsuba
+/// scene maps onto them field for field).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MaterialKind {
     Lambertian,
     Metal {
         fuzz: f32,
     },
+    /// The book's glass: `ior` is the relative index (interior over exterior).
     Dielectric {
         ior: f32,
     },
     /// Emits `emit` on the side its normal faces; scatters nothing.
     Light,
+    /// A perfectly smooth conductor: a mirror with the Fresnel reflectance of the
+    /// complex index `eta + i k` (per RGB channel), times `specular_reflectance`.
+    Conductor {
+        eta: Vec3,
+        k: Vec3,
+        specular_reflectance: Vec3,
+    },
+    /// A conductor with a microfacet surface (Cook-Torrance with Smith shadowing).
+    RoughConductor {
+        distribution: Distribution,
+        /// Roughness along the shading frame's two tangents (equal: isotropic).
+        alpha_u: f32,
+        alpha_v: f32,
+        eta: Vec3,
+        k: Vec3,
+        specular_reflectance: Vec3,
+    },
+    /// A rough interface between two dielectrics (Walter et al. 2007).
+    RoughDielectric {
+        distribution: Distribution,
+        alpha_u: f32,
+        alpha_v: f32,
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Vec3,
+        specular_transmittance: Vec3,
+    },
+    /// A diffuse base under a smooth dielectric coat: a specular (delta) lobe and
+    /// a diffuse one.
+    Plastic {
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Vec3,
+        specular_reflectance: Vec3,
+        /// Mitsuba's `nonlinear`: account for the colour shift of light scattered
+        /// inside the coat several times.
+        nonlinear: bool,
+    },
+}
+
+/// A microfacet normal distribution (Mitsuba's `distribution`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Distribution {
+    Beckmann,
+    /// Trowbridge-Reitz.
+    Ggx,
+}
+
+impl Distribution {
+    pub const ALL: [Distribution; 2] = [Distribution::Beckmann, Distribution::Ggx];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Distribution::Beckmann => "beckmann",
+            Distribution::Ggx => "ggx",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Distribution> {
+        Distribution::ALL.into_iter().find(|d| d.name() == name)
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
     pub kind: MaterialKind,
-    /// Reflectance; zero for lights and dielectrics.
+    /// The book's materials' reflectance (`lambertian`, `metal`); zero for the
+    /// others, whose colours are parameters of their kind.
     pub albedo: Vec3,
     /// Emitted radiance (one-sided, along the surface normal); zero for most materials.
     pub emit: Vec3,

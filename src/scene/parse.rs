@@ -57,9 +57,35 @@
 //! - `"lambertian"`: `albedo` (vector, components in [0, 1], required); `emit` (vector,
 //!   components >= 0, default 0) lets a diffuse surface also emit (white furnace).
 //! - `"metal"`: `albedo` (vector in [0, 1], required); `fuzz` (float in [0, 1], default 0).
-//! - `"dielectric"`: `ior` (float > 0, required). Its albedo and emission are zero.
+//! - `"dielectric"`: the book's glass: `ior` (float > 0, the relative index), or `int_ior`
+//!   and `ext_ior` instead (as for `roughdielectric`; `ior` is then their ratio). Its albedo
+//!   and emission are zero.
 //! - `"light"`: `emit` (vector, components >= 0, required). Its albedo is zero.
 //!   Emission is one-sided, along the surface normal.
+//!
+//! The following are Mitsuba 3's BSDF plugins of the same names, with Mitsuba's
+//! parameters, meanings and defaults (Mitsuba's `twosided` is implied: like the book's
+//! materials they scatter on whichever side a path arrives). Colours (`eta`, `k`,
+//! `*_reflectance`, `*_transmittance`) are vectors, or one number for grey; reflectances
+//! and transmittances are in [0, 1].
+//! - `"conductor"`: a smooth mirror with the Fresnel reflectance of the complex index
+//!   `eta + i k` (per channel, >= 0; default Mitsuba's `none`: eta 0, k 1, reflectance 1
+//!   at every angle), times `specular_reflectance` (default 1).
+//! - `"roughconductor"`: the same with a microfacet surface: `distribution` (`"beckmann"`,
+//!   the default, or `"ggx"`), `alpha` (roughness in (0, 1], default 0.1) or `alpha_u` and
+//!   `alpha_v` together (anisotropic, along the two tangents of the shading frame, which
+//!   for now is the normal's orthonormal basis, not the surface's parameterisation),
+//!   `eta`, `k`, `specular_reflectance`. Sampled from the visible normals.
+//! - `"roughdielectric"`: a rough interface (Walter et al. 2007): `distribution`, `alpha`
+//!   or `alpha_u`/`alpha_v`, `int_ior` (default `"bk7"`, 1.5046) and `ext_ior` (default
+//!   `"air"`, 1.00028): numbers > 0 or Mitsuba's names (`"water"`, `"diamond"`,
+//!   `"polypropylene"`, ...), which must differ; `specular_reflectance`,
+//!   `specular_transmittance` (default 1).
+//! - `"plastic"`: a diffuse base under a smooth dielectric coat: `diffuse_reflectance`
+//!   (default 0.5), `specular_reflectance` (default 1), `int_ior` (default
+//!   `"polypropylene"`, 1.49), `ext_ior` (default air), `nonlinear` (bool, default false:
+//!   Mitsuba's account of the colour shift from light scattered inside the coat). The coat
+//!   is a delta lobe, sampled with Mitsuba's weight; the strategies apply to the base.
 //!
 //! `Scene::materials` holds the materials sorted by name (deterministic whatever the
 //! TOML map's ordering); objects refer to them by index. Unused materials are fine.
@@ -117,7 +143,7 @@ use toml::{Table, Value};
 
 use super::mesh::{load_mesh, vertex_normals};
 use super::{
-    Camera, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene, SceneError,
+    Camera, Distribution, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene, SceneError,
     Sphere, Strategy, Triangle,
 };
 use std::path::Path;
@@ -164,8 +190,35 @@ const RENDER_KEYS: &[&str] = &[
     "rr_depth",
     "sampler",
 ];
-const MATERIAL_TYPES: &[&str] = &["lambertian", "metal", "dielectric", "light"];
-const ALL_MATERIAL_KEYS: &[&str] = &["type", "albedo", "emit", "fuzz", "ior"];
+const MATERIAL_TYPES: &[&str] = &[
+    "lambertian",
+    "metal",
+    "dielectric",
+    "light",
+    "conductor",
+    "roughconductor",
+    "roughdielectric",
+    "plastic",
+];
+const ALL_MATERIAL_KEYS: &[&str] = &[
+    "type",
+    "albedo",
+    "emit",
+    "fuzz",
+    "ior",
+    "int_ior",
+    "ext_ior",
+    "eta",
+    "k",
+    "specular_reflectance",
+    "specular_transmittance",
+    "diffuse_reflectance",
+    "distribution",
+    "alpha",
+    "alpha_u",
+    "alpha_v",
+    "nonlinear",
+];
 const OBJECT_TYPES: &[&str] = &["sphere", "quad", "box", "mesh"];
 const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
 const ALL_OBJECT_KEYS: &[&str] = &[
@@ -498,14 +551,133 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                 (MaterialKind::Metal { fuzz }, albedo, Vec3::ZERO)
             }
             "dielectric" => {
-                t.check_keys(&["type", "ior"], Some("a dielectric material"))?;
-                let ior = t.require("ior", t.float("ior", check_positive)?)?;
+                t.check_keys(
+                    &["type", "ior", "int_ior", "ext_ior"],
+                    Some("a dielectric material"),
+                )?;
+                let ior = match t.float("ior", check_positive)? {
+                    Some(ior) => {
+                        if let Some(key) = ["int_ior", "ext_ior"]
+                            .into_iter()
+                            .find(|k| t.table.contains_key(*k))
+                        {
+                            return Err(t.err(
+                                t.at(key),
+                                "give either `ior` or `int_ior`/`ext_ior`, not both",
+                            ));
+                        }
+                        ior
+                    }
+                    None if t.table.contains_key("int_ior") || t.table.contains_key("ext_ior") => {
+                        let (int_ior, ext_ior) = iors(&t, IOR_BK7)?;
+                        int_ior / ext_ior
+                    }
+                    None => {
+                        return Err(t.err(
+                            t.here(),
+                            "missing required key `ior` (or `int_ior`/`ext_ior`)",
+                        ));
+                    }
+                };
                 (MaterialKind::Dielectric { ior }, Vec3::ZERO, Vec3::ZERO)
             }
             "light" => {
                 t.check_keys(&["type", "emit"], Some("a light material"))?;
                 let emit = t.require("emit", t.vec3("emit", check_nonneg)?)?;
                 (MaterialKind::Light, Vec3::ZERO, emit)
+            }
+            "conductor" => {
+                t.check_keys(
+                    &["type", "eta", "k", "specular_reflectance"],
+                    Some("a conductor material"),
+                )?;
+                let (eta, k) = conductor_ior(&t)?;
+                let specular_reflectance = reflectance(&t, "specular_reflectance", 1.0)?;
+                let kind = MaterialKind::Conductor {
+                    eta,
+                    k,
+                    specular_reflectance,
+                };
+                (kind, Vec3::ZERO, Vec3::ZERO)
+            }
+            "roughconductor" => {
+                t.check_keys(
+                    &[
+                        "type",
+                        "distribution",
+                        "alpha",
+                        "alpha_u",
+                        "alpha_v",
+                        "eta",
+                        "k",
+                        "specular_reflectance",
+                    ],
+                    Some("a roughconductor material"),
+                )?;
+                let distribution = distribution(&t)?;
+                let (alpha_u, alpha_v) = roughness(&t)?;
+                let (eta, k) = conductor_ior(&t)?;
+                let specular_reflectance = reflectance(&t, "specular_reflectance", 1.0)?;
+                let kind = MaterialKind::RoughConductor {
+                    distribution,
+                    alpha_u,
+                    alpha_v,
+                    eta,
+                    k,
+                    specular_reflectance,
+                };
+                (kind, Vec3::ZERO, Vec3::ZERO)
+            }
+            "roughdielectric" => {
+                t.check_keys(
+                    &[
+                        "type",
+                        "distribution",
+                        "alpha",
+                        "alpha_u",
+                        "alpha_v",
+                        "int_ior",
+                        "ext_ior",
+                        "specular_reflectance",
+                        "specular_transmittance",
+                    ],
+                    Some("a roughdielectric material"),
+                )?;
+                let distribution = distribution(&t)?;
+                let (alpha_u, alpha_v) = roughness(&t)?;
+                let (int_ior, ext_ior) = iors(&t, IOR_BK7)?;
+                let kind = MaterialKind::RoughDielectric {
+                    distribution,
+                    alpha_u,
+                    alpha_v,
+                    int_ior,
+                    ext_ior,
+                    specular_reflectance: reflectance(&t, "specular_reflectance", 1.0)?,
+                    specular_transmittance: reflectance(&t, "specular_transmittance", 1.0)?,
+                };
+                (kind, Vec3::ZERO, Vec3::ZERO)
+            }
+            "plastic" => {
+                t.check_keys(
+                    &[
+                        "type",
+                        "int_ior",
+                        "ext_ior",
+                        "diffuse_reflectance",
+                        "specular_reflectance",
+                        "nonlinear",
+                    ],
+                    Some("a plastic material"),
+                )?;
+                let (int_ior, ext_ior) = iors(&t, IOR_POLYPROPYLENE)?;
+                let kind = MaterialKind::Plastic {
+                    int_ior,
+                    ext_ior,
+                    diffuse_reflectance: reflectance(&t, "diffuse_reflectance", 0.5)?,
+                    specular_reflectance: reflectance(&t, "specular_reflectance", 1.0)?,
+                    nonlinear: t.boolean("nonlinear")?.unwrap_or(false),
+                };
+                (kind, Vec3::ZERO, Vec3::ZERO)
             }
             other => {
                 return Err(t.err(
@@ -522,6 +694,135 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
         });
     }
     Ok(out)
+}
+
+/// Mitsuba's named indices of refraction (`include/mitsuba/render/ior.h`), so
+/// `int_ior`/`ext_ior` take a number or one of these names.
+const NAMED_IORS: &[(&str, f32)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.00004),
+    ("hydrogen", 1.00013),
+    ("air", 1.00028),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.333),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.47),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.575),
+    ("diamond", 2.419),
+];
+const IOR_AIR: f32 = 1.00028;
+const IOR_BK7: f32 = 1.5046;
+const IOR_POLYPROPYLENE: f32 = 1.49;
+
+/// `int_ior` and `ext_ior` (numbers > 0 or names of [`NAMED_IORS`]), with
+/// Mitsuba's defaults: `int_default` inside, air outside. They must differ.
+fn iors(t: &Tab, int_default: f32) -> Result<(f32, f32)> {
+    let ior = |key: &str, default: f32| -> Result<f32> {
+        match t.table.get(key) {
+            None => Ok(default),
+            Some(Value::String(name)) => match NAMED_IORS.iter().find(|(n, _)| n == name) {
+                Some(&(_, ior)) => Ok(ior),
+                None => {
+                    let names: Vec<&str> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
+                    Err(t.err(t.at(key), unknown_name("index of refraction", name, &names)))
+                }
+            },
+            Some(_) => Ok(t.float(key, check_positive)?.expect("present")),
+        }
+    };
+    let int_ior = ior("int_ior", int_default)?;
+    let ext_ior = ior("ext_ior", IOR_AIR)?;
+    if int_ior == ext_ior {
+        return Err(t.err(
+            t.here(),
+            format!(
+                "`int_ior` and `ext_ior` must differ, both are {}",
+                fmt_num(int_ior)
+            ),
+        ));
+    }
+    Ok((int_ior, ext_ior))
+}
+
+/// A conductor's complex index `eta + i k`, per channel; Mitsuba's default
+/// (`material = "none"`) is eta 0, k 1: reflectance 1 at every angle.
+fn conductor_ior(t: &Tab) -> Result<(Vec3, Vec3)> {
+    let eta = colour(t, "eta", 0.0, check_nonneg)?;
+    let k = colour(t, "k", 1.0, check_nonneg)?;
+    Ok((eta, k))
+}
+
+/// An RGB reflectance or transmittance in [0, 1].
+fn reflectance(t: &Tab, key: &str, default: f32) -> Result<Vec3> {
+    colour(t, key, default, check_unit)
+}
+
+/// An RGB parameter: a vector, or one number for grey.
+fn colour(
+    t: &Tab,
+    key: &str,
+    default: f32,
+    check: fn(f32) -> std::result::Result<(), String>,
+) -> Result<Vec3> {
+    match t.table.get(key) {
+        Some(Value::Array(_)) => Ok(t.vec3(key, check)?.expect("present")),
+        Some(_) => Ok(Vec3::splat(t.float(key, check)?.expect("present"))),
+        None => Ok(Vec3::splat(default)),
+    }
+}
+
+fn distribution(t: &Tab) -> Result<Distribution> {
+    Ok(named(
+        t,
+        "distribution",
+        &Distribution::ALL,
+        Distribution::name,
+        Distribution::from_name,
+    )?
+    .unwrap_or(Distribution::Beckmann))
+}
+
+/// `alpha` (default 0.1), or `alpha_u` and `alpha_v` together; each in (0, 1].
+fn roughness(t: &Tab) -> Result<(f32, f32)> {
+    let (u, v) = (
+        t.table.contains_key("alpha_u"),
+        t.table.contains_key("alpha_v"),
+    );
+    if u || v {
+        if t.table.contains_key("alpha") {
+            let key = if u { "alpha_u" } else { "alpha_v" };
+            return Err(t.err(
+                t.at(key),
+                "give either `alpha` or `alpha_u` and `alpha_v`, not both",
+            ));
+        }
+        let alpha_u = t.require("alpha_u", t.float("alpha_u", check_roughness)?)?;
+        let alpha_v = t.require("alpha_v", t.float("alpha_v", check_roughness)?)?;
+        return Ok((alpha_u, alpha_v));
+    }
+    let alpha = t.float("alpha", check_roughness)?.unwrap_or(0.1);
+    Ok((alpha, alpha))
+}
+
+fn check_roughness(x: f32) -> std::result::Result<(), String> {
+    if x > 0.0 && x <= 1.0 {
+        Ok(())
+    } else {
+        Err(format!("must be in (0, 1], got {}", fmt_num(x)))
+    }
 }
 
 /// The objects of a scene file, in world space.
@@ -1847,6 +2148,153 @@ material = "white"
         assert_error(&e, "camera.vup", &["parallel"]);
         let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nvup = [0, 0, 0]");
         assert_error(&e, "camera.vup", &["non-zero"]);
+    }
+
+    /// `BASE` with the red material's table body replaced by `body`.
+    fn red(body: &str) -> String {
+        BASE.replacen("type = \"lambertian\"\nalbedo = [0.5, 0.1, 0.1]", body, 1)
+    }
+
+    #[test]
+    fn mitsuba_materials_parse_with_mitsuba_defaults() {
+        let kind = |body: &str| parse(&red(body)).materials[0].kind;
+        assert_eq!(
+            kind("type = \"conductor\""),
+            MaterialKind::Conductor {
+                eta: Vec3::ZERO,
+                k: Vec3::ONE,
+                specular_reflectance: Vec3::ONE
+            }
+        );
+        assert_eq!(
+            kind(
+                "type = \"roughconductor\"\neta = [0.2, 0.4, 1.4]\nk = 3\nspecular_reflectance = 0.9"
+            ),
+            MaterialKind::RoughConductor {
+                distribution: Distribution::Beckmann,
+                alpha_u: 0.1,
+                alpha_v: 0.1,
+                eta: Vec3::new(0.2, 0.4, 1.4),
+                k: Vec3::splat(3.0),
+                specular_reflectance: Vec3::splat(0.9),
+            }
+        );
+        assert_eq!(
+            kind(
+                "type = \"roughdielectric\"\ndistribution = \"ggx\"\nalpha_u = 0.05\nalpha_v = 0.3\next_ior = \"water\""
+            ),
+            MaterialKind::RoughDielectric {
+                distribution: Distribution::Ggx,
+                alpha_u: 0.05,
+                alpha_v: 0.3,
+                int_ior: 1.5046,
+                ext_ior: 1.333,
+                specular_reflectance: Vec3::ONE,
+                specular_transmittance: Vec3::ONE,
+            }
+        );
+        assert_eq!(
+            kind("type = \"plastic\"\nnonlinear = true"),
+            MaterialKind::Plastic {
+                int_ior: 1.49,
+                ext_ior: 1.00028,
+                diffuse_reflectance: Vec3::splat(0.5),
+                specular_reflectance: Vec3::ONE,
+                nonlinear: true,
+            }
+        );
+        assert_eq!(
+            kind("type = \"dielectric\"\nint_ior = 2\next_ior = 1.25"),
+            MaterialKind::Dielectric { ior: 1.6 }
+        );
+    }
+
+    #[test]
+    fn mitsuba_material_errors() {
+        let error = |body: &str| parse_scene(&red(body), FILE).unwrap_err();
+        let cases: &[(&str, &str, &[&str])] = &[
+            (
+                "type = \"roughconductor\"\nalpha = 0",
+                "materials.red.alpha",
+                &["must be in (0, 1], got 0"],
+            ),
+            (
+                "type = \"roughconductor\"\nalpha = 1.5",
+                "materials.red.alpha",
+                &["must be in (0, 1], got 1.5"],
+            ),
+            (
+                "type = \"roughdielectric\"\nalpha_u = 0.1",
+                "materials.red",
+                &["missing required key `alpha_v`"],
+            ),
+            (
+                "type = \"roughconductor\"\nalpha = 0.1\nalpha_u = 0.1\nalpha_v = 0.2",
+                "materials.red.alpha_u",
+                &["either `alpha` or `alpha_u` and `alpha_v`"],
+            ),
+            (
+                "type = \"conductor\"\nk = [1, -2, 1]",
+                "materials.red.k[1]",
+                &["must be >= 0, got -2"],
+            ),
+            (
+                "type = \"conductor\"\neta = -1",
+                "materials.red.eta",
+                &["must be >= 0, got -1"],
+            ),
+            (
+                "type = \"roughdielectric\"\nint_ior = -1.5",
+                "materials.red.int_ior",
+                &["must be > 0, got -1.5"],
+            ),
+            (
+                "type = \"plastic\"\nint_ior = 1.00028",
+                "materials.red",
+                &["must differ"],
+            ),
+            (
+                "type = \"plastic\"\nint_ior = \"watr\"",
+                "materials.red.int_ior",
+                &[
+                    "unknown index of refraction `watr`",
+                    "did you mean `water`?",
+                ],
+            ),
+            (
+                "type = \"roughconductor\"\ndistribution = \"gxx\"",
+                "materials.red.distribution",
+                &["did you mean `ggx`?"],
+            ),
+            (
+                "type = \"roughconductor\"\nalbedo = [1, 1, 1]",
+                "materials.red",
+                &["unknown key `albedo` for a roughconductor material"],
+            ),
+            (
+                "type = \"plastic\"\ndiffuse_reflectance = 1.2",
+                "materials.red.diffuse_reflectance",
+                &["must be in [0, 1]"],
+            ),
+            (
+                "type = \"plastic\"\nnonlinear = 1",
+                "materials.red.nonlinear",
+                &["expected a boolean"],
+            ),
+            (
+                "type = \"dielectric\"\nior = 1.5\nint_ior = 1.5",
+                "materials.red.int_ior",
+                &["either `ior` or `int_ior`/`ext_ior`"],
+            ),
+            (
+                "type = \"roughconductr\"",
+                "materials.red.type",
+                &["did you mean `roughconductor`?"],
+            ),
+        ];
+        for (body, location, parts) in cases {
+            assert_error(&error(body), location, parts);
+        }
     }
 
     #[test]
