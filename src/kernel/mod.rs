@@ -7,7 +7,7 @@ mod glue;
 
 use crate::accel::BvhNode;
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
-use crate::kinds::{KindSet, Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS};
+use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
 use crate::lights::{LightGroup, LightPick};
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
