@@ -22,7 +22,8 @@ struct ProbeInput {
 const PROBE_WORKGROUP: u32 = 64u;
 
 fn probe_frame() -> Frame {
-    return Frame(probe.n, probe.front_face != 0u);
+    // A flat surface: the shading normal is the geometric one.
+    return Frame(probe.n, probe.front_face != 0u, probe.n);
 }
 
 @compute @workgroup_size(PROBE_WORKGROUP, 1, 1)

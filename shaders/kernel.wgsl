@@ -59,37 +59,6 @@ override FILTER_ERF_RADIUS: f32;
 override FILTER_FLOOR: f32;
 override FILTER_WEIGHT_SCALE: f32;
 
-// The inverse error function in single precision (Giles 2010, "Approximating the
-// erfinv function"): relative error below 4e-7 on (-1, 1).
-fn erfinv(x: f32) -> f32 {
-    var w = -log((1.0 - x) * (1.0 + x));
-    var p: f32;
-    if w < 5.0 {
-        w = w - 2.5;
-        p = 2.81022636e-08;
-        p = 3.43273939e-07 + p * w;
-        p = -3.5233877e-06 + p * w;
-        p = -4.39150654e-06 + p * w;
-        p = 0.00021858087 + p * w;
-        p = -0.00125372503 + p * w;
-        p = -0.00417768164 + p * w;
-        p = 0.246640727 + p * w;
-        p = 1.50140941 + p * w;
-    } else {
-        w = sqrt(w) - 3.0;
-        p = -0.000200214257;
-        p = 0.000100950558 + p * w;
-        p = 0.00134934322 + p * w;
-        p = -0.00367342844 + p * w;
-        p = 0.00573950773 + p * w;
-        p = -0.0076224613 + p * w;
-        p = 0.00943887047 + p * w;
-        p = 1.00167406 + p * w;
-        p = 2.83297682 + p * w;
-    }
-    return p * x;
-}
-
 // Offsets (in pixels) drawn from the Gaussian truncated to [-r, r] by inverting its
 // CDF per axis, and the weight f/g * Z_g/Z_f that makes the estimate the one of the
 // filter f = g - g(r) (mean weight 1).

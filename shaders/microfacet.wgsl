@@ -106,35 +106,6 @@ fn erf_approx(x: f32) -> f32 {
     return sign(x) * (1.0 - poly * exp(-x * x));
 }
 
-// Inverse of erf (M. Giles, "Approximating the erfinv function", 2010, single precision).
-fn erfinv_approx(x: f32) -> f32 {
-    var w = -log(max((1.0 - x) * (1.0 + x), 1e-30));
-    var p: f32;
-    if w < 5.0 {
-        w = w - 2.5;
-        p = 2.81022636e-08;
-        p = 3.43273939e-07 + p * w;
-        p = -3.5233877e-06 + p * w;
-        p = -4.39150654e-06 + p * w;
-        p = 0.00021858087 + p * w;
-        p = -0.00125372503 + p * w;
-        p = -0.00417768164 + p * w;
-        p = 0.246640727 + p * w;
-        p = 1.50140941 + p * w;
-    } else {
-        w = sqrt(w) - 3.0;
-        p = -0.000200214257;
-        p = 0.000100950558 + p * w;
-        p = 0.00134934322 + p * w;
-        p = -0.00367342844 + p * w;
-        p = 0.00573950773 + p * w;
-        p = -0.0076224613 + p * w;
-        p = 0.00943887047 + p * w;
-        p = 1.00167406 + p * w;
-        p = 2.83297682 + p * w;
-    }
-    return p * x;
-}
 
 // A slope of the unit-roughness distribution's visible normals, seen at
 // incidence cosine `cos_theta_i` (Mitsuba's `sample_visible_11`).
@@ -159,7 +130,7 @@ fn microfacet_sample_visible_11(beckmann: bool, cos_theta_i: f32, u: vec2<f32>) 
             if !(x >= lo && x <= hi) {
                 x = 0.5 * (lo + hi);
             }
-            let slope = erfinv_approx(x);
+            let slope = erfinv(x);
             let value = 1.0 + x + sqrt_pi_inv * tan_theta_i * exp(-slope * slope) - s.x;
             if abs(value) <= 1e-6 * total {
                 break;
@@ -171,7 +142,7 @@ fn microfacet_sample_visible_11(beckmann: bool, cos_theta_i: f32, u: vec2<f32>) 
             }
             x -= value / (1.0 - slope * tan_theta_i);
         }
-        return vec2<f32>(erfinv_approx(x), erfinv_approx(2.0 * s.y - 1.0));
+        return vec2<f32>(erfinv(x), erfinv(2.0 * s.y - 1.0));
     }
     // GGX: a point of the projected visible hemisphere (Heitz 2018), as a slope.
     var p = square_to_disk_concentric(u);
