@@ -289,7 +289,7 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
         (
             "hair",
             "<scene version=\"3.0.0\">\n<bsdf type=\"hair\"/>\n</scene>",
-            ":2:1: <bsdf type=\"hair\">: not supported (supported: diffuse, dielectric, twosided",
+            ":2:1: <bsdf type=\"hair\">: not supported (supported: diffuse, dielectric, conductor",
         ),
         (
             "param",

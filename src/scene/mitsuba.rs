@@ -55,9 +55,8 @@ const NAMED_IORS: &[(&str, f64)] = &[
     ("diamond", 2.419),
 ];
 
-const SUPPORTED_BSDFS: &str = "diffuse, dielectric, twosided; conductor, roughconductor, \
-                               roughdielectric, plastic and roughplastic wait for pathmix's \
-                               microfacet materials";
+const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
+                               plastic, twosided";
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, sphere";
 const SUPPORTED_TOP: &str = "default, include, path, integrator, sensor, shape, bsdf, emitter";
 
@@ -790,10 +789,13 @@ fn color_value(c: [f64; 3]) -> Value {
 // Interpretation
 
 /// A surface as pathmix can render it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 enum Surface {
     Lambertian { albedo: [f64; 3] },
     Dielectric { ior: f64 },
+    /// One of pathmix's microfacet-era materials, named and parameterised as
+    /// Mitsuba's plugin of the same name: its TOML table, `type` included.
+    Mitsuba { table: Table, transmits: bool },
 }
 
 struct Builder<'a> {
@@ -938,6 +940,19 @@ impl<'a> Builder<'a> {
                     ior: int_ior / ext_ior,
                 }
             }
+            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "plastic") => {
+                let transmits = ty == "roughdielectric";
+                if !twosided && !transmits {
+                    self.warn(format!(
+                        "one-sided `{ty}` BSDFs are two-sided in pathmix (the back of a \
+                         surface reflects instead of being black)"
+                    ));
+                }
+                Surface::Mitsuba {
+                    table: mitsuba_material(ty, &mut props)?,
+                    transmits,
+                }
+            }
             "twosided" => {
                 let inner = props.objects(&["bsdf", "ref"]);
                 let [inner] = inner[..] else {
@@ -1013,10 +1028,10 @@ impl<'a> Builder<'a> {
             None => None,
         };
         let mut table = Table::new();
-        let full_name = match (surface, &emit) {
+        let full_name = match (&surface, &emit) {
             (Surface::Lambertian { albedo }, _) => {
                 table.insert("type".into(), Value::String("lambertian".into()));
-                table.insert("albedo".into(), color_value(albedo));
+                table.insert("albedo".into(), color_value(*albedo));
                 match &emit {
                     Some((emitter_name, radiance)) => {
                         table.insert("emit".into(), color_value(*radiance));
@@ -1027,12 +1042,17 @@ impl<'a> Builder<'a> {
             }
             (Surface::Dielectric { ior }, None) => {
                 table.insert("type".into(), Value::String("dielectric".into()));
-                table.insert("ior".into(), Value::Float(ior));
+                table.insert("ior".into(), Value::Float(*ior));
                 base
             }
-            (Surface::Dielectric { .. }, Some(_)) => {
+            (Surface::Mitsuba { table: params, .. }, None) => {
+                table = params.clone();
+                base
+            }
+            (Surface::Dielectric { .. } | Surface::Mitsuba { .. }, Some(_)) => {
                 return Err(shape.origin.error(
-                    "an emitting dielectric is not supported (pathmix's emitters are diffuse)",
+                    "an area emitter on a non-diffuse BSDF is not supported (pathmix's \
+                     emitters are diffuse)",
                 ));
             }
         };
@@ -1074,7 +1094,11 @@ impl<'a> Builder<'a> {
         }
         let (material, surface, emits) = self.material(e, bsdf, emitter)?;
         // Where pathmix's surfaces have sides: emission and the inside of glass.
-        let sided = emits || matches!(surface, Surface::Dielectric { .. });
+        let sided = emits
+            || matches!(
+                surface,
+                Surface::Dielectric { .. } | Surface::Mitsuba { transmits: true, .. }
+            );
         let mirrors = to_world.determinant() < 0.0;
         let mut object = Table::new();
         object.insert("material".into(), Value::String(material));
@@ -1459,6 +1483,60 @@ impl<'a> Builder<'a> {
     }
 }
 
+/// The pathmix material of Mitsuba's `conductor`, `roughconductor`,
+/// `roughdielectric` or `plastic`: the same parameter names (the TOML parser
+/// validates them and fills Mitsuba's defaults), IORs given by name turned into
+/// numbers.
+fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
+    let mut table = Table::new();
+    table.insert("type".into(), Value::String(ty.into()));
+    let rough = ty.starts_with("rough");
+    let colors: &[&str] = match ty {
+        "conductor" | "roughconductor" => &["eta", "k", "specular_reflectance"],
+        "roughdielectric" => &["specular_reflectance", "specular_transmittance"],
+        _ => &["diffuse_reflectance", "specular_reflectance"],
+    };
+    for &name in colors {
+        if let Some(c) = props.color(name)? {
+            table.insert(name.into(), color_value(c));
+        }
+    }
+    if rough {
+        for name in ["alpha", "alpha_u", "alpha_v"] {
+            if let Some(a) = props.float(name)? {
+                table.insert(name.into(), Value::Float(a));
+            }
+        }
+        if let Some((d, _)) = props.string("distribution")? {
+            table.insert("distribution".into(), Value::String(d.into()));
+        }
+    }
+    match ty {
+        "conductor" | "roughconductor" => {
+            if let Some((name, e)) = props.string("material")? {
+                if name != "none" {
+                    return Err(e.origin.error(format!(
+                        "the conductor preset `{name}` is not supported yet: give `eta` and `k`"
+                    )));
+                }
+            }
+        }
+        _ => {
+            let int_default = if ty == "plastic" { 1.49 } else { 1.5046 };
+            let int_ior = ior(props, "int_ior", int_default)?;
+            let ext_ior = ior(props, "ext_ior", 1.000277)?;
+            table.insert("int_ior".into(), Value::Float(int_ior));
+            table.insert("ext_ior".into(), Value::Float(ext_ior));
+            if ty == "plastic" {
+                if let Some(n) = props.boolean("nonlinear")? {
+                    table.insert("nonlinear".into(), Value::Boolean(n));
+                }
+            }
+        }
+    }
+    Ok(table)
+}
+
 fn gaussian_filter(stddev: f64) -> Value {
     let mut t = BTreeMap::new();
     t.insert("type".to_string(), Value::String("gaussian".into()));
@@ -1771,6 +1849,56 @@ mod tests {
             r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,
         );
         assert_eq!(s.render.background, Vec3::new(0.5, 1.0, 2.0));
+    }
+
+    /// Mitsuba's microfacet-era BSDFs map onto pathmix's materials of the same
+    /// names, parameter for parameter, with Mitsuba's defaults.
+    #[test]
+    fn microfacet_bsdfs_map_onto_materials() {
+        use crate::scene::{Distribution, MaterialKind};
+        let (s, c) = read(
+            "microfacet",
+            r#"<shape type="sphere"><bsdf type="roughconductor"><string name="distribution" value="ggx"/>
+                 <float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.3"/>
+                 <rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.2"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="twosided"><bsdf type="plastic">
+                 <rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/><boolean name="nonlinear" value="true"/></bsdf></bsdf></shape>
+               <shape type="sphere"><bsdf type="roughdielectric"><float name="alpha" value="0.2"/>
+                 <string name="int_ior" value="diamond"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="conductor"/></shape>"#,
+            &[],
+        )
+        .unwrap();
+        let kinds: Vec<MaterialKind> = s.materials.iter().map(|m| m.kind).collect();
+        assert!(kinds.iter().any(|k| *k
+            == MaterialKind::RoughConductor {
+                distribution: Distribution::Ggx,
+                alpha_u: 0.05,
+                alpha_v: 0.3,
+                eta: Vec3::new(0.2, 0.9, 1.1),
+                k: Vec3::new(3.9, 2.4, 2.2),
+                specular_reflectance: Vec3::ONE,
+            }));
+        assert!(kinds.iter().any(|k| matches!(k,
+            MaterialKind::RoughDielectric { distribution: Distribution::Beckmann, alpha_u, int_ior, .. }
+                if *alpha_u == 0.2 && *int_ior == 2.419)));
+        assert!(kinds.iter().any(|k| matches!(k,
+            MaterialKind::Plastic { nonlinear: true, int_ior, .. } if *int_ior == 1.49)));
+        assert!(kinds.iter().any(|k| matches!(k, MaterialKind::Conductor { .. })));
+        // The one-sided conductors warn; the plastic inside twosided and the
+        // (two-sided by nature) rough dielectric do not.
+        assert!(c.warnings.iter().any(|w| w.contains("one-sided `roughconductor`")));
+        assert!(c.warnings.iter().all(|w| !w.contains("`plastic`") && !w.contains("`roughdielectric`")));
+        let e = error(
+            "preset",
+            r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#,
+        );
+        assert!(e.contains("preset `Au`"), "{e}");
+        let e = error(
+            "rough-range",
+            r#"<shape type="sphere"><bsdf type="roughconductor"><float name="alpha" value="2"/></bsdf></shape>"#,
+        );
+        assert!(e.contains("alpha"), "{e}");
     }
 
     #[test]
