@@ -501,7 +501,7 @@ pub fn plan_kernel(
     };
     let mut data = data;
     let scene_storage = match scene_storage {
-        SceneStorage::Bvh => match Bvh::build(&data) {
+        SceneStorage::Bvh => match Bvh::build(&mut data) {
             Some(bvh) => {
                 data.bvh = Some(bvh);
                 SceneStorage::Bvh

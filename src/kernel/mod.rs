@@ -103,7 +103,6 @@ pub enum ArraySource {
     /// The primitives of kind `k` in the light density.
     Lights(usize),
     BvhNodes,
-    BvhRefs,
 }
 
 /// One array of the scene the kernel declares.
@@ -354,14 +353,6 @@ impl KernelConfig {
                 indexed: true,
                 source: ArraySource::BvhNodes,
             });
-            arrays.push(SceneArray {
-                name: "bvh_refs".into(),
-                wgsl_type: "u32",
-                element_size: size_of::<u32>(),
-                binding: 2 + 2 * count,
-                indexed: true,
-                source: ArraySource::BvhRefs,
-            });
         }
         arrays
     }
@@ -373,7 +364,7 @@ impl KernelConfig {
                 ArraySource::Materials => data.materials.len(),
                 ArraySource::Primitives(k) => data.primitives[k].len(),
                 ArraySource::Lights(k) => data.lights[k].len(),
-                ArraySource::BvhNodes | ArraySource::BvhRefs => {
+                ArraySource::BvhNodes => {
                     unreachable!("a baked scene has no BVH")
                 }
             }),
@@ -412,7 +403,6 @@ impl SceneData {
             ArraySource::Primitives(k) => &self.primitives[k].bytes,
             ArraySource::Lights(k) => &self.lights[k].bytes,
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
-            ArraySource::BvhRefs => bytemuck::cast_slice(&self.bvh_part().refs),
         }
     }
 
