@@ -321,9 +321,10 @@ mod tests {
                 assert!(count >= 1);
                 assert!(count <= MAX_LEAF || depth + PRIMITIVE_KINDS.len() as u32 >= MAX_DEPTH);
                 let layout = PRIMITIVE_KINDS[kind].layout;
-                for p in node.first as usize..node.first as usize + count {
-                    assert!(!covered[kind][p], "primitive {p} in two leaves");
-                    covered[kind][p] = true;
+                let range = node.first as usize..node.first as usize + count;
+                for (covered, p) in covered[kind][range.clone()].iter_mut().zip(range) {
+                    assert!(!*covered, "primitive {p} in two leaves");
+                    *covered = true;
                     let (min, max) = (PRIMITIVE_KINDS[kind].bounds)(
                         sorted.primitives[kind].element(p, layout.size),
                     );
