@@ -37,8 +37,11 @@ pub struct LightTables {
     pub groups: Vec<LightGroup>,
     /// One per light primitive, in the light array's order.
     pub picks: Vec<LightPick>,
-    /// Over the light primitives (references index the light array).
+    /// Over the light primitives, which it leaves in place (groups are
+    /// contiguous there): its leaves are ranges of `refs`.
     pub bvh: Bvh,
+    /// The light array's indices in the BVH's leaf order (`Bvh::build_order`).
+    pub refs: Vec<u32>,
 }
 
 /// Rec. 709 luminance: how bright an emission looks, for weighing lights.
@@ -83,7 +86,10 @@ impl LightTables {
         }
         let mut only_lights = SceneData::default();
         only_lights.primitives[k] = lights.clone();
-        tables.bvh = Bvh::build(&only_lights).unwrap_or_default();
+        if let Some((bvh, mut leaf_order)) = Bvh::build_order(&only_lights) {
+            tables.bvh = bvh;
+            tables.refs = std::mem::take(&mut leaf_order[k]);
+        }
         tables
     }
 }

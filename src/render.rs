@@ -551,7 +551,7 @@ pub fn plan_kernel(
     };
     let mut data = data;
     let scene_storage = match scene_storage {
-        SceneStorage::Bvh => match Bvh::build(&data) {
+        SceneStorage::Bvh => match Bvh::build(&mut data) {
             Some(bvh) => {
                 data.bvh = Some(bvh);
                 SceneStorage::Bvh
@@ -781,9 +781,13 @@ const BVH_ITERATIONS_PER_RAY: u64 = 256;
 /// and, when the scene is read from buffers, a loop over every primitive (closest
 /// hit) and every light (light density) in it, twice with next-event estimation
 /// (the shadow ray's closest hit and a second light density). A baked scene's
-/// loops are unrolled. A BVH traversal's iterations (nodes visited plus
-/// primitives tested) have no tight bound: `BVH_ITERATIONS_PER_RAY` is a
-/// generous allowance, and the truncation guard reports a ray that needs more.
+/// loops are unrolled. A BVH traversal's iterations (while-while: an inner-loop
+/// step per interior node visited and per leaf reached, an outer-loop step per
+/// leaf, and one per primitive tested) have no tight bound:
+/// `BVH_ITERATIONS_PER_RAY` is a generous allowance, and the truncation guard
+/// reports a ray that needs more. The walk of a grouped kind's light BVH visits
+/// each node and tests each light at most once, so nodes plus lights bound it
+/// (`SceneData::light_density_iterations`), capped at the same allowance.
 pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
     let per_sample = loop_iterations_per_vertex(data, config) * (config.max_depth as u64 + 1);
     (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32

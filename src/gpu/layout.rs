@@ -324,7 +324,7 @@ impl SceneData {
             .zip(&self.light_tables)
             .map(|((kind, lights), tables)| match tables {
                 Some(tables) if kind.grouped_lights => {
-                    bvh_allowance.min((tables.bvh.nodes.len() + tables.bvh.refs.len()) as u64)
+                    bvh_allowance.min((tables.bvh.nodes.len() + tables.refs.len()) as u64)
                 }
                 _ if baked => 0,
                 _ => lights.len() as u64,

@@ -15,7 +15,7 @@ use crate::shader::element_constant;
 use std::fmt::Write;
 
 /// Constants every module may use: workgroup size, frame bindings, accumulator
-/// layers, material kind ids and the BVH's stack size and reference layout, from
+/// layers, material kind ids and the BVH's stack size and leaf layout, from
 /// their Rust definitions.
 pub fn shared_constants() -> String {
     let mut out = String::new();
@@ -38,8 +38,8 @@ pub fn shared_constants() -> String {
         constant(name, bit);
     }
     constant("BVH_STACK", accel::MAX_DEPTH);
-    constant("BVH_REF_KIND_SHIFT", accel::REF_KIND_SHIFT);
-    constant("BVH_REF_INDEX_MASK", accel::REF_INDEX_MASK);
+    constant("BVH_LEAF_KIND_SHIFT", accel::LEAF_KIND_SHIFT);
+    constant("BVH_LEAF_COUNT_MASK", accel::LEAF_COUNT_MASK);
     out
 }
 
@@ -124,12 +124,10 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
                 LightTablePart::BvhNodes => {
                     tables.bvh.nodes.iter().map(GpuLayout::wgsl_value).collect()
                 }
-                LightTablePart::BvhRefs => {
-                    tables.bvh.refs.iter().map(|r| format!("{r}u")).collect()
-                }
+                LightTablePart::BvhRefs => tables.refs.iter().map(|r| format!("{r}u")).collect(),
             }
         }
-        ArraySource::BvhNodes | ArraySource::BvhRefs => unreachable!("a baked scene has no BVH"),
+        ArraySource::BvhNodes => unreachable!("a baked scene has no BVH"),
     };
     let n = values.len();
     writeln!(out, "fn {name}_count() -> u32 {{ return {n}u; }}").unwrap();
@@ -245,7 +243,10 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
 }
 
 /// Depth-first traversal with a stack: the nearer child first, the farther one
-/// pushed, boxes behind the closest hit so far skipped.
+/// pushed, boxes behind the closest hit so far skipped. While-while (Aila and
+/// Laine 2009): an inner loop descends to a leaf, so SIMD lanes walking interior
+/// nodes stay in step; the far child is stored whether or not it is kept (the
+/// stack pointer alone decides), so the store does not depend on the lane.
 fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -> String) {
     out.push_str(
         "    let inv_dir = 1.0 / ray.dir;
@@ -253,49 +254,59 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
     var depth = 0u;
     var node_index = 0u;
     loop {
-        let node = bvh_nodes_at(node_index);
-        if node.count == 0u {
-            let near_index = node_index + 1u;
-            let t_near = bvh_box_t(bvh_nodes_at(near_index), ray.origin, inv_dir, hit.t);
-            let t_far = bvh_box_t(bvh_nodes_at(node.first), ray.origin, inv_dir, hit.t);
-            var first = near_index;
-            var second = node.first;
-            var t_second = t_far;
-            if t_far < t_near {
-                first = node.first;
-                second = near_index;
-                t_second = t_near;
+        var node = bvh_nodes_at(node_index);
+        var missed = false;
+        loop {
+            if node.count != 0u {
+                break;
             }
-            if min(t_near, t_far) < F32_MAX {
-                if t_second < F32_MAX {
-                    stack[depth] = second;
-                    depth += 1u;
-                }
-                node_index = first;
-                continue;
+            let left = node_index + 1u;
+            let t_left = bvh_box_t(bvh_nodes_at(left), ray.origin, inv_dir, hit.t);
+            let t_right = bvh_box_t(bvh_nodes_at(node.first), ray.origin, inv_dir, hit.t);
+            let right_first = t_right < t_left;
+            stack[depth] = select(node.first, left, right_first);
+            depth += select(0u, 1u, max(t_left, t_right) < F32_MAX);
+            if min(t_left, t_right) < F32_MAX {
+                node_index = select(left, node.first, right_first);
+            } else if depth == 0u {
+                missed = true;
+                break;
+            } else {
+                depth -= 1u;
+                node_index = stack[depth];
             }
-        } else {
-            for (var r = node.first; r < node.first + node.count; r += 1u) {
-                let reference = bvh_refs_at(r);
-                let index = reference & BVH_REF_INDEX_MASK;
-                switch reference >> BVH_REF_KIND_SHIFT {
+            node = bvh_nodes_at(node_index);
+        }
+        if missed {
+            break;
+        }
+        let end = node.first + (node.count & BVH_LEAF_COUNT_MASK);
 ",
     );
-    for &k in kinds {
+    // A leaf is a range of one kind's array: one switch per leaf, none with one kind.
+    let range = |k: usize, indent: &str| {
         let array = PRIMITIVE_KINDS[k].array;
-        writeln!(
-            out,
-            "                    case {k}u: {{\n                        let primitive_index = index;\n                        let primitive = {array}_at(index);\n{}                    }}",
-            test(k, "                        ")
+        format!(
+            "{indent}for (var primitive_index = node.first; primitive_index < end; primitive_index += 1u) {{\n{indent}    let primitive = {array}_at(primitive_index);\n{}{indent}}}\n",
+            test(k, &format!("{indent}    "))
         )
-        .unwrap();
+    };
+    if let [only] = kinds {
+        out.push_str(&range(*only, "        "));
+    } else {
+        out.push_str("        switch node.count >> BVH_LEAF_KIND_SHIFT {\n");
+        for &k in kinds {
+            write!(
+                out,
+                "            case {k}u: {{\n{}            }}\n",
+                range(k, "                ")
+            )
+            .unwrap();
+        }
+        out.push_str("            default: {}\n        }\n");
     }
     out.push_str(
-        "                    default: {}
-                }
-            }
-        }
-        if depth == 0u {
+        "        if depth == 0u {
             break;
         }
         depth -= 1u;
@@ -399,7 +410,8 @@ fn light_density(out: &mut String, config: &KernelConfig) {
 /// array) picks a member of a group
 /// by its alias table, `LIGHTS_groups_pdf` sums over every member the ray
 /// meets (not only the first: a direction's density counts every point that
-/// could have been sampled along it) through the lights' own BVH, each member's
+/// could have been sampled along it) through the lights' own BVH (leaves are
+/// ranges of its `refs`, which index the light array), each member's
 /// density weighted by its probability within its group.
 fn grouped_lights(out: &mut String, kind: &PrimitiveKind) {
     let (name, lights) = (kind.name, kind.light_array());
@@ -432,8 +444,8 @@ fn {lights}_groups_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {{
                 node_index += 1u;
                 continue;
             }}
-            for (var r = node.first; r < node.first + node.count; r += 1u) {{
-                let index = {refs}_at(r) & BVH_REF_INDEX_MASK;
+            for (var r = node.first; r < node.first + (node.count & BVH_LEAF_COUNT_MASK); r += 1u) {{
+                let index = {refs}_at(r);
                 total += {picks}_at(index).pmf * {name}_light_pdf({lights}_at(index), origin, dir);
             }}
         }}

@@ -113,7 +113,6 @@ pub enum ArraySource {
     /// The light tables (`lights::LightTables`) of grouped light kind `k`.
     LightTable(usize, LightTablePart),
     BvhNodes,
-    BvhRefs,
 }
 
 /// One of the arrays of `lights::LightTables`.
@@ -515,14 +514,6 @@ impl KernelConfig {
                 indexed: true,
                 source: ArraySource::BvhNodes,
             });
-            arrays.push(SceneArray {
-                name: "bvh_refs".into(),
-                wgsl_type: "u32",
-                element_size: size_of::<u32>(),
-                binding: 2 + 2 * count,
-                indexed: true,
-                source: ArraySource::BvhRefs,
-            });
         }
         arrays
     }
@@ -538,7 +529,7 @@ impl KernelConfig {
                 ArraySource::LightTable(..) => {
                     data.array_bytes(array.source).len() / array.element_size
                 }
-                ArraySource::BvhNodes | ArraySource::BvhRefs => {
+                ArraySource::BvhNodes => {
                     unreachable!("a baked scene has no BVH")
                 }
             }),
@@ -630,11 +621,10 @@ impl SceneData {
                     LightTablePart::Groups => bytemuck::cast_slice(&tables.groups),
                     LightTablePart::Picks => bytemuck::cast_slice(&tables.picks),
                     LightTablePart::BvhNodes => bytemuck::cast_slice(&tables.bvh.nodes),
-                    LightTablePart::BvhRefs => bytemuck::cast_slice(&tables.bvh.refs),
+                    LightTablePart::BvhRefs => bytemuck::cast_slice(&tables.refs),
                 }
             }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
-            ArraySource::BvhRefs => bytemuck::cast_slice(&self.bvh_part().refs),
         }
     }
 
