@@ -921,7 +921,12 @@ mod tests {
         }
         let boxed = KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer);
         assert!(!boxed.source().unwrap().contains("gaussian_filter_offset"));
-        assert!(boxed.constants().iter().all(|(n, _)| !n.starts_with("FILTER")));
+        assert!(
+            boxed
+                .constants()
+                .iter()
+                .all(|(n, _)| !n.starts_with("FILTER"))
+        );
     }
 
     /// The host terms against values computed independently (Mitsuba's default).

@@ -791,11 +791,18 @@ fn color_value(c: [f64; 3]) -> Value {
 /// A surface as pathmix can render it.
 #[derive(Clone, Debug, PartialEq)]
 enum Surface {
-    Lambertian { albedo: [f64; 3] },
-    Dielectric { ior: f64 },
+    Lambertian {
+        albedo: [f64; 3],
+    },
+    Dielectric {
+        ior: f64,
+    },
     /// One of pathmix's microfacet-era materials, named and parameterised as
     /// Mitsuba's plugin of the same name: its TOML table, `type` included.
-    Mitsuba { table: Table, transmits: bool },
+    Mitsuba {
+        table: Table,
+        transmits: bool,
+    },
 }
 
 struct Builder<'a> {
@@ -1097,7 +1104,11 @@ impl<'a> Builder<'a> {
         let sided = emits
             || matches!(
                 surface,
-                Surface::Dielectric { .. } | Surface::Mitsuba { transmits: true, .. }
+                Surface::Dielectric { .. }
+                    | Surface::Mitsuba {
+                        transmits: true,
+                        ..
+                    }
             );
         let mirrors = to_world.determinant() < 0.0;
         let mut object = Table::new();
@@ -1884,11 +1895,23 @@ mod tests {
                 if *alpha_u == 0.2 && *int_ior == 2.419)));
         assert!(kinds.iter().any(|k| matches!(k,
             MaterialKind::Plastic { nonlinear: true, int_ior, .. } if *int_ior == 1.49)));
-        assert!(kinds.iter().any(|k| matches!(k, MaterialKind::Conductor { .. })));
+        assert!(
+            kinds
+                .iter()
+                .any(|k| matches!(k, MaterialKind::Conductor { .. }))
+        );
         // The one-sided conductors warn; the plastic inside twosided and the
         // (two-sided by nature) rough dielectric do not.
-        assert!(c.warnings.iter().any(|w| w.contains("one-sided `roughconductor`")));
-        assert!(c.warnings.iter().all(|w| !w.contains("`plastic`") && !w.contains("`roughdielectric`")));
+        assert!(
+            c.warnings
+                .iter()
+                .any(|w| w.contains("one-sided `roughconductor`"))
+        );
+        assert!(
+            c.warnings
+                .iter()
+                .all(|w| !w.contains("`plastic`") && !w.contains("`roughdielectric`"))
+        );
         let e = error(
             "preset",
             r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#,

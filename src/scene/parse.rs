@@ -143,8 +143,8 @@ use toml::{Table, Value};
 
 use super::mesh::{load_mesh, vertex_normals};
 use super::{
-    Camera, Distribution, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene, SceneError,
-    Sphere, Strategy, Triangle,
+    Camera, Distribution, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene,
+    SceneError, Sphere, Strategy, Triangle,
 };
 use std::path::Path;
 
