@@ -21,39 +21,12 @@ use glam::{DMat4, DVec3, DVec4};
 use toml::{Table, Value};
 
 use super::SceneError;
-use super::parse::sin_cos_degrees;
+use super::parse::{NAMED_IORS, sin_cos_degrees};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 /// pathmix's largest `max_depth`, for Mitsuba's unbounded `max_depth = -1`.
 const UNBOUNDED_DEPTH: i64 = 100_000;
-
-/// Mitsuba's named indices of refraction (`mitsuba/render/ior.h`).
-const NAMED_IORS: &[(&str, f64)] = &[
-    ("vacuum", 1.0),
-    ("helium", 1.000036),
-    ("hydrogen", 1.000132),
-    ("air", 1.000277),
-    ("carbon dioxide", 1.00045),
-    ("water", 1.3330),
-    ("acetone", 1.36),
-    ("ethanol", 1.361),
-    ("carbon tetrachloride", 1.461),
-    ("glycerol", 1.4729),
-    ("benzene", 1.501),
-    ("silicone oil", 1.52045),
-    ("bromine", 1.661),
-    ("water ice", 1.31),
-    ("fused quartz", 1.458),
-    ("pyrex", 1.470),
-    ("acrylic glass", 1.49),
-    ("polypropylene", 1.49),
-    ("bk7", 1.5046),
-    ("sodium chloride", 1.544),
-    ("amber", 1.55),
-    ("pet", 1.5750),
-    ("diamond", 2.419),
-];
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
                                plastic, twosided";

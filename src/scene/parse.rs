@@ -78,7 +78,7 @@
 //!   `eta`, `k`, `specular_reflectance`. Sampled from the visible normals.
 //! - `"roughdielectric"`: a rough interface (Walter et al. 2007): `distribution`, `alpha`
 //!   or `alpha_u`/`alpha_v`, `int_ior` (default `"bk7"`, 1.5046) and `ext_ior` (default
-//!   `"air"`, 1.00028): numbers > 0 or Mitsuba's names (`"water"`, `"diamond"`,
+//!   `"air"`, 1.000277): numbers > 0 or Mitsuba's names (`"water"`, `"diamond"`,
 //!   `"polypropylene"`, ...), which must differ; `specular_reflectance`,
 //!   `specular_transmittance` (default 1).
 //! - `"plastic"`: a diffuse base under a smooth dielectric coat: `diffuse_reflectance`
@@ -697,14 +697,15 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
 }
 
 /// Mitsuba's named indices of refraction (`include/mitsuba/render/ior.h`), so
-/// `int_ior`/`ext_ior` take a number or one of these names.
-const NAMED_IORS: &[(&str, f32)] = &[
+/// Mitsuba's named indices of refraction (`mitsuba/render/ior.h`): what `int_ior`
+/// and `ext_ior` take by name, here and in Mitsuba scenes.
+pub(super) const NAMED_IORS: &[(&str, f64)] = &[
     ("vacuum", 1.0),
-    ("helium", 1.00004),
-    ("hydrogen", 1.00013),
-    ("air", 1.00028),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
     ("carbon dioxide", 1.00045),
-    ("water", 1.333),
+    ("water", 1.3330),
     ("acetone", 1.36),
     ("ethanol", 1.361),
     ("carbon tetrachloride", 1.461),
@@ -714,16 +715,16 @@ const NAMED_IORS: &[(&str, f32)] = &[
     ("bromine", 1.661),
     ("water ice", 1.31),
     ("fused quartz", 1.458),
-    ("pyrex", 1.47),
+    ("pyrex", 1.470),
     ("acrylic glass", 1.49),
     ("polypropylene", 1.49),
     ("bk7", 1.5046),
     ("sodium chloride", 1.544),
     ("amber", 1.55),
-    ("pet", 1.575),
+    ("pet", 1.5750),
     ("diamond", 2.419),
 ];
-const IOR_AIR: f32 = 1.00028;
+const IOR_AIR: f32 = 1.000277;
 const IOR_BK7: f32 = 1.5046;
 const IOR_POLYPROPYLENE: f32 = 1.49;
 
@@ -734,7 +735,7 @@ fn iors(t: &Tab, int_default: f32) -> Result<(f32, f32)> {
         match t.table.get(key) {
             None => Ok(default),
             Some(Value::String(name)) => match NAMED_IORS.iter().find(|(n, _)| n == name) {
-                Some(&(_, ior)) => Ok(ior),
+                Some(&(_, ior)) => Ok(ior as f32),
                 None => {
                     let names: Vec<&str> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
                     Err(t.err(t.at(key), unknown_name("index of refraction", name, &names)))
@@ -2197,7 +2198,7 @@ material = "white"
             kind("type = \"plastic\"\nnonlinear = true"),
             MaterialKind::Plastic {
                 int_ior: 1.49,
-                ext_ior: 1.00028,
+                ext_ior: 1.000277,
                 diffuse_reflectance: Vec3::splat(0.5),
                 specular_reflectance: Vec3::ONE,
                 nonlinear: true,
