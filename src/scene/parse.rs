@@ -2250,7 +2250,7 @@ material = "white"
                 &["must be > 0, got -1.5"],
             ),
             (
-                "type = \"plastic\"\nint_ior = 1.00028",
+                "type = \"plastic\"\nint_ior = 1.000277",
                 "materials.red",
                 &["must differ"],
             ),
