@@ -1,7 +1,8 @@
 // Sampling strategies: how a path picks its next direction where the material
-// has a smooth lobe (its delta lobe, if it has one too, is followed). Written once against the BSDF interface (materials.wgsl),
-// so every material kind gets every strategy. At a delta lobe, and under the
-// `bsdf` strategy, the path follows the material's own sample.
+// has a smooth lobe (its delta lobe, if it has one too, is followed). Written
+// once against the BSDF interface (materials.wgsl), so every material kind gets
+// every strategy. At a delta lobe, and under the `bsdf` strategy, the path
+// follows the material's own sample.
 //
 // - bsdf:    the material's sampling alone (cosine-weighted for Lambertian).
 // - light:   the light density alone (biased: misses indirect light).
