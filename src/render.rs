@@ -853,11 +853,14 @@ fn check_size(
 /// too. Paths whose throughput grows past 1 are caught after the run by
 /// [`check_sums_finite`].
 pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result<(), RenderError> {
-    let (used, _) = scene.without_unused_materials();
-    let radiance = used
+    // Only the materials objects use: an unused one is dropped before packing.
+    let used = scene.used_materials();
+    let radiance = scene
         .materials
         .iter()
-        .map(|m| m.emit.max_element())
+        .zip(used)
+        .filter(|&(_, used)| used)
+        .map(|(m, _)| m.emit.max_element())
         .chain([scene.render.background.max_element()])
         .fold(0.0f32, f32::max);
     let depth = scene.render.max_depth.saturating_add(1);

@@ -8,16 +8,7 @@ impl Scene {
     /// indices renumbered, and how many were dropped. Rendering it gives the
     /// same image: the kernel only ever reads the materials of what a ray hits.
     pub fn without_unused_materials(&self) -> (Scene, usize) {
-        let mut used = vec![false; self.materials.len()];
-        let references = self
-            .quads
-            .iter()
-            .map(|q| q.material)
-            .chain(self.spheres.iter().map(|s| s.material))
-            .chain(self.triangles.iter().map(|t| t.material));
-        for material in references {
-            used[material as usize] = true;
-        }
+        let used = self.used_materials();
         let mut renumbered = vec![u32::MAX; self.materials.len()];
         let mut materials = Vec::new();
         for (index, material) in self.materials.iter().enumerate() {
@@ -41,6 +32,21 @@ impl Scene {
             t.material = renumbered[t.material as usize];
         }
         (scene, dropped)
+    }
+
+    /// Whether some object uses each material, by index.
+    pub fn used_materials(&self) -> Vec<bool> {
+        let mut used = vec![false; self.materials.len()];
+        let references = self
+            .quads
+            .iter()
+            .map(|q| q.material)
+            .chain(self.spheres.iter().map(|s| s.material))
+            .chain(self.triangles.iter().map(|t| t.material));
+        for material in references {
+            used[material as usize] = true;
+        }
+        used
     }
 }
 
