@@ -7,7 +7,7 @@ mitsuba numpy`), Debian's `libllvm19` and DRJIT_LIBLLVM_PATH pointing at it.
 
     DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \
     v/bin/python scripts/check-mitsuba-xml.py ../shared/mitsuba-scenes/cbox/cbox-rgb.xml \
-        --size 128 --spp 256 --reference-spp 4096
+        --spp 256 --reference-spp 4096
 
 Both renderers get the same file, size (`-D res=...` style parameters are passed
 to both with -D) and sample count. A common reference (Mitsuba at
@@ -80,7 +80,8 @@ def blocks(img, size=16):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scene")
-    ap.add_argument("--size", type=int, default=128, help="width and height, given as -D res=SIZE")
+    ap.add_argument("--size", type=int, help="width and height, given as -D res=SIZE (for scenes "
+                    "with a $res parameter, such as tests/data/bunny-box.xml)")
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--reference-spp", type=int, default=4096)
     ap.add_argument("--reference", help="an existing reference EXR instead of rendering one")
@@ -90,7 +91,8 @@ def main():
     args = ap.parse_args()
 
     params = dict(d.split("=", 1) for d in args.D)
-    params.setdefault("res", str(args.size))
+    if args.size is not None:
+        params.setdefault("res", str(args.size))
     with tempfile.TemporaryDirectory() as tmp:
         if args.reference:
             ref = np.array(mi.Bitmap(args.reference), dtype=np.float64)[..., :3]

@@ -59,3 +59,11 @@ fn probe_eval(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgro
     }
     probe_out[index] = out;
 }
+
+// The materials' tables (`kinds::MaterialTables`), which the kernel's scene
+// arrays provide as `material_tables`.
+@group(0) @binding(13) var<storage, read> probe_tables: array<f32>;
+
+fn material_tables_at(i: u32) -> f32 {
+    return probe_tables[i];
+}

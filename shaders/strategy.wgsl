@@ -100,6 +100,12 @@ fn scatter_smooth(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -
 
 // `origin` is the hit point moved off the surface on the side of `wo`.
 fn scatter(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -> Scatter {
+#if ONE_SIDED
+    // A one-sided surface (Mitsuba's BSDFs outside `twosided`) is black from behind.
+    if (m.flags & MATERIAL_ONE_SIDED) != 0u && !frame.front_face {
+        return absorbed();
+    }
+#endif
 #if LIGHT_DENSITY
     if bsdf_is_smooth(m) {
         return scatter_smooth(m, frame, wo, origin);

@@ -1066,6 +1066,7 @@ mod tests {
         type = "metal"
         albedo = [0.8, 0.7, 0.6]
         fuzz = 0.3
+        one_sided = true
         [materials.glow]
         type = "lambertian"
         albedo = [0.2, 0.3, 0.4]

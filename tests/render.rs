@@ -486,3 +486,55 @@ fn nee_mis_and_mixture_agree_on_the_cornell_box() {
         );
     }
 }
+
+/// A one-sided surface is black from behind and scatters as before from the
+/// front; a two-sided one scatters on both sides. A plane of albedo 0.5 under a
+/// uniform sky of 1 reflects exactly 0.5 from either side it scatters on.
+#[test]
+fn one_sided_materials_are_black_from_behind() {
+    let ctx = gpu_or_skip!();
+    for (one_sided, from_below, expected) in [
+        (true, true, 0.0),
+        (true, false, 0.5),
+        (false, true, 0.5),
+        (false, false, 0.5),
+    ] {
+        let eye_y = if from_below { -1.0 } else { 1.0 };
+        let scene = common::scene_text(&format!(
+            r#"
+            [camera]
+            lookfrom = [0, {eye_y}, 0]
+            lookat = [0, 0, 0]
+            vup = [0, 0, -1]
+            vfov = 20
+            width = 8
+            height = 8
+            [render]
+            spp = 16
+            max_depth = 4
+            strategy = "bsdf"
+            background = [1, 1, 1]
+            [materials.plane]
+            type = "lambertian"
+            albedo = [0.5, 0.5, 0.5]
+            one_sided = {one_sided}
+            [[objects]]
+            type = "quad"
+            q = [-1000, 0, -1000]
+            u = [0, 0, 2000]
+            v = [2000, 0, 0]
+            material = "plane"
+            "#
+        ));
+        let acc = common::render(ctx, &scene, &RenderOptions::default());
+        let what = format!("one_sided = {one_sided}, seen from below: {from_below}");
+        for pixel in acc.mean().pixels {
+            for channel in pixel {
+                assert!(
+                    (channel - expected).abs() <= 1e-6,
+                    "{what}: {channel} != {expected}"
+                );
+            }
+        }
+    }
+}

@@ -2,7 +2,9 @@
 //! here is checked against naga's reading of the WGSL in `kernel::tests`.
 
 use crate::accel::Bvh;
-use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material};
+use crate::kinds::{
+    KindSet, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material,
+};
 use crate::lights::LightTables;
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
@@ -145,6 +147,8 @@ pub const MATERIAL_FLAGS: &[(&str, u32)] = &[
     ("MATERIAL_BECKMANN", 1),
     // Mitsuba's `nonlinear` for plastics.
     ("MATERIAL_NONLINEAR", 2),
+    // Scatters only on the side its normal faces.
+    ("MATERIAL_ONE_SIDED", 4),
 ];
 
 /// The value of the bit named `name` of [`MATERIAL_FLAGS`].
@@ -191,6 +195,8 @@ impl PackedArray {
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneData {
     pub materials: Vec<Material>,
+    /// The materials' tables (`kinds::MaterialTables`), where a kind has them.
+    pub material_tables: Vec<f32>,
     /// Per kind of `PRIMITIVE_KINDS`: the primitives rays can hit.
     pub primitives: Vec<PackedArray>,
     /// Per kind: copies of the primitives in the light density.
@@ -211,6 +217,7 @@ impl Default for SceneData {
     fn default() -> Self {
         SceneData {
             materials: Vec::new(),
+            material_tables: Vec::new(),
             primitives: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
             lights: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
             normals: vec![Vec::new(); PRIMITIVE_KINDS.len()],
@@ -223,12 +230,18 @@ impl Default for SceneData {
 
 impl SceneData {
     pub fn pack(scene: &Scene) -> SceneData {
-        let materials = scene.materials.iter().map(pack_material).collect();
+        let mut material_tables = MaterialTables::default();
+        let materials = scene
+            .materials
+            .iter()
+            .map(|m| pack_material(m, &mut material_tables))
+            .collect();
         // A dielectric of ior 1 bends and reflects nothing: it is left out of the
         // geometry (it may still guide sampling if marked for importance).
         let invisible = |material: u32| matches!(scene.materials[material as usize].kind, MaterialKind::Dielectric { ior } if ior == 1.0);
         let mut data = SceneData {
             materials,
+            material_tables: material_tables.values,
             ..SceneData::default()
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
@@ -339,6 +352,14 @@ impl SceneData {
             .flat_map(|array| &array.materials)
             .map(|&m| self.materials[m as usize].kind as usize)
             .collect()
+    }
+
+    /// Whether a material rays can hit is one-sided.
+    pub fn has_one_sided_materials(&self) -> bool {
+        self.primitives
+            .iter()
+            .flat_map(|array| &array.materials)
+            .any(|&m| self.materials[m as usize].flags & material_flag("MATERIAL_ONE_SIDED") != 0)
     }
 
     /// The primitive kinds rays can hit.

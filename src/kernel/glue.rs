@@ -8,9 +8,9 @@ use crate::accel;
 use crate::gpu::accumulator::{
     LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
 };
-use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
+use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData, WgslValue};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
-use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS, PrimitiveKind};
+use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES};
 use crate::shader::element_constant;
 use std::fmt::Write;
 
@@ -37,6 +37,7 @@ pub fn shared_constants() -> String {
     for &(name, bit) in MATERIAL_FLAGS {
         constant(name, bit);
     }
+    constant("ROUGH_TRANSMITTANCE_RES", ROUGH_TRANSMITTANCE_RES as u32);
     constant("BVH_STACK", accel::MAX_DEPTH);
     constant("BVH_LEAF_KIND_SHIFT", accel::LEAF_KIND_SHIFT);
     constant("BVH_LEAF_COUNT_MASK", accel::LEAF_COUNT_MASK);
@@ -95,6 +96,11 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
     } = array;
     let values: Vec<String> = match array.source {
         ArraySource::Materials => data.materials.iter().map(GpuLayout::wgsl_value).collect(),
+        ArraySource::MaterialTables => data
+            .material_tables
+            .iter()
+            .map(WgslValue::wgsl_value)
+            .collect(),
         ArraySource::Primitives(k) | ArraySource::Lights(k) => {
             let packed = match array.source {
                 ArraySource::Primitives(_) => &data.primitives[k],

@@ -36,6 +36,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "BVH",
     "SHADING_NORMALS",
     "FILTER_GAUSSIAN",
+    "ONE_SIDED",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -104,6 +105,8 @@ impl SceneStorage {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ArraySource {
     Materials,
+    /// The materials' tables (`SceneData::material_tables`).
+    MaterialTables,
     /// The primitives of kind `k` of `PRIMITIVE_KINDS`.
     Primitives(usize),
     /// The primitives of kind `k` in the light density.
@@ -161,7 +164,9 @@ pub struct SceneArray {
     /// Bytes per element.
     pub element_size: usize,
     /// Its binding in group 1 when the scene is read from buffers: materials 0,
-    /// then the primitive kinds in table order, then their light arrays.
+    /// then the primitive kinds in table order, then their light arrays, the
+    /// BVH, the shading normals, the light tables and the material tables
+    /// (fixed per array, whichever arrays a kernel declares).
     pub binding: u32,
     /// Read by a dynamic index (`NAME_at`), not only walked by `#for_each`.
     pub indexed: bool,
@@ -197,6 +202,8 @@ pub struct KernelConfig {
     pub bvh: bool,
     /// The pixel filter camera rays are drawn from.
     pub filter: Filter,
+    /// Some material of the scene is one-sided (black from behind).
+    pub one_sided: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -236,6 +243,7 @@ impl KernelConfig {
             baked_scene: (scene_storage == SceneStorage::Baked).then(|| data.clone()),
             bvh: scene_storage == SceneStorage::Bvh,
             filter,
+            one_sided: data.has_one_sided_materials(),
         }
     }
 
@@ -274,6 +282,7 @@ impl KernelConfig {
             baked_scene: None,
             bvh: false,
             filter: Filter::Box,
+            one_sided: true,
         }
     }
 
@@ -283,6 +292,11 @@ impl KernelConfig {
             (None, true) => SceneStorage::Bvh,
             (None, false) => SceneStorage::Buffers,
         }
+    }
+
+    /// Whether a material kind of the scene reads `material_tables`.
+    pub fn reads_material_tables(&self) -> bool {
+        self.material_kinds.iter().any(|k| MATERIAL_KINDS[k].tables)
     }
 
     pub fn samples_lights(&self) -> bool {
@@ -319,6 +333,7 @@ impl KernelConfig {
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
+            ("ONE_SIDED", self.one_sided),
             (
                 "FILTER_GAUSSIAN",
                 matches!(self.filter, Filter::Gaussian { .. }),
@@ -454,6 +469,16 @@ impl KernelConfig {
             indexed: true,
             source: ArraySource::Materials,
         }];
+        if self.reads_material_tables() {
+            arrays.push(SceneArray {
+                name: "material_tables".into(),
+                wgsl_type: "f32",
+                element_size: size_of::<f32>(),
+                binding: 3 + 7 * count,
+                indexed: true,
+                source: ArraySource::MaterialTables,
+            });
+        }
         for k in self.primitive_kinds.iter() {
             let kind = PRIMITIVE_KINDS[k];
             arrays.push(SceneArray {
@@ -523,6 +548,7 @@ impl KernelConfig {
         match &self.baked_scene {
             Some(data) => ArrayForm::Constants(match array.source {
                 ArraySource::Materials => data.materials.len(),
+                ArraySource::MaterialTables => data.material_tables.len(),
                 ArraySource::Primitives(k) => data.primitives[k].len(),
                 ArraySource::Lights(k) => data.lights[k].len(),
                 ArraySource::Normals(k) => data.primitives[k].len(),
@@ -610,6 +636,7 @@ impl SceneData {
     pub fn array_bytes(&self, source: ArraySource) -> &[u8] {
         match source {
             ArraySource::Materials => bytemuck::cast_slice(&self.materials),
+            ArraySource::MaterialTables => bytemuck::cast_slice(&self.material_tables),
             ArraySource::Primitives(k) => &self.primitives[k].bytes,
             ArraySource::Lights(k) => &self.lights[k].bytes,
             ArraySource::Normals(k) => &self.normals[k],
@@ -799,7 +826,12 @@ mod tests {
     #[test]
     fn baked_constants_are_the_buffer_contents() {
         let mut arrays_checked = 0;
-        for file in ["cornell.toml", "cornell-boxes.toml", "furnace.toml"] {
+        for file in [
+            "cornell.toml",
+            "cornell-boxes.toml",
+            "furnace.toml",
+            "materials.toml",
+        ] {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("scenes")
                 .join(file);
@@ -827,8 +859,9 @@ mod tests {
                 arrays_checked += 1;
             }
         }
-        // materials, quads, light quads (x3) and the cornell box's sphere and light sphere.
-        assert!(arrays_checked >= 10, "{arrays_checked}");
+        // materials, quads, light quads (x3), the cornell box's sphere and light
+        // sphere, and the materials scene's arrays with its coats' tables.
+        assert!(arrays_checked >= 15, "{arrays_checked}");
     }
 
     #[test]
@@ -989,6 +1022,10 @@ mod tests {
             ("BINDING_PARAMS", BINDING_PARAMS),
             ("BINDING_ACCUMULATOR", BINDING_ACCUMULATOR),
             ("BINDING_COUNTERS", BINDING_COUNTERS),
+            (
+                "ROUGH_TRANSMITTANCE_RES",
+                crate::kinds::ROUGH_TRANSMITTANCE_RES as u32,
+            ),
         ];
         let ids: Vec<(String, u32)> = MATERIAL_KINDS
             .iter()

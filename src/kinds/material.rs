@@ -2,6 +2,7 @@
 //! [`pack_material`] says what each field holds for each kind, and a kind's
 //! description which BSDF lobes its WGSL module implements.
 
+use super::coat::CoatTables;
 use crate::gpu::layout::{Material, material_flag};
 use crate::scene::{self, Distribution};
 use crate::shader::{ShaderModule, shader_module};
@@ -40,6 +41,9 @@ pub struct MaterialKind {
     /// however many kinds use them.
     pub helpers: &'static [ShaderModule],
     pub lobe: Lobe,
+    /// Its module reads per-material tables from the scene's `material_tables`
+    /// array (`MaterialTables`), which kernels declare only for such kinds.
+    pub tables: bool,
 }
 
 impl MaterialKind {
@@ -63,6 +67,7 @@ pub const MATERIAL_KINDS: &[MaterialKind] = &[
         module: Some(shader_module!("lambertian")),
         helpers: &[],
         lobe: Lobe::Smooth,
+        tables: false,
     },
     MaterialKind {
         name: "metal",
@@ -70,42 +75,56 @@ pub const MATERIAL_KINDS: &[MaterialKind] = &[
         helpers: &[],
         // The book's fuzzed mirror has no closed-form density.
         lobe: Lobe::Delta,
+        tables: false,
     },
     MaterialKind {
         name: "dielectric",
         module: Some(shader_module!("dielectric")),
         helpers: &[],
         lobe: Lobe::Delta,
+        tables: false,
     },
     MaterialKind {
         name: "light",
         module: None,
         helpers: &[],
         lobe: Lobe::Absorbing,
+        tables: false,
     },
     MaterialKind {
         name: "conductor",
         module: Some(shader_module!("conductor")),
         helpers: &[FRESNEL],
         lobe: Lobe::Delta,
+        tables: false,
     },
     MaterialKind {
         name: "roughconductor",
         module: Some(shader_module!("roughconductor")),
         helpers: &[FRESNEL, MICROFACET],
         lobe: Lobe::Smooth,
+        tables: false,
     },
     MaterialKind {
         name: "roughdielectric",
         module: Some(shader_module!("roughdielectric")),
         helpers: &[FRESNEL, MICROFACET],
         lobe: Lobe::Smooth,
+        tables: false,
     },
     MaterialKind {
         name: "plastic",
         module: Some(shader_module!("plastic")),
         helpers: &[FRESNEL],
         lobe: Lobe::SmoothAndDelta,
+        tables: false,
+    },
+    MaterialKind {
+        name: "roughplastic",
+        module: Some(shader_module!("roughplastic")),
+        helpers: &[FRESNEL, MICROFACET],
+        lobe: Lobe::Smooth,
+        tables: true,
     },
 ];
 
@@ -124,6 +143,47 @@ fn beckmann_flag(distribution: Distribution) -> u32 {
     }
 }
 
+/// The tables of a scene's materials (`MaterialKind::tables`), one array of
+/// floats the kernel reads at the offset a packed material holds. Materials with
+/// the same coat share one table.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MaterialTables {
+    pub values: Vec<f32>,
+    /// The coats tabulated so far (distribution, alpha and eta, as bits), and
+    /// their tables' offsets and internal reflectances.
+    coats: Vec<((Distribution, u32, u32), u32, f32)>,
+}
+
+impl MaterialTables {
+    /// The offset of the coat's transmittance table, and its internal reflectance.
+    fn coat(&mut self, distribution: Distribution, alpha: f32, eta: f32) -> (u32, f32) {
+        let key = (distribution, alpha.to_bits(), eta.to_bits());
+        if let Some(&(_, offset, internal)) = self.coats.iter().find(|(k, ..)| *k == key) {
+            return (offset, internal);
+        }
+        let tables = CoatTables::new(distribution, alpha, eta);
+        let offset = self.values.len() as u32;
+        self.values.extend_from_slice(&tables.transmittance);
+        self.coats.push((key, offset, tables.internal_reflectance));
+        (offset, tables.internal_reflectance)
+    }
+}
+
+/// Mitsuba steers samples between a coat and its base by the lobes' mean
+/// reflectances: the probability weight of the coat.
+fn specular_sampling_weight(diffuse: glam::Vec3, specular: glam::Vec3) -> f32 {
+    let (d_mean, s_mean) = (diffuse.element_sum() / 3.0, specular.element_sum() / 3.0);
+    s_mean / (d_mean + s_mean)
+}
+
+fn nonlinear_flag(nonlinear: bool) -> u32 {
+    if nonlinear {
+        material_flag("MATERIAL_NONLINEAR")
+    } else {
+        0
+    }
+}
+
 /// The packed material. Per kind (the WGSL modules read the same fields):
 /// - lambertian: `albedo`; metal: `albedo`, `param` = fuzz; dielectric:
 ///   `param` = ior; every kind: `emit`;
@@ -135,8 +195,13 @@ fn beckmann_flag(distribution: Distribution) -> u32 {
 ///   = alpha_u/alpha_v, `flags` the distribution;
 /// - plastic: `albedo` = diffuse_reflectance, `color2` = specular_reflectance,
 ///   `color3` = (eta, the coat's internal diffuse Fresnel reflectance, the
-///   probability weight of the specular lobe), `flags` nonlinear.
-pub fn pack_material(material: &scene::Material) -> Material {
+///   probability weight of the specular lobe), `flags` nonlinear;
+/// - every kind: `flags` one-sided;
+/// - roughplastic: as plastic, with `color3.y` the coat's internal reflectance
+///   (`coat::CoatTables`), `param` = alpha, `param2` = the offset of its
+///   transmittance table in `tables` (an integer, exact in f32), `flags` the
+///   distribution and nonlinear.
+pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) -> Material {
     use scene::MaterialKind as K;
     let (name, packed) = match material.kind {
         K::Lambertian => ("lambertian", Material::default()),
@@ -215,11 +280,6 @@ pub fn pack_material(material: &scene::Material) -> Material {
             nonlinear,
         } => {
             let eta = int_ior / ext_ior;
-            // Mitsuba steers samples by the mean reflectances of the two lobes.
-            let (d_mean, s_mean) = (
-                diffuse_reflectance.element_sum() / 3.0,
-                specular_reflectance.element_sum() / 3.0,
-            );
             (
                 "plastic",
                 Material {
@@ -228,13 +288,37 @@ pub fn pack_material(material: &scene::Material) -> Material {
                     color3: [
                         eta,
                         fresnel_diffuse_reflectance(1.0 / eta),
-                        s_mean / (d_mean + s_mean),
+                        specular_sampling_weight(diffuse_reflectance, specular_reflectance),
                     ],
-                    flags: if nonlinear {
-                        material_flag("MATERIAL_NONLINEAR")
-                    } else {
-                        0
-                    },
+                    flags: nonlinear_flag(nonlinear),
+                    ..Default::default()
+                },
+            )
+        }
+        K::RoughPlastic {
+            distribution,
+            alpha,
+            int_ior,
+            ext_ior,
+            diffuse_reflectance,
+            specular_reflectance,
+            nonlinear,
+        } => {
+            let eta = int_ior / ext_ior;
+            let (offset, internal_reflectance) = tables.coat(distribution, alpha, eta);
+            (
+                "roughplastic",
+                Material {
+                    albedo: diffuse_reflectance.to_array(),
+                    color2: specular_reflectance.to_array(),
+                    color3: [
+                        eta,
+                        internal_reflectance,
+                        specular_sampling_weight(diffuse_reflectance, specular_reflectance),
+                    ],
+                    param: alpha,
+                    param2: offset as f32,
+                    flags: beckmann_flag(distribution) | nonlinear_flag(nonlinear),
                     ..Default::default()
                 },
             )
@@ -244,10 +328,16 @@ pub fn pack_material(material: &scene::Material) -> Material {
         K::Lambertian | K::Metal { .. } => material.albedo.to_array(),
         _ => packed.albedo,
     };
+    let one_sided = if material.one_sided {
+        material_flag("MATERIAL_ONE_SIDED")
+    } else {
+        0
+    };
     Material {
         albedo,
         kind: material_kind_id(name) as u32,
         emit: material.emit.to_array(),
+        flags: packed.flags | one_sided,
         ..packed
     }
 }

@@ -8,12 +8,16 @@
 //! description (listed in [`PRIMITIVE_KINDS`]), its scene type and parser
 //! (`scene`), and a test; a material kind is the same with [`MATERIAL_KINDS`].
 
+mod coat;
 mod material;
 mod quad;
 mod sphere;
 mod triangle;
 
-pub use material::{Lobe, MATERIAL_KINDS, MaterialKind, material_kind_id, pack_material};
+pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
+pub use material::{
+    Lobe, MATERIAL_KINDS, MaterialKind, MaterialTables, material_kind_id, pack_material,
+};
 pub use quad::Quad;
 pub use sphere::Sphere;
 pub use triangle::{Triangle, TriangleNormals};

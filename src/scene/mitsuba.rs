@@ -29,7 +29,7 @@ type Result<T> = std::result::Result<T, SceneError>;
 const UNBOUNDED_DEPTH: i64 = 100_000;
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
-                               plastic, twosided";
+                               plastic, roughplastic, twosided";
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, sphere";
 const SUPPORTED_TOP: &str = "default, include, path, integrator, sensor, shape, bsdf, emitter";
 
@@ -764,8 +764,11 @@ fn color_value(c: [f64; 3]) -> Value {
 /// A surface as pathmix can render it.
 #[derive(Clone, Debug, PartialEq)]
 enum Surface {
+    /// `one_sided`: outside a `twosided`, black from behind (as all of these
+    /// but the dielectrics, which scatter from both sides by nature).
     Lambertian {
         albedo: [f64; 3],
+        one_sided: bool,
     },
     Dielectric {
         ior: f64,
@@ -775,6 +778,7 @@ enum Surface {
     Mitsuba {
         table: Table,
         transmits: bool,
+        one_sided: bool,
     },
 }
 
@@ -903,15 +907,11 @@ impl<'a> Builder<'a> {
         let mut props = Props::new(e);
         let surface = match e.ty() {
             "diffuse" => {
-                if !twosided {
-                    self.warn(
-                        "one-sided `diffuse` BSDFs are two-sided in pathmix (the back of a \
-                         surface reflects instead of being black)"
-                            .into(),
-                    );
-                }
                 let albedo = props.color("reflectance")?.unwrap_or([0.5; 3]);
-                Surface::Lambertian { albedo }
+                Surface::Lambertian {
+                    albedo,
+                    one_sided: !twosided,
+                }
             }
             "dielectric" => {
                 let int_ior = ior(&mut props, "int_ior", 1.5046)?;
@@ -920,17 +920,13 @@ impl<'a> Builder<'a> {
                     ior: int_ior / ext_ior,
                 }
             }
-            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "plastic") => {
+            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "plastic"
+            | "roughplastic") => {
                 let transmits = ty == "roughdielectric";
-                if !twosided && !transmits {
-                    self.warn(format!(
-                        "one-sided `{ty}` BSDFs are two-sided in pathmix (the back of a \
-                         surface reflects instead of being black)"
-                    ));
-                }
                 Surface::Mitsuba {
                     table: mitsuba_material(ty, &mut props)?,
                     transmits,
+                    one_sided: !twosided && !transmits,
                 }
             }
             "twosided" => {
@@ -987,13 +983,14 @@ impl<'a> Builder<'a> {
     ) -> Result<(String, Surface, bool)> {
         let (base, surface) = match bsdf {
             Some(b) => (self.name_of(b), self.surface(b, false)?),
-            None => {
-                self.warn("a shape without a BSDF is Mitsuba's default one-sided diffuse 0.5, two-sided in pathmix".into());
-                (
-                    "default-diffuse".to_string(),
-                    Surface::Lambertian { albedo: [0.5; 3] },
-                )
-            }
+            // Mitsuba's default: a one-sided diffuse of reflectance 0.5.
+            None => (
+                "default-diffuse".to_string(),
+                Surface::Lambertian {
+                    albedo: [0.5; 3],
+                    one_sided: true,
+                },
+            ),
         };
         let emit = match emitter {
             Some(em) => {
@@ -1009,9 +1006,12 @@ impl<'a> Builder<'a> {
         };
         let mut table = Table::new();
         let full_name = match (&surface, &emit) {
-            (Surface::Lambertian { albedo }, _) => {
+            (Surface::Lambertian { albedo, one_sided }, _) => {
                 table.insert("type".into(), Value::String("lambertian".into()));
                 table.insert("albedo".into(), color_value(*albedo));
+                if *one_sided {
+                    table.insert("one_sided".into(), Value::Boolean(true));
+                }
                 match &emit {
                     Some((emitter_name, radiance)) => {
                         table.insert("emit".into(), color_value(*radiance));
@@ -1025,8 +1025,18 @@ impl<'a> Builder<'a> {
                 table.insert("ior".into(), Value::Float(*ior));
                 base
             }
-            (Surface::Mitsuba { table: params, .. }, None) => {
+            (
+                Surface::Mitsuba {
+                    table: params,
+                    one_sided,
+                    ..
+                },
+                None,
+            ) => {
                 table = params.clone();
+                if *one_sided {
+                    table.insert("one_sided".into(), Value::Boolean(true));
+                }
                 base
             }
             (Surface::Dielectric { .. } | Surface::Mitsuba { .. }, Some(_)) => {
@@ -1073,13 +1083,22 @@ impl<'a> Builder<'a> {
             }
         }
         let (material, surface, emits) = self.material(e, bsdf, emitter)?;
-        // Where pathmix's surfaces have sides: emission and the inside of glass.
+        // Where pathmix's surfaces have sides: emission, the inside of glass and
+        // one-sided BSDFs.
         let sided = emits
             || matches!(
                 surface,
                 Surface::Dielectric { .. }
                     | Surface::Mitsuba {
                         transmits: true,
+                        ..
+                    }
+                    | Surface::Lambertian {
+                        one_sided: true,
+                        ..
+                    }
+                    | Surface::Mitsuba {
+                        one_sided: true,
                         ..
                     }
             );
@@ -1110,8 +1129,8 @@ impl<'a> Builder<'a> {
                 }
                 if sided && (flip || mirrors) {
                     return Err(e.origin.error(
-                        "flip_normals or a mirroring to_world on an emitting or glass mesh is \
-                         not supported",
+                        "flip_normals or a mirroring to_world on an emitting, glass or \
+                         one-sided mesh is not supported (wrap a reflecting BSDF in `twosided`)",
                     ));
                 }
                 object.insert("type".into(), Value::String("mesh".into()));
@@ -1154,9 +1173,10 @@ impl<'a> Builder<'a> {
                 let radius = props.float("radius")?.unwrap_or(1.0);
                 props.finish()?;
                 if sided && flip {
-                    return Err(e
-                        .origin
-                        .error("flip_normals on an emitting or glass sphere is not supported"));
+                    return Err(e.origin.error(
+                        "flip_normals on an emitting, glass or one-sided sphere is not \
+                                supported (wrap a reflecting BSDF in `twosided`)",
+                    ));
                 }
                 let columns =
                     [to_world.x_axis, to_world.y_axis, to_world.z_axis].map(|c| c.truncate());
@@ -1468,7 +1488,7 @@ impl<'a> Builder<'a> {
 }
 
 /// The pathmix material of Mitsuba's `conductor`, `roughconductor`,
-/// `roughdielectric` or `plastic`: the same parameter names (the TOML parser
+/// `roughdielectric`, `plastic` or `roughplastic`: the same parameter names (the TOML parser
 /// validates them and fills Mitsuba's defaults), IORs given by name turned into
 /// numbers.
 fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
@@ -1487,6 +1507,13 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     }
     if rough {
         for name in ["alpha", "alpha_u", "alpha_v"] {
+            if ty == "roughplastic" && name != "alpha" {
+                if let Some(e) = props.get(name) {
+                    return Err(e
+                        .origin
+                        .error("`roughplastic` is isotropic (as in Mitsuba): give `alpha`"));
+                }
+            }
             if let Some(a) = props.float(name)? {
                 table.insert(name.into(), Value::Float(a));
             }
@@ -1506,12 +1533,16 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
             }
         }
         _ => {
-            let int_default = if ty == "plastic" { 1.49 } else { 1.5046 };
+            let int_default = if ty.ends_with("plastic") {
+                1.49
+            } else {
+                1.5046
+            };
             let int_ior = ior(props, "int_ior", int_default)?;
             let ext_ior = ior(props, "ext_ior", 1.000277)?;
             table.insert("int_ior".into(), Value::Float(int_ior));
             table.insert("ext_ior".into(), Value::Float(ext_ior));
-            if ty == "plastic" {
+            if ty.ends_with("plastic") {
                 if let Some(n) = props.boolean("nonlinear")? {
                     table.insert("nonlinear".into(), Value::Boolean(n));
                 }
@@ -1756,7 +1787,11 @@ mod tests {
         assert_eq!((s.render.max_depth, s.render.rr_depth), (5, Some(5)));
         let (s, c) = render("direct", r#"<integrator type="direct"/>"#);
         assert_eq!((s.render.max_depth, s.render.rr_depth), (1, None));
-        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+        assert!(
+            c.warnings.iter().all(|w| !w.contains("sided")),
+            "{:?}",
+            c.warnings
+        );
         let (s, c) = render(
             "unbounded",
             r#"<integrator type="path"><integer name="rr_depth" value="3"/></integrator>"#,
@@ -1802,32 +1837,36 @@ mod tests {
             (Vec3::new(0.2, 0.4, 0.6), Vec3::splat(5.0))
         );
         assert!(s.quads[0].importance);
-        assert!(c.warnings.iter().any(|w| w.contains("one-sided `diffuse`")));
-        // Wrapped in twosided: exact, no warning.
-        let (_, c) = read(
+        // Outside a twosided, Mitsuba's diffuse is black from behind: one-sided.
+        assert!(m.one_sided);
+        assert!(
+            c.warnings.iter().all(|w| !w.contains("sided")),
+            "{:?}",
+            c.warnings
+        );
+        // Wrapped in twosided: two-sided.
+        let (s, _) = read(
             "twosided",
             r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>"#,
             &[],
         )
         .unwrap();
-        assert!(
-            c.warnings.iter().all(|w| !w.contains("diffuse")),
-            "{:?}",
-            c.warnings
-        );
-        // A diffuse defined at the top level and used only inside a twosided: exact too.
-        let (_, c) = read(
+        assert!(!s.materials[s.quads[0].material as usize].one_sided);
+        // A diffuse defined at the top level and used only inside a twosided: two-sided too.
+        let (s, _) = read(
             "twosided-ref",
             r#"<bsdf type="diffuse" id="d"/>
                <shape type="rectangle"><bsdf type="twosided"><ref id="d"/></bsdf></shape>"#,
             &[],
         )
         .unwrap();
-        assert!(
-            c.warnings.iter().all(|w| !w.contains("diffuse")),
-            "{:?}",
-            c.warnings
+        assert!(!s.materials[s.quads[0].material as usize].one_sided);
+        // A one-sided surface's side is its normal's: a flipped sphere is refused.
+        let e = error(
+            "one-sided-flip",
+            r#"<shape type="sphere"><boolean name="flip_normals" value="true"/><bsdf type="diffuse"/></shape>"#,
         );
+        assert!(e.contains("one-sided sphere"), "{e}");
         let s = scene(
             "constant",
             r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,
@@ -1873,17 +1912,29 @@ mod tests {
                 .iter()
                 .any(|k| matches!(k, MaterialKind::Conductor { .. }))
         );
-        // The one-sided conductors warn; the plastic inside twosided and the
-        // (two-sided by nature) rough dielectric do not.
+        // The conductors outside a twosided are one-sided; the plastic inside
+        // one and the (two-sided by nature) rough dielectric are not.
+        let sides: Vec<(bool, bool)> = s
+            .materials
+            .iter()
+            .map(|m| {
+                let reflects_only = !matches!(
+                    m.kind,
+                    MaterialKind::RoughDielectric { .. } | MaterialKind::Plastic { .. }
+                );
+                (reflects_only, m.one_sided)
+            })
+            .collect();
         assert!(
-            c.warnings
+            sides
                 .iter()
-                .any(|w| w.contains("one-sided `roughconductor`"))
+                .all(|(reflects_only, one_sided)| reflects_only == one_sided),
+            "{sides:?}"
         );
         assert!(
+            c.warnings.iter().all(|w| !w.contains("sided")),
+            "{:?}",
             c.warnings
-                .iter()
-                .all(|w| !w.contains("`plastic`") && !w.contains("`roughdielectric`"))
         );
         let e = error(
             "preset",
@@ -1895,6 +1946,50 @@ mod tests {
             r#"<shape type="sphere"><bsdf type="roughconductor"><float name="alpha" value="2"/></bsdf></shape>"#,
         );
         assert!(e.contains("alpha"), "{e}");
+    }
+
+    /// `roughplastic` as Veach's scene writes it, and with Mitsuba's defaults
+    /// (Beckmann, alpha 0.1, polypropylene in air, diffuse 0.5); an
+    /// anisotropic one is refused where it is written, as Mitsuba refuses it.
+    #[test]
+    fn roughplastic_maps_onto_the_material() {
+        use crate::scene::{Distribution, MaterialKind};
+        let (s, _) = read(
+            "roughplastic",
+            r#"<shape type="sphere"><bsdf type="roughplastic">
+                 <rgb name="diffuse_reflectance" value="0.07 0.09 0.13"/>
+                 <rgb name="specular_reflectance" value="1"/>
+                 <float name="int_ior" value="2"/><float name="alpha" value="0.005"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="twosided"><bsdf type="roughplastic">
+                 <string name="distribution" value="ggx"/><boolean name="nonlinear" value="true"/></bsdf></bsdf></shape>"#,
+            &[],
+        )
+        .unwrap();
+        let kinds: Vec<MaterialKind> = s.materials.iter().map(|m| m.kind).collect();
+        assert!(kinds.contains(&MaterialKind::RoughPlastic {
+            distribution: Distribution::Beckmann,
+            alpha: 0.005,
+            int_ior: 2.0,
+            ext_ior: 1.000277,
+            diffuse_reflectance: Vec3::new(0.07, 0.09, 0.13),
+            specular_reflectance: Vec3::ONE,
+            nonlinear: false,
+        }));
+        assert!(kinds.contains(&MaterialKind::RoughPlastic {
+            distribution: Distribution::Ggx,
+            alpha: 0.1,
+            int_ior: 1.49,
+            ext_ior: 1.000277,
+            diffuse_reflectance: Vec3::splat(0.5),
+            specular_reflectance: Vec3::ONE,
+            nonlinear: true,
+        }));
+        let e = error(
+            "roughplastic-anisotropic",
+            r#"<shape type="sphere"><bsdf type="roughplastic">
+                 <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.2"/></bsdf></shape>"#,
+        );
+        assert!(e.contains("isotropic") && e.contains("alpha_u"), "{e}");
     }
 
     #[test]

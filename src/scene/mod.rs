@@ -191,6 +191,17 @@ pub enum MaterialKind {
         /// inside the coat several times.
         nonlinear: bool,
     },
+    /// A diffuse base under a rough dielectric coat (isotropic microfacets): a
+    /// glossy lobe and a diffuse one, both with densities.
+    RoughPlastic {
+        distribution: Distribution,
+        alpha: f32,
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Vec3,
+        specular_reflectance: Vec3,
+        nonlinear: bool,
+    },
 }
 
 /// A microfacet normal distribution (Mitsuba's `distribution`).
@@ -225,6 +236,9 @@ pub struct Material {
     pub albedo: Vec3,
     /// Emitted radiance (one-sided, along the surface normal); zero for most materials.
     pub emit: Vec3,
+    /// Scatters only on the side the normal faces, black from behind (Mitsuba's
+    /// BSDFs outside `twosided`); the book's materials scatter on both sides.
+    pub one_sided: bool,
 }
 
 impl Material {

@@ -86,6 +86,15 @@
 //!   `"polypropylene"`, 1.49), `ext_ior` (default air), `nonlinear` (bool, default false:
 //!   Mitsuba's account of the colour shift from light scattered inside the coat). The coat
 //!   is a delta lobe, sampled with Mitsuba's weight; the strategies apply to the base.
+//! - `"roughplastic"`: the same base under a rough coat: `distribution` (default
+//!   `"beckmann"`), `alpha` (in (0, 1], default 0.1; isotropic only, as in Mitsuba),
+//!   `diffuse_reflectance`, `specular_reflectance`, `int_ior`, `ext_ior`, `nonlinear` as
+//!   for `"plastic"`. Both lobes have densities, so every strategy applies to both; the
+//!   coat's transmittance is tabulated per material as Mitsuba does.
+//!
+//! Every material but `dielectric`, `roughdielectric` and `light` also takes `one_sided`
+//! (bool, default false): a one-sided surface scatters only on the side its normal
+//! faces and is black from behind, as Mitsuba's BSDFs are outside `twosided`.
 //!
 //! `Scene::materials` holds the materials sorted by name (deterministic whatever the
 //! TOML map's ordering); objects refer to them by index. Unused materials are fine.
@@ -199,6 +208,7 @@ const MATERIAL_TYPES: &[&str] = &[
     "roughconductor",
     "roughdielectric",
     "plastic",
+    "roughplastic",
 ];
 const ALL_MATERIAL_KEYS: &[&str] = &[
     "type",
@@ -218,6 +228,7 @@ const ALL_MATERIAL_KEYS: &[&str] = &[
     "alpha_u",
     "alpha_v",
     "nonlinear",
+    "one_sided",
 ];
 const OBJECT_TYPES: &[&str] = &["sphere", "quad", "box", "mesh"];
 const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
@@ -539,13 +550,19 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
         };
         let (kind, albedo, emit) = match ty {
             "lambertian" => {
-                t.check_keys(&["type", "albedo", "emit"], Some("a lambertian material"))?;
+                t.check_keys(
+                    &["type", "albedo", "emit", "one_sided"],
+                    Some("a lambertian material"),
+                )?;
                 let albedo = t.require("albedo", t.vec3("albedo", check_unit)?)?;
                 let emit = t.vec3("emit", check_nonneg)?.unwrap_or(Vec3::ZERO);
                 (MaterialKind::Lambertian, albedo, emit)
             }
             "metal" => {
-                t.check_keys(&["type", "albedo", "fuzz"], Some("a metal material"))?;
+                t.check_keys(
+                    &["type", "albedo", "fuzz", "one_sided"],
+                    Some("a metal material"),
+                )?;
                 let albedo = t.require("albedo", t.vec3("albedo", check_unit)?)?;
                 let fuzz = t.float("fuzz", check_unit)?.unwrap_or(0.0);
                 (MaterialKind::Metal { fuzz }, albedo, Vec3::ZERO)
@@ -588,7 +605,7 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
             }
             "conductor" => {
                 t.check_keys(
-                    &["type", "eta", "k", "specular_reflectance"],
+                    &["type", "eta", "k", "specular_reflectance", "one_sided"],
                     Some("a conductor material"),
                 )?;
                 let (eta, k) = conductor_ior(&t)?;
@@ -611,6 +628,7 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                         "eta",
                         "k",
                         "specular_reflectance",
+                        "one_sided",
                     ],
                     Some("a roughconductor material"),
                 )?;
@@ -666,11 +684,39 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                         "diffuse_reflectance",
                         "specular_reflectance",
                         "nonlinear",
+                        "one_sided",
                     ],
                     Some("a plastic material"),
                 )?;
                 let (int_ior, ext_ior) = iors(&t, IOR_POLYPROPYLENE)?;
                 let kind = MaterialKind::Plastic {
+                    int_ior,
+                    ext_ior,
+                    diffuse_reflectance: reflectance(&t, "diffuse_reflectance", 0.5)?,
+                    specular_reflectance: reflectance(&t, "specular_reflectance", 1.0)?,
+                    nonlinear: t.boolean("nonlinear")?.unwrap_or(false),
+                };
+                (kind, Vec3::ZERO, Vec3::ZERO)
+            }
+            "roughplastic" => {
+                t.check_keys(
+                    &[
+                        "type",
+                        "distribution",
+                        "alpha",
+                        "int_ior",
+                        "ext_ior",
+                        "diffuse_reflectance",
+                        "specular_reflectance",
+                        "nonlinear",
+                        "one_sided",
+                    ],
+                    Some("a roughplastic material (isotropic: `alpha` only)"),
+                )?;
+                let (int_ior, ext_ior) = iors(&t, IOR_POLYPROPYLENE)?;
+                let kind = MaterialKind::RoughPlastic {
+                    distribution: distribution(&t)?,
+                    alpha: t.float("alpha", check_roughness)?.unwrap_or(0.1),
                     int_ior,
                     ext_ior,
                     diffuse_reflectance: reflectance(&t, "diffuse_reflectance", 0.5)?,
@@ -691,12 +737,12 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
             kind,
             albedo,
             emit,
+            one_sided: t.boolean("one_sided")?.unwrap_or(false),
         });
     }
     Ok(out)
 }
 
-/// Mitsuba's named indices of refraction (`include/mitsuba/render/ior.h`), so
 /// Mitsuba's named indices of refraction (`mitsuba/render/ior.h`): what `int_ior`
 /// and `ext_ior` take by name, here and in Mitsuba scenes.
 pub(super) const NAMED_IORS: &[(&str, f64)] = &[
@@ -1098,6 +1144,7 @@ fn file_materials(t: &Tab, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Ma
                 kind: MaterialKind::Lambertian,
                 albedo: m.base_color,
                 emit: m.emission,
+                one_sided: false,
             })
         })
         .collect()
@@ -2205,6 +2252,20 @@ material = "white"
             }
         );
         assert_eq!(
+            kind(
+                "type = \"roughplastic\"\nalpha = 0.05\nint_ior = 2\ndiffuse_reflectance = [0.07, 0.09, 0.13]"
+            ),
+            MaterialKind::RoughPlastic {
+                distribution: Distribution::Beckmann,
+                alpha: 0.05,
+                int_ior: 2.0,
+                ext_ior: 1.000277,
+                diffuse_reflectance: Vec3::new(0.07, 0.09, 0.13),
+                specular_reflectance: Vec3::ONE,
+                nonlinear: false,
+            }
+        );
+        assert_eq!(
             kind("type = \"dielectric\"\nint_ior = 2\next_ior = 1.25"),
             MaterialKind::Dielectric { ior: 1.6 }
         );
@@ -2286,6 +2347,16 @@ material = "white"
                 "type = \"dielectric\"\nior = 1.5\nint_ior = 1.5",
                 "materials.red.int_ior",
                 &["either `ior` or `int_ior`/`ext_ior`"],
+            ),
+            (
+                "type = \"roughplastic\"\nalpha_u = 0.1\nalpha_v = 0.2",
+                "materials.red",
+                &["unknown key `alpha_u` for a roughplastic material (isotropic: `alpha` only)"],
+            ),
+            (
+                "type = \"roughplastic\"\nalpha = 0",
+                "materials.red.alpha",
+                &["must be in (0, 1], got 0"],
             ),
             (
                 "type = \"roughconductr\"",
