@@ -2,11 +2,13 @@
 //! here is checked against naga's reading of the WGSL in `kernel::tests`.
 
 use crate::accel::Bvh;
+use crate::environment::EnvironmentTables;
 use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material};
 use crate::lights::LightTables;
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
 use glam::Vec3;
+use std::sync::Arc;
 
 /// A host struct with a WGSL twin of the same name and field order.
 pub trait GpuLayout: Pod {
@@ -205,6 +207,8 @@ pub struct SceneData {
     pub light_tables: Vec<Option<LightTables>>,
     /// Over `primitives`, when the kernel traverses one.
     pub bvh: Option<Bvh>,
+    /// The environment map's texels and sampling tables (shared: a map is large).
+    pub environment: Option<Arc<EnvironmentTables>>,
 }
 
 impl Default for SceneData {
@@ -217,6 +221,7 @@ impl Default for SceneData {
             light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
             light_tables: vec![None; PRIMITIVE_KINDS.len()],
             bvh: None,
+            environment: None,
         }
     }
 }
@@ -229,6 +234,10 @@ impl SceneData {
         let invisible = |material: u32| matches!(scene.materials[material as usize].kind, MaterialKind::Dielectric { ior } if ior == 1.0);
         let mut data = SceneData {
             materials,
+            environment: scene
+                .environment
+                .as_ref()
+                .map(|map| Arc::new(EnvironmentTables::build(map))),
             ..SceneData::default()
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {

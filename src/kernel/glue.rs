@@ -54,8 +54,8 @@ pub fn scene(config: &KernelConfig) -> String {
     let mut out = String::new();
     for array in config.scene_arrays() {
         match &config.baked_scene {
-            Some(data) => baked_array(&mut out, &array, data),
-            None => buffer_array(&mut out, &array),
+            Some(data) if array.source.bakes() => baked_array(&mut out, &array, data),
+            _ => buffer_array(&mut out, &array),
         }
     }
     closest_hit(&mut out, config);
@@ -128,6 +128,7 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             }
         }
         ArraySource::BvhNodes => unreachable!("a baked scene has no BVH"),
+        ArraySource::Environment(_) => unreachable!("never baked"),
     };
     let n = values.len();
     writeln!(out, "fn {name}_count() -> u32 {{ return {n}u; }}").unwrap();
@@ -319,15 +320,16 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
 /// The light density p_light: the average of the solid-angle densities of every
 /// object in it (emitters, and objects marked for importance), where a group of
 /// a grouped kind (a mesh) is one object whose density is its members', each
-/// weighted by its probability within the group. Choosing one object uniformly
-/// and sampling it draws from exactly this density.
+/// weighted by its probability within the group, and an environment map is one
+/// more object (the last). Choosing one object uniformly and sampling it draws
+/// from exactly this density.
 fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
     let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
     for &k in kinds.iter().filter(|&&k| grouped(k)) {
         grouped_lights(out, PRIMITIVE_KINDS[k]);
     }
-    let counts: Vec<String> = kinds
+    let mut counts: Vec<String> = kinds
         .iter()
         .map(|&k| match grouped(k) {
             true => format!(
@@ -337,6 +339,10 @@ fn light_density(out: &mut String, config: &KernelConfig) {
             false => format!("{}_count()", PRIMITIVE_KINDS[k].light_array()),
         })
         .collect();
+    let environment = config.light_environment;
+    if environment {
+        counts.push("1u".into());
+    }
     writeln!(
         out,
         "fn light_count() -> u32 {{ return {}; }}",
@@ -345,13 +351,15 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     .unwrap();
     // `select` (uniform in [0, 1)) picks the object, `u` the point on it; what
     // is left of `select` picks a group's member.
-    out.push_str(
-        "fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {
-    let count = light_count();
+    out.push_str("fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {\n");
+    if !kinds.is_empty() {
+        out.push_str(
+            "    let count = light_count();
     let k = min(u32(select * f32(count)), count - 1u);
     var first = 0u;
 ",
-    );
+        );
+    }
     for (i, &k) in kinds.iter().enumerate() {
         let kind = PRIMITIVE_KINDS[k];
         let call = match grouped(k) {
@@ -365,7 +373,7 @@ fn light_density(out: &mut String, config: &KernelConfig) {
                 kind.light_array()
             ),
         };
-        if i + 1 == kinds.len() {
+        if i + 1 == kinds.len() && !environment {
             writeln!(out, "    return {call};").unwrap();
         } else {
             writeln!(
@@ -375,6 +383,9 @@ fn light_density(out: &mut String, config: &KernelConfig) {
             )
             .unwrap();
         }
+    }
+    if environment {
+        out.push_str("    return environment_sample(u);\n");
     }
     out.push_str("}\n");
     out.push_str(
@@ -401,6 +412,9 @@ fn light_density(out: &mut String, config: &KernelConfig) {
             )
             .unwrap();
         }
+    }
+    if environment {
+        out.push_str("    total += environment_pdf(dir);\n");
     }
     out.push_str("    return total / f32(light_count());\n}\n");
 }

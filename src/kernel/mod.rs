@@ -6,6 +6,7 @@
 mod glue;
 
 use crate::accel::BvhNode;
+use crate::environment::EnvironmentInfo;
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
 use crate::lights::{LightGroup, LightPick};
@@ -24,6 +25,7 @@ pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture"
 pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
 pub const KERNEL: ShaderModule = shader_module!("kernel");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
+pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -36,6 +38,8 @@ const FEATURE_FLAGS: &[&str] = &[
     "BVH",
     "SHADING_NORMALS",
     "FILTER_GAUSSIAN",
+    "ENVIRONMENT",
+    "LIGHT_ENVIRONMENT",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -113,6 +117,25 @@ pub enum ArraySource {
     /// The light tables (`lights::LightTables`) of grouped light kind `k`.
     LightTable(usize, LightTablePart),
     BvhNodes,
+    /// The environment map's tables (`environment::EnvironmentTables`): always
+    /// read from buffers, a map being far too large to bake.
+    Environment(EnvironmentPart),
+}
+
+impl ArraySource {
+    /// Whether a baked kernel compiles this array in as constants.
+    pub fn bakes(self) -> bool {
+        !matches!(self, ArraySource::Environment(_))
+    }
+}
+
+/// One of the arrays of `environment::EnvironmentTables`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvironmentPart {
+    Info,
+    Texels,
+    /// The marginal CDF: only where the light density samples the map.
+    Rows,
 }
 
 /// One of the arrays of `lights::LightTables`.
@@ -197,6 +220,10 @@ pub struct KernelConfig {
     pub bvh: bool,
     /// The pixel filter camera rays are drawn from.
     pub filter: Filter,
+    /// Escaping rays find an environment map's radiance (else the background).
+    pub environment: bool,
+    /// The environment map is one object of the light density.
+    pub light_environment: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -217,6 +244,7 @@ impl KernelConfig {
     ) -> KernelConfig {
         let material_kinds = data.material_kinds();
         let samples_lights = has_smooth_lobe(material_kinds) && strategy != Strategy::Bsdf;
+        let environment = data.environment.is_some();
         KernelConfig {
             primitive_kinds: data.primitive_kinds(),
             light_kinds: if samples_lights {
@@ -236,6 +264,8 @@ impl KernelConfig {
             baked_scene: (scene_storage == SceneStorage::Baked).then(|| data.clone()),
             bvh: scene_storage == SceneStorage::Bvh,
             filter,
+            environment,
+            light_environment: samples_lights && environment,
         }
     }
 
@@ -274,6 +304,8 @@ impl KernelConfig {
             baked_scene: None,
             bvh: false,
             filter: Filter::Box,
+            environment: true,
+            light_environment: strategy != Strategy::Bsdf,
         }
     }
 
@@ -286,7 +318,7 @@ impl KernelConfig {
     }
 
     pub fn samples_lights(&self) -> bool {
-        !self.light_kinds.is_empty()
+        !self.light_kinds.is_empty() || self.light_environment
     }
 
     /// The kinds in the light density whose lights come in groups.
@@ -323,6 +355,8 @@ impl KernelConfig {
                 "FILTER_GAUSSIAN",
                 matches!(self.filter, Filter::Gaussian { .. }),
             ),
+            ("ENVIRONMENT", self.environment),
+            ("LIGHT_ENVIRONMENT", self.light_environment),
         ];
         for (flag, on) in features {
             if on {
@@ -357,6 +391,9 @@ impl KernelConfig {
             modules.push(LIGHT_GROUPS);
         }
         modules.push(generated("scene", glue::scene(self)));
+        if self.environment {
+            modules.push(ENVIRONMENT);
+        }
         modules.extend(self.material_modules());
         modules.push(STRATEGY);
         modules.push(match self.accumulator {
@@ -427,6 +464,8 @@ impl KernelConfig {
             light_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
             material_kinds: material_kinds.with(lambertian),
             sampler: Sampler::Independent,
+            environment: false,
+            light_environment: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let mut modules = vec![
@@ -515,13 +554,44 @@ impl KernelConfig {
                 source: ArraySource::BvhNodes,
             });
         }
+        if self.environment {
+            let parts: &[(EnvironmentPart, &str, &'static str, usize)] = &[
+                (
+                    EnvironmentPart::Info,
+                    "environment_info",
+                    EnvironmentInfo::WGSL_NAME,
+                    size_of::<EnvironmentInfo>(),
+                ),
+                (
+                    EnvironmentPart::Texels,
+                    "environment_texels",
+                    "vec4<f32>",
+                    16,
+                ),
+                (EnvironmentPart::Rows, "environment_rows", "f32", 4),
+            ];
+            for (j, &(part, name, wgsl_type, element_size)) in parts.iter().enumerate() {
+                if part == EnvironmentPart::Rows && !self.light_environment {
+                    continue;
+                }
+                arrays.push(SceneArray {
+                    name: name.into(),
+                    wgsl_type,
+                    element_size,
+                    // After the grouped lights' tables (4 per kind).
+                    binding: 3 + 7 * count + j as u32,
+                    indexed: true,
+                    source: ArraySource::Environment(part),
+                });
+            }
+        }
         arrays
     }
 
     /// Where `#for_each` finds the elements of `array`.
     fn array_form(&self, array: &SceneArray) -> ArrayForm {
         match &self.baked_scene {
-            Some(data) => ArrayForm::Constants(match array.source {
+            Some(data) if array.source.bakes() => ArrayForm::Constants(match array.source {
                 ArraySource::Materials => data.materials.len(),
                 ArraySource::Primitives(k) => data.primitives[k].len(),
                 ArraySource::Lights(k) => data.lights[k].len(),
@@ -532,8 +602,9 @@ impl KernelConfig {
                 ArraySource::BvhNodes => {
                     unreachable!("a baked scene has no BVH")
                 }
+                ArraySource::Environment(_) => unreachable!("never baked"),
             }),
-            None => ArrayForm::Buffer,
+            _ => ArrayForm::Buffer,
         }
     }
 
@@ -557,12 +628,14 @@ impl KernelConfig {
         constants
     }
 
-    /// Scene arrays read from storage buffers (group 1): none when the scene is baked.
+    /// Scene arrays read from storage buffers (group 1): when the scene is
+    /// baked, only those never baked (an environment map's).
     pub fn scene_bindings(&self) -> Vec<SceneArray> {
-        if self.baked_scene.is_some() {
-            return Vec::new();
-        }
+        let baked = self.baked_scene.is_some();
         self.scene_arrays()
+            .into_iter()
+            .filter(|array| !baked || !array.source.bakes())
+            .collect()
     }
 
     /// Running sums the accumulator holds: each sum and its compensation.
@@ -625,6 +698,17 @@ impl SceneData {
                 }
             }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
+            ArraySource::Environment(part) => {
+                let tables = self
+                    .environment
+                    .as_ref()
+                    .expect("a kernel with an environment map has its tables");
+                match part {
+                    EnvironmentPart::Info => bytemuck::bytes_of(&tables.info),
+                    EnvironmentPart::Texels => bytemuck::cast_slice(&tables.texels),
+                    EnvironmentPart::Rows => bytemuck::cast_slice(&tables.rows),
+                }
+            }
         }
     }
 
@@ -697,6 +781,8 @@ mod tests {
                             material_kinds,
                             variance,
                             bvh: mask >> (primitives + 1) != 0,
+                            environment: false,
+                            light_environment: false,
                             ..general.clone()
                         });
                     }
@@ -710,6 +796,82 @@ mod tests {
     fn every_module_combination_validates() {
         for config in all_variants() {
             validate(&config);
+        }
+    }
+
+    /// An environment map with no other object in the light density, with every
+    /// primitive kind, and with one of each grouped and plain kind, under every
+    /// strategy and scene storage: the environment's buffers are bound even in
+    /// a baked kernel.
+    #[test]
+    fn environment_kernels_validate() {
+        let environment = crate::scene::EnvironmentMap {
+            file: "sky.exr".into(),
+            width: 4,
+            height: 3,
+            texels: std::sync::Arc::new(vec![[1.0, 0.5, 0.25]; 12]),
+            scale: 2.0,
+            to_world: glam::Mat3::IDENTITY,
+        };
+        let mut data = SceneData {
+            materials: vec![Default::default()],
+            environment: Some(std::sync::Arc::new(
+                crate::environment::EnvironmentTables::build(&environment),
+            )),
+            ..SceneData::default()
+        };
+        data.primitives[0] = PackedArray {
+            bytes: vec![0; size_of::<Quad>()],
+            materials: vec![0],
+        };
+        let settings = crate::scene::RenderSettings {
+            spp: 1,
+            max_depth: 4,
+            strategy: Strategy::Mixture,
+            light_weight: 0.5,
+            background: glam::Vec3::ZERO,
+            seed: 0,
+            rr_depth: None,
+            sampler: Sampler::Sobol,
+        };
+        for strategy in Strategy::ALL {
+            for storage in [
+                SceneStorage::Baked,
+                SceneStorage::Buffers,
+                SceneStorage::Bvh,
+            ] {
+                let config = KernelConfig::for_scene(
+                    &data,
+                    strategy,
+                    &settings,
+                    Filter::Box,
+                    AccumulatorKind::Buffer,
+                    false,
+                    storage,
+                );
+                assert!(config.environment);
+                assert_eq!(config.light_environment, strategy != Strategy::Bsdf);
+                validate(&config);
+                let bound: Vec<String> = config
+                    .scene_bindings()
+                    .into_iter()
+                    .map(|a| a.name)
+                    .collect();
+                assert!(
+                    bound.contains(&"environment_texels".to_string()),
+                    "{bound:?}"
+                );
+                let all_lights = KernelConfig {
+                    light_kinds: if strategy == Strategy::Bsdf {
+                        KindSet::default()
+                    } else {
+                        KindSet::all(PRIMITIVE_KINDS.len())
+                    },
+                    baked_scene: None,
+                    ..config
+                };
+                validate(&all_lights);
+            }
         }
     }
 
@@ -950,6 +1112,8 @@ mod tests {
             material_kinds: KindSet::default()
                 .with(kind_index("lambertian"))
                 .with(kind_index("light")),
+            environment: false,
+            light_environment: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let source = config.source().unwrap();
@@ -961,6 +1125,7 @@ mod tests {
             "hit_kind",
             "shading_normal(",
             "bsdf_leaks",
+            "environment",
         ] {
             assert!(!source.contains(absent), "{absent} compiled in");
         }
@@ -1113,6 +1278,7 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<Material>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightGroup>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
+        check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {
