@@ -12,7 +12,8 @@ use crate::scene::EnvironmentMap;
 use crate::scene::envmap::row_edge;
 
 gpu_struct! {
-    /// The map's size and the world-to-map rotation, by rows.
+    /// The map's size and the world-to-map rotation, by rows (the inverse of
+    /// `to_world`, orthogonal: its transpose).
     pub struct EnvironmentInfo {
         pub to_local_x: [f32; 3],
         pub width: u32,
@@ -68,7 +69,8 @@ fn cdf(weights: &[f64]) -> Vec<f32> {
 impl EnvironmentTables {
     pub fn build(map: &EnvironmentMap) -> EnvironmentTables {
         let (width, height) = (map.width as usize, map.height as usize);
-        let to_local = map.to_world.transpose();
+        // The rows of the world-to-map rotation are the columns of `to_world`.
+        let to_local = map.to_world;
         let mut texels = Vec::with_capacity(width * height);
         let mut row_weights = Vec::with_capacity(height);
         for (y, row) in map.texels.chunks_exact(width).enumerate() {

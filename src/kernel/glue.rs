@@ -65,6 +65,15 @@ pub fn scene(config: &KernelConfig) -> String {
     out
 }
 
+/// `arrays` declared over storage buffers of group 1, as a scene's kernel reads them.
+pub fn buffer_arrays(arrays: Vec<SceneArray>) -> String {
+    let mut out = String::new();
+    for array in &arrays {
+        buffer_array(&mut out, array);
+    }
+    out
+}
+
 fn buffer_array(out: &mut String, array: &SceneArray) {
     let SceneArray {
         name, wgsl_type, ..

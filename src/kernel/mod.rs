@@ -26,6 +26,7 @@ pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
 pub const KERNEL: ShaderModule = shader_module!("kernel");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
+pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -482,6 +483,42 @@ impl KernelConfig {
         config.compose(&modules)
     }
 
+    /// A compute shader running the environment map's sampling and density on
+    /// their own, with independent random numbers: the entry points
+    /// `probe_sample` and `probe_pdf` of `shaders/environment_probe.wgsl`, the
+    /// map's arrays in group 1 as a scene's kernel binds them.
+    pub fn environment_probe_source() -> Result<String, ComposeError> {
+        let config = KernelConfig {
+            primitive_kinds: KindSet::default(),
+            light_kinds: KindSet::default(),
+            normal_kinds: KindSet::default(),
+            material_kinds: KindSet::default(),
+            sampler: Sampler::Independent,
+            ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+        };
+        let arrays = config
+            .scene_arrays()
+            .into_iter()
+            .filter(|array| matches!(array.source, ArraySource::Environment(_)))
+            .collect();
+        let modules = [
+            ShaderModule {
+                name: "constants",
+                source: glue::shared_constants().into(),
+            },
+            COMMON,
+            RNG,
+            SAMPLING,
+            ShaderModule {
+                name: "environment_arrays",
+                source: glue::buffer_arrays(arrays).into(),
+            },
+            ENVIRONMENT,
+            ENVIRONMENT_PROBE,
+        ];
+        config.compose(&modules)
+    }
+
     /// The scene arrays this kernel declares, in binding order.
     pub fn scene_arrays(&self) -> Vec<SceneArray> {
         let count = PRIMITIVE_KINDS.len() as u32;
@@ -873,6 +910,19 @@ mod tests {
                 validate(&all_lights);
             }
         }
+    }
+
+    #[test]
+    fn environment_probe_validates() {
+        let source = KernelConfig::environment_probe_source().unwrap();
+        let module = naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
     }
 
     /// The BSDF probe of tests/bsdf.rs, with every material kind.
