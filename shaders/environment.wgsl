@@ -12,24 +12,6 @@ struct EnvironmentInfo {
     _pad: u32,
 }
 
-// The texel a world direction falls in: the nearest of Mitsuba's grid (column
-// x centred on u = (x + 1/2) / W, row y on v = y / (H - 1)).
-fn environment_texel(dir: vec3<f32>) -> vec2<u32> {
-    let info = environment_info_at(0u);
-    let d = vec3<f32>(dot(info.to_local_x, dir), dot(info.to_local_y, dir), dot(info.to_local_z, dir));
-    let u = atan2(d.x, -d.z) * (0.5 * INV_PI);
-    let x = min(u32((u - floor(u)) * f32(info.width)), info.width - 1u);
-    let v = acos(clamp(d.y / length(d), -1.0, 1.0)) * INV_PI;
-    let y = min(u32(v * f32(info.height - 1u) + 0.5), info.height - 1u);
-    return vec2<u32>(x, y);
-}
-
-fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
-    let texel = environment_texel(dir);
-    return environment_texels_at(texel.y * environment_info_at(0u).width + texel.x).xyz;
-}
-
-#if LIGHT_ENVIRONMENT
 // The v of row y's upper edge (src/scene/envmap.rs `row_edge`).
 fn environment_row_edge(y: u32, height: u32) -> f32 {
     if y == 0u {
@@ -41,6 +23,32 @@ fn environment_row_edge(y: u32, height: u32) -> f32 {
     return (f32(y) - 0.5) / f32(height - 1u);
 }
 
+// The texel a world direction falls in: the nearest of Mitsuba's grid (column
+// x centred on u = (x + 1/2) / W, row y on v = y / (H - 1)).
+fn environment_texel(dir: vec3<f32>) -> vec2<u32> {
+    let info = environment_info_at(0u);
+    let d = vec3<f32>(dot(info.to_local_x, dir), dot(info.to_local_y, dir), dot(info.to_local_z, dir));
+    let u = atan2(d.x, -d.z) * (0.5 * INV_PI);
+    let x = min(u32((u - floor(u)) * f32(info.width)), info.width - 1u);
+    let cos_theta = d.y / length(d);
+    let v = acos(clamp(cos_theta, -1.0, 1.0)) * INV_PI;
+    var y = min(u32(v * f32(info.height - 1u) + 0.5), info.height - 1u);
+    // acos may be off by 1e-4 (lavapipe): the row is settled against the cosines
+    // of its edges, computed as the sampler computes them.
+    if y > 0u && cos_theta > cos(PI * environment_row_edge(y, info.height)) {
+        y -= 1u;
+    } else if y + 1u < info.height && cos_theta <= cos(PI * environment_row_edge(y + 1u, info.height)) {
+        y += 1u;
+    }
+    return vec2<u32>(x, y);
+}
+
+fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
+    let texel = environment_texel(dir);
+    return environment_texels_at(texel.y * environment_info_at(0u).width + texel.x).xyz;
+}
+
+#if LIGHT_ENVIRONMENT
 // cos(pi a) - cos(pi b), without cancellation at the poles (`environment::cos_difference`).
 fn environment_cos_difference(a: f32, b: f32) -> f32 {
     return 2.0 * sin(0.5 * PI * (a + b)) * sin(0.5 * PI * (b - a));
