@@ -673,3 +673,136 @@ fn large_maps_render_or_are_refused_by_the_binding_limit() {
         }
     }
 }
+
+/// A missing, unreadable, non-image or unsupported map file, a map with a NaN,
+/// infinite or negative texel, and a map of no texels exit with code 2, naming
+/// the scene file, the field (`environment.file`) and the image file, and write
+/// nothing; so does `background` next to `[environment]`.
+#[test]
+fn bad_maps_exit_2_naming_scene_field_and_image() {
+    let dir = TempDir::new("bad");
+    let d = &dir.0;
+    write_exr(&d.join("nan.exr"), 4, 2, |x, _| {
+        if x == 3 {
+            [1.0, f32::NAN, 1.0]
+        } else {
+            [1.0; 3]
+        }
+    });
+    write_exr(&d.join("inf.exr"), 4, 2, |x, y| {
+        if (x, y) == (1, 1) {
+            [f32::INFINITY, 1.0, 1.0]
+        } else {
+            [1.0; 3]
+        }
+    });
+    write_exr(&d.join("negative.exr"), 4, 2, |_, y| {
+        if y == 1 { [1.0, 1.0, -0.5] } else { [1.0; 3] }
+    });
+    std::fs::write(d.join("text.exr"), "not an image\n").unwrap();
+    std::fs::write(d.join("text.hdr"), "not an image either\n").unwrap();
+    std::fs::write(
+        d.join("empty.hdr"),
+        "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("sky.png"), "").unwrap();
+    let unreadable = d.join("unreadable.exr");
+    std::fs::create_dir_all(&unreadable).unwrap();
+    let cases: [(&str, &str); 9] = [
+        ("missing.exr", "cannot read"),
+        ("unreadable.exr", "cannot read"),
+        ("text.exr", "cannot read the OpenEXR image"),
+        ("text.hdr", "cannot read the Radiance HDR image"),
+        ("empty.hdr", ""),
+        ("sky.png", "unknown environment map format"),
+        ("nan.exr", "texel (3, 0)"),
+        ("inf.exr", "texel (1, 1) is [inf, 1, 1]"),
+        ("negative.exr", "must be finite and >= 0"),
+    ];
+    let body = "[camera]\nlookfrom = [0, 0, -5]\nlookat = [0, 0, 0]\nwidth = 4\nheight = 4\n";
+    let run = |scene_name: &str, text: String| {
+        let scene_path = d.join(scene_name);
+        std::fs::write(&scene_path, text).unwrap();
+        let out = d.join(format!("{scene_name}.png"));
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_pathmix"))
+            .args([
+                "render",
+                scene_path.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let message = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert_eq!(output.status.code(), Some(2), "{scene_name}: {message}");
+        assert!(!message.contains("panicked"), "{message}");
+        assert!(!out.exists(), "{scene_name}: an image was written");
+        message
+    };
+    for (file, problem) in cases {
+        let scene_name = format!("{file}.toml");
+        let message = run(
+            &scene_name,
+            format!("{body}[environment]\nfile = \"{file}\"\n"),
+        );
+        for part in [scene_name.as_str(), "environment.file", file, problem] {
+            assert!(message.contains(part), "{file}: no {part:?} in {message}");
+        }
+    }
+    write_exr(&d.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
+    let message = run(
+        "both.toml",
+        format!("{body}[render]\nbackground = [1, 1, 1]\n[environment]\nfile = \"one.exr\"\n"),
+    );
+    for part in ["both.toml", "render.background", "[environment]"] {
+        assert!(message.contains(part), "no {part:?} in {message}");
+    }
+}
+
+/// `[environment]`'s keys: a rotation as objects take one, an orthogonal
+/// matrix (translation ignored), and refusals naming the field.
+#[test]
+fn environment_keys_parse_and_refuse() {
+    let dir = TempDir::new("keys");
+    write_exr(&dir.0.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
+    let load = |environment: &str| {
+        let path = dir.0.join("keys.toml");
+        std::fs::write(&path, format!("[camera]\nlookfrom = [0, 0, -5]\nlookat = [0, 0, 0]\n[environment]\nfile = \"one.exr\"\n{environment}")).unwrap();
+        Scene::load(&path)
+    };
+    let map = load("scale = 2.5\nrotate_y = 90")
+        .unwrap()
+        .environment
+        .unwrap();
+    assert_eq!((map.width, map.height, map.scale), (2, 2, 2.5));
+    // The book's rotate_y: x goes to -z.
+    assert!((map.to_world * glam::Vec3::X - glam::Vec3::NEG_Z).length() < 1e-7);
+    let matrix = load("matrix = [0, 0, 1, 5,  0, 1, 0, 6,  -1, 0, 0, 7,  0, 0, 0, 1]")
+        .unwrap()
+        .environment
+        .unwrap();
+    assert_eq!(matrix.to_world, map.to_world);
+    for (environment, location, problem) in [
+        ("scale = -1", "environment.scale", "must be >= 0"),
+        (
+            "matrix = [2, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1]",
+            "environment.matrix",
+            "must be a rotation",
+        ),
+        (
+            "matrix = [1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0, 1]\nrotate_y = 3",
+            "environment.rotate_y",
+            "cannot be combined",
+        ),
+        (
+            "translate = [1, 2, 3]",
+            "environment",
+            "unknown key `translate`",
+        ),
+    ] {
+        let e = load(environment).unwrap_err();
+        assert_eq!(e.location, location, "{environment}: {e}");
+        assert!(e.message.contains(problem), "{environment}: {e}");
+    }
+}
