@@ -7,7 +7,7 @@
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
-//! `constant` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
+//! `constant` and `envmap` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
 //! `gaussian` filter and a sampler; the `path` and `direct` integrators. Anything
 //! else is an error naming `file:line:col` and the element; an approximation is a
 //! warning.
@@ -139,18 +139,26 @@ impl Converted {
         }
     }
 
-    /// The document as TOML text, mesh paths relative to `folder` where they can be.
+    /// The document as TOML text, mesh and map paths relative to `folder` where they can be.
     pub fn to_toml(&self, folder: &Path, source: &Path) -> String {
         let mut document = self.document.clone();
-        if let Some(Value::Array(objects)) = document.get_mut("objects") {
-            for object in objects {
-                if let Some(Value::String(file)) = object.get_mut("file") {
-                    let absolute = Path::new(file.as_str());
-                    if let Some(relative) = pathdiff::diff_paths(absolute, folder) {
-                        *file = relative.to_string_lossy().into_owned();
-                    }
+        let relative = |table: &mut Table| {
+            if let Some(Value::String(file)) = table.get_mut("file") {
+                let absolute = Path::new(file.as_str());
+                if let Some(relative) = pathdiff::diff_paths(absolute, folder) {
+                    *file = relative.to_string_lossy().into_owned();
                 }
             }
+        };
+        if let Some(Value::Array(objects)) = document.get_mut("objects") {
+            for object in objects {
+                if let Value::Table(object) = object {
+                    relative(object);
+                }
+            }
+        }
+        if let Some(Value::Table(environment)) = document.get_mut("environment") {
+            relative(environment);
         }
         let mut text = format!(
             "# Converted by pathmix {} from the Mitsuba scene {}.\n",
@@ -786,6 +794,8 @@ struct Builder<'a> {
     integrator: Option<&'a Elem>,
     sensor: Option<&'a Elem>,
     background: Option<[f64; 3]>,
+    /// `[environment]`, from an `envmap` emitter, and where it was.
+    environment: Option<(Table, Origin)>,
     materials: Table,
     objects: Vec<Value>,
     origins: Vec<(String, Origin)>,
@@ -819,6 +829,7 @@ impl<'a> Builder<'a> {
             integrator: None,
             sensor: None,
             background: None,
+            environment: None,
             materials: Table::new(),
             objects: Vec::new(),
             origins: Vec::new(),
@@ -872,8 +883,10 @@ impl<'a> Builder<'a> {
                     .origin
                     .error("an area emitter outside a shape needs an `id` for shapes to refer to")),
                 "constant" => {
-                    if self.background.is_some() {
-                        return Err(e.origin.error("a second constant emitter"));
+                    if self.background.is_some() || self.environment.is_some() {
+                        return Err(e
+                            .origin
+                            .error("a second constant or envmap emitter: pathmix takes one"));
                     }
                     e.check_attrs(&["type", "id"])?;
                     let mut props = Props::new(e);
@@ -882,9 +895,10 @@ impl<'a> Builder<'a> {
                     self.background = Some(radiance);
                     Ok(())
                 }
+                "envmap" => self.envmap(e),
                 _ => Err(e.origin.error(
-                    "not supported (supported: area, constant; envmap and point wait for \
-                     pathmix's environment maps and delta lights)",
+                    "not supported (supported: area, constant, envmap; point and spot wait \
+                     for pathmix's delta lights)",
                 )),
             },
             "texture" => Err(e
@@ -894,6 +908,47 @@ impl<'a> Builder<'a> {
                 "not supported at the top level (supported: {SUPPORTED_TOP})"
             ))),
         }
+    }
+
+    /// `<emitter type="envmap">`: `filename`, `scale` and `to_world` as
+    /// `[environment]`'s `file`, `scale` and `matrix` (the same mapping onto the
+    /// sphere; pathmix takes the nearest texel where Mitsuba interpolates).
+    fn envmap(&mut self, e: &'a Elem) -> Result<()> {
+        if self.background.is_some() || self.environment.is_some() {
+            return Err(e
+                .origin
+                .error("a second constant or envmap emitter: pathmix takes one"));
+        }
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e);
+        let (name, at) = props
+            .string("filename")?
+            .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
+        let path = resolve(self.search, name).ok_or_else(|| {
+            at.origin
+                .error(format!("cannot find the environment map `{name}`"))
+        })?;
+        let path = path.canonicalize().unwrap_or(path);
+        let mut environment = Table::new();
+        environment.insert(
+            "file".into(),
+            Value::String(path.to_string_lossy().into_owned()),
+        );
+        if let Some(scale) = props.float("scale")? {
+            environment.insert("scale".into(), Value::Float(scale));
+        }
+        let to_world = props.transform("to_world")?;
+        if to_world != DMat4::IDENTITY {
+            environment.insert("matrix".into(), row_major(&to_world));
+        }
+        props.finish()?;
+        self.warn(
+            "envmap: radiance looked up at the nearest texel (Mitsuba interpolates \
+             bilinearly between the same texel centres)"
+                .into(),
+        );
+        self.environment = Some((environment, e.origin.clone()));
+        Ok(())
     }
 
     /// The BSDF mapping: what each Mitsuba BSDF is in pathmix. `twosided`: inside a
@@ -1210,6 +1265,10 @@ impl<'a> Builder<'a> {
             "objects".into(),
             Value::Array(std::mem::take(&mut self.objects)),
         );
+        if let Some((environment, origin)) = self.environment.take() {
+            document.insert("environment".into(), Value::Table(environment));
+            self.origins.push(("environment".into(), origin));
+        }
         Ok(Converted {
             document,
             warnings: self.warnings,
@@ -1833,6 +1892,44 @@ mod tests {
             r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,
         );
         assert_eq!(s.render.background, Vec3::new(0.5, 1.0, 2.0));
+    }
+
+    /// `envmap` becomes `[environment]`: the file found like a mesh (written
+    /// relative by `convert`), `scale`, `to_world` as `matrix`; one emitter of the
+    /// constant or envmap kind at most.
+    #[test]
+    fn envmap_becomes_the_environment() {
+        let body = r#"<emitter type="envmap"><string name="filename" value="sky.hdr"/>
+               <float name="scale" value="2"/>
+               <transform name="to_world"><rotate y="1" angle="90"/></transform></emitter>"#;
+        let path = folder("envmap", &[("scene.xml", &scene_text(body))]);
+        // A 2 x 1 Radiance HDR (flat RGBE): (128, 128, 128, 129) is 1.
+        let mut hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n".to_vec();
+        hdr.extend([128, 128, 128, 129, 128, 128, 128, 129]);
+        std::fs::write(path.with_file_name("sky.hdr"), &hdr).unwrap();
+        let converted = Converted::read(&path, &[]).unwrap();
+        let s = Scene::load(&path).unwrap();
+        let map = s.environment.expect("an environment map");
+        assert_eq!((map.width, map.height, map.scale), (2, 1, 2.0));
+        assert_eq!(map.texels[0], [1.0, 1.0, 1.0]);
+        // Mitsuba's rotate about +y by 90 degrees: +z goes to +x.
+        assert!((map.to_world * Vec3::Z - Vec3::X).length() < 1e-6);
+        assert_eq!(s.render.background, Vec3::ZERO);
+        assert!(
+            converted
+                .warnings
+                .iter()
+                .any(|w| w.contains("nearest texel"))
+        );
+        let toml = converted.to_toml(path.parent().unwrap(), &path);
+        assert!(toml.contains("[environment]\nfile = \"sky.hdr\""), "{toml}");
+        let twice = format!(
+            "{body}<emitter type=\"constant\"><rgb name=\"radiance\" value=\"1\"/></emitter>"
+        );
+        let path = folder("envmap-twice", &[("scene.xml", &scene_text(&twice))]);
+        std::fs::write(path.with_file_name("sky.hdr"), "").unwrap();
+        let e = Converted::read(&path, &[]).unwrap_err().to_string();
+        assert!(e.contains("a second constant or envmap emitter"), "{e}");
     }
 
     /// Mitsuba's microfacet-era BSDFs map onto pathmix's materials of the same
