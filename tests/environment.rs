@@ -806,3 +806,47 @@ fn environment_keys_parse_and_refuse() {
         assert!(e.message.contains(problem), "{environment}: {e}");
     }
 }
+
+/// The procedural sky of `scenes/sky.exr` (128 x 64): a blue-to-white sky, a
+/// brown ground and a sun of one texel, 30 degrees up, at u = 0.3 (between
+/// map -z and +x). Radiance at each texel's centre, Mitsuba's mapping.
+fn procedural_sky(x: usize, y: usize) -> [f32; 3] {
+    let (width, height) = (128.0f32, 64.0f32);
+    let phi = 2.0 * std::f32::consts::PI * (x as f32 + 0.5) / width;
+    let theta = std::f32::consts::PI * y as f32 / (height - 1.0);
+    let up = theta.cos();
+    if (x, y)
+        == (
+            (0.3 * width) as usize,
+            ((height - 1.0) / 3.0).round() as usize,
+        )
+    {
+        return [5000.0, 4600.0, 4000.0];
+    }
+    if up > 0.0 {
+        let t = up.powf(0.6);
+        let horizon = [1.1, 1.05, 1.0];
+        let zenith = [0.25, 0.45, 1.0];
+        // A little brighter toward the sun's side.
+        let glow = 1.0 + 0.3 * (phi - 0.3 * 2.0 * std::f32::consts::PI).cos().max(0.0);
+        std::array::from_fn(|c| (horizon[c] * (1.0 - t) + zenith[c] * t) * glow)
+    } else {
+        [0.12, 0.1, 0.08]
+    }
+}
+
+/// `scenes/sky.exr` is exactly `procedural_sky` (regenerate it with
+/// `PATHMIX_WRITE_SKY=1` after changing the function).
+#[test]
+fn the_shipped_sky_is_the_procedural_one() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sky.exr");
+    if std::env::var("PATHMIX_WRITE_SKY").as_deref() == Ok("1") {
+        write_exr(&path, 128, 64, procedural_sky);
+    }
+    let (width, height, texels) = pathmix::scene::envmap::load_image(&path).unwrap();
+    assert_eq!((width, height), (128, 64));
+    for (i, texel) in texels.iter().enumerate() {
+        let expected = procedural_sky(i % 128, i / 128);
+        assert_eq!(*texel, expected, "texel {i}");
+    }
+}
