@@ -1,6 +1,10 @@
 // The environment map (`environment::EnvironmentTables`, conventions in
 // src/scene/envmap.rs): the radiance an escaping ray finds, and, as one object
-// of the light density, sampling a direction and its density.
+// of the light density, sampling a direction and its density. The density is
+// constant over each texel's cell (the directions nearest its centre), in
+// proportion to the mean over the cell of the bilinear radiance, which makes it
+// positive wherever the radiance is: nee-mis and mixture stay unbiased, and the
+// density's mismatch with the radiance inside a cell costs only variance.
 
 // Mirrors `environment::EnvironmentInfo`.
 struct EnvironmentInfo {
@@ -12,6 +16,31 @@ struct EnvironmentInfo {
     _pad: u32,
 }
 
+// The world direction `dir` in map space.
+fn environment_local(info: EnvironmentInfo, dir: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(info.to_local_x, dir), dot(info.to_local_y, dir), dot(info.to_local_z, dir));
+}
+
+// Mitsuba's lookup: bilinear between texel centres (column x on u = (x + 1/2) / W,
+// row y on v = y / (H - 1)), the columns periodic.
+fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
+    let info = environment_info_at(0u);
+    let d = environment_local(info, dir);
+    var u = atan2(d.x, -d.z) * (0.5 * INV_PI) - 0.5 / f32(info.width);
+    u -= floor(u);
+    let v = acos(clamp(d.y / length(d), -1.0, 1.0)) * INV_PI;
+    let p = vec2<f32>(u * f32(info.width), v * f32(info.height - 1u));
+    let x0 = min(u32(p.x), info.width - 1u);
+    let y0 = min(u32(p.y), max(info.height, 2u) - 2u);
+    let t = p - vec2<f32>(f32(x0), f32(y0));
+    let x1 = select(x0 + 1u, 0u, x0 + 1u == info.width);
+    let y1 = min(y0 + 1u, info.height - 1u);
+    let top = mix(environment_texels_at(y0 * info.width + x0).xyz, environment_texels_at(y0 * info.width + x1).xyz, t.x);
+    let bottom = mix(environment_texels_at(y1 * info.width + x0).xyz, environment_texels_at(y1 * info.width + x1).xyz, t.x);
+    return mix(top, bottom, t.y);
+}
+
+#if LIGHT_ENVIRONMENT
 // The v of row y's upper edge (src/scene/envmap.rs `row_edge`).
 fn environment_row_edge(y: u32, height: u32) -> f32 {
     if y == 0u {
@@ -23,11 +52,11 @@ fn environment_row_edge(y: u32, height: u32) -> f32 {
     return (f32(y) - 0.5) / f32(height - 1u);
 }
 
-// The texel a world direction falls in: the nearest of Mitsuba's grid (column
-// x centred on u = (x + 1/2) / W, row y on v = y / (H - 1)).
+// The cell of the sampling density a world direction falls in: its nearest
+// texel centre's.
 fn environment_texel(dir: vec3<f32>) -> vec2<u32> {
     let info = environment_info_at(0u);
-    let d = vec3<f32>(dot(info.to_local_x, dir), dot(info.to_local_y, dir), dot(info.to_local_z, dir));
+    let d = environment_local(info, dir);
     let u = atan2(d.x, -d.z) * (0.5 * INV_PI);
     let x = min(u32((u - floor(u)) * f32(info.width)), info.width - 1u);
     let cos_theta = d.y / length(d);
@@ -43,12 +72,6 @@ fn environment_texel(dir: vec3<f32>) -> vec2<u32> {
     return vec2<u32>(x, y);
 }
 
-fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
-    let texel = environment_texel(dir);
-    return environment_texels_at(texel.y * environment_info_at(0u).width + texel.x).xyz;
-}
-
-#if LIGHT_ENVIRONMENT
 // cos(pi a) - cos(pi b), without cancellation at the poles (`environment::cos_difference`).
 fn environment_cos_difference(a: f32, b: f32) -> f32 {
     return 2.0 * sin(0.5 * PI * (a + b)) * sin(0.5 * PI * (b - a));

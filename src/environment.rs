@@ -1,11 +1,11 @@
 //! The environment map as the kernel reads it (`shaders/environment.wgsl`): its
-//! texels, and the piecewise-constant density over its cells that the light
-//! density samples (pbrt-v4's `PiecewiseConstant2D` in spirit: a marginal CDF
-//! over rows, a conditional CDF within each row). A cell's mass is its
-//! luminance times its solid angle, and a direction is drawn uniformly in
-//! `(cos theta, phi)` within its cell, so the density is exactly proportional
-//! to the luminance the radiance lookup returns (up to the f32 CDFs): a
-//! constant map is sampled uniformly over the sphere.
+//! texels, and the piecewise-constant density over its cells (each texel's: the
+//! directions nearest its centre) that the light density samples (pbrt-v4's
+//! `PiecewiseConstant2D` in spirit: a marginal CDF over rows, a conditional CDF
+//! within each row). A cell's mass is the mean luminance of the bilinear lookup
+//! over it times its solid angle, and a direction is drawn uniformly in `(cos
+//! theta, phi)` within its cell: the density is positive wherever the radiance
+//! is, and a constant map is sampled uniformly over the sphere.
 
 use crate::gpu::layout::gpu_struct;
 use crate::scene::EnvironmentMap;
@@ -38,6 +38,35 @@ pub struct EnvironmentTables {
 /// Rec. 709 luminance, the weight of a texel's radiance (as Mitsuba's).
 fn luminance(rgb: [f32; 3]) -> f64 {
     0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64
+}
+
+/// The mean over each texel's cell of `values` interpolated bilinearly between
+/// texel centres, as the kernel looks the radiance up (columns periodic; the
+/// polar rows' cells reach only toward the equator): per axis 3/4 of the
+/// texel and 1/8 of each neighbour, or 3/4 and 1/4 at a pole. Positive wherever
+/// the interpolation is, over the cell.
+fn cell_means(values: &[f64], width: usize, height: usize) -> Vec<f64> {
+    let across: Vec<f64> = (0..width * height)
+        .map(|i| {
+            let (x, row) = (i % width, i - i % width);
+            let left = row + (x + width - 1) % width;
+            let right = row + (x + 1) % width;
+            0.75 * values[i] + 0.125 * (values[left] + values[right])
+        })
+        .collect();
+    (0..width * height)
+        .map(|i| {
+            let y = i / width;
+            let up = |k: usize| across[i - k * width];
+            let down = |k: usize| across[i + k * width];
+            match (y, height) {
+                (_, 1) => across[i],
+                (0, _) => 0.75 * across[i] + 0.25 * down(1),
+                (y, h) if y == h - 1 => 0.75 * across[i] + 0.25 * up(1),
+                _ => 0.75 * across[i] + 0.125 * (up(1) + down(1)),
+            }
+        })
+        .collect()
 }
 
 /// `cos(pi a) - cos(pi b)` for `a <= b`, without cancellation near the poles.
@@ -73,14 +102,20 @@ impl EnvironmentTables {
         let to_local = map.to_world;
         let mut texels = Vec::with_capacity(width * height);
         let mut row_weights = Vec::with_capacity(height);
-        for (y, row) in map.texels.chunks_exact(width).enumerate() {
-            let lum: Vec<f64> = row.iter().map(|&t| luminance(t)).collect();
+        let lum: Vec<f64> = map.texels.iter().map(|&t| luminance(t)).collect();
+        let weights = cell_means(&lum, width, height);
+        for (y, (row, weights)) in map
+            .texels
+            .chunks_exact(width)
+            .zip(weights.chunks_exact(width))
+            .enumerate()
+        {
             let solid_angle = cos_difference(
                 row_edge(y as u32, map.height),
                 row_edge(y as u32 + 1, map.height),
             );
-            row_weights.push(lum.iter().sum::<f64>() * solid_angle);
-            let conditional = cdf(&lum);
+            row_weights.push(weights.iter().sum::<f64>() * solid_angle);
+            let conditional = cdf(weights);
             texels.extend(
                 row.iter()
                     .zip(&conditional)
@@ -111,6 +146,21 @@ impl EnvironmentTables {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cell_means_weigh_the_neighbours_the_bilinear_lookup_reaches() {
+        // One hot texel of a 4 x 3 map: its cell 3/4 x 3/4, the sides 1/8, the
+        // row below (a pole's cell reaches one way) 1/8 of 3/4 across.
+        let mut values = vec![0.0; 12];
+        values[5] = 64.0;
+        let means = cell_means(&values, 4, 3);
+        assert_eq!(means[5], 36.0);
+        assert_eq!((means[4], means[6], means[7]), (6.0, 6.0, 0.0));
+        assert_eq!((means[1], means[9]), (0.25 * 48.0, 0.25 * 48.0));
+        assert_eq!(cell_means(&[2.0], 1, 1), vec![2.0]);
+        // A constant map stays constant.
+        assert!(cell_means(&[1.5; 12], 4, 3).iter().all(|&m| m == 1.5));
+    }
 
     #[test]
     fn cdfs_run_from_zero_to_one_and_skip_empty_cells() {

@@ -40,7 +40,7 @@
 //! - `light_weight` (float in [0, 1], default 0.5): weight of the light density in the
 //!   mixture.
 //! - `background` (vector, components >= 0, default `[0, 0, 0]`): radiance of rays
-//!   that escape the scene.
+//!   that escape the scene. Not with `[environment]`.
 //! - `seed` (integer in 0..=4294967295, default 0): random seed.
 //! - `rr_depth` (integer in 0..=100000, default: off): Russian roulette from this many
 //!   bounces on; a path survives with probability min(1, max(0.05, largest throughput
@@ -135,6 +135,13 @@
 //! Quads are transformed by moving `q` and transforming the edges `u`, `v`; a sphere's
 //! centre is transformed and its radius scaled; a mesh's vertices are transformed (a
 //! mirroring transform keeps each face's side).
+//!
+//! ## `[environment]` (optional)
+//! An environment map (`envmap`, Mitsuba 3's mapping; see docs/scene-format.md):
+//! `file` (string, required: `.exr` or `.hdr`, relative to the scene file, texels
+//! finite and >= 0), `scale` (float >= 0, default 1), and its rotation as objects
+//! take one (`rotate_y`, `rotate`, or a `matrix` whose 3 x 3 part is orthogonal).
+//! Not with `render.background`.
 
 use std::fmt::{Display, LowerExp};
 
