@@ -406,8 +406,10 @@ fn run_probe(
         Strategy::Mixture,
         pathmix::kernel::AccumulatorKind::Buffer,
     );
-    let mut data = pathmix::gpu::layout::SceneData::default();
-    data.environment = Some(std::sync::Arc::new(tables.clone()));
+    let data = pathmix::gpu::layout::SceneData {
+        environment: Some(std::sync::Arc::new(tables.clone())),
+        ..Default::default()
+    };
     let buffers: Vec<(u32, wgpu::Buffer)> = config
         .scene_arrays()
         .into_iter()
