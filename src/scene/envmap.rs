@@ -5,9 +5,8 @@
 //! Map space (before `to_world`): the direction `d` has `u = atan2(d.x, -d.z) /
 //! 2 pi` (wrapped into [0, 1)) and `v = acos(d.y) / pi`; column `x` of a map
 //! `W` wide is centred on `u = (x + 1/2) / W` and row `y` of `H` on `v = y / (H -
-//! 1)` (the first and last rows sit on the poles). Mitsuba interpolates between
-//! those centres bilinearly; pathmix takes the nearest texel, so that the
-//! radiance is constant over each cell its sampling density describes.
+//! 1)` (the first and last rows sit on the poles). The radiance is interpolated
+//! bilinearly between those centres, as Mitsuba does (`shaders/environment.wgsl`).
 
 use glam::Mat3;
 use std::fmt;
