@@ -28,7 +28,8 @@ fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
     let d = environment_local(info, dir);
     var u = atan2(d.x, -d.z) * (0.5 * INV_PI) - 0.5 / f32(info.width);
     u -= floor(u);
-    let v = acos(clamp(d.y / length(d), -1.0, 1.0)) * INV_PI;
+    // Not acos(d.y): lavapipe's is off by 1e-4, which shifts the lookup.
+    let v = atan2(length(d.xz), d.y) * INV_PI;
     let p = vec2<f32>(u * f32(info.width), v * f32(info.height - 1u));
     let x0 = min(u32(p.x), info.width - 1u);
     let y0 = min(u32(p.y), max(info.height, 2u) - 2u);
