@@ -125,7 +125,20 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
         let hit = intersect_scene(ray);
         segments += 1u;
         if hit.t == F32_MAX {
+#if ENVIRONMENT
+#if STRATEGY_NEE
+            // After a smooth bounce the light sample could have found this direction too.
+            var mis = 1.0;
+            if !last_delta {
+                mis = power_heuristic(last_bsdf_pdf, last_light_pdf);
+            }
+            radiance += throughput * environment_radiance(ray.dir) * mis;
+#else
+            radiance += throughput * environment_radiance(ray.dir);
+#endif
+#else
             radiance += throughput * params.background;
+#endif
             path_done = true;
         } else {
             let material = materials_at(hit.material);
@@ -163,6 +176,12 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
                     if shadow_hit.t < F32_MAX && dot(shadow_ray.dir, shadow_hit.normal) < 0.0 {
                         radiance += throughput * scattered.shadow_weight * materials_at(shadow_hit.material).emit;
                     }
+#if ENVIRONMENT
+                    // Unoccluded to infinity: the environment's radiance (whichever object was sampled).
+                    if shadow_hit.t == F32_MAX {
+                        radiance += throughput * scattered.shadow_weight * environment_radiance(shadow_ray.dir);
+                    }
+#endif
                 }
 #endif
                 if scattered.absorbed {

@@ -72,7 +72,8 @@ pub struct SceneIdentity {
     pub materials_hash: u64,
     /// Quads and spheres, each whole (with its material and importance mark).
     pub geometry_hash: u64,
-    /// Seed, depth, strategy, light weight, background, Russian roulette depth, sampler.
+    /// Seed, depth, strategy, light weight, background, Russian roulette depth, sampler,
+    /// environment map (its settings and texels).
     pub settings_hash: u64,
     pub width: u32,
     pub height: u32,
@@ -105,6 +106,7 @@ impl SceneIdentity {
             degenerate_triangles: _,
             // Messages only: what they describe is in the materials.
             warnings: _,
+            environment,
         } = scene;
         let Camera {
             lookfrom,
@@ -134,15 +136,29 @@ impl SceneIdentity {
             },
             materials_hash: debug_hash(materials),
             geometry_hash: debug_hash(&(quads, spheres, triangles)),
-            settings_hash: debug_hash(&(
-                max_depth,
-                strategy,
-                light_weight,
-                background,
-                seed,
-                rr_depth,
-                sampler,
-            )),
+            // Without an environment map the settings hash as before maps existed.
+            settings_hash: match environment {
+                None => debug_hash(&(
+                    max_depth,
+                    strategy,
+                    light_weight,
+                    background,
+                    seed,
+                    rr_depth,
+                    sampler,
+                )),
+                Some(map) => debug_hash(&(
+                    max_depth,
+                    strategy,
+                    light_weight,
+                    background,
+                    seed,
+                    rr_depth,
+                    sampler,
+                    map,
+                    crc32fast::hash(bytemuck::cast_slice(&map.texels)),
+                )),
+            },
             width: *width,
             height: *height,
             seed: *seed,

@@ -12,6 +12,7 @@ pub mod accel;
 pub mod bench;
 pub mod checkpoint;
 pub mod converge;
+pub mod environment;
 pub mod gpu;
 pub mod kernel;
 pub mod kinds;

@@ -711,7 +711,7 @@ pub fn prepare_scene(
     }
     let mut warnings = scene.warnings.clone();
     let mut strategy = wanted;
-    if data.light_count() == 0 && strategy != Strategy::Bsdf {
+    if data.light_count() == 0 && data.environment.is_none() && strategy != Strategy::Bsdf {
         if strategy == Strategy::Light {
             return Err(RenderError::LightStrategyWithoutTargets {
                 scene: scene.source.clone(),
@@ -805,6 +805,15 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
             BVH_ITERATIONS_PER_RAY + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, false)
         }
     };
+    // The environment's sampling bisects its two CDFs.
+    if let Some(tables) = data
+        .environment
+        .as_ref()
+        .filter(|_| config.light_environment)
+    {
+        let bisections = |n: u32| u64::from(n.next_power_of_two().trailing_zeros());
+        inner_loops += bisections(tables.info.width) + bisections(tables.info.height);
+    }
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;
     }
@@ -862,6 +871,7 @@ pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result
         .filter(|&(_, used)| used)
         .map(|(m, _)| m.emit.max_element())
         .chain([scene.render.background.max_element()])
+        .chain(scene.environment.as_ref().map(|map| map.max_radiance()))
         .fold(0.0f32, f32::max);
     let depth = scene.render.max_depth.saturating_add(1);
     let hits = match scene.render.strategy {

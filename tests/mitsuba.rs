@@ -337,9 +337,14 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             ":2:1: <shape type=\"disk\">: not supported (supported: obj, ply, rectangle, cube, sphere)",
         ),
         (
+            "point",
+            "<scene version=\"3.0.0\">\n<emitter type=\"point\"/>\n</scene>",
+            ":2:1: <emitter type=\"point\">: not supported",
+        ),
+        (
             "envmap",
             "<scene version=\"3.0.0\">\n<emitter type=\"envmap\"/>\n</scene>",
-            ":2:1: <emitter type=\"envmap\">: not supported",
+            ":2:1: <emitter type=\"envmap\">: missing <string name=\"filename\">",
         ),
         (
             "spectral",

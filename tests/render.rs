@@ -139,6 +139,8 @@ fn baked_scene_matches_scene_buffers() {
         ("cornell-boxes.toml", Strategy::Mixture),
         ("cornell-boxes.toml", Strategy::Bsdf),
         ("furnace.toml", Strategy::Light),
+        // Every microfacet material, the roughplastic coats' tables among them.
+        ("materials.toml", Strategy::NeeMis),
     ] {
         let mut scene = common::scene_file(file);
         scene

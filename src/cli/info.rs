@@ -71,12 +71,19 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
             .map(|(kind, array)| format!("{} {}", array.len(), kind.array))
             .collect()
     };
+    let mut lights = counts(&data.lights);
+    if let Some(map) = &scene.environment {
+        lights.push(format!(
+            "environment map {}x{} ({})",
+            map.width, map.height, map.file
+        ));
+    }
     println!(
         "  {}, {} materials ({}); light density: {}",
         counts(&data.primitives).join(", "),
         data.materials.len(),
         kinds.join(", "),
-        counts(&data.lights).join(", ")
+        lights.join(", ")
     );
     if dropped_materials > 0 {
         println!("  {dropped_materials} materials no object uses: dropped before packing");

@@ -5,10 +5,12 @@ use crate::accel::Bvh;
 use crate::kinds::{
     KindSet, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material,
 };
+use crate::environment::EnvironmentTables;
 use crate::lights::LightTables;
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
 use glam::Vec3;
+use std::sync::Arc;
 
 /// A host struct with a WGSL twin of the same name and field order.
 pub trait GpuLayout: Pod {
@@ -211,6 +213,8 @@ pub struct SceneData {
     pub light_tables: Vec<Option<LightTables>>,
     /// Over `primitives`, when the kernel traverses one.
     pub bvh: Option<Bvh>,
+    /// The environment map's texels and sampling tables (shared: a map is large).
+    pub environment: Option<Arc<EnvironmentTables>>,
 }
 
 impl Default for SceneData {
@@ -224,6 +228,7 @@ impl Default for SceneData {
             light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
             light_tables: vec![None; PRIMITIVE_KINDS.len()],
             bvh: None,
+            environment: None,
         }
     }
 }
@@ -242,6 +247,10 @@ impl SceneData {
         let mut data = SceneData {
             materials,
             material_tables: material_tables.values,
+            environment: scene
+                .environment
+                .as_ref()
+                .map(|map| Arc::new(EnvironmentTables::build(map))),
             ..SceneData::default()
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {

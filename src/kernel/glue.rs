@@ -8,7 +8,7 @@ use crate::accel;
 use crate::gpu::accumulator::{
     LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
 };
-use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData, WgslValue};
+use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
 use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES};
 use crate::shader::element_constant;
@@ -55,13 +55,22 @@ pub fn scene(config: &KernelConfig) -> String {
     let mut out = String::new();
     for array in config.scene_arrays() {
         match &config.baked_scene {
-            Some(data) => baked_array(&mut out, &array, data),
-            None => buffer_array(&mut out, &array),
+            Some(data) if array.source.bakes() => baked_array(&mut out, &array, data),
+            _ => buffer_array(&mut out, &array),
         }
     }
     closest_hit(&mut out, config);
     if config.samples_lights() {
         light_density(&mut out, config);
+    }
+    out
+}
+
+/// `arrays` declared over storage buffers of group 1, as a scene's kernel reads them.
+pub fn buffer_arrays(arrays: Vec<SceneArray>) -> String {
+    let mut out = String::new();
+    for array in &arrays {
+        buffer_array(&mut out, array);
     }
     out
 }
@@ -96,11 +105,6 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
     } = array;
     let values: Vec<String> = match array.source {
         ArraySource::Materials => data.materials.iter().map(GpuLayout::wgsl_value).collect(),
-        ArraySource::MaterialTables => data
-            .material_tables
-            .iter()
-            .map(WgslValue::wgsl_value)
-            .collect(),
         ArraySource::Primitives(k) | ArraySource::Lights(k) => {
             let packed = match array.source {
                 ArraySource::Primitives(_) => &data.primitives[k],
@@ -134,6 +138,7 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             }
         }
         ArraySource::BvhNodes => unreachable!("a baked scene has no BVH"),
+        ArraySource::Environment(_) | ArraySource::MaterialTables => unreachable!("never baked"),
     };
     let n = values.len();
     writeln!(out, "fn {name}_count() -> u32 {{ return {n}u; }}").unwrap();
@@ -325,15 +330,16 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
 /// The light density p_light: the average of the solid-angle densities of every
 /// object in it (emitters, and objects marked for importance), where a group of
 /// a grouped kind (a mesh) is one object whose density is its members', each
-/// weighted by its probability within the group. Choosing one object uniformly
-/// and sampling it draws from exactly this density.
+/// weighted by its probability within the group, and an environment map is one
+/// more object (the last). Choosing one object uniformly and sampling it draws
+/// from exactly this density.
 fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
     let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
     for &k in kinds.iter().filter(|&&k| grouped(k)) {
         grouped_lights(out, PRIMITIVE_KINDS[k]);
     }
-    let counts: Vec<String> = kinds
+    let mut counts: Vec<String> = kinds
         .iter()
         .map(|&k| match grouped(k) {
             true => format!(
@@ -343,6 +349,10 @@ fn light_density(out: &mut String, config: &KernelConfig) {
             false => format!("{}_count()", PRIMITIVE_KINDS[k].light_array()),
         })
         .collect();
+    let environment = config.light_environment;
+    if environment {
+        counts.push("1u".into());
+    }
     writeln!(
         out,
         "fn light_count() -> u32 {{ return {}; }}",
@@ -351,13 +361,15 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     .unwrap();
     // `select` (uniform in [0, 1)) picks the object, `u` the point on it; what
     // is left of `select` picks a group's member.
-    out.push_str(
-        "fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {
-    let count = light_count();
+    out.push_str("fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {\n");
+    if !kinds.is_empty() {
+        out.push_str(
+            "    let count = light_count();
     let k = min(u32(select * f32(count)), count - 1u);
     var first = 0u;
 ",
-    );
+        );
+    }
     for (i, &k) in kinds.iter().enumerate() {
         let kind = PRIMITIVE_KINDS[k];
         let call = match grouped(k) {
@@ -371,7 +383,7 @@ fn light_density(out: &mut String, config: &KernelConfig) {
                 kind.light_array()
             ),
         };
-        if i + 1 == kinds.len() {
+        if i + 1 == kinds.len() && !environment {
             writeln!(out, "    return {call};").unwrap();
         } else {
             writeln!(
@@ -381,6 +393,9 @@ fn light_density(out: &mut String, config: &KernelConfig) {
             )
             .unwrap();
         }
+    }
+    if environment {
+        out.push_str("    return environment_sample(u);\n");
     }
     out.push_str("}\n");
     out.push_str(
@@ -407,6 +422,9 @@ fn light_density(out: &mut String, config: &KernelConfig) {
             )
             .unwrap();
         }
+    }
+    if environment {
+        out.push_str("    total += environment_pdf(dir);\n");
     }
     out.push_str("    return total / f32(light_count());\n}\n");
 }

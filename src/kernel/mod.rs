@@ -6,6 +6,7 @@
 mod glue;
 
 use crate::accel::BvhNode;
+use crate::environment::EnvironmentInfo;
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
 use crate::lights::{LightGroup, LightPick};
@@ -24,6 +25,8 @@ pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture"
 pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
 pub const KERNEL: ShaderModule = shader_module!("kernel");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
+pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
+pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -37,6 +40,8 @@ const FEATURE_FLAGS: &[&str] = &[
     "SHADING_NORMALS",
     "FILTER_GAUSSIAN",
     "ONE_SIDED",
+    "ENVIRONMENT",
+    "LIGHT_ENVIRONMENT",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -116,6 +121,32 @@ pub enum ArraySource {
     /// The light tables (`lights::LightTables`) of grouped light kind `k`.
     LightTable(usize, LightTablePart),
     BvhNodes,
+    /// The environment map's tables (`environment::EnvironmentTables`): always
+    /// read from buffers, a map being far too large to bake.
+    Environment(EnvironmentPart),
+}
+
+impl ArraySource {
+    /// Whether a baked kernel compiles this array in as constants. Large tables
+    /// read at computed indices stay in buffers: a baked array is read through a
+    /// `switch` over its elements, which over the 64-entry tables of a few
+    /// `roughplastic` coats gave wrong values on lavapipe (Mesa 22.3), and a
+    /// constant array indexed at run time was 75x slower there.
+    pub fn bakes(self) -> bool {
+        !matches!(
+            self,
+            ArraySource::Environment(_) | ArraySource::MaterialTables
+        )
+    }
+}
+
+/// One of the arrays of `environment::EnvironmentTables`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EnvironmentPart {
+    Info,
+    Texels,
+    /// The marginal CDF: only where the light density samples the map.
+    Rows,
 }
 
 /// One of the arrays of `lights::LightTables`.
@@ -165,8 +196,8 @@ pub struct SceneArray {
     pub element_size: usize,
     /// Its binding in group 1 when the scene is read from buffers: materials 0,
     /// then the primitive kinds in table order, then their light arrays, the
-    /// BVH, the shading normals, the light tables and the material tables
-    /// (fixed per array, whichever arrays a kernel declares).
+    /// BVH, the shading normals, the light tables, the environment map and the
+    /// material tables (fixed per array, whichever arrays a kernel declares).
     pub binding: u32,
     /// Read by a dynamic index (`NAME_at`), not only walked by `#for_each`.
     pub indexed: bool,
@@ -204,6 +235,10 @@ pub struct KernelConfig {
     pub filter: Filter,
     /// Some material of the scene is one-sided (black from behind).
     pub one_sided: bool,
+    /// Escaping rays find an environment map's radiance (else the background).
+    pub environment: bool,
+    /// The environment map is one object of the light density.
+    pub light_environment: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -224,6 +259,7 @@ impl KernelConfig {
     ) -> KernelConfig {
         let material_kinds = data.material_kinds();
         let samples_lights = has_smooth_lobe(material_kinds) && strategy != Strategy::Bsdf;
+        let environment = data.environment.is_some();
         KernelConfig {
             primitive_kinds: data.primitive_kinds(),
             light_kinds: if samples_lights {
@@ -244,6 +280,8 @@ impl KernelConfig {
             bvh: scene_storage == SceneStorage::Bvh,
             filter,
             one_sided: data.has_one_sided_materials(),
+            environment,
+            light_environment: samples_lights && environment,
         }
     }
 
@@ -283,6 +321,8 @@ impl KernelConfig {
             bvh: false,
             filter: Filter::Box,
             one_sided: true,
+            environment: true,
+            light_environment: strategy != Strategy::Bsdf,
         }
     }
 
@@ -300,7 +340,7 @@ impl KernelConfig {
     }
 
     pub fn samples_lights(&self) -> bool {
-        !self.light_kinds.is_empty()
+        !self.light_kinds.is_empty() || self.light_environment
     }
 
     /// The kinds in the light density whose lights come in groups.
@@ -338,6 +378,8 @@ impl KernelConfig {
                 "FILTER_GAUSSIAN",
                 matches!(self.filter, Filter::Gaussian { .. }),
             ),
+            ("ENVIRONMENT", self.environment),
+            ("LIGHT_ENVIRONMENT", self.light_environment),
         ];
         for (flag, on) in features {
             if on {
@@ -372,6 +414,9 @@ impl KernelConfig {
             modules.push(LIGHT_GROUPS);
         }
         modules.push(generated("scene", glue::scene(self)));
+        if self.environment {
+            modules.push(ENVIRONMENT);
+        }
         modules.extend(self.material_modules());
         modules.push(STRATEGY);
         modules.push(match self.accumulator {
@@ -442,6 +487,8 @@ impl KernelConfig {
             light_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
             material_kinds: material_kinds.with(lambertian),
             sampler: Sampler::Independent,
+            environment: false,
+            light_environment: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let mut modules = vec![
@@ -455,6 +502,42 @@ impl KernelConfig {
         ];
         modules.extend(config.material_modules());
         modules.push(BSDF_PROBE);
+        config.compose(&modules)
+    }
+
+    /// A compute shader running the environment map's sampling and density on
+    /// their own, with independent random numbers: the entry points
+    /// `probe_sample` and `probe_pdf` of `shaders/environment_probe.wgsl`, the
+    /// map's arrays in group 1 as a scene's kernel binds them.
+    pub fn environment_probe_source() -> Result<String, ComposeError> {
+        let config = KernelConfig {
+            primitive_kinds: KindSet::default(),
+            light_kinds: KindSet::default(),
+            normal_kinds: KindSet::default(),
+            material_kinds: KindSet::default(),
+            sampler: Sampler::Independent,
+            ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+        };
+        let arrays = config
+            .scene_arrays()
+            .into_iter()
+            .filter(|array| matches!(array.source, ArraySource::Environment(_)))
+            .collect();
+        let modules = [
+            ShaderModule {
+                name: "constants",
+                source: glue::shared_constants().into(),
+            },
+            COMMON,
+            RNG,
+            SAMPLING,
+            ShaderModule {
+                name: "environment_arrays",
+                source: glue::buffer_arrays(arrays).into(),
+            },
+            ENVIRONMENT,
+            ENVIRONMENT_PROBE,
+        ];
         config.compose(&modules)
     }
 
@@ -474,7 +557,7 @@ impl KernelConfig {
                 name: "material_tables".into(),
                 wgsl_type: "f32",
                 element_size: size_of::<f32>(),
-                binding: 3 + 7 * count,
+                binding: 6 + 7 * count,
                 indexed: true,
                 source: ArraySource::MaterialTables,
             });
@@ -540,15 +623,45 @@ impl KernelConfig {
                 source: ArraySource::BvhNodes,
             });
         }
+        if self.environment {
+            let parts: &[(EnvironmentPart, &str, &'static str, usize)] = &[
+                (
+                    EnvironmentPart::Info,
+                    "environment_info",
+                    EnvironmentInfo::WGSL_NAME,
+                    size_of::<EnvironmentInfo>(),
+                ),
+                (
+                    EnvironmentPart::Texels,
+                    "environment_texels",
+                    "vec4<f32>",
+                    16,
+                ),
+                (EnvironmentPart::Rows, "environment_rows", "f32", 4),
+            ];
+            for (j, &(part, name, wgsl_type, element_size)) in parts.iter().enumerate() {
+                if part == EnvironmentPart::Rows && !self.light_environment {
+                    continue;
+                }
+                arrays.push(SceneArray {
+                    name: name.into(),
+                    wgsl_type,
+                    element_size,
+                    // After the grouped lights' tables (4 per kind).
+                    binding: 3 + 7 * count + j as u32,
+                    indexed: true,
+                    source: ArraySource::Environment(part),
+                });
+            }
+        }
         arrays
     }
 
     /// Where `#for_each` finds the elements of `array`.
     fn array_form(&self, array: &SceneArray) -> ArrayForm {
         match &self.baked_scene {
-            Some(data) => ArrayForm::Constants(match array.source {
+            Some(data) if array.source.bakes() => ArrayForm::Constants(match array.source {
                 ArraySource::Materials => data.materials.len(),
-                ArraySource::MaterialTables => data.material_tables.len(),
                 ArraySource::Primitives(k) => data.primitives[k].len(),
                 ArraySource::Lights(k) => data.lights[k].len(),
                 ArraySource::Normals(k) => data.primitives[k].len(),
@@ -558,8 +671,11 @@ impl KernelConfig {
                 ArraySource::BvhNodes => {
                     unreachable!("a baked scene has no BVH")
                 }
+                ArraySource::Environment(_) | ArraySource::MaterialTables => {
+                    unreachable!("never baked")
+                }
             }),
-            None => ArrayForm::Buffer,
+            _ => ArrayForm::Buffer,
         }
     }
 
@@ -583,12 +699,14 @@ impl KernelConfig {
         constants
     }
 
-    /// Scene arrays read from storage buffers (group 1): none when the scene is baked.
+    /// Scene arrays read from storage buffers (group 1): when the scene is
+    /// baked, only those never baked (an environment map's).
     pub fn scene_bindings(&self) -> Vec<SceneArray> {
-        if self.baked_scene.is_some() {
-            return Vec::new();
-        }
+        let baked = self.baked_scene.is_some();
         self.scene_arrays()
+            .into_iter()
+            .filter(|array| !baked || !array.source.bakes())
+            .collect()
     }
 
     /// Running sums the accumulator holds: each sum and its compensation.
@@ -652,6 +770,17 @@ impl SceneData {
                 }
             }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
+            ArraySource::Environment(part) => {
+                let tables = self
+                    .environment
+                    .as_ref()
+                    .expect("a kernel with an environment map has its tables");
+                match part {
+                    EnvironmentPart::Info => bytemuck::bytes_of(&tables.info),
+                    EnvironmentPart::Texels => bytemuck::cast_slice(&tables.texels),
+                    EnvironmentPart::Rows => bytemuck::cast_slice(&tables.rows),
+                }
+            }
         }
     }
 
@@ -724,6 +853,8 @@ mod tests {
                             material_kinds,
                             variance,
                             bvh: mask >> (primitives + 1) != 0,
+                            environment: false,
+                            light_environment: false,
                             ..general.clone()
                         });
                     }
@@ -738,6 +869,95 @@ mod tests {
         for config in all_variants() {
             validate(&config);
         }
+    }
+
+    /// An environment map with no other object in the light density, with every
+    /// primitive kind, and with one of each grouped and plain kind, under every
+    /// strategy and scene storage: the environment's buffers are bound even in
+    /// a baked kernel.
+    #[test]
+    fn environment_kernels_validate() {
+        let environment = crate::scene::EnvironmentMap {
+            file: "sky.exr".into(),
+            width: 4,
+            height: 3,
+            texels: std::sync::Arc::new(vec![[1.0, 0.5, 0.25]; 12]),
+            scale: 2.0,
+            to_world: glam::Mat3::IDENTITY,
+        };
+        let mut data = SceneData {
+            materials: vec![Default::default()],
+            environment: Some(std::sync::Arc::new(
+                crate::environment::EnvironmentTables::build(&environment),
+            )),
+            ..SceneData::default()
+        };
+        data.primitives[0] = PackedArray {
+            bytes: vec![0; size_of::<Quad>()],
+            materials: vec![0],
+        };
+        let settings = crate::scene::RenderSettings {
+            spp: 1,
+            max_depth: 4,
+            strategy: Strategy::Mixture,
+            light_weight: 0.5,
+            background: glam::Vec3::ZERO,
+            seed: 0,
+            rr_depth: None,
+            sampler: Sampler::Sobol,
+        };
+        for strategy in Strategy::ALL {
+            for storage in [
+                SceneStorage::Baked,
+                SceneStorage::Buffers,
+                SceneStorage::Bvh,
+            ] {
+                let config = KernelConfig::for_scene(
+                    &data,
+                    strategy,
+                    &settings,
+                    Filter::Box,
+                    AccumulatorKind::Buffer,
+                    false,
+                    storage,
+                );
+                assert!(config.environment);
+                assert_eq!(config.light_environment, strategy != Strategy::Bsdf);
+                validate(&config);
+                let bound: Vec<String> = config
+                    .scene_bindings()
+                    .into_iter()
+                    .map(|a| a.name)
+                    .collect();
+                assert!(
+                    bound.contains(&"environment_texels".to_string()),
+                    "{bound:?}"
+                );
+                let all_lights = KernelConfig {
+                    light_kinds: if strategy == Strategy::Bsdf {
+                        KindSet::default()
+                    } else {
+                        KindSet::all(PRIMITIVE_KINDS.len())
+                    },
+                    baked_scene: None,
+                    ..config
+                };
+                validate(&all_lights);
+            }
+        }
+    }
+
+    #[test]
+    fn environment_probe_validates() {
+        let source = KernelConfig::environment_probe_source().unwrap();
+        let module = naga::front::wgsl::parse_str(&source)
+            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::all(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
     }
 
     /// The BSDF probe of tests/bsdf.rs, with every material kind.
@@ -847,7 +1067,9 @@ mod tests {
                 SceneStorage::Baked,
             );
             let module = validate(&config);
-            for array in config.scene_arrays() {
+            // The material tables stay in a buffer (`ArraySource::bakes`).
+            let baked = config.scene_arrays().into_iter().filter(|a| a.source.bakes());
+            for array in baked {
                 let expected: Vec<u32> =
                     bytemuck::pod_collect_to_vec(data.array_bytes(array.source));
                 assert_eq!(
@@ -860,8 +1082,8 @@ mod tests {
             }
         }
         // materials, quads, light quads (x3), the cornell box's sphere and light
-        // sphere, and the materials scene's arrays with its coats' tables.
-        assert!(arrays_checked >= 15, "{arrays_checked}");
+        // sphere, and the materials scene's arrays.
+        assert!(arrays_checked >= 14, "{arrays_checked}");
     }
 
     #[test]
@@ -983,6 +1205,8 @@ mod tests {
             material_kinds: KindSet::default()
                 .with(kind_index("lambertian"))
                 .with(kind_index("light")),
+            environment: false,
+            light_environment: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let source = config.source().unwrap();
@@ -994,6 +1218,7 @@ mod tests {
             "hit_kind",
             "shading_normal(",
             "bsdf_leaks",
+            "environment",
         ] {
             assert!(!source.contains(absent), "{absent} compiled in");
         }
@@ -1150,6 +1375,7 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<Material>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightGroup>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
+        check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {

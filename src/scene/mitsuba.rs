@@ -7,7 +7,7 @@
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
-//! `constant` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
+//! `constant` and `envmap` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
 //! `gaussian` filter and a sampler; the `path` and `direct` integrators. Anything
 //! else is an error naming `file:line:col` and the element; an approximation is a
 //! warning.
@@ -139,18 +139,26 @@ impl Converted {
         }
     }
 
-    /// The document as TOML text, mesh paths relative to `folder` where they can be.
+    /// The document as TOML text, mesh and map paths relative to `folder` where they can be.
     pub fn to_toml(&self, folder: &Path, source: &Path) -> String {
         let mut document = self.document.clone();
-        if let Some(Value::Array(objects)) = document.get_mut("objects") {
-            for object in objects {
-                if let Some(Value::String(file)) = object.get_mut("file") {
-                    let absolute = Path::new(file.as_str());
-                    if let Some(relative) = pathdiff::diff_paths(absolute, folder) {
-                        *file = relative.to_string_lossy().into_owned();
-                    }
+        let relative = |table: &mut Table| {
+            if let Some(Value::String(file)) = table.get_mut("file") {
+                let absolute = Path::new(file.as_str());
+                if let Some(relative) = pathdiff::diff_paths(absolute, folder) {
+                    *file = relative.to_string_lossy().into_owned();
                 }
             }
+        };
+        if let Some(Value::Array(objects)) = document.get_mut("objects") {
+            for object in objects {
+                if let Value::Table(object) = object {
+                    relative(object);
+                }
+            }
+        }
+        if let Some(Value::Table(environment)) = document.get_mut("environment") {
+            relative(environment);
         }
         let mut text = format!(
             "# Converted by pathmix {} from the Mitsuba scene {}.\n",
@@ -790,6 +798,8 @@ struct Builder<'a> {
     integrator: Option<&'a Elem>,
     sensor: Option<&'a Elem>,
     background: Option<[f64; 3]>,
+    /// `[environment]`, from an `envmap` emitter, and where it was.
+    environment: Option<(Table, Origin)>,
     materials: Table,
     objects: Vec<Value>,
     origins: Vec<(String, Origin)>,
@@ -823,6 +833,7 @@ impl<'a> Builder<'a> {
             integrator: None,
             sensor: None,
             background: None,
+            environment: None,
             materials: Table::new(),
             objects: Vec::new(),
             origins: Vec::new(),
@@ -876,8 +887,10 @@ impl<'a> Builder<'a> {
                     .origin
                     .error("an area emitter outside a shape needs an `id` for shapes to refer to")),
                 "constant" => {
-                    if self.background.is_some() {
-                        return Err(e.origin.error("a second constant emitter"));
+                    if self.background.is_some() || self.environment.is_some() {
+                        return Err(e
+                            .origin
+                            .error("a second constant or envmap emitter: pathmix takes one"));
                     }
                     e.check_attrs(&["type", "id"])?;
                     let mut props = Props::new(e);
@@ -886,9 +899,10 @@ impl<'a> Builder<'a> {
                     self.background = Some(radiance);
                     Ok(())
                 }
+                "envmap" => self.envmap(e),
                 _ => Err(e.origin.error(
-                    "not supported (supported: area, constant; envmap and point wait for \
-                     pathmix's environment maps and delta lights)",
+                    "not supported (supported: area, constant, envmap; point and spot wait \
+                     for pathmix's delta lights)",
                 )),
             },
             "texture" => Err(e
@@ -898,6 +912,42 @@ impl<'a> Builder<'a> {
                 "not supported at the top level (supported: {SUPPORTED_TOP})"
             ))),
         }
+    }
+
+    /// `<emitter type="envmap">`: `filename`, `scale` and `to_world` as
+    /// `[environment]`'s `file`, `scale` and `matrix` (the same mapping onto the
+    /// sphere and the same bilinear lookup).
+    fn envmap(&mut self, e: &'a Elem) -> Result<()> {
+        if self.background.is_some() || self.environment.is_some() {
+            return Err(e
+                .origin
+                .error("a second constant or envmap emitter: pathmix takes one"));
+        }
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e);
+        let (name, at) = props
+            .string("filename")?
+            .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
+        let path = resolve(self.search, name).ok_or_else(|| {
+            at.origin
+                .error(format!("cannot find the environment map `{name}`"))
+        })?;
+        let path = path.canonicalize().unwrap_or(path);
+        let mut environment = Table::new();
+        environment.insert(
+            "file".into(),
+            Value::String(path.to_string_lossy().into_owned()),
+        );
+        if let Some(scale) = props.float("scale")? {
+            environment.insert("scale".into(), Value::Float(scale));
+        }
+        let to_world = props.transform("to_world")?;
+        if to_world != DMat4::IDENTITY {
+            environment.insert("matrix".into(), row_major(&to_world));
+        }
+        props.finish()?;
+        self.environment = Some((environment, e.origin.clone()));
+        Ok(())
     }
 
     /// The BSDF mapping: what each Mitsuba BSDF is in pathmix. `twosided`: inside a
@@ -983,14 +1033,21 @@ impl<'a> Builder<'a> {
     ) -> Result<(String, Surface, bool)> {
         let (base, surface) = match bsdf {
             Some(b) => (self.name_of(b), self.surface(b, false)?),
-            // Mitsuba's default: a one-sided diffuse of reflectance 0.5.
-            None => (
-                "default-diffuse".to_string(),
-                Surface::Lambertian {
-                    albedo: [0.5; 3],
-                    one_sided: true,
-                },
-            ),
+            // Mitsuba's default: a one-sided diffuse of reflectance 0.5, or 0 on
+            // an emitter (`Shape`'s constructor).
+            None => {
+                let (name, albedo) = match emitter {
+                    Some(_) => ("default-black", 0.0),
+                    None => ("default-diffuse", 0.5),
+                };
+                (
+                    name.to_string(),
+                    Surface::Lambertian {
+                        albedo: [albedo; 3],
+                        one_sided: true,
+                    },
+                )
+            }
         };
         let emit = match emitter {
             Some(em) => {
@@ -1230,6 +1287,10 @@ impl<'a> Builder<'a> {
             "objects".into(),
             Value::Array(std::mem::take(&mut self.objects)),
         );
+        if let Some((environment, origin)) = self.environment.take() {
+            document.insert("environment".into(), Value::Table(environment));
+            self.origins.push(("environment".into(), origin));
+        }
         Ok(Converted {
             document,
             warnings: self.warnings,
@@ -1861,6 +1922,15 @@ mod tests {
         )
         .unwrap();
         assert!(!s.materials[s.quads[0].material as usize].one_sided);
+        // Without a BSDF: Mitsuba's default, a one-sided diffuse 0.5, black on an emitter.
+        let s = scene(
+            "default-bsdf",
+            r#"<shape type="rectangle"/>
+               <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="3"/></emitter></shape>"#,
+        );
+        let material = |i: usize| &s.materials[s.quads[i].material as usize];
+        assert_eq!((material(0).albedo, material(0).one_sided), (Vec3::splat(0.5), true));
+        assert_eq!((material(1).albedo, material(1).emit), (Vec3::ZERO, Vec3::splat(3.0)));
         // A one-sided surface's side is its normal's: a flipped sphere is refused.
         let e = error(
             "one-sided-flip",
@@ -1872,6 +1942,44 @@ mod tests {
             r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,
         );
         assert_eq!(s.render.background, Vec3::new(0.5, 1.0, 2.0));
+    }
+
+    /// `envmap` becomes `[environment]`: the file found like a mesh (written
+    /// relative by `convert`), `scale`, `to_world` as `matrix`; one emitter of the
+    /// constant or envmap kind at most.
+    #[test]
+    fn envmap_becomes_the_environment() {
+        let body = r#"<emitter type="envmap"><string name="filename" value="sky.hdr"/>
+               <float name="scale" value="2"/>
+               <transform name="to_world"><rotate y="1" angle="90"/></transform></emitter>"#;
+        let path = folder("envmap", &[("scene.xml", &scene_text(body))]);
+        // A 2 x 1 Radiance HDR (flat RGBE): (128, 128, 128, 129) is 1.
+        let mut hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n".to_vec();
+        hdr.extend([128, 128, 128, 129, 128, 128, 128, 129]);
+        std::fs::write(path.with_file_name("sky.hdr"), &hdr).unwrap();
+        let converted = Converted::read(&path, &[]).unwrap();
+        let s = Scene::load(&path).unwrap();
+        let map = s.environment.expect("an environment map");
+        assert_eq!((map.width, map.height, map.scale), (2, 1, 2.0));
+        assert_eq!(map.texels[0], [1.0, 1.0, 1.0]);
+        // Mitsuba's rotate about +y by 90 degrees: +z goes to +x.
+        assert!((map.to_world * Vec3::Z - Vec3::X).length() < 1e-6);
+        assert_eq!(s.render.background, Vec3::ZERO);
+        // The same lookup as Mitsuba's: nothing approximated.
+        assert!(
+            converted.warnings.iter().all(|w| !w.contains("envmap")),
+            "{:?}",
+            converted.warnings
+        );
+        let toml = converted.to_toml(path.parent().unwrap(), &path);
+        assert!(toml.contains("[environment]\nfile = \"sky.hdr\""), "{toml}");
+        let twice = format!(
+            "{body}<emitter type=\"constant\"><rgb name=\"radiance\" value=\"1\"/></emitter>"
+        );
+        let path = folder("envmap-twice", &[("scene.xml", &scene_text(&twice))]);
+        std::fs::write(path.with_file_name("sky.hdr"), "").unwrap();
+        let e = Converted::read(&path, &[]).unwrap_err().to_string();
+        assert!(e.contains("a second constant or envmap emitter"), "{e}");
     }
 
     /// Mitsuba's microfacet-era BSDFs map onto pathmix's materials of the same

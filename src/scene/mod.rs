@@ -1,6 +1,7 @@
 //! Scene model: the TOML file format, parsed and validated into world-space
 //! primitives. Knows nothing of devices or runs.
 
+pub mod envmap;
 pub mod mesh;
 pub mod mitsuba;
 mod parse;
@@ -10,6 +11,7 @@ use glam::Vec3;
 use std::fmt;
 use std::path::Path;
 
+pub use envmap::EnvironmentMap;
 pub use parse::SceneOverrides;
 
 /// How a diffuse bounce picks its direction (see DESIGN.md).
@@ -302,6 +304,9 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     /// Mesh faces dropped for having no area.
     pub degenerate_triangles: usize,
+    /// Radiance arriving from every direction a ray escapes in (`[environment]`);
+    /// a scene with one has no `background`.
+    pub environment: Option<EnvironmentMap>,
     /// What the user should know about how the file was read (glTF materials
     /// mapped to pathmix's).
     pub warnings: Vec<String>,

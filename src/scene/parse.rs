@@ -40,7 +40,7 @@
 //! - `light_weight` (float in [0, 1], default 0.5): weight of the light density in the
 //!   mixture.
 //! - `background` (vector, components >= 0, default `[0, 0, 0]`): radiance of rays
-//!   that escape the scene.
+//!   that escape the scene. Not with `[environment]`.
 //! - `seed` (integer in 0..=4294967295, default 0): random seed.
 //! - `rr_depth` (integer in 0..=100000, default: off): Russian roulette from this many
 //!   bounces on; a path survives with probability min(1, max(0.05, largest throughput
@@ -144,12 +144,20 @@
 //! Quads are transformed by moving `q` and transforming the edges `u`, `v`; a sphere's
 //! centre is transformed and its radius scaled; a mesh's vertices are transformed (a
 //! mirroring transform keeps each face's side).
+//!
+//! ## `[environment]` (optional)
+//! An environment map (`envmap`, Mitsuba 3's mapping; see docs/scene-format.md):
+//! `file` (string, required: `.exr` or `.hdr`, relative to the scene file, texels
+//! finite and >= 0), `scale` (float >= 0, default 1), and its rotation as objects
+//! take one (`rotate_y`, `rotate`, or a `matrix` whose 3 x 3 part is orthogonal).
+//! Not with `render.background`.
 
 use std::fmt::{Display, LowerExp};
 
 use glam::{DMat3, DVec3, Vec3};
 use toml::{Table, Value};
 
+use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
 use super::{
     Camera, Distribution, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene,
@@ -183,7 +191,15 @@ const SEED: (i64, i64) = (0, U32_MAX);
 /// `|u x v| <= DEGENERATE |u| |v|`: a quad (or camera basis) with no area.
 const DEGENERATE: f64 = 1e-6;
 
-const TOP_KEYS: &[&str] = &["scene", "camera", "render", "materials", "objects"];
+const TOP_KEYS: &[&str] = &[
+    "scene",
+    "camera",
+    "render",
+    "materials",
+    "objects",
+    "environment",
+];
+const ENVIRONMENT_KEYS: &[&str] = &["file", "scale", "rotate_y", "rotate", "matrix"];
 const SCENE_KEYS: &[&str] = &["scale"];
 const CAMERA_KEYS: &[&str] = &[
     "lookfrom", "lookat", "vup", "vfov", "width", "height", "filter",
@@ -281,6 +297,20 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     let mut materials = parse_materials(&top)?;
     let objects = parse_objects(&top, &materials)?;
     materials.extend(objects.extra_materials);
+    let environment = match top.sub("environment")? {
+        Some(t) => Some(parse_environment(&t)?),
+        None => None,
+    };
+    if environment.is_some()
+        && let Some(r) = top.sub("render")?
+        && r.table.contains_key("background")
+    {
+        return Err(top.err(
+            r.at("background"),
+            "cannot be combined with `[environment]`, which gives the radiance of escaping \
+             rays (for a constant background, use a map of one texel)",
+        ));
+    }
 
     let scene = Scene {
         source: file.to_string(),
@@ -292,6 +322,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         triangles: objects.triangles,
         degenerate_triangles: objects.degenerate_triangles,
         warnings: objects.warnings,
+        environment,
     };
     if scale == 1.0 {
         return Ok(scene);
@@ -506,6 +537,45 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
             Sampler::from_name,
         )?
         .unwrap_or(d.sampler),
+    })
+}
+
+/// `[environment]`: the map's file (relative to the scene file), `scale`, and its
+/// rotation as objects take one (`rotate_y`, `rotate`, or an orthogonal `matrix`,
+/// whose translation moves nothing at infinity).
+fn parse_environment(t: &Tab) -> Result<EnvironmentMap> {
+    t.check_keys(ENVIRONMENT_KEYS, None)?;
+    let file = t.require("file", t.string("file")?)?;
+    let scale = t.float("scale", check_nonneg)?.unwrap_or(1.0);
+    let to_world = if t.table.contains_key("matrix") {
+        let (linear, _) = matrix(t, &["rotate_y", "rotate"])?;
+        let error = (linear.transpose() * linear - DMat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |e, x| e.max(x.abs()));
+        if error > 1e-5 {
+            return Err(t.err(
+                t.at("matrix"),
+                "must be a rotation (orthonormal columns, maybe mirrored): an environment \
+                 map is only turned",
+            ));
+        }
+        linear
+    } else {
+        rotation(t)?
+    };
+    let path = Path::new(t.file)
+        .parent()
+        .unwrap_or(Path::new(""))
+        .join(file);
+    let (width, height, texels) = load_image(&path).map_err(|m| t.err(t.at("file"), m))?;
+    Ok(EnvironmentMap {
+        file: file.to_string(),
+        width,
+        height,
+        texels: std::sync::Arc::new(texels),
+        scale,
+        to_world: to_world.as_mat3(),
     })
 }
 
@@ -1194,83 +1264,92 @@ pub(super) fn sin_cos_degrees(degrees: f64) -> (f64, f64) {
     }
 }
 
+/// `matrix` (16 numbers, row-major, affine): its linear part and translation.
+/// `others` are the keys it replaces, refused alongside it.
+fn matrix(t: &Tab, others: &[&str]) -> Result<(DMat3, DVec3)> {
+    if let Some(other) = others.iter().find(|k| t.table.contains_key(**k)) {
+        return Err(t.err(
+            t.at(other),
+            "cannot be combined with `matrix` (the matrix is the whole transform)",
+        ));
+    }
+    let m: [f32; 16] = t.numbers("matrix")?;
+    if m[12..] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(t.err(
+            t.at("matrix"),
+            format!(
+                "must be affine: its last row must be [0, 0, 0, 1], got [{}]",
+                m[12..]
+                    .iter()
+                    .map(|&x| fmt_num(x))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        ));
+    }
+    let m = m.map(f64::from);
+    let linear = DMat3::from_cols(
+        DVec3::new(m[0], m[4], m[8]),
+        DVec3::new(m[1], m[5], m[9]),
+        DVec3::new(m[2], m[6], m[10]),
+    );
+    Ok((linear, DVec3::new(m[3], m[7], m[11])))
+}
+
+/// `rotate_y` (the book's) or `rotate = { axis, angle }`; the identity without either.
+fn rotation(t: &Tab) -> Result<DMat3> {
+    Ok(match (t.table.contains_key("rotate_y"), t.sub("rotate")?) {
+        (true, Some(_)) => {
+            return Err(t.err(
+                t.at("rotate"),
+                "give either `rotate_y` or `rotate`, not both",
+            ));
+        }
+        (_, Some(r)) => {
+            r.check_keys(&["axis", "angle"], Some("a rotation"))?;
+            let axis = r.require("axis", r.vec3("axis", ok)?)?.as_dvec3();
+            let angle = f64::from(r.require("angle", r.float("angle", ok)?)?);
+            if axis.length_squared() == 0.0 {
+                return Err(r.err(r.at("axis"), "must not be the zero vector"));
+            }
+            let (sin, cos) = sin_cos_degrees(angle);
+            // Rodrigues' formula, with the exact sine and cosine.
+            let k = axis.normalize();
+            let cross = DMat3::from_cols(
+                DVec3::new(0.0, k.z, -k.y),
+                DVec3::new(-k.z, 0.0, k.x),
+                DVec3::new(k.y, -k.x, 0.0),
+            );
+            DMat3::IDENTITY * cos
+                + cross * sin
+                + DMat3::from_cols(k * k.x, k * k.y, k * k.z) * (1.0 - cos)
+        }
+        (_, None) => {
+            let (sin, cos) = sin_cos_degrees(t.float("rotate_y", ok)?.unwrap_or(0.0).into());
+            // The book's rotate_y: (x, z) maps to (cos x + sin z, -sin x + cos z).
+            DMat3::from_cols(
+                DVec3::new(cos, 0.0, -sin),
+                DVec3::Y,
+                DVec3::new(sin, 0.0, cos),
+            )
+        }
+    })
+}
+
 impl Transform {
     /// The object's transform keys: `scale`, `rotate_y` or `rotate`, `translate`,
     /// or `matrix` instead of all three.
     fn parse(t: &Tab) -> Result<Transform> {
         if t.table.contains_key("matrix") {
-            if let Some(other) = ["scale", "rotate_y", "rotate", "translate"]
-                .into_iter()
-                .find(|k| t.table.contains_key(*k))
-            {
-                return Err(t.err(
-                    t.at(other),
-                    "cannot be combined with `matrix` (the matrix is the whole transform)",
-                ));
-            }
-            let m: [f32; 16] = t.numbers("matrix")?;
-            if m[12..] != [0.0, 0.0, 0.0, 1.0] {
-                return Err(t.err(
-                    t.at("matrix"),
-                    format!(
-                        "must be affine: its last row must be [0, 0, 0, 1], got [{}]",
-                        m[12..]
-                            .iter()
-                            .map(|&x| fmt_num(x))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                ));
-            }
-            let m = m.map(f64::from);
-            let linear = DMat3::from_cols(
-                DVec3::new(m[0], m[4], m[8]),
-                DVec3::new(m[1], m[5], m[9]),
-                DVec3::new(m[2], m[6], m[10]),
-            );
-            return Transform::checked(t, "matrix", linear, DVec3::new(m[3], m[7], m[11]));
+            let (linear, translate) = matrix(t, &["scale", "rotate_y", "rotate", "translate"])?;
+            return Transform::checked(t, "matrix", linear, translate);
         }
         let scale = match t.table.get("scale") {
             None => DVec3::ONE,
             Some(Value::Array(_)) => t.require("scale", t.vec3("scale", ok)?)?.as_dvec3(),
             Some(_) => DVec3::splat(t.require("scale", t.float("scale", ok)?)?.into()),
         };
-        let rotation = match (t.table.contains_key("rotate_y"), t.sub("rotate")?) {
-            (true, Some(_)) => {
-                return Err(t.err(
-                    t.at("rotate"),
-                    "give either `rotate_y` or `rotate`, not both",
-                ));
-            }
-            (_, Some(r)) => {
-                r.check_keys(&["axis", "angle"], Some("a rotation"))?;
-                let axis = r.require("axis", r.vec3("axis", ok)?)?.as_dvec3();
-                let angle = f64::from(r.require("angle", r.float("angle", ok)?)?);
-                if axis.length_squared() == 0.0 {
-                    return Err(r.err(r.at("axis"), "must not be the zero vector"));
-                }
-                let (sin, cos) = sin_cos_degrees(angle);
-                // Rodrigues' formula, with the exact sine and cosine.
-                let k = axis.normalize();
-                let cross = DMat3::from_cols(
-                    DVec3::new(0.0, k.z, -k.y),
-                    DVec3::new(-k.z, 0.0, k.x),
-                    DVec3::new(k.y, -k.x, 0.0),
-                );
-                DMat3::IDENTITY * cos
-                    + cross * sin
-                    + DMat3::from_cols(k * k.x, k * k.y, k * k.z) * (1.0 - cos)
-            }
-            (_, None) => {
-                let (sin, cos) = sin_cos_degrees(t.float("rotate_y", ok)?.unwrap_or(0.0).into());
-                // The book's rotate_y: (x, z) maps to (cos x + sin z, -sin x + cos z).
-                DMat3::from_cols(
-                    DVec3::new(cos, 0.0, -sin),
-                    DVec3::Y,
-                    DVec3::new(sin, 0.0, cos),
-                )
-            }
-        };
+        let rotation = rotation(t)?;
         let translate = t.vec3("translate", ok)?.unwrap_or(Vec3::ZERO).as_dvec3();
         let linear = rotation * DMat3::from_diagonal(scale);
         Transform::checked(t, "scale", linear, translate)

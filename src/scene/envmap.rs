@@ -1,0 +1,152 @@
+//! Environment maps (`[environment]`): a latitude-longitude image of the
+//! radiance arriving from every direction, read from OpenEXR (`exr`) or Radiance
+//! HDR (`image`), laid on the sphere as Mitsuba 3's `envmap` plugin lays it.
+//!
+//! Map space (before `to_world`): the direction `d` has `u = atan2(d.x, -d.z) /
+//! 2 pi` (wrapped into [0, 1)) and `v = acos(d.y) / pi`; column `x` of a map
+//! `W` wide is centred on `u = (x + 1/2) / W` and row `y` of `H` on `v = y / (H -
+//! 1)` (the first and last rows sit on the poles). The radiance is interpolated
+//! bilinearly between those centres, as Mitsuba does (`shaders/environment.wgsl`).
+
+use glam::Mat3;
+use std::fmt;
+use std::path::Path;
+use std::sync::Arc;
+
+/// A validated environment map.
+#[derive(Clone, PartialEq)]
+pub struct EnvironmentMap {
+    /// The image file as the scene names it (relative to the scene file).
+    pub file: String,
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB, row-major, row 0 at `v = 0` (map-space +y); finite, >= 0.
+    pub texels: Arc<Vec<[f32; 3]>>,
+    /// Radiance multiplier.
+    pub scale: f32,
+    /// Map space to world: a rotation (or a mirrored one).
+    pub to_world: Mat3,
+}
+
+impl fmt::Debug for EnvironmentMap {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("EnvironmentMap")
+            .field("file", &self.file)
+            .field("size", &(self.width, self.height))
+            .field("scale", &self.scale)
+            .field("to_world", &self.to_world)
+            .finish()
+    }
+}
+
+impl EnvironmentMap {
+    /// The largest radiance of any texel, scaled.
+    pub fn max_radiance(&self) -> f32 {
+        let max = self
+            .texels
+            .iter()
+            .flat_map(|t| t.iter().copied())
+            .fold(0.0f32, f32::max);
+        max * self.scale
+    }
+}
+
+/// The `v` of the upper edge of row `y` (0 at the pole `v = 0`): rows are centred
+/// on `y / (H - 1)`, so inner edges fall halfway between centres and the polar
+/// rows are half as tall. A map one texel high is one row over the whole sphere.
+pub fn row_edge(y: u32, height: u32) -> f64 {
+    if y == 0 {
+        0.0
+    } else if y >= height {
+        1.0
+    } else {
+        (y as f64 - 0.5) / (height - 1) as f64
+    }
+}
+
+/// Reads `path` (`.exr`: the R, G, B channels of the first layer; `.hdr`:
+/// Radiance RGBE) into linear RGB texels, row-major from the top row. The error
+/// names the image file and the problem.
+pub fn load_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
+    let shown = path.display();
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let (width, height, texels) = match extension.as_str() {
+        "exr" => {
+            let image = exr::prelude::read_first_rgba_layer_from_file(
+                path,
+                |size, _| {
+                    (
+                        vec![[0.0f32; 3]; size.width() * size.height()],
+                        size.width(),
+                    )
+                },
+                |(texels, width), position, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    texels[position.y() * *width + position.x()] = [r, g, b];
+                },
+            )
+            .map_err(|e| format!("{shown}: cannot read the OpenEXR image: {e}"))?;
+            let size = image.layer_data.size;
+            let (texels, _) = image.layer_data.channel_data.pixels;
+            (size.width(), size.height(), texels)
+        }
+        "hdr" => {
+            let image = image::ImageReader::open(path)
+                .map_err(|e| format!("{shown}: cannot read the image file: {e}"))?
+                .with_guessed_format()
+                .map_err(|e| format!("{shown}: cannot read the image file: {e}"))?
+                .decode()
+                .map_err(|e| format!("{shown}: cannot read the Radiance HDR image: {e}"))?
+                .into_rgb32f();
+            let (width, height) = image.dimensions();
+            let texels = image.pixels().map(|p| p.0).collect::<Vec<[f32; 3]>>();
+            (width as usize, height as usize, texels)
+        }
+        _ => {
+            return Err(format!(
+                "{shown}: unknown environment map format {extension:?} (supported: .exr, .hdr)"
+            ));
+        }
+    };
+    if width == 0 || height == 0 {
+        return Err(format!(
+            "{shown}: the image has no texels ({width}x{height})"
+        ));
+    }
+    let (width, height) = match (u32::try_from(width), u32::try_from(height)) {
+        (Ok(w), Ok(h)) => (w, h),
+        _ => {
+            return Err(format!(
+                "{shown}: the image is too large ({width}x{height})"
+            ));
+        }
+    };
+    if let Some((i, texel)) = texels
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.iter().any(|c| !c.is_finite() || *c < 0.0))
+    {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        return Err(format!(
+            "{shown}: texel ({x}, {y}) is [{}, {}, {}]: radiance must be finite and >= 0",
+            texel[0], texel[1], texel[2]
+        ));
+    }
+    Ok((width, height, texels))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn row_edges_centre_the_rows_on_mitsubas_grid() {
+        assert_eq!(row_edge(0, 5), 0.0);
+        assert_eq!(row_edge(1, 5), 0.125);
+        assert_eq!(row_edge(4, 5), 0.875);
+        assert_eq!(row_edge(5, 5), 1.0);
+        assert_eq!((row_edge(0, 1), row_edge(1, 1)), (0.0, 1.0));
+    }
+}
