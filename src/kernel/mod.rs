@@ -6,6 +6,9 @@
 mod glue;
 
 use crate::accel::BvhNode;
+use crate::gpu::accumulator::{
+    LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
+};
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
 use crate::lights::{LightGroup, LightPick};
@@ -32,6 +35,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "STRATEGY_NEE",
     "LIGHT_DENSITY",
     "VARIANCE",
+    "REPLICATE_SUMS",
     "SAMPLER_SOBOL",
     "BVH",
     "SHADING_NORMALS",
@@ -316,6 +320,10 @@ impl KernelConfig {
             ("STRATEGY_NEE", self.strategy == Strategy::NeeMis),
             ("LIGHT_DENSITY", self.samples_lights()),
             ("VARIANCE", self.variance),
+            (
+                "REPLICATE_SUMS",
+                self.variance && self.sampler == Sampler::Sobol,
+            ),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
@@ -565,9 +573,20 @@ impl KernelConfig {
         self.scene_arrays()
     }
 
-    /// Running sums the accumulator holds: each sum and its compensation.
+    /// Running sums the accumulator holds: each sum and its compensation
+    /// (`gpu::accumulator::LAYER_*`).
     pub fn accumulator_layers(&self) -> u32 {
-        if self.variance { 4 } else { 2 }
+        accumulator_layers(self.variance, self.sampler)
+    }
+}
+
+/// Layers of the accumulator: the sum, with `variance` the sum of squares, and
+/// with both `variance` and Sobol the replicates' sums, each with its compensation.
+pub fn accumulator_layers(variance: bool, sampler: Sampler) -> u32 {
+    match (variance, sampler) {
+        (false, _) => LAYER_SUM_COMPENSATION + 1,
+        (true, Sampler::Independent) => LAYER_SQUARES_COMPENSATION + 1,
+        (true, Sampler::Sobol) => replicate_layer(REPLICATES - 1) + 2,
     }
 }
 
@@ -986,6 +1005,8 @@ mod tests {
             ("LAYER_SUM_COMPENSATION", LAYER_SUM_COMPENSATION),
             ("LAYER_SQUARES", LAYER_SQUARES),
             ("LAYER_SQUARES_COMPENSATION", LAYER_SQUARES_COMPENSATION),
+            ("LAYER_REPLICATES", LAYER_REPLICATES),
+            ("REPLICATES", REPLICATES),
             ("BINDING_PARAMS", BINDING_PARAMS),
             ("BINDING_ACCUMULATOR", BINDING_ACCUMULATOR),
             ("BINDING_COUNTERS", BINDING_COUNTERS),
