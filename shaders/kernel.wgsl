@@ -207,12 +207,15 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
 #endif
 #if REPLICATE_SUMS
             let replicate = (params.sample_start + samples_done) % REPLICATES;
-            if replicate != 0u {
-                // Through a copy: naga's SPIR-V writer fails on a pointer to a
-                // dynamically indexed element passed to a function.
-                var replicate_sum = replicate_sums[replicate - 1u];
-                compensated_add(&replicate_sum, radiance);
-                replicate_sums[replicate - 1u] = replicate_sum;
+            // Constant indices once unrolled, so the sums can stay in registers.
+            // Through a copy: naga's SPIR-V writer fails on a pointer to an indexed
+            // element passed to a function.
+            for (var r = 0u; r < REPLICATES - 1u; r++) {
+                if replicate == r + 1u {
+                    var replicate_sum = replicate_sums[r];
+                    compensated_add(&replicate_sum, radiance);
+                    replicate_sums[r] = replicate_sum;
+                }
             }
 #endif
             samples_done += 1u;

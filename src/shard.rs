@@ -837,7 +837,8 @@ mod tests {
 
     #[test]
     fn partial_files_round_trip_and_refuse_corruption() {
-        for layers in [2, 4] {
+        // Sums; and squares; and squares and the Sobol replicates' sums.
+        for layers in [2, 4, accumulator_layers(true, Sampler::Sobol)] {
             // Noise-like sums, so that compression leaves most of the file to the data.
             let mut x = 1u32;
             let texels = (0..40 * 30 * layers)
@@ -936,6 +937,51 @@ mod tests {
             Ok(_) => "read without error".into(),
             Err(e) => e.to_string(),
         }
+    }
+
+    /// Parts of any ranges merge the Sobol replicates: each sample of replicate r
+    /// (index mod 4) is r + 1, so the merged replicates' means are 1, 2, 3, 4 and the
+    /// standard error sqrt(Σ (m_r − 2.5)² / 12) = sqrt(5/12), as one run of 0..16 gives.
+    #[test]
+    fn merge_adds_the_replicates_of_parts_of_any_ranges() {
+        let layers = accumulator_layers(true, Sampler::Sobol);
+        let replicate_part = |range: Range<u32>| {
+            let counts = Replicates::samples_in(range.start as u64..range.end as u64, REPLICATES);
+            let sums: Vec<f32> = (0..REPLICATES as usize)
+                .map(|r| counts[r] as f32 * (r + 1) as f32)
+                .collect();
+            let texels = (0..layers)
+                .flat_map(|layer| {
+                    let value = match layer {
+                        LAYER_SUM => sums.iter().sum(),
+                        LAYER_SQUARES => 1.0,
+                        l if l >= LAYER_REPLICATES && (l - LAYER_REPLICATES) % 2 == 0 => {
+                            sums[((l - LAYER_REPLICATES) / 2 + 1) as usize]
+                        }
+                        _ => 0.0,
+                    };
+                    [[value; 4]; 6]
+                })
+                .collect();
+            sized_part(range, 3, 2, layers, texels)
+        };
+        let merged = merge(&[
+            ("b".into(), replicate_part(6..16)),
+            ("a".into(), replicate_part(0..6)),
+        ])
+        .unwrap();
+        let replicates = merged.accumulation.replicates.as_ref().unwrap();
+        assert_eq!(replicates.samples, [4, 4, 4, 4]);
+        let se = merged.accumulation.standard_error().unwrap();
+        let expected = (5.0f64 / 12.0).sqrt();
+        assert!(
+            se.pixels
+                .iter()
+                .flatten()
+                .all(|&v| (v as f64 - expected).abs() < 1e-6),
+            "{:?}",
+            se.pixels
+        );
     }
 
     #[test]
