@@ -141,12 +141,14 @@ fn target_error_without_variance_is_refused() {
 }
 
 /// A one-pixel camera whose view is exactly half covered by an emitter of
-/// radiance 2: each sample is 2 or 0 with probability 1/2, so the standard error
-/// of the mean is exactly 2 * 0.5 / sqrt(n).
+/// radiance 2: with independent samples each is 2 or 0 with probability 1/2, so the
+/// standard error of the mean is exactly 2 * 0.5 / sqrt(n). Under Sobol each
+/// replicate puts exactly half its points on either side of the edge, so the mean
+/// is exactly 1 and the replicates' estimate of its error exactly 0.
 #[test]
 fn standard_error_matches_a_known_variance() {
     let ctx = gpu_or_skip!();
-    let scene = common::camera_facing_emitter(
+    let mut scene = common::camera_facing_emitter(
         20.0,
         16384,
         2.0,
@@ -154,6 +156,10 @@ fn standard_error_matches_a_known_variance() {
         [0.0, 2.0, 0.0],
         [1.0, 0.0, 0.0],
     );
+    let sobol = common::render(ctx, &scene, &common::with_variance());
+    assert_eq!(sobol.mean().pixels[0][0], 1.0);
+    assert_eq!(sobol.standard_error().unwrap().pixels[0][0], 0.0);
+    scene.render.sampler = Sampler::Independent;
     let acc = common::render(ctx, &scene, &common::with_variance());
     let n = acc.samples as f64;
     let mean = acc.mean().pixels[0][0] as f64;
