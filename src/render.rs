@@ -999,6 +999,11 @@ pub fn run_with<E: From<RenderError>>(
     };
     let mut relative_error = None;
     let mut last_error_check: Option<Instant> = None;
+    // Samples at the last error check. Toward a target the error is also checked
+    // when the samples have doubled since, and submissions stop there, so a run
+    // overshoots by at most twice the samples (checks once a second alone let a
+    // fast Sobol run stop at 3x the samples it needed).
+    let mut checked_at = 0u32;
     let reason = loop {
         if stop_requested.load(Ordering::SeqCst) {
             break StopReason::Interrupted;
@@ -1020,12 +1025,20 @@ pub fn run_with<E: From<RenderError>>(
             }
         }
         let samples = renderer.samples();
-        renderer.advance(stop.max_samples - samples);
+        let next_check = MIN_SAMPLES_FOR_ERROR.max(checked_at.saturating_mul(2));
+        let to_next_check = match stop.target_error {
+            Some(_) if next_check > samples => next_check - samples,
+            _ => u32::MAX,
+        };
+        renderer.advance((stop.max_samples - samples).min(to_next_check));
         let elapsed = started.elapsed();
         let wants_error = renderer.config().variance && renderer.samples() >= MIN_SAMPLES_FOR_ERROR;
-        if wants_error && last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL) {
+        let due = last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL)
+            || (stop.target_error.is_some() && renderer.samples() >= next_check);
+        if wants_error && due {
             relative_error = renderer.accumulation().relative_error();
             last_error_check = Some(Instant::now());
+            checked_at = renderer.samples();
         }
         between(
             &Progress {

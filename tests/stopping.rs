@@ -74,11 +74,7 @@ fn noise_target_stops_with_the_estimate_below_the_target() {
     for sampler in Sampler::ALL {
         let scene = cornell(16, sampler, 1);
         let mut renderer = Renderer::new(ctx, &scene, &common::with_variance()).unwrap();
-        // Sobol's estimate at the first check (a few dozen spp) is already near 0.03.
-        let target = match sampler {
-            Sampler::Sobol => 0.015,
-            Sampler::Independent => 0.08,
-        };
+        let target = 0.08;
         let stop = StopRule {
             max_samples: 1 << 20,
             time_budget: None,
