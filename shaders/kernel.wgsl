@@ -104,6 +104,13 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
 #if VARIANCE
     var squares_sum = load_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION);
 #endif
+#if REPLICATE_SUMS
+    // Replicates 1.. (see `sampler_begin`); replicate 0's is the total minus theirs.
+    var replicate_sums: array<CompensatedSum, REPLICATES - 1u>;
+    for (var r = 0u; r < REPLICATES - 1u; r++) {
+        replicate_sums[r] = load_sum(pixel, LAYER_REPLICATES + 2u * r, LAYER_REPLICATES + 2u * r + 1u);
+    }
+#endif
 
     var samples_done = 0u;
     var segments = 0u;
@@ -217,6 +224,19 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
 #if VARIANCE
             compensated_add(&squares_sum, radiance * radiance);
 #endif
+#if REPLICATE_SUMS
+            let replicate = (params.sample_start + samples_done) % REPLICATES;
+            // Constant indices once unrolled, so the sums can stay in registers.
+            // Through a copy: naga's SPIR-V writer fails on a pointer to an indexed
+            // element passed to a function.
+            for (var r = 0u; r < REPLICATES - 1u; r++) {
+                if replicate == r + 1u {
+                    var replicate_sum = replicate_sums[r];
+                    compensated_add(&replicate_sum, radiance);
+                    replicate_sums[r] = replicate_sum;
+                }
+            }
+#endif
             samples_done += 1u;
             if samples_done == params.sample_count {
                 break;
@@ -243,5 +263,10 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     store_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, radiance_sum);
 #if VARIANCE
     store_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, squares_sum);
+#endif
+#if REPLICATE_SUMS
+    for (var r = 0u; r < REPLICATES - 1u; r++) {
+        store_sum(pixel, LAYER_REPLICATES + 2u * r, LAYER_REPLICATES + 2u * r + 1u, replicate_sums[r]);
+    }
 #endif
 }

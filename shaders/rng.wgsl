@@ -26,9 +26,14 @@ var<private> sampler_pixel_seed: u32;
 var<private> sampler_index: u32;
 var<private> sampler_dimension: u32;
 
+// Randomised QMC with independent replicates: sample i belongs to replicate
+// i mod REPLICATES and is point i div REPLICATES of that replicate's own scramble.
+// Interleaving keeps every replicate a stratified net at any sample count, and
+// independent scrambles make the replicates' means independent, so their spread
+// estimates the error of the pixel's mean (`stats::Accumulation`).
 fn sampler_begin(pixel: u32, sample_index: u32) {
-    sampler_pixel_seed = pcg_hash(pcg_hash(params.seed) ^ pixel);
-    sampler_index = sample_index;
+    sampler_pixel_seed = pcg_hash(pcg_hash(pcg_hash(params.seed) ^ pixel) ^ (sample_index % REPLICATES));
+    sampler_index = sample_index / REPLICATES;
     sampler_dimension = 0u;
 }
 

@@ -143,8 +143,9 @@ pub struct Row {
     pub relative_rmse: Option<f64>,
     /// The RMSE that noise alone explains: the RMS over pixels and channels of the run's
     /// standard error of the mean ([`Accumulation::standard_error`]), combined (root sum of
-    /// squares) with the same for the reference where known. `None` below 2 spp. Well
-    /// below the RMSE, the error is not noise but bias.
+    /// squares) with the same for the reference where known. `None` below 2 spp (below
+    /// one sample per replicate, 4 spp, under Sobol). Well below the RMSE, the error is
+    /// not noise but bias.
     ///
     /// [`Accumulation::standard_error`]: crate::stats::Accumulation::standard_error
     pub estimated_error: Option<f64>,

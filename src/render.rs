@@ -3,8 +3,7 @@
 
 use crate::accel::Bvh;
 use crate::gpu::accumulator::{
-    Accumulator, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
-    compensated_sums, map_read,
+    Accumulator, LAYER_SQUARES, LAYER_SUM, REPLICATES, compensated_sums, map_read, replicate_layer,
 };
 use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Kernel};
@@ -13,7 +12,7 @@ use crate::kernel::{AccumulatorKind, ArraySource, KernelConfig, SceneStorage, WO
 use crate::kinds::PRIMITIVE_KINDS;
 use crate::scene::{Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
-use crate::stats::Accumulation;
+use crate::stats::{Accumulation, Replicates};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
@@ -418,18 +417,21 @@ impl<'a> Renderer<'a> {
         let (width, height) = self.size();
         let pixels = width as usize * height as usize;
         let texels = self.accumulator.read(self.ctx);
-        let layer =
-            |sum, compensation| compensated_sums(&texels, pixels, sum, compensation).collect();
+        let layer = |sum| compensated_sums(&texels, pixels, sum, sum + 1).collect::<Vec<_>>();
+        let config = &self.kernel.config;
+        let sum = layer(LAYER_SUM);
+        let range = self.first_sample as u64..(self.first_sample + self.samples) as u64;
+        let replicates = (config.variance && config.sampler == Sampler::Sobol).then(|| {
+            let others = (1..REPLICATES).map(|r| layer(replicate_layer(r))).collect();
+            Replicates::from_others(range, &sum, others)
+        });
         Accumulation {
             width,
             height,
             samples: self.samples as u64,
-            sum: layer(LAYER_SUM, LAYER_SUM_COMPENSATION),
-            sum_sq: self
-                .kernel
-                .config
-                .variance
-                .then(|| layer(LAYER_SQUARES, LAYER_SQUARES_COMPENSATION)),
+            sum,
+            sum_sq: config.variance.then(|| layer(LAYER_SQUARES)),
+            replicates,
         }
     }
 
@@ -1006,8 +1008,12 @@ pub fn run_with<E: From<RenderError>>(
         (samples - start_samples) as f64 * pixels / elapsed.as_secs_f64().max(1e-9)
     };
     let mut relative_error = None;
-    let mut errors = ErrorEstimator::new(renderer);
     let mut last_error_check: Option<Instant> = None;
+    // Samples at the last error check. Toward a target the error is also checked
+    // when the samples have doubled since, and submissions stop there, so a run
+    // overshoots by at most twice the samples (checks once a second alone let a
+    // fast Sobol run stop at 3x the samples it needed).
+    let mut checked_at = 0u32;
     let reason = loop {
         if stop_requested.load(Ordering::SeqCst) {
             break StopReason::Interrupted;
@@ -1029,15 +1035,20 @@ pub fn run_with<E: From<RenderError>>(
             }
         }
         let samples = renderer.samples();
-        renderer.advance((stop.max_samples - samples).min(errors.samples_to_boundary(samples)));
-        let updated = errors.after_submission(renderer);
+        let next_check = MIN_SAMPLES_FOR_ERROR.max(checked_at.saturating_mul(2));
+        let to_next_check = match stop.target_error {
+            Some(_) if next_check > samples => next_check - samples,
+            _ => u32::MAX,
+        };
+        renderer.advance((stop.max_samples - samples).min(to_next_check));
         let elapsed = started.elapsed();
         let wants_error = renderer.config().variance && renderer.samples() >= MIN_SAMPLES_FOR_ERROR;
-        if wants_error
-            && (updated || last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL))
-        {
-            relative_error = errors.estimate(renderer);
+        let due = last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL)
+            || (stop.target_error.is_some() && renderer.samples() >= next_check);
+        if wants_error && due {
+            relative_error = renderer.accumulation().relative_error();
             last_error_check = Some(Instant::now());
+            checked_at = renderer.samples();
         }
         between(
             &Progress {
@@ -1060,7 +1071,7 @@ pub fn run_with<E: From<RenderError>>(
     let elapsed = started.elapsed();
     let counters = renderer.check_counters()?;
     if renderer.config().variance && reason != StopReason::TargetError {
-        relative_error = errors.estimate(renderer);
+        relative_error = renderer.accumulation().relative_error();
     }
     Ok(RunSummary {
         samples: renderer.samples(),
@@ -1072,72 +1083,6 @@ pub fn run_with<E: From<RenderError>>(
         reason,
         relative_error,
     })
-}
-
-/// The relative error a run reports and stops on. With independent samples it is
-/// the per-pixel sample variance's ([`Accumulation::relative_error`]). Under the
-/// Sobol sampler that overstates the error (3.8x in a test), so the run also keeps
-/// the sums at each power of two `n` and, at `2n`, estimates the error from the two
-/// halves ([`Accumulation::split_relative_error`]). Between powers of two that
-/// estimate is scaled by `sqrt(2n / samples)`, the rate of independent samples;
-/// Sobol's error falls faster, so the scaled estimate errs high.
-struct ErrorEstimator {
-    /// Sobol samples from index 0 (the halves are then aligned nets) with variance on.
-    split: bool,
-    /// The sums at the last power of two.
-    snapshot: Option<Accumulation>,
-    /// The last split estimate, and the sample count it was made at.
-    latest: Option<(u32, f64)>,
-}
-
-impl ErrorEstimator {
-    fn new(renderer: &Renderer) -> ErrorEstimator {
-        let config = renderer.config();
-        ErrorEstimator {
-            split: config.variance
-                && config.sampler == Sampler::Sobol
-                && renderer.first_sample() == 0,
-            snapshot: None,
-            latest: None,
-        }
-    }
-
-    /// Most samples the next submission may add: up to the next power of two, where
-    /// the split estimate needs the sums.
-    fn samples_to_boundary(&self, samples: u32) -> u32 {
-        match samples.saturating_add(1).checked_next_power_of_two() {
-            Some(boundary) if self.split => boundary - samples,
-            _ => u32::MAX,
-        }
-    }
-
-    /// After each submission: at a power of two, reads the sums back, estimates
-    /// against the previous power of two and keeps them. True if the estimate changed.
-    fn after_submission(&mut self, renderer: &Renderer) -> bool {
-        let samples = renderer.samples();
-        if !self.split || !samples.is_power_of_two() || samples < MIN_SAMPLES_FOR_ERROR / 2 {
-            return false;
-        }
-        let mut accumulation = renderer.accumulation();
-        let estimate = self
-            .snapshot
-            .as_ref()
-            .and_then(|half| accumulation.split_relative_error(half));
-        // Only the sums are needed later.
-        accumulation.sum_sq = None;
-        self.snapshot = Some(accumulation);
-        if let Some(error) = estimate {
-            self.latest = Some((samples, error));
-        }
-        estimate.is_some()
-    }
-
-    fn estimate(&self, renderer: &Renderer) -> Option<f64> {
-        match self.latest {
-            Some((at, error)) => Some(error * (at as f64 / renderer.samples() as f64).sqrt()),
-            None => renderer.accumulation().relative_error(),
-        }
-    }
 }
 
 /// Time left: the soonest of the sample cap, the time budget, and the samples
@@ -1235,33 +1180,6 @@ mod tests {
             eta(&target, 8, secs(2), 20, None),
             Some(Duration::from_secs_f64(0.25 * (u32::MAX - 20) as f64))
         );
-    }
-
-    #[test]
-    fn split_estimates_stop_submissions_at_powers_of_two() {
-        let estimator = |split| ErrorEstimator {
-            split,
-            snapshot: None,
-            latest: None,
-        };
-        let split = estimator(true);
-        for (samples, most) in [
-            (0, 1),
-            (1, 1),
-            (2, 2),
-            (3, 1),
-            (4, 4),
-            (5, 3),
-            (1000, 24),
-            (1 << 30, 1 << 30),
-            ((1 << 31) - 1, 1),
-        ] {
-            assert_eq!(split.samples_to_boundary(samples), most, "{samples}");
-        }
-        // No power of two above: no limit.
-        assert_eq!(split.samples_to_boundary(1 << 31), u32::MAX);
-        assert_eq!(split.samples_to_boundary(u32::MAX), u32::MAX);
-        assert_eq!(estimator(false).samples_to_boundary(5), u32::MAX);
     }
 
     fn state(width: u32, height: u32, layers: u32, texels: usize) -> AccumulatorState {

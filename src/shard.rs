@@ -2,19 +2,24 @@
 //! image, their partial results, and merging those into the image.
 //!
 //! A partial result is an OpenEXR file with one f32 channel per running sum and
-//! per compensation (`sum.R`, `sum_compensation.R`, ..., and with variance
-//! `squares.R`, `squares_compensation.R`, ...), so a merge rebuilds every sum in
+//! per compensation (`sum.R`, `sum_compensation.R`, ..., with variance
+//! `squares.R`, `squares_compensation.R`, ..., and with variance under the Sobol
+//! sampler `replicate1.R`, `replicate1_compensation.R`, ... for the replicates
+//! 1 to `REPLICATES - 1`), so a merge rebuilds every sum in
 //! f64, and text attributes `pathmix.*`: the scene hash and its parts, seed,
 //! sample range, size, pathmix version and a CRC-32 of the other attributes and
 //! the pixel data.
 
 use crate::checkpoint::{IdentityError, SceneIdentity};
 use crate::gpu::accumulator::{
-    LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION, compensated_sums,
+    LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
+    REPLICATES, compensated_sums, replicate_layer,
 };
+use crate::kernel::accumulator_layers;
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
-use crate::stats::Accumulation;
+use crate::scene::Sampler;
+use crate::stats::{Accumulation, Replicates};
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::{
     AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, ReadChannels,
@@ -26,8 +31,9 @@ use std::io;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-/// Channel groups in accumulator layer order (`gpu::accumulator::LAYER_*`).
-pub const LAYER_NAMES: [&str; 4] = ["sum", "sum_compensation", "squares", "squares_compensation"];
+/// Channel groups of the first layers (`gpu::accumulator::LAYER_*`); the
+/// replicates' follow (`layer_name`).
+const LAYER_NAMES: [&str; 4] = ["sum", "sum_compensation", "squares", "squares_compensation"];
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 /// `pathmix.requested` of a run whose end a time budget or error target decided.
 const OPEN_ENDED: &str = "open";
@@ -35,7 +41,9 @@ const PREFIX: &str = "pathmix.";
 /// `pathmix.format`. 2: the scene hashes come from the whole scene's `Debug` text.
 /// 3: the range asked for and whether the run was interrupted (`pathmix.requested`,
 /// `pathmix.interrupted`), so that a merge can tell a part cut short.
-const FORMAT: u32 = 3;
+/// 4: Sobol samples come from interleaved replicates (other images), whose sums
+/// variance adds (`replicate1.R`, ...).
+const FORMAT: u32 = 4;
 
 /// A sample range or shard given as text that does not make one.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -249,8 +257,17 @@ impl Partial {
     }
 }
 
+/// The channel group of accumulator layer `layer`.
+fn layer_name(layer: usize) -> String {
+    match layer.checked_sub(LAYER_REPLICATES as usize) {
+        None => LAYER_NAMES[layer].to_string(),
+        Some(offset) if offset % 2 == 0 => format!("replicate{}", offset / 2 + 1),
+        Some(offset) => format!("replicate{}_compensation", offset / 2 + 1),
+    }
+}
+
 fn channel_name(layer: usize, c: usize) -> String {
-    format!("{}.{}", LAYER_NAMES[layer], CHANNELS[c])
+    format!("{}.{}", layer_name(layer), CHANNELS[c])
 }
 
 /// EXR text is Latin-1: other characters become `?`.
@@ -432,8 +449,10 @@ pub fn read_partial(path: &Path) -> Result<Partial, PartialError> {
             .iter()
             .find(|c| c.name.to_string() == n)
     };
-    let squares = channel_name(LAYER_SQUARES as usize, 0);
-    let layers = if find(&squares).is_some() {
+    let has = |layer: u32| find(&channel_name(layer as usize, 0)).is_some();
+    let layers = if has(LAYER_REPLICATES) {
+        accumulator_layers(true, Sampler::Sobol)
+    } else if has(LAYER_SQUARES) {
         LAYER_SQUARES_COMPENSATION + 1
     } else {
         LAYER_SUM_COMPENSATION + 1
@@ -698,17 +717,34 @@ pub fn merge_with(
         warnings.push("some parts have no sums of squares, so the merge has no variance".into());
     }
     let pixels = first.pixels();
+    // The sampler is part of the scene's identity, so the parts agree on replicates.
+    let has_replicates = |p: &Partial| p.layers == accumulator_layers(true, Sampler::Sobol);
+    let replicated = variance && parts.iter().all(|(_, p)| has_replicates(p));
+    let add = |total: &mut [[f64; 3]], part: &[[f64; 3]]| {
+        for (t, s) in total.iter_mut().zip(part) {
+            (0..3).for_each(|c| t[c] += s[c]);
+        }
+    };
     let mut sum = vec![[0.0f64; 3]; pixels];
     let mut sum_sq = variance.then(|| vec![[0.0f64; 3]; pixels]);
+    let mut replicates = replicated.then(|| Replicates {
+        samples: vec![0; REPLICATES as usize],
+        sums: vec![vec![[0.0f64; 3]; pixels]; REPLICATES as usize],
+    });
     for (_, part) in parts {
-        let layer = |sum, compensation| compensated_sums(&part.texels, pixels, sum, compensation);
-        for (total, s) in sum.iter_mut().zip(layer(LAYER_SUM, LAYER_SUM_COMPENSATION)) {
-            (0..3).for_each(|c| total[c] += s[c]);
-        }
+        let layer = |sum| compensated_sums(&part.texels, pixels, sum, sum + 1).collect::<Vec<_>>();
+        let part_sum = layer(LAYER_SUM);
+        add(&mut sum, &part_sum);
         if let Some(sum_sq) = &mut sum_sq {
-            let squares = layer(LAYER_SQUARES, LAYER_SQUARES_COMPENSATION);
-            for (total, s) in sum_sq.iter_mut().zip(squares) {
-                (0..3).for_each(|c| total[c] += s[c]);
+            add(sum_sq, &layer(LAYER_SQUARES));
+        }
+        if let Some(replicates) = &mut replicates {
+            let range = part.range.start as u64..part.range.end as u64;
+            let others = (1..REPLICATES).map(|r| layer(replicate_layer(r))).collect();
+            let part = Replicates::from_others(range, &part_sum, others);
+            for (r, (samples, sums)) in part.samples.iter().zip(&part.sums).enumerate() {
+                replicates.samples[r] += samples;
+                add(&mut replicates.sums[r], sums);
             }
         }
     }
@@ -719,6 +755,7 @@ pub fn merge_with(
             samples,
             sum,
             sum_sq,
+            replicates,
         },
         ranges,
         gaps,
@@ -800,7 +837,8 @@ mod tests {
 
     #[test]
     fn partial_files_round_trip_and_refuse_corruption() {
-        for layers in [2, 4] {
+        // Sums; and squares; and squares and the Sobol replicates' sums.
+        for layers in [2, 4, accumulator_layers(true, Sampler::Sobol)] {
             // Noise-like sums, so that compression leaves most of the file to the data.
             let mut x = 1u32;
             let texels = (0..40 * 30 * layers)
@@ -899,6 +937,51 @@ mod tests {
             Ok(_) => "read without error".into(),
             Err(e) => e.to_string(),
         }
+    }
+
+    /// Parts of any ranges merge the Sobol replicates: each sample of replicate r
+    /// (index mod 4) is r + 1, so the merged replicates' means are 1, 2, 3, 4 and the
+    /// standard error sqrt(Σ (m_r − 2.5)² / 12) = sqrt(5/12), as one run of 0..16 gives.
+    #[test]
+    fn merge_adds_the_replicates_of_parts_of_any_ranges() {
+        let layers = accumulator_layers(true, Sampler::Sobol);
+        let replicate_part = |range: Range<u32>| {
+            let counts = Replicates::samples_in(range.start as u64..range.end as u64, REPLICATES);
+            let sums: Vec<f32> = (0..REPLICATES as usize)
+                .map(|r| counts[r] as f32 * (r + 1) as f32)
+                .collect();
+            let texels = (0..layers)
+                .flat_map(|layer| {
+                    let value = match layer {
+                        LAYER_SUM => sums.iter().sum(),
+                        LAYER_SQUARES => 1.0,
+                        l if l >= LAYER_REPLICATES && (l - LAYER_REPLICATES) % 2 == 0 => {
+                            sums[((l - LAYER_REPLICATES) / 2 + 1) as usize]
+                        }
+                        _ => 0.0,
+                    };
+                    [[value; 4]; 6]
+                })
+                .collect();
+            sized_part(range, 3, 2, layers, texels)
+        };
+        let merged = merge(&[
+            ("b".into(), replicate_part(6..16)),
+            ("a".into(), replicate_part(0..6)),
+        ])
+        .unwrap();
+        let replicates = merged.accumulation.replicates.as_ref().unwrap();
+        assert_eq!(replicates.samples, [4, 4, 4, 4]);
+        let se = merged.accumulation.standard_error().unwrap();
+        let expected = (5.0f64 / 12.0).sqrt();
+        assert!(
+            se.pixels
+                .iter()
+                .flatten()
+                .all(|&v| (v as f64 - expected).abs() < 1e-6),
+            "{:?}",
+            se.pixels
+        );
     }
 
     #[test]

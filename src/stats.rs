@@ -1,6 +1,7 @@
 //! Statistics over accumulated sample sums, for noise estimates and convergence studies.
 
 use crate::output::Image;
+use std::ops::Range;
 
 /// Rec. 709 / sRGB luminance weights.
 const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
@@ -14,6 +15,76 @@ pub struct Accumulation {
     pub samples: u64,
     pub sum: Vec<[f64; 3]>,
     pub sum_sq: Option<Vec<[f64; 3]>>,
+    /// Under the Sobol sampler with variance on: the independent replicates' sums.
+    pub replicates: Option<Replicates>,
+}
+
+/// The sums of a pixel's randomised-QMC replicates: replicate `r` holds the sample
+/// indices `i` with `i mod K == r` (`K = samples.len()`), each replicate an
+/// independently scrambled Sobol sequence, so the replicates' means are independent
+/// estimates of the pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Replicates {
+    /// Samples per pixel in each replicate.
+    pub samples: Vec<u64>,
+    /// Per replicate, per pixel (as `Accumulation::sum`).
+    pub sums: Vec<Vec<[f64; 3]>>,
+}
+
+impl Replicates {
+    /// How many of the sample indices `range` fall in each of `count` replicates.
+    pub fn samples_in(range: Range<u64>, count: u32) -> Vec<u64> {
+        let k = count as u64;
+        // Indices below `end` that are `r` mod k.
+        let below = |end: u64, r: u64| if end > r { (end - r - 1) / k + 1 } else { 0 };
+        (0..k)
+            .map(|r| below(range.end, r) - below(range.start, r))
+            .collect()
+    }
+
+    /// Replicate 0's sums from the total's and the others' (the device keeps
+    /// only replicates 1.., as replicate 0 is the rest of the total).
+    pub fn from_others(
+        range: Range<u64>,
+        total: &[[f64; 3]],
+        mut others: Vec<Vec<[f64; 3]>>,
+    ) -> Replicates {
+        let first = total
+            .iter()
+            .enumerate()
+            .map(|(p, t)| {
+                std::array::from_fn(|c| t[c] - others.iter().map(|o| o[p][c]).sum::<f64>())
+            })
+            .collect();
+        others.insert(0, first);
+        Replicates {
+            samples: Replicates::samples_in(range, others.len() as u32),
+            sums: others,
+        }
+    }
+
+    /// Pixel `p`'s standard error of the mean, per channel, from the spread of the
+    /// K replicate means: `SE² = Σ_r (m_r − m̄)² / (K (K − 1))`, with `m̄` their
+    /// plain average (K − 1 degrees of freedom). Replicates that differ by one
+    /// sample (a count that is not a multiple of K) are treated as equal. None
+    /// unless every replicate has a sample.
+    fn standard_error(&self, p: usize) -> Option<[f64; 3]> {
+        let k = self.samples.len() as f64;
+        if k < 2.0 || self.samples.contains(&0) {
+            return None;
+        }
+        Some(std::array::from_fn(|c| {
+            let means = || {
+                self.sums
+                    .iter()
+                    .zip(&self.samples)
+                    .map(|(s, &n)| s[p][c] / n as f64)
+            };
+            let average = means().sum::<f64>() / k;
+            let squares: f64 = means().map(|m| (m - average).powi(2)).sum();
+            (squares / (k * (k - 1.0))).sqrt()
+        }))
+    }
 }
 
 impl Accumulation {
@@ -43,12 +114,15 @@ impl Accumulation {
         }
     }
 
-    /// Per-pixel, per-channel standard error of the mean, `SE = sqrt(s² / n)`, with the unbiased
-    /// sample variance `s² = (sum_sq - n·mean²) / (n - 1)` (clamped at 0 against rounding).
-    /// None without `sum_sq` or with fewer than 2 samples.
+    /// Per-pixel, per-channel standard error of the mean. With replicates (the Sobol
+    /// sampler), from the spread of their means ([`Replicates`]); otherwise
+    /// `SE = sqrt(s² / n)`, with the unbiased sample variance
+    /// `s² = (sum_sq - n·mean²) / (n - 1)` (clamped at 0 against rounding).
+    /// None without either, or with fewer than 2 samples (a sample in each replicate).
     pub fn standard_error(&self) -> Option<Image> {
         let pixels = self
             .mean_and_standard_error()?
+            .into_iter()
             .map(|(_, se)| se.map(|c| c as f32))
             .collect();
         Some(Image {
@@ -82,50 +156,32 @@ impl Accumulation {
         (mean_y > 0.0).then(|| (error_sq / pixels).sqrt() / (mean_y / pixels))
     }
 
-    /// The relative error of `self`, defined as [`relative_error`](Self::relative_error)
-    /// but with each pixel's standard error estimated from two halves instead of the
-    /// sample variance: `first_half` holds the first `n/2` of `self`'s `n` samples, and
-    /// half the difference between the two halves' means, per channel, stands for the
-    /// standard error of their mean. Under the Sobol sampler each half is a scrambled
-    /// net, so this follows the error where the sample variance only bounds it (on the
-    /// Cornell boxes it was within 0.90–1.05 of the measured RMSE from 64 to 1024 spp).
-    /// None unless `self` has exactly twice `first_half`'s samples (at least 2), the same
-    /// size, and a positive mean luminance.
-    pub fn split_relative_error(&self, first_half: &Accumulation) -> Option<f64> {
-        let half = first_half.samples;
-        if half == 0
-            || self.samples != 2 * half
-            || (self.width, self.height) != (first_half.width, first_half.height)
-        {
-            return None;
-        }
-        let n = half as f64;
-        let (mut error_sq, mut mean_y) = (0.0, 0.0);
-        for (whole, first) in self.sum.iter().zip(&first_half.sum) {
-            let se: [f64; 3] =
-                std::array::from_fn(|c| ((2.0 * first[c] - whole[c]) / n).abs() / 2.0);
-            error_sq += luminance_f64(se).powi(2);
-            mean_y += luminance_f64(whole.map(|s| s / (2.0 * n)));
-        }
-        let pixels = self.sum.len() as f64;
-        (mean_y > 0.0).then(|| (error_sq / pixels).sqrt() / (mean_y / pixels))
-    }
-
     /// Per pixel: the mean and the standard error of the mean, per channel, in f64.
-    fn mean_and_standard_error(&self) -> Option<impl Iterator<Item = ([f64; 3], [f64; 3])>> {
-        let sum_sq = self.sum_sq.as_ref()?;
+    fn mean_and_standard_error(&self) -> Option<Vec<([f64; 3], [f64; 3])>> {
         if self.samples < 2 {
             return None;
         }
         let n = self.samples as f64;
-        Some(self.sum.iter().zip(sum_sq).map(move |(sum, sum_sq)| {
-            let mean = sum.map(|s| s / n);
-            let se = std::array::from_fn(|c| {
-                let variance = ((sum_sq[c] - n * mean[c] * mean[c]) / (n - 1.0)).max(0.0);
-                (variance / n).sqrt()
-            });
-            (mean, se)
-        }))
+        let means = self.sum.iter().map(|sum| sum.map(|s| s / n));
+        if let Some(replicates) = &self.replicates {
+            return means
+                .enumerate()
+                .map(|(p, mean)| Some((mean, replicates.standard_error(p)?)))
+                .collect();
+        }
+        let sum_sq = self.sum_sq.as_ref()?;
+        Some(
+            means
+                .zip(sum_sq)
+                .map(|(mean, sum_sq)| {
+                    let se = std::array::from_fn(|c| {
+                        let variance = ((sum_sq[c] - n * mean[c] * mean[c]) / (n - 1.0)).max(0.0);
+                        (variance / n).sqrt()
+                    });
+                    (mean, se)
+                })
+                .collect(),
+        )
     }
 }
 
@@ -221,6 +277,7 @@ mod tests {
             samples: samples.len() as u64,
             sum,
             sum_sq: Some(sum_sq),
+            replicates: None,
         }
     }
 
@@ -297,6 +354,7 @@ mod tests {
             samples: 0,
             sum: vec![[0.0; 3]; 2],
             sum_sq: None,
+            replicates: None,
         };
         assert_eq!(accumulation.mean(), Image::new(2, 1));
     }
@@ -311,6 +369,7 @@ mod tests {
             samples: 2,
             sum: vec![[2.0; 3], [6.0; 3]],
             sum_sq: Some(vec![[0.5625 + 1.5625; 3], [4.0 + 16.0, 18.0, 18.0]]),
+            replicates: None,
         };
         // Y(SE): A → 0.25 (weights sum to 1), B → 0.2126. Mean luminance: (1 + 3) / 2 = 2.
         let expected = ((0.25f64.powi(2) + 0.2126f64.powi(2)) / 2.0).sqrt() / 2.0;
@@ -318,26 +377,45 @@ mod tests {
     }
 
     #[test]
-    fn split_relative_error_by_hand() {
-        // Four samples per pixel, two per half. Pixel A: halves average 0.5 and 1.5 in every
-        // channel → mean 1, split SE |0.5 - 1.5| / 2 = 0.5. Pixel B: R halves 2 and 4 (SE 1),
-        // G and B halves 3 and 3 (SE 0) → mean 3.
-        let a = [
-            vec![[0.5; 3], [2.0, 3.0, 3.0]],
-            vec![[0.5; 3], [2.0, 3.0, 3.0]],
+    fn replicate_counts_of_sample_ranges() {
+        assert_eq!(Replicates::samples_in(0..8, 4), [2, 2, 2, 2]);
+        assert_eq!(Replicates::samples_in(0..6, 4), [2, 2, 1, 1]);
+        assert_eq!(Replicates::samples_in(3..10, 4), [2, 2, 1, 2]);
+        assert_eq!(Replicates::samples_in(5..5, 4), [0, 0, 0, 0]);
+        assert_eq!(Replicates::samples_in(2..3, 4), [0, 0, 1, 0]);
+    }
+
+    #[test]
+    fn replicate_standard_error_by_hand() {
+        // Four replicates of 2 samples each (sample i in replicate i mod 4). Pixel A:
+        // replicate means 1, 2, 3, 4 in R, all 5 in G, 0, 0, 0, 4 in B. SE² =
+        // Σ (m_r − m̄)² / (4 · 3): R (2.25 + 0.25 + 0.25 + 2.25) / 12 = 5/12,
+        // G 0, B (1 + 1 + 1 + 9) / 12 = 1.
+        let means = [
+            [1.0, 5.0, 0.0],
+            [2.0, 5.0, 0.0],
+            [3.0, 5.0, 0.0],
+            [4.0, 5.0, 4.0],
         ];
-        let b = [
-            vec![[1.5; 3], [4.0, 3.0, 3.0]],
-            vec![[1.5; 3], [4.0, 3.0, 3.0]],
-        ];
-        let first_half = accumulate(2, 1, &a);
-        let whole = accumulate(2, 1, &[&a[..], &b[..]].concat());
-        // Y(SE): A → 0.5, B → 0.2126. Mean luminance: (1 + 3) / 2 = 2.
-        let expected = ((0.5f64.powi(2) + 0.2126f64.powi(2)) / 2.0).sqrt() / 2.0;
-        assert_close(whole.split_relative_error(&first_half).unwrap(), expected);
-        // Anything but exactly half of the samples is refused.
-        assert_eq!(whole.split_relative_error(&whole), None);
-        assert_eq!(first_half.split_relative_error(&whole), None);
+        // Each replicate's two samples: its mean ± 0.5, so the sample variance differs.
+        let samples: Vec<Vec<[f64; 3]>> = (0..8)
+            .map(|i| vec![means[i % 4].map(|m| m + if i < 4 { 0.5 } else { -0.5 })])
+            .collect();
+        let mut accumulation = accumulate(1, 1, &samples);
+        let others = (1..4).map(|r| vec![means[r].map(|m| 2.0 * m)]).collect();
+        accumulation.replicates = Some(Replicates::from_others(0..8, &accumulation.sum, others));
+        let replicates = accumulation.replicates.as_ref().unwrap();
+        assert_eq!(replicates.samples, [2, 2, 2, 2]);
+        assert_eq!(replicates.sums[0], [[2.0, 10.0, 0.0]]);
+        let se = accumulation.standard_error().unwrap().pixels[0];
+        let expected = [(5.0f64 / 12.0).sqrt() as f32, 0.0, 1.0];
+        for c in 0..3 {
+            assert!((se[c] - expected[c]).abs() < 1e-6, "{se:?}");
+        }
+        // A replicate without samples: no estimate.
+        accumulation.replicates.as_mut().unwrap().samples[3] = 0;
+        assert_eq!(accumulation.standard_error(), None);
+        assert_eq!(accumulation.relative_error(), None);
     }
 
     #[test]

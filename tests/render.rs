@@ -2,6 +2,7 @@
 
 mod common;
 
+use pathmix::gpu::accumulator::REPLICATES;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
@@ -314,12 +315,15 @@ fn glass_cornell_box_renders_finite_values() {
     );
 }
 
-/// The Sobol sampler stratifies the point in the pixel: with N = 2^k samples, each
-/// coordinate has exactly one point in every interval of length 1/N, so a straight
-/// edge across a one-pixel image, parallel to x or to y, is counted to within one
-/// sample. Independent samples miss by about sqrt(c (1 - c) / N) (0.029 at 256 spp).
+/// The Sobol sampler stratifies the point in the pixel: each of its K replicates
+/// (`REPLICATES`) is a net, so with N = 2^k samples, N / K per replicate, each
+/// coordinate has exactly one point of a replicate in every interval of length K/N,
+/// and a straight edge across a one-pixel image, parallel to x or to y, is counted to
+/// within one sample per replicate: K/N. Independent samples miss by about
+/// sqrt(c (1 - c) / N) (0.029 at 256 spp, where K/N = 0.016); they miss the bound in
+/// about half of the 40 cases.
 #[test]
-fn sobol_counts_a_pixel_edge_to_within_one_sample() {
+fn sobol_counts_a_pixel_edge_to_within_one_sample_per_replicate() {
     let ctx = gpu_or_skip!();
     // The emitter covers film coordinates below `edge` of [-1, 1] (vfov 90 at z = 1).
     let covered = 0.3f64;
@@ -339,7 +343,7 @@ fn sobol_counts_a_pixel_edge_to_within_one_sample() {
     let mut independent_misses = 0;
     for (q, u, v) in emitters {
         for seed in 0..4 {
-            for spp in [16, 64, 256] {
+            for spp in [16, 64, 256, 1024, 4096] {
                 for sampler in Sampler::ALL {
                     let mut scene = common::camera_facing_emitter(90.0, spp, 1.0, q, u, v);
                     scene
@@ -351,19 +355,20 @@ fn sobol_counts_a_pixel_edge_to_within_one_sample() {
                         .unwrap();
                     let acc = common::render(ctx, &scene, &RenderOptions::default());
                     let error = (acc.sum[0][0] / spp as f64 - covered).abs();
-                    let one_sample = 1.0 / spp as f64;
+                    let bound = REPLICATES as f64 / spp as f64;
                     match sampler {
                         Sampler::Sobol => assert!(
-                            error <= one_sample + 1e-6,
+                            error <= bound + 1e-6,
                             "edge {u:?} x {v:?}, seed {seed}, {spp} spp: off by {error}"
                         ),
-                        Sampler::Independent => independent_misses += (error > one_sample) as u32,
+                        Sampler::Independent => independent_misses += (error > bound) as u32,
                     }
                 }
             }
         }
     }
-    // The check can fail: independent samples miss it in most of the 24 cases.
+    eprintln!("independent misses {independent_misses} of 40");
+    // The check can fail: independent samples miss it in about 20 of the 40 cases.
     assert!(
         independent_misses >= 12,
         "independent misses {independent_misses}"
@@ -372,7 +377,8 @@ fn sobol_counts_a_pixel_edge_to_within_one_sample() {
 
 /// A camera looking straight into an emitter of radiance 0.1: every sample is
 /// 0.1, so the mean after 2^25 samples must still read 0.1 (a plain f32 running
-/// sum stalls at 2^21 and reads far too low).
+/// sum stalls at 2^21 and reads far too low), and so must the mean square and
+/// each Sobol replicate's mean (2^23 samples each).
 #[test]
 fn accumulation_stays_exact_past_two_to_the_24_samples() {
     let ctx = gpu_or_skip!();
@@ -390,6 +396,12 @@ fn accumulation_stays_exact_past_two_to_the_24_samples() {
     let mean_square = acc.sum_sq.as_ref().unwrap()[0][0] / acc.samples as f64;
     let value = 0.1f32 as f64;
     assert!((mean / value - 1.0).abs() < 1e-6, "mean {mean}");
+    let replicates = acc.replicates.as_ref().unwrap();
+    for (sums, &samples) in replicates.sums.iter().zip(&replicates.samples) {
+        assert_eq!(samples, 1 << 23);
+        let mean = sums[0][0] / samples as f64;
+        assert!((mean / value - 1.0).abs() < 1e-6, "replicate mean {mean}");
+    }
     assert!(
         (mean_square / (value * value) - 1.0).abs() < 1e-6,
         "mean square {mean_square}"

@@ -156,8 +156,8 @@ impl From<StrategyArg> for Strategy {
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum SamplerArg {
-    /// Owen-scrambled Sobol points, stratified per pixel (the default); the
-    /// per-pixel standard error (--variance) then overstates the error.
+    /// Owen-scrambled Sobol points, stratified per pixel (the default), in 4
+    /// independently scrambled replicates whose spread gives the standard error.
     Sobol,
     /// Independent random numbers; the per-pixel standard error is unbiased.
     Independent,

@@ -6,7 +6,8 @@
 use super::{ArraySource, KernelConfig, LightTablePart, SceneArray, WORKGROUP_SIZE};
 use crate::accel;
 use crate::gpu::accumulator::{
-    LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
+    LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
+    REPLICATES,
 };
 use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
@@ -31,6 +32,8 @@ pub fn shared_constants() -> String {
     constant("LAYER_SUM_COMPENSATION", LAYER_SUM_COMPENSATION);
     constant("LAYER_SQUARES", LAYER_SQUARES);
     constant("LAYER_SQUARES_COMPENSATION", LAYER_SQUARES_COMPENSATION);
+    constant("LAYER_REPLICATES", LAYER_REPLICATES);
+    constant("REPLICATES", REPLICATES);
     for (id, kind) in MATERIAL_KINDS.iter().enumerate() {
         constant(&kind.id_constant(), id as u32);
     }

@@ -7,6 +7,9 @@ mod glue;
 
 use crate::accel::BvhNode;
 use crate::environment::EnvironmentInfo;
+use crate::gpu::accumulator::{
+    LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
+};
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
 use crate::lights::{LightGroup, LightPick};
@@ -35,6 +38,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "STRATEGY_NEE",
     "LIGHT_DENSITY",
     "VARIANCE",
+    "REPLICATE_SUMS",
     "SAMPLER_SOBOL",
     "BVH",
     "SHADING_NORMALS",
@@ -370,6 +374,10 @@ impl KernelConfig {
             ("STRATEGY_NEE", self.strategy == Strategy::NeeMis),
             ("LIGHT_DENSITY", self.samples_lights()),
             ("VARIANCE", self.variance),
+            (
+                "REPLICATE_SUMS",
+                self.variance && self.sampler == Sampler::Sobol,
+            ),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
@@ -709,9 +717,20 @@ impl KernelConfig {
             .collect()
     }
 
-    /// Running sums the accumulator holds: each sum and its compensation.
+    /// Running sums the accumulator holds: each sum and its compensation
+    /// (`gpu::accumulator::LAYER_*`).
     pub fn accumulator_layers(&self) -> u32 {
-        if self.variance { 4 } else { 2 }
+        accumulator_layers(self.variance, self.sampler)
+    }
+}
+
+/// Layers of the accumulator: the sum, with `variance` the sum of squares, and
+/// with both `variance` and Sobol the replicates' sums, each with its compensation.
+pub fn accumulator_layers(variance: bool, sampler: Sampler) -> u32 {
+    match (variance, sampler) {
+        (false, _) => LAYER_SUM_COMPENSATION + 1,
+        (true, Sampler::Independent) => LAYER_SQUARES_COMPENSATION + 1,
+        (true, Sampler::Sobol) => replicate_layer(REPLICATES - 1) + 2,
     }
 }
 
@@ -1244,6 +1263,8 @@ mod tests {
             ("LAYER_SUM_COMPENSATION", LAYER_SUM_COMPENSATION),
             ("LAYER_SQUARES", LAYER_SQUARES),
             ("LAYER_SQUARES_COMPENSATION", LAYER_SQUARES_COMPENSATION),
+            ("LAYER_REPLICATES", LAYER_REPLICATES),
+            ("REPLICATES", REPLICATES),
             ("BINDING_PARAMS", BINDING_PARAMS),
             ("BINDING_ACCUMULATOR", BINDING_ACCUMULATOR),
             ("BINDING_COUNTERS", BINDING_COUNTERS),

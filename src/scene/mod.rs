@@ -65,8 +65,9 @@ impl fmt::Display for Strategy {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Sampler {
     /// Owen-scrambled Sobol points per pixel: each pair of dimensions is stratified
-    /// over the pixel's samples. Unbiased, with far less noise at edges and in direct
-    /// light; the default.
+    /// over the samples of each of `gpu::accumulator::REPLICATES` independently
+    /// scrambled replicates (interleaved). Unbiased, with far less noise at edges and
+    /// in direct light; the default. The replicates' spread is the error estimate.
     Sobol,
     /// Independent uniform numbers (PCG): the textbook Monte Carlo estimator, whose
     /// per-pixel sample variance is an unbiased error estimate.
