@@ -255,6 +255,11 @@ impl<'a> Renderer<'a> {
                         never_hit = vec![0; size_of::<crate::gpu::layout::Material>()];
                         &never_hit[..]
                     }
+                    // Nor does a general kernel read tables of materials the scene lacks.
+                    ArraySource::MaterialTables if data.material_tables.is_empty() => {
+                        never_hit = vec![0; size_of::<f32>()];
+                        &never_hit[..]
+                    }
                     source => data.array_bytes(source),
                 };
                 let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {

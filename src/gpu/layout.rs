@@ -2,10 +2,10 @@
 //! here is checked against naga's reading of the WGSL in `kernel::tests`.
 
 use crate::accel::Bvh;
+use crate::environment::EnvironmentTables;
 use crate::kinds::{
     KindSet, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material,
 };
-use crate::environment::EnvironmentTables;
 use crate::lights::LightTables;
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;

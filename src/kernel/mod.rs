@@ -1087,7 +1087,10 @@ mod tests {
             );
             let module = validate(&config);
             // The material tables stay in a buffer (`ArraySource::bakes`).
-            let baked = config.scene_arrays().into_iter().filter(|a| a.source.bakes());
+            let baked = config
+                .scene_arrays()
+                .into_iter()
+                .filter(|a| a.source.bakes());
             for array in baked {
                 let expected: Vec<u32> =
                     bytemuck::pod_collect_to_vec(data.array_bytes(array.source));

@@ -1929,8 +1929,14 @@ mod tests {
                <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="3"/></emitter></shape>"#,
         );
         let material = |i: usize| &s.materials[s.quads[i].material as usize];
-        assert_eq!((material(0).albedo, material(0).one_sided), (Vec3::splat(0.5), true));
-        assert_eq!((material(1).albedo, material(1).emit), (Vec3::ZERO, Vec3::splat(3.0)));
+        assert_eq!(
+            (material(0).albedo, material(0).one_sided),
+            (Vec3::splat(0.5), true)
+        );
+        assert_eq!(
+            (material(1).albedo, material(1).emit),
+            (Vec3::ZERO, Vec3::splat(3.0))
+        );
         // A one-sided surface's side is its normal's: a flipped sphere is refused.
         let e = error(
             "one-sided-flip",
