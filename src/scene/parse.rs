@@ -70,12 +70,19 @@
 //! and transmittances are in [0, 1].
 //! - `"conductor"`: a smooth mirror with the Fresnel reflectance of the complex index
 //!   `eta + i k` (per channel, >= 0; default Mitsuba's `none`: eta 0, k 1, reflectance 1
-//!   at every angle), times `specular_reflectance` (default 1).
+//!   at every angle), times `specular_reflectance` (default 1). Instead of `eta` and `k`,
+//!   `material` names one of Mitsuba's measured conductors: `"a-C"`, `"Ag"`, `"Al"`,
+//!   `"AlAs"`, `"AlSb"`, `"Au"`, `"Be"`, `"Cr"`, `"CsI"`, `"Cu"`, `"Cu2O"`, `"CuO"`, `"d-C"`,
+//!   `"Hg"`, `"HgTe"`, `"Ir"`, `"K"`, `"Li"`, `"MgO"`, `"Mo"`, `"Na_palik"`, `"Nb"`,
+//!   `"Ni_palik"`, `"Rh"`, `"Se"`, `"SiC"`, `"SnTe"`, `"Ta"`, `"Te"`, `"ThF4"`, `"TiC"`,
+//!   `"TiN"`, `"TiO2"`, `"VC"`, `"V_palik"`, `"VN"`, `"W"` or `"none"` (case-sensitive, as in
+//!   Mitsuba), with the RGB `eta` and `k` that Mitsuba 3's RGB variants use for it;
+//!   `material` together with `eta` or `k` is an error.
 //! - `"roughconductor"`: the same with a microfacet surface: `distribution` (`"beckmann"`,
 //!   the default, or `"ggx"`), `alpha` (roughness in (0, 1], default 0.1) or `alpha_u` and
 //!   `alpha_v` together (anisotropic, along the two tangents of the shading frame, which
 //!   for now is the normal's orthonormal basis, not the surface's parameterisation),
-//!   `eta`, `k`, `specular_reflectance`. Sampled from the visible normals.
+//!   `material` or `eta` and `k`, `specular_reflectance`. Sampled from the visible normals.
 //! - `"roughdielectric"`: a rough interface (Walter et al. 2007): `distribution`, `alpha`
 //!   or `alpha_u`/`alpha_v`, `int_ior` (default `"bk7"`, 1.5046) and `ext_ior` (default
 //!   `"air"`, 1.000277): numbers > 0 or Mitsuba's names (`"water"`, `"diamond"`,
