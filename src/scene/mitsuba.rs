@@ -1551,7 +1551,7 @@ impl<'a> Builder<'a> {
 /// The pathmix material of Mitsuba's `conductor`, `roughconductor`,
 /// `roughdielectric`, `plastic` or `roughplastic`: the same parameter names (the TOML parser
 /// validates them and fills Mitsuba's defaults), IORs given by name turned into
-/// numbers.
+/// numbers; a conductor's named `material` stays a name.
 fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     let mut table = Table::new();
     table.insert("type".into(), Value::String(ty.into()));
@@ -1585,11 +1585,10 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     }
     match ty {
         "conductor" | "roughconductor" => {
-            if let Some((name, e)) = props.string("material")? {
+            // `none` is Mitsuba's default, which `eta` and `k` may go with.
+            if let Some((name, _)) = props.string("material")? {
                 if name != "none" {
-                    return Err(e.origin.error(format!(
-                        "the conductor preset `{name}` is not supported yet: give `eta` and `k`"
-                    )));
+                    table.insert("material".into(), Value::String(name.into()));
                 }
             }
         }
@@ -2051,15 +2050,67 @@ mod tests {
             c.warnings
         );
         let e = error(
-            "preset",
-            r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#,
-        );
-        assert!(e.contains("preset `Au`"), "{e}");
-        let e = error(
             "rough-range",
             r#"<shape type="sphere"><bsdf type="roughconductor"><float name="alpha" value="2"/></bsdf></shape>"#,
         );
         assert!(e.contains("alpha"), "{e}");
+    }
+
+    /// A conductor's `material` preset becomes the TOML `material`, so it takes the
+    /// table's RGB `eta` and `k`; `none` with `eta` is Mitsuba's own way of writing
+    /// them, any other preset with `eta` is refused as Mitsuba refuses it.
+    #[test]
+    fn conductor_presets_map_onto_material() {
+        use crate::scene::MaterialKind;
+        use crate::scene::parse::NAMED_CONDUCTORS;
+        let preset = |name: &str| {
+            let &(_, eta, k) = NAMED_CONDUCTORS
+                .iter()
+                .find(|(n, _, _)| *n == name)
+                .expect("in the table");
+            (Vec3::from_array(eta), Vec3::from_array(k))
+        };
+        let (s, c) = read(
+            "presets",
+            r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="roughconductor"><string name="material" value="TiN"/>
+                 <float name="alpha" value="0.2"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="conductor"><string name="material" value="none"/>
+                 <rgb name="eta" value="0.5 0.6 0.7"/></bsdf></shape>"#,
+            &[],
+        )
+        .unwrap();
+        let toml = c.to_toml(Path::new("."), Path::new("presets.xml"));
+        assert!(toml.contains("material = \"Au\"") && toml.contains("material = \"TiN\""));
+        let kinds: Vec<MaterialKind> = s.materials.iter().map(|m| m.kind).collect();
+        let (eta, k) = preset("Au");
+        assert!(kinds.contains(&MaterialKind::Conductor {
+            eta,
+            k,
+            specular_reflectance: Vec3::ONE
+        }));
+        let (eta, k) = preset("TiN");
+        assert!(kinds.iter().any(|kind| matches!(kind,
+            MaterialKind::RoughConductor { eta: e, k: kk, alpha_u: 0.2, .. } if *e == eta && *kk == k)));
+        assert!(kinds.contains(&MaterialKind::Conductor {
+            eta: Vec3::new(0.5, 0.6, 0.7),
+            k: Vec3::ONE,
+            specular_reflectance: Vec3::ONE
+        }));
+        let e = error(
+            "preset-typo",
+            r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Cu20"/></bsdf></shape>"#,
+        );
+        assert!(
+            e.contains("unknown conductor `Cu20`") && e.contains("did you mean `Cu2O`?"),
+            "{e}"
+        );
+        let e = error(
+            "preset-and-eta",
+            r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/>
+                 <float name="eta" value="0.2"/></bsdf></shape>"#,
+        );
+        assert!(e.contains("not both") && e.contains("eta"), "{e}");
     }
 
     /// `roughplastic` as Veach's scene writes it, and with Mitsuba's defaults

@@ -70,12 +70,19 @@
 //! and transmittances are in [0, 1].
 //! - `"conductor"`: a smooth mirror with the Fresnel reflectance of the complex index
 //!   `eta + i k` (per channel, >= 0; default Mitsuba's `none`: eta 0, k 1, reflectance 1
-//!   at every angle), times `specular_reflectance` (default 1).
+//!   at every angle), times `specular_reflectance` (default 1). Instead of `eta` and `k`,
+//!   `material` names one of Mitsuba's measured conductors: `"a-C"`, `"Ag"`, `"Al"`,
+//!   `"AlAs"`, `"AlSb"`, `"Au"`, `"Be"`, `"Cr"`, `"CsI"`, `"Cu"`, `"Cu2O"`, `"CuO"`, `"d-C"`,
+//!   `"Hg"`, `"HgTe"`, `"Ir"`, `"K"`, `"Li"`, `"MgO"`, `"Mo"`, `"Na_palik"`, `"Nb"`,
+//!   `"Ni_palik"`, `"Rh"`, `"Se"`, `"SiC"`, `"SnTe"`, `"Ta"`, `"Te"`, `"ThF4"`, `"TiC"`,
+//!   `"TiN"`, `"TiO2"`, `"VC"`, `"V_palik"`, `"VN"`, `"W"` or `"none"` (case-sensitive, as in
+//!   Mitsuba), with the RGB `eta` and `k` that Mitsuba 3's RGB variants use for it;
+//!   `material` together with `eta` or `k` is an error.
 //! - `"roughconductor"`: the same with a microfacet surface: `distribution` (`"beckmann"`,
 //!   the default, or `"ggx"`), `alpha` (roughness in (0, 1], default 0.1) or `alpha_u` and
 //!   `alpha_v` together (anisotropic, along the two tangents of the shading frame, which
 //!   for now is the normal's orthonormal basis, not the surface's parameterisation),
-//!   `eta`, `k`, `specular_reflectance`. Sampled from the visible normals.
+//!   `material` or `eta` and `k`, `specular_reflectance`. Sampled from the visible normals.
 //! - `"roughdielectric"`: a rough interface (Walter et al. 2007): `distribution`, `alpha`
 //!   or `alpha_u`/`alpha_v`, `int_ior` (default `"bk7"`, 1.5046) and `ext_ior` (default
 //!   `"air"`, 1.000277): numbers > 0 or Mitsuba's names (`"water"`, `"diamond"`,
@@ -243,6 +250,7 @@ const ALL_MATERIAL_KEYS: &[&str] = &[
     "alpha",
     "alpha_u",
     "alpha_v",
+    "material",
     "nonlinear",
     "one_sided",
 ];
@@ -675,7 +683,14 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
             }
             "conductor" => {
                 t.check_keys(
-                    &["type", "eta", "k", "specular_reflectance", "one_sided"],
+                    &[
+                        "type",
+                        "material",
+                        "eta",
+                        "k",
+                        "specular_reflectance",
+                        "one_sided",
+                    ],
                     Some("a conductor material"),
                 )?;
                 let (eta, k) = conductor_ior(&t)?;
@@ -695,6 +710,7 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                         "alpha",
                         "alpha_u",
                         "alpha_v",
+                        "material",
                         "eta",
                         "k",
                         "specular_reflectance",
@@ -840,6 +856,54 @@ pub(super) const NAMED_IORS: &[(&str, f64)] = &[
     ("pet", 1.5750),
     ("diamond", 2.419),
 ];
+
+/// Mitsuba 3's named conductors (`material` of `conductor`/`roughconductor`): name,
+/// RGB `eta`, RGB `k`. Mitsuba reduces each measured spectrum to RGB when it loads the
+/// plugin (clamping out-of-gamut colours to 0); these are the values its RGB variants
+/// then use, read back from Mitsuba 3.9.1's `scalar_rgb` by `scripts/conductor-presets.py`,
+/// which prints these rows.
+// One row per line, as the script prints them.
+#[rustfmt::skip]
+pub(super) const NAMED_CONDUCTORS: &[(&str, [f32; 3], [f32; 3])] = &[
+    ("a-C", [2.9440458, 2.2271364, 1.9681617], [0.8874649, 0.7992985, 0.81529]),
+    ("Ag", [0.1552762, 0.116727956, 0.13838764], [4.8283544, 3.1222224, 2.1469011]),
+    ("Al", [1.6575009, 0.8804047, 0.52124447], [9.223811, 6.269502, 4.837004]),
+    ("AlAs", [3.605296, 3.2329378, 2.2163186], [0.0006794373, 0.0, 0.007512709]),
+    ("AlSb", [0.0, 4.1393747, 4.6692543], [0.0, 0.09400908, 1.30057]),
+    ("Au", [0.14303598, 0.37530708, 1.4420453], [3.982997, 2.3855565, 1.6033592]),
+    ("Be", [4.1850123, 3.1850293, 2.7840612], [3.835466, 3.0101223, 2.868994]),
+    ("Cr", [4.3696675, 2.9165053, 1.6549046], [5.206547, 4.231306, 3.7546988]),
+    ("CsI", [2.1448996, 1.7023189, 1.6624272], [0.0, 0.0, 0.0]),
+    ("Cu", [0.20100547, 0.9237495, 1.1022154], [3.9132621, 2.4530451, 2.1420898]),
+    ("Cu2O", [3.5517726, 2.9498696, 2.7518754], [0.11420702, 0.19389686, 0.6061339]),
+    ("CuO", [3.247541, 2.4478052, 2.2102196], [0.52108955, 0.57003075, 0.72217894]),
+    ("d-C", [2.7087197, 2.3188257, 2.2288976], [0.0, 0.0, 0.0]),
+    ("Hg", [2.3989387, 1.440028, 0.9095704], [6.327587, 4.371925, 3.4217637]),
+    ("HgTe", [4.77904, 3.2311962, 2.6599011], [1.6316127, 1.5808104, 1.7292874]),
+    ("Ir", [3.0863, 2.0821905, 1.6179146], [5.592153, 4.067088, 3.267312]),
+    ("K", [0.06404319, 0.046409767, 0.038184915], [2.1041996, 1.34894, 0.9131259]),
+    ("Li", [0.26579094, 0.19561832, 0.22094862], [3.540155, 2.3111234, 1.6686072]),
+    ("MgO", [2.0895839, 1.6507235, 1.594879], [4.3326952e-12, 0.0, 2.4986457e-11]),
+    ("Mo", [4.483974, 3.5251307, 2.7763104], [4.1114373, 3.420827, 3.1506073]),
+    ("Na_palik", [0.060269356, 0.056140948, 0.061988432], [3.1792734, 2.1124904, 1.5790411]),
+    ("Nb", [3.420074, 2.7900932, 2.3956294], [3.4413946, 2.7376661, 2.5797458]),
+    ("Ni_palik", [2.3673046, 1.6633731, 1.4670781], [4.4988117, 3.050153, 2.3454392]),
+    ("Rh", [2.5857935, 1.8602164, 1.5542634], [6.7822604, 4.702987, 3.976073]),
+    ("Se", [4.0583115, 2.842935, 2.8208535], [0.75404954, 0.6384435, 0.52180755]),
+    ("SiC", [3.1723416, 2.5259717, 2.4793706], [7.5376636e-07, 0.0, 1.0192531e-05]),
+    ("SnTe", [4.5242496, 1.981645, 1.2815913], [0.0, 0.0, 0.0]),
+    ("Ta", [2.062721, 2.3929389, 2.6279287], [2.4083598, 1.7414864, 1.9470278]),
+    ("Te", [7.3902335, 4.482105, 2.637106], [3.2560222, 3.5270588, 3.2920542]),
+    ("ThF4", [1.8307136, 1.4422286, 1.3876476], [0.0, 0.0, 0.0]),
+    ("TiC", [3.7005284, 2.8374221, 2.582287], [3.265635, 2.3515892, 2.1727905]),
+    ("TiN", [1.6484497, 1.150516, 1.3798234], [3.368328, 1.9434981, 1.1020677]),
+    ("TiO2", [3.45661, 2.8017359, 2.905175], [0.00010526484, 0.0, 0.0006528865]),
+    ("VC", [3.657566, 2.752736, 2.532672], [3.0683007, 2.1986873, 1.9631927]),
+    ("V_palik", [4.277582, 3.5129488, 2.7610714], [3.4913008, 2.8894548, 3.111522]),
+    ("VN", [2.8656023, 2.119189, 1.9400911], [3.0322425, 2.0561156, 1.6163063]),
+    ("W", [4.3708167, 3.3002465, 2.9984074], [3.5006406, 2.604874, 2.2732332]),
+    ("none", [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]),
+];
 const IOR_AIR: f32 = 1.000277;
 const IOR_BK7: f32 = 1.5046;
 const IOR_POLYPROPYLENE: f32 = 1.49;
@@ -874,12 +938,28 @@ fn iors(t: &Tab, int_default: f32) -> Result<(f32, f32)> {
     Ok((int_ior, ext_ior))
 }
 
-/// A conductor's complex index `eta + i k`, per channel; Mitsuba's default
-/// (`material = "none"`) is eta 0, k 1: reflectance 1 at every angle.
+/// A conductor's complex index `eta + i k`, per channel: `eta` and `k`, or a
+/// `material` of [`NAMED_CONDUCTORS`]. Mitsuba's default (`material = "none"`) is
+/// eta 0, k 1: reflectance 1 at every angle.
 fn conductor_ior(t: &Tab) -> Result<(Vec3, Vec3)> {
-    let eta = colour(t, "eta", 0.0, check_nonneg)?;
-    let k = colour(t, "k", 1.0, check_nonneg)?;
-    Ok((eta, k))
+    let Some(name) = t.string("material")? else {
+        let eta = colour(t, "eta", 0.0, check_nonneg)?;
+        let k = colour(t, "k", 1.0, check_nonneg)?;
+        return Ok((eta, k));
+    };
+    if let Some(key) = ["eta", "k"].into_iter().find(|k| t.table.contains_key(*k)) {
+        return Err(t.err(
+            t.at(key),
+            format!("give either `material` (here `{name}`) or `eta` and `k`, not both"),
+        ));
+    }
+    match NAMED_CONDUCTORS.iter().find(|(n, _, _)| *n == name) {
+        Some(&(_, eta, k)) => Ok((Vec3::from_array(eta), Vec3::from_array(k))),
+        None => {
+            let names: Vec<&str> = NAMED_CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+            Err(t.err(t.at("material"), unknown_name("conductor", name, &names)))
+        }
+    }
 }
 
 /// An RGB reflectance or transmittance in [0, 1].
@@ -2351,6 +2431,80 @@ material = "white"
     }
 
     #[test]
+    fn conductor_presets_parse_to_the_table() {
+        let kind = |body: &str| parse(&red(body)).materials[0].kind;
+        for (name, eta, k) in [
+            NAMED_CONDUCTORS[0],
+            NAMED_CONDUCTORS[5],
+            NAMED_CONDUCTORS[37],
+        ] {
+            assert_eq!(
+                kind(&format!("type = \"conductor\"\nmaterial = \"{name}\"")),
+                MaterialKind::Conductor {
+                    eta: Vec3::from_array(eta),
+                    k: Vec3::from_array(k),
+                    specular_reflectance: Vec3::ONE
+                },
+                "{name}"
+            );
+        }
+        assert_eq!(
+            kind("type = \"roughconductor\"\nmaterial = \"Cu\"\nalpha = 0.3"),
+            MaterialKind::RoughConductor {
+                distribution: Distribution::Beckmann,
+                alpha_u: 0.3,
+                alpha_v: 0.3,
+                eta: Vec3::new(0.20100547, 0.9237495, 1.1022154),
+                k: Vec3::new(3.9132621, 2.4530451, 2.1420898),
+                specular_reflectance: Vec3::ONE,
+            }
+        );
+        // `none` is Mitsuba's default: the perfect conductor.
+        assert_eq!(
+            kind("type = \"conductor\"\nmaterial = \"none\""),
+            kind("type = \"conductor\"")
+        );
+    }
+
+    /// Two entries against Mitsuba itself: these were read by hand from Mitsuba
+    /// 3.9.1's `scalar_rgb` variant (`mi.traverse` of a loaded `conductor` with
+    /// `material` `Au` and `Cu`: `eta.value`, `k.value`, printed to 6 digits), not from
+    /// the generator's output, so a table from a wrong variant, a swapped `eta`/`k` or a
+    /// shifted row fails here.
+    #[test]
+    fn conductor_presets_match_mitsuba() {
+        let mitsuba: [(&str, [f32; 3], [f32; 3]); 2] = [
+            (
+                "Au",
+                [0.143036, 0.375307, 1.44205],
+                [3.983, 2.38556, 1.60336],
+            ),
+            (
+                "Cu",
+                [0.201005, 0.92375, 1.10222],
+                [3.91326, 2.45305, 2.14209],
+            ),
+        ];
+        for (name, eta, k) in mitsuba {
+            let &(_, table_eta, table_k) = NAMED_CONDUCTORS
+                .iter()
+                .find(|(n, _, _)| *n == name)
+                .expect("in the table");
+            for (table, printed) in [(table_eta, eta), (table_k, k)] {
+                for (t, p) in table.into_iter().zip(printed) {
+                    // 6 significant digits: within half a unit of the sixth.
+                    assert!(
+                        (t - p).abs() <= 5e-6 * p,
+                        "{name}: {table:?} vs {printed:?}"
+                    );
+                }
+            }
+        }
+        let names: Vec<&str> = NAMED_CONDUCTORS.iter().map(|(n, _, _)| *n).collect();
+        assert_eq!(names.len(), 38, "{names:?}");
+    }
+
+    #[test]
     fn mitsuba_material_errors() {
         let error = |body: &str| parse_scene(&red(body), FILE).unwrap_err();
         let cases: &[(&str, &str, &[&str])] = &[
@@ -2436,6 +2590,26 @@ material = "white"
                 "type = \"roughplastic\"\nalpha = 0",
                 "materials.red.alpha",
                 &["must be in (0, 1], got 0"],
+            ),
+            (
+                "type = \"conductor\"\nmaterial = \"Agg\"",
+                "materials.red.material",
+                &["unknown conductor `Agg`", "did you mean `Ag`?"],
+            ),
+            (
+                "type = \"roughconductor\"\nmaterial = \"Au\"\neta = [0.2, 0.4, 1.4]",
+                "materials.red.eta",
+                &["give either `material` (here `Au`) or `eta` and `k`, not both"],
+            ),
+            (
+                "type = \"conductor\"\nmaterial = \"none\"\nk = 2",
+                "materials.red.k",
+                &["not both"],
+            ),
+            (
+                "type = \"conductor\"\nmaterial = 79",
+                "materials.red.material",
+                &["expected a string"],
             ),
             (
                 "type = \"roughconductr\"",
