@@ -482,7 +482,6 @@ mod tests {
                     if alpha == 0.01 && mu >= 0.3 {
                         assert!(sum > 1.0 - 1e-4, "{distribution:?} {alpha} {mu}: {sum}");
                     }
-                    println!("{distribution:?} alpha {alpha} cos {mu}: T + R = {sum}");
                 }
             }
             let rough = microfacet(1.0);
