@@ -60,8 +60,8 @@ pub struct ConvergeArgs {
     #[arg(long, value_name = "N", default_value_t = 4096,
           value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_spp: u32,
-    /// Comma-separated strategies to measure: cosine, light, mixture (weight 0.5),
-    /// mixture:W. Default: cosine,light,mixture:0.25,mixture:0.5,mixture:0.75.
+    /// Comma-separated strategies to measure: cosine, light, nee-mis, mixture (weight
+    /// 0.5), mixture:W. Default: cosine,light,nee-mis,mixture:0.25,mixture:0.5,mixture:0.75.
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = Variant::parse)]
     pub variants: Option<Vec<Variant>>,
     /// Use the first adapter whose name contains NAME (case-insensitive) [env: PATHMIX_ADAPTER].
