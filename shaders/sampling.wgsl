@@ -62,3 +62,20 @@ fn erfinv(x: f32) -> f32 {
     }
     return p * x;
 }
+
+// Uniform point of the unit disk from the unit square (Shirley-Chiu concentric map).
+fn square_to_disk_concentric(u: vec2<f32>) -> vec2<f32> {
+    let x = 2.0 * u.x - 1.0;
+    let y = 2.0 * u.y - 1.0;
+    let quadrant_1_or_3 = abs(x) < abs(y);
+    let r = select(x, y, quadrant_1_or_3);
+    let rp = select(y, x, quadrant_1_or_3);
+    var phi = 0.25 * PI * rp / r;
+    if quadrant_1_or_3 {
+        phi = 0.5 * PI - phi;
+    }
+    if x == 0.0 && y == 0.0 {
+        phi = 0.0;
+    }
+    return r * vec2<f32>(cos(phi), sin(phi));
+}

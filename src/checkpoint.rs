@@ -102,6 +102,7 @@ impl SceneIdentity {
             render,
             materials,
             quads,
+            disks,
             spheres,
             triangles,
             // Follows from the mesh files, whose faces are hashed.
@@ -137,7 +138,12 @@ impl SceneIdentity {
                 _ => debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height, filter)),
             },
             materials_hash: debug_hash(materials),
-            geometry_hash: debug_hash(&(quads, spheres, triangles)),
+            // Without disks the geometry hashes as before disks existed.
+            geometry_hash: if disks.is_empty() {
+                debug_hash(&(quads, spheres, triangles))
+            } else {
+                debug_hash(&(quads, disks, spheres, triangles))
+            },
             // Without an environment map the settings hash as before maps existed.
             settings_hash: match environment {
                 None => debug_hash(&(

@@ -372,9 +372,9 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             ":2:22: <texture type=\"checkerboard\" name=\"reflectance\">: textures (bitmap, checkerboard) are not supported yet",
         ),
         (
-            "disk",
-            "<scene version=\"3.0.0\">\n<shape type=\"disk\"/>\n</scene>",
-            ":2:1: <shape type=\"disk\">: not supported (supported: obj, ply, rectangle, cube, sphere)",
+            "shape",
+            "<scene version=\"3.0.0\">\n<shape type=\"cylinder\"/>\n</scene>",
+            ":2:1: <shape type=\"cylinder\">: not supported (supported: obj, ply, rectangle, cube, disk, sphere)",
         ),
         (
             "point",

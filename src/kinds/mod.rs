@@ -9,12 +9,14 @@
 //! (`scene`), and a test; a material kind is the same with [`MATERIAL_KINDS`].
 
 mod coat;
+mod disk;
 mod material;
 mod quad;
 mod sphere;
 mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
+pub use disk::Disk;
 pub use material::{
     Lobe, MATERIAL_KINDS, MaterialKind, MaterialTables, material_kind_id, pack_material,
 };
@@ -28,7 +30,12 @@ use crate::shader::ShaderModule;
 
 /// Every primitive kind, in the order of the kernel's closest-hit test and light
 /// density (which fixes the order of floating-point sums: images depend on it).
-pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[&quad::QUAD, &sphere::SPHERE, &triangle::TRIANGLE];
+pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[
+    &quad::QUAD,
+    &sphere::SPHERE,
+    &triangle::TRIANGLE,
+    &disk::DISK,
+];
 
 /// A kind of primitive: what the host packs and what its WGSL module defines.
 ///

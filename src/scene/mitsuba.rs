@@ -30,7 +30,7 @@ const UNBOUNDED_DEPTH: i64 = 100_000;
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
                                plastic, roughplastic, twosided";
-const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, sphere";
+const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const SUPPORTED_TOP: &str = "default, include, path, integrator, sensor, shape, bsdf, emitter";
 
 /// A `-D name=value` parameter, as `mitsuba -D`.
@@ -1225,6 +1225,24 @@ impl<'a> Builder<'a> {
                     push(self, quad);
                 }
             }
+            "disk" => {
+                props.finish()?;
+                // The unit disk in z = 0, normal +z; as for rectangles, a mirroring
+                // transform keeps Mitsuba's normal, where u x v would turn.
+                let (u, v) = if mirrors != flip {
+                    (DVec3::Y, DVec3::X)
+                } else {
+                    (DVec3::X, DVec3::Y)
+                };
+                object.insert("type".into(), Value::String("disk".into()));
+                object.insert(
+                    "center".into(),
+                    vec_value(to_world.transform_point3(DVec3::ZERO)),
+                );
+                object.insert("u".into(), vec_value(to_world.transform_vector3(u)));
+                object.insert("v".into(), vec_value(to_world.transform_vector3(v)));
+                push(self, object);
+            }
             "sphere" => {
                 let center = props.point("center")?.unwrap_or(DVec3::ZERO);
                 let radius = props.float("radius")?.unwrap_or(1.0);
@@ -1686,7 +1704,7 @@ const CUBE_FACES: [[DVec3; 3]; 6] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Filter, Scene, Strategy};
+    use crate::scene::{Disk, Filter, Scene, Strategy};
     use glam::Vec3;
 
     /// `files` written into a fresh folder; the first is the scene.
@@ -1834,6 +1852,37 @@ mod tests {
             let centre = q.q + (q.u + q.v) / 2.0;
             assert_eq!(normal(&cube, i), centre, "face {i} faces outwards");
         }
+    }
+
+    /// Mitsuba's disk is the unit disk in z = 0 facing +z, under `to_world`
+    /// (an ellipse under a non-uniform scale), its normal kept as for rectangles.
+    #[test]
+    fn disks_keep_mitsubas_shape_and_normal() {
+        let disk = |name: &str, body: &str| {
+            let s = scene(name, &format!(r#"<shape type="disk">{body}</shape>"#));
+            assert_eq!(s.disks.len(), 1);
+            s.disks[0]
+        };
+        let d = disk(
+            "disk",
+            r#"<transform name="to_world"><scale x="2" y="0.5"/><translate x="1" y="2" z="3"/></transform>"#,
+        );
+        assert_eq!(
+            (d.center, d.u, d.v),
+            (Vec3::new(1.0, 2.0, 3.0), 2.0 * Vec3::X, 0.5 * Vec3::Y)
+        );
+        let normal = |d: Disk| d.u.cross(d.v).normalize();
+        assert_eq!(normal(d), Vec3::Z);
+        let mirrored = disk(
+            "disk-mirror",
+            r#"<transform name="to_world"><scale x="-1"/></transform>"#,
+        );
+        assert_eq!(normal(mirrored), Vec3::Z);
+        let flipped = disk(
+            "disk-flip",
+            r#"<boolean name="flip_normals" value="true"/>"#,
+        );
+        assert_eq!(normal(flipped), -Vec3::Z);
     }
 
     #[test]

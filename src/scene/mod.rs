@@ -262,6 +262,18 @@ pub struct Quad {
     pub importance: bool,
 }
 
+/// Points `center + a u + b v` with `a^2 + b^2 <= 1`: a disk of radius `|u|` when
+/// `u` and `v` are perpendicular and as long, an ellipse otherwise (a disk under an
+/// affine transform); normal `normalize(u x v)`. World space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disk {
+    pub center: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    pub material: u32,
+    pub importance: bool,
+}
+
 /// World space; the normal points outwards.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
@@ -300,6 +312,7 @@ pub struct Scene {
     pub render: RenderSettings,
     pub materials: Vec<Material>,
     pub quads: Vec<Quad>,
+    pub disks: Vec<Disk>,
     pub spheres: Vec<Sphere>,
     /// Mesh faces, degenerate ones dropped.
     pub triangles: Vec<Triangle>,
@@ -390,6 +403,7 @@ impl Scene {
     /// Objects in the light density.
     pub fn importance_count(&self) -> usize {
         self.quads.iter().filter(|q| q.importance).count()
+            + self.disks.iter().filter(|d| d.importance).count()
             + self.spheres.iter().filter(|s| s.importance).count()
             + self.triangles.iter().filter(|t| t.importance).count()
     }
@@ -401,6 +415,12 @@ impl Scene {
         for q in &self.quads {
             for corner in [q.q, q.q + q.u, q.q + q.v, q.q + q.u + q.v] {
                 extent = extent.max(corner.abs().max_element());
+            }
+        }
+        for d in &self.disks {
+            // The parallelogram around the ellipse holds it.
+            for corner in [d.u + d.v, d.u - d.v, d.v - d.u, -d.u - d.v] {
+                extent = extent.max((d.center + corner).abs().max_element());
             }
         }
         for s in &self.spheres {

@@ -112,6 +112,11 @@
 //! - `"quad"`: `q` (vector, a corner), `u`, `v` (vectors, the edges): the points
 //!   `q + a u + b v`, `a, b` in [0, 1], with normal `normalize(u x v)`. `u x v` must not
 //!   be (near) zero: `|u x v| <= 1e-6 |u| |v|` is rejected as degenerate.
+//! - `"disk"`: `center` (vector), `u`, `v` (vectors): the points `center + a u + b v`
+//!   with `a^2 + b^2 <= 1`, normal `normalize(u x v)`: a disk of radius `r` for
+//!   perpendicular `u` and `v` of length `r`, an ellipse otherwise (as a transform leaves
+//!   it). Degenerate `u`, `v` are rejected as for quads. As a light it is sampled uniformly
+//!   by area.
 //! - `"box"`: `min`, `max` (vectors, `max > min` in every axis): an axis-aligned box,
 //!   expanded into six outward-facing quads exactly like the book's `box()`.
 //! - `"mesh"`: `file` (string, required): a triangle mesh, `.obj` (Wavefront, polygons
@@ -167,8 +172,8 @@ use toml::{Table, Value};
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
 use super::{
-    Camera, Distribution, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler, Scene,
-    SceneError, Sphere, Strategy, Triangle,
+    Camera, Disk, Distribution, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler,
+    Scene, SceneError, Sphere, Strategy, Triangle,
 };
 use std::path::Path;
 
@@ -254,7 +259,7 @@ const ALL_MATERIAL_KEYS: &[&str] = &[
     "nonlinear",
     "one_sided",
 ];
-const OBJECT_TYPES: &[&str] = &["sphere", "quad", "box", "mesh"];
+const OBJECT_TYPES: &[&str] = &["sphere", "quad", "disk", "box", "mesh"];
 const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
 const ALL_OBJECT_KEYS: &[&str] = &[
     "type",
@@ -326,6 +331,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         render,
         materials,
         quads: objects.quads,
+        disks: objects.disks,
         spheres: objects.spheres,
         triangles: objects.triangles,
         degenerate_triangles: objects.degenerate_triangles,
@@ -340,6 +346,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     let problem = camera_problem(&scene.camera)
         .map(|(_, p)| p)
         .or_else(|| scene.quads.iter().find_map(quad_problem))
+        .or_else(|| scene.disks.iter().find_map(disk_problem))
         .or_else(|| scene.spheres.iter().find_map(sphere_problem));
     match problem {
         Some(p) => Err(top.err(
@@ -412,7 +419,8 @@ impl Scene {
     }
 
     /// The same scene with every position and length (camera `lookfrom`/`lookat`,
-    /// quad `q`/`u`/`v`, sphere centre and radius) multiplied by `factor`.
+    /// quad `q`/`u`/`v`, disk centre and axes, sphere centre and radius) multiplied
+    /// by `factor`.
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
         s.camera.lookfrom *= factor;
@@ -421,6 +429,11 @@ impl Scene {
             q.q *= factor;
             q.u *= factor;
             q.v *= factor;
+        }
+        for d in &mut s.disks {
+            d.center *= factor;
+            d.u *= factor;
+            d.v *= factor;
         }
         for sp in &mut s.spheres {
             sp.center *= factor;
@@ -1026,6 +1039,7 @@ fn check_roughness(x: f32) -> std::result::Result<(), String> {
 #[derive(Default)]
 struct Objects {
     quads: Vec<Quad>,
+    disks: Vec<Disk>,
     spheres: Vec<Sphere>,
     triangles: Vec<Triangle>,
     degenerate_triangles: usize,
@@ -1038,6 +1052,7 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
     let mut objects = Objects::default();
     let Objects {
         quads,
+        disks,
         spheres,
         triangles,
         degenerate_triangles,
@@ -1079,6 +1094,7 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
         let (keys, what): (&[&str], &str) = match ty {
             "sphere" => (&["center", "radius"], "a sphere"),
             "quad" => (&["q", "u", "v"], "a quad"),
+            "disk" => (&["center", "u", "v"], "a disk"),
             "box" => (&["min", "max"], "a box"),
             "mesh" => (&["file", "smooth"], "a mesh"),
             other => {
@@ -1160,6 +1176,22 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                     return Err(t.err(t.here(), p));
                 }
                 quads.push(quad);
+            }
+            "disk" => {
+                let center = t.require("center", t.vec3("center", ok)?)?;
+                let u = t.require("u", t.vec3("u", ok)?)?;
+                let v = t.require("v", t.vec3("v", ok)?)?;
+                let disk = Disk {
+                    center: xf.point(center.as_dvec3()),
+                    u: xf.vector(u.as_dvec3()),
+                    v: xf.vector(v.as_dvec3()),
+                    material,
+                    importance,
+                };
+                if let Some(p) = disk_problem(&disk) {
+                    return Err(t.err(t.here(), p));
+                }
+                disks.push(disk);
             }
             "mesh" => {
                 let name = t.require("file", t.string("file")?)?;
@@ -1488,21 +1520,29 @@ fn usable_length_squared(l2: f32) -> bool {
 }
 
 fn quad_problem(q: &Quad) -> Option<String> {
-    if !(q.q.is_finite() && q.u.is_finite() && q.v.is_finite()) {
+    spanned_problem("quad", q.q, q.u, q.v)
+}
+
+fn disk_problem(d: &Disk) -> Option<String> {
+    spanned_problem("disk", d.center, d.u, d.v)
+}
+
+/// What is wrong with a flat shape spanned by `u` and `v` from `point` (a quad, a disk).
+fn spanned_problem(what: &str, point: Vec3, u: Vec3, v: Vec3) -> Option<String> {
+    if !(point.is_finite() && u.is_finite() && v.is_finite()) {
         return Some("coordinates overflow a 32-bit float".to_string());
     }
-    let (u, v) = (q.u.as_dvec3(), q.v.as_dvec3());
-    let area = u.cross(v).length();
-    if area <= DEGENERATE * u.length() * v.length() {
+    let area = u.as_dvec3().cross(v.as_dvec3()).length();
+    if area <= DEGENERATE * u.as_dvec3().length() * v.as_dvec3().length() {
         return Some(format!(
-            "degenerate quad: u x v has (near) zero length (u = {}, v = {})",
-            fmt_vec(q.u),
-            fmt_vec(q.v)
+            "degenerate {what}: u x v has (near) zero length (u = {}, v = {})",
+            fmt_vec(u),
+            fmt_vec(v)
         ));
     }
-    if !usable_length_squared(q.u.cross(q.v).length_squared()) {
+    if !usable_length_squared(u.cross(v).length_squared()) {
         return Some(format!(
-            "quad area {} is out of the range 32-bit float arithmetic can handle",
+            "{what} area {} is out of the range 32-bit float arithmetic can handle",
             fmt_num(area)
         ));
     }

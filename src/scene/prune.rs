@@ -25,6 +25,9 @@ impl Scene {
         for q in &mut scene.quads {
             q.material = renumbered[q.material as usize];
         }
+        for d in &mut scene.disks {
+            d.material = renumbered[d.material as usize];
+        }
         for s in &mut scene.spheres {
             s.material = renumbered[s.material as usize];
         }
@@ -41,6 +44,7 @@ impl Scene {
             .quads
             .iter()
             .map(|q| q.material)
+            .chain(self.disks.iter().map(|d| d.material))
             .chain(self.spheres.iter().map(|s| s.material))
             .chain(self.triangles.iter().map(|t| t.material));
         for material in references {

@@ -1,0 +1,62 @@
+// Disks: points center + a u + b v with a^2 + b^2 <= 1 (an ellipse unless u and v
+// are perpendicular and as long); normal normalize(u x v).
+
+// Mirrors `gpu::layout::Disk` (`kinds::disk`). Plane and coordinate terms are
+// precomputed on the host.
+struct Disk {
+    center: vec3<f32>,
+    material: u32,
+    u: vec3<f32>,
+    // dot(normal, center): the plane is dot(normal, x) = plane_d.
+    plane_d: f32,
+    v: vec3<f32>,
+    // pi |u x v|.
+    area: f32,
+    normal: vec3<f32>,
+    _pad0: u32,
+    // (u x v) / |u x v|^2, so a = dot(w, p x v) and b = dot(w, u x p).
+    w: vec3<f32>,
+    _pad1: u32,
+}
+
+// Distance along the ray to the disk in (0, t_max), or -1. A ray parallel to the
+// plane divides by zero; the NaN or infinity fails the range test, as it should.
+fn disk_hit_t(disk: Disk, ray: Ray, t_max: f32) -> f32 {
+    let t = (disk.plane_d - dot(disk.normal, ray.origin)) / dot(disk.normal, ray.dir);
+    if !(t > 0.0 && t < t_max) {
+        return -1.0;
+    }
+    let planar = ray.origin + t * ray.dir - disk.center;
+    let a = dot(disk.w, cross(planar, disk.v));
+    let b = dot(disk.w, cross(disk.u, planar));
+    if a * a + b * b > 1.0 {
+        return -1.0;
+    }
+    return t;
+}
+
+// The closest hit keeps the normal: the plane's, the same at every point.
+fn disk_hit_keep(disk: Disk) -> vec4<f32> {
+    return vec4<f32>(disk.normal, 0.0);
+}
+
+fn disk_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
+    return keep.xyz;
+}
+
+// Direction from `origin` to a uniformly chosen point on the disk (the concentric
+// map keeps the unit square's stratification).
+fn disk_light_sample(disk: Disk, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let p = square_to_disk_concentric(u);
+    let target_point = disk.center + p.x * disk.u + p.y * disk.v;
+    return normalize(target_point - origin);
+}
+
+// Solid-angle density of `disk_light_sample`: d^2 / (|cos| A) where the ray meets the disk.
+fn disk_light_pdf(disk: Disk, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
+    let t = disk_hit_t(disk, Ray(origin, dir), F32_MAX);
+    if t < 0.0 {
+        return 0.0;
+    }
+    return (t * t) / (abs(dot(dir, disk.normal)) * disk.area);
+}

@@ -1,0 +1,85 @@
+//! Disks (ellipses under a general transform): `center + a u + b v` for
+//! `a^2 + b^2 <= 1`, normal `normalize(u x v)`.
+
+use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
+use crate::gpu::layout::gpu_struct;
+use crate::scene::Scene;
+use crate::shader::shader_module;
+
+pub const DISK: PrimitiveKind = PrimitiveKind {
+    name: "disk",
+    array: "disks",
+    module: shader_module!("disk"),
+    layout: ErasedLayout::of::<Disk>(),
+    light_density: true,
+    pack: |scene: &Scene| {
+        scene
+            .disks
+            .iter()
+            .map(|d| PackedPrimitive::new(&Disk::new(d), d.material, d.importance))
+            .collect()
+    },
+    never_hit: || bytemuck::bytes_of(&Disk::never_hit()).to_vec(),
+    bounds: |bytes| {
+        let disk: Disk = bytemuck::pod_read_unaligned(bytes);
+        let (c, u, v) = (
+            glam::Vec3::from(disk.center),
+            glam::Vec3::from(disk.u),
+            glam::Vec3::from(disk.v),
+        );
+        // The ellipse's extent along each axis: |(u_i, v_i)|.
+        let half = (u * u + v * v).powf(0.5);
+        (c - half, c + half)
+    },
+    shading_normals: None,
+    grouped_lights: false,
+};
+
+gpu_struct! {
+    /// The plane and in-plane coordinate terms are precomputed here, once per disk.
+    pub struct Disk {
+        pub center: [f32; 3],
+        pub material: u32,
+        pub u: [f32; 3],
+        pub plane_d: f32,
+        pub v: [f32; 3],
+        pub area: f32,
+        pub normal: [f32; 3],
+        pub _pad0: u32,
+        pub w: [f32; 3],
+        pub _pad1: u32,
+    }
+}
+
+impl Disk {
+    pub fn new(disk: &crate::scene::Disk) -> Disk {
+        let n = disk.u.cross(disk.v);
+        let normal = n.normalize();
+        Disk {
+            center: disk.center.to_array(),
+            material: disk.material,
+            u: disk.u.to_array(),
+            plane_d: normal.dot(disk.center),
+            v: disk.v.to_array(),
+            area: std::f32::consts::PI * n.length(),
+            normal: normal.to_array(),
+            w: (n / n.dot(n)).to_array(),
+            ..Disk::default()
+        }
+    }
+
+    /// With NaN geometry every hit test fails.
+    pub fn never_hit() -> Disk {
+        let nan = [f32::NAN; 3];
+        Disk {
+            center: nan,
+            u: nan,
+            plane_d: f32::NAN,
+            v: nan,
+            area: f32::NAN,
+            normal: nan,
+            w: nan,
+            ..Disk::default()
+        }
+    }
+}
