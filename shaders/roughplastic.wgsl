@@ -29,8 +29,9 @@ fn roughplastic_specular_probability(m: Material, t_i: f32) -> f32 {
     return specular / (specular + diffuse);
 }
 
-// f |cos| in the local frame (i, o above the surface).
-fn roughplastic_eval_local(m: Material, i: vec3<f32>, o: vec3<f32>) -> vec3<f32> {
+// f |cos| in the local frame (i, o above the surface), with t_i the coat's
+// transmittance at i (looked up once by each caller).
+fn roughplastic_eval_local(m: Material, i: vec3<f32>, o: vec3<f32>, t_i: f32) -> vec3<f32> {
     let h = normalize(i + o);
     let d = roughplastic_microfacet(m);
     let g = microfacet_g1(d, i, h) * microfacet_g1(d, o, h);
@@ -40,15 +41,14 @@ fn roughplastic_eval_local(m: Material, i: vec3<f32>, o: vec3<f32>) -> vec3<f32>
     if (m.flags & MATERIAL_NONLINEAR) != 0u {
         inner = m.albedo * m.color3.y;
     }
-    let t_i = roughplastic_transmittance(m, i.z);
     let t_o = roughplastic_transmittance(m, o.z);
     let eta = m.color3.x;
     let diffuse = m.albedo / (vec3<f32>(1.0) - inner) * (INV_PI * o.z * t_i * t_o / (eta * eta));
     return specular + diffuse;
 }
 
-fn roughplastic_pdf_local(m: Material, i: vec3<f32>, o: vec3<f32>) -> f32 {
-    let p_specular = roughplastic_specular_probability(m, roughplastic_transmittance(m, i.z));
+fn roughplastic_pdf_local(m: Material, i: vec3<f32>, o: vec3<f32>, t_i: f32) -> f32 {
+    let p_specular = roughplastic_specular_probability(m, t_i);
     let h = normalize(i + o);
     let d = roughplastic_microfacet(m);
     // The visible-normal density times the reflection's Jacobian 1 / (4 o.h), o.h = i.h.
@@ -63,7 +63,7 @@ fn roughplastic_eval(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) ->
     if i.z <= 0.0 || o.z <= 0.0 {
         return vec3<f32>(0.0);
     }
-    return roughplastic_eval_local(m, i, o);
+    return roughplastic_eval_local(m, i, o, roughplastic_transmittance(m, i.z));
 }
 
 fn roughplastic_pdf(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
@@ -73,7 +73,7 @@ fn roughplastic_pdf(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> 
     if i.z <= 0.0 || o.z <= 0.0 {
         return 0.0;
     }
-    return roughplastic_pdf_local(m, i, o);
+    return roughplastic_pdf_local(m, i, o, roughplastic_transmittance(m, i.z));
 }
 
 fn roughplastic_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
@@ -84,8 +84,9 @@ fn roughplastic_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
     if i.z <= 0.0 {
         return bsdf_absorbed();
     }
+    let t_i = roughplastic_transmittance(m, i.z);
     var o: vec3<f32>;
-    if choice < roughplastic_specular_probability(m, roughplastic_transmittance(m, i.z)) {
+    if choice < roughplastic_specular_probability(m, t_i) {
         let h = microfacet_sample(roughplastic_microfacet(m), i, u);
         o = 2.0 * dot(i, h) * h - i;
     } else {
@@ -94,9 +95,9 @@ fn roughplastic_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
     if o.z <= 0.0 {
         return bsdf_absorbed();
     }
-    let pdf = roughplastic_pdf_local(m, i, o);
+    let pdf = roughplastic_pdf_local(m, i, o, t_i);
     if pdf <= 0.0 {
         return bsdf_absorbed();
     }
-    return BsdfSample(from_local(f, o), roughplastic_eval_local(m, i, o) / pdf, pdf, false);
+    return BsdfSample(from_local(f, o), roughplastic_eval_local(m, i, o, t_i) / pdf, pdf, false);
 }
