@@ -1,6 +1,7 @@
 //! Disks (ellipses under a general transform): `center + a u + b v` for
 //! `a^2 + b^2 <= 1`, normal `normalize(u x v)`.
 
+use super::quad::PlaneTerms;
 use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
 use crate::gpu::layout::gpu_struct;
 use crate::scene::Scene;
@@ -53,17 +54,16 @@ gpu_struct! {
 
 impl Disk {
     pub fn new(disk: &crate::scene::Disk) -> Disk {
-        let n = disk.u.cross(disk.v);
-        let normal = n.normalize();
+        let plane = PlaneTerms::new(disk.center, disk.u, disk.v);
         Disk {
             center: disk.center.to_array(),
             material: disk.material,
             u: disk.u.to_array(),
-            plane_d: normal.dot(disk.center),
+            plane_d: plane.plane_d,
             v: disk.v.to_array(),
-            area: std::f32::consts::PI * n.length(),
-            normal: normal.to_array(),
-            w: (n / n.dot(n)).to_array(),
+            area: std::f32::consts::PI * plane.span,
+            normal: plane.normal.to_array(),
+            w: plane.w.to_array(),
             ..Disk::default()
         }
     }

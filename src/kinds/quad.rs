@@ -53,19 +53,41 @@ gpu_struct! {
     }
 }
 
+/// The terms a flat shape spanned by `u` and `v` from `point` (a quad, a disk)
+/// precomputes for its hit test: the unit normal, the plane offset, the vector
+/// `w = (u x v) / |u x v|^2` giving the in-plane coordinates, and `|u x v|`.
+pub(super) struct PlaneTerms {
+    pub normal: glam::Vec3,
+    pub plane_d: f32,
+    pub w: glam::Vec3,
+    pub span: f32,
+}
+
+impl PlaneTerms {
+    pub fn new(point: glam::Vec3, u: glam::Vec3, v: glam::Vec3) -> PlaneTerms {
+        let n = u.cross(v);
+        let normal = n.normalize();
+        PlaneTerms {
+            normal,
+            plane_d: normal.dot(point),
+            w: n / n.dot(n),
+            span: n.length(),
+        }
+    }
+}
+
 impl Quad {
     pub fn new(quad: &crate::scene::Quad) -> Quad {
-        let n = quad.u.cross(quad.v);
-        let normal = n.normalize();
+        let plane = PlaneTerms::new(quad.q, quad.u, quad.v);
         Quad {
             q: quad.q.to_array(),
             material: quad.material,
             u: quad.u.to_array(),
-            plane_d: normal.dot(quad.q),
+            plane_d: plane.plane_d,
             v: quad.v.to_array(),
-            area: n.length(),
-            normal: normal.to_array(),
-            w: (n / n.dot(n)).to_array(),
+            area: plane.span,
+            normal: plane.normal.to_array(),
+            w: plane.w.to_array(),
             ..Quad::default()
         }
     }
