@@ -527,3 +527,100 @@ fn importance_meshes_are_light_groups_weighed_by_area() {
     let pmf: Vec<f32> = tables.picks.iter().map(|p| p.pmf).collect();
     assert_eq!(pmf, [0.25, 0.75, 0.25, 0.75]);
 }
+
+/// Irradiance at the origin, normal +y, from a triangle of unit radiance with
+/// vertices `v` (Lambert's polygon formula: half the sum over the edges of the
+/// angle each subtends times the cosine of its plane's normal with +y).
+fn triangle_irradiance(v: [[f64; 3]; 3]) -> f64 {
+    let unit = |p: [f64; 3]| {
+        let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        [p[0] / l, p[1] / l, p[2] / l]
+    };
+    let mut sum = 0.0;
+    for i in 0..3 {
+        let (a, b) = (unit(v[i]), unit(v[(i + 1) % 3]));
+        let cross = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let sin = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
+        let cos = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        sum += sin.atan2(cos) * cross[1] / sin;
+    }
+    (sum / 2.0).abs()
+}
+
+/// A triangle light (facing down: emitters emit on their front side) over a
+/// Lambertian floor gives the floor under it Lambert's
+/// analytic irradiance under every strategy, near and large (where sampling by
+/// area is noisy) and small and far, so the density each evaluates is the one
+/// each draws from.
+#[test]
+fn triangle_light_gives_the_analytic_irradiance() {
+    let ctx = gpu_or_skip!();
+    let (emit, albedo) = (4.0f64, 0.6f64);
+    for (name, v) in [
+        (
+            "near",
+            [[-1.5, 0.4, -1.0], [1.0, 0.3, -0.6], [0.3, 0.5, 1.2]],
+        ),
+        (
+            "far",
+            [[-0.2, 20.0, -0.1], [0.15, 19.5, -0.1], [0.1, 21.0, 0.2]],
+        ),
+    ] {
+        let obj: String = v
+            .iter()
+            .map(|p| format!("v {} {} {}\n", p[0], p[1], p[2]))
+            .collect::<String>()
+            + "f 1 2 3\n";
+        let path: PathBuf = std::env::temp_dir().join(format!(
+            "pathmix-triangle-light-{name}-{}.obj",
+            std::process::id()
+        ));
+        std::fs::write(&path, obj).unwrap();
+        let expected = albedo / std::f64::consts::PI * emit * triangle_irradiance(v);
+        for strategy in ["bsdf", "light", "mixture", "nee-mis"] {
+            let scene = common::scene_text(&format!(
+                r#"
+                [camera]
+                lookfrom = [0, 0.1, 0]
+                lookat = [0, 0, 0]
+                vup = [0, 0, -1]
+                vfov = 0.2
+                width = 4
+                height = 4
+                [render]
+                spp = 4096
+                max_depth = 1
+                strategy = "{strategy}"
+                sampler = "independent"
+                [materials.floor]
+                type = "lambertian"
+                albedo = [{albedo}, {albedo}, {albedo}]
+                [materials.lamp]
+                type = "light"
+                emit = [{emit}, {emit}, {emit}]
+                [[objects]]
+                type = "quad"
+                q = [-10, 0, -10]
+                u = [0, 0, 20]
+                v = [20, 0, 0]
+                material = "floor"
+                [[objects]]
+                type = "mesh"
+                file = {path:?}
+                material = "lamp"
+                "#
+            ));
+            let acc = common::render(ctx, &scene, &common::with_variance());
+            let (mean, error) = common::image_mean_and_error(&acc);
+            println!("{name} {strategy}: {mean:.6} ± {error:.6}, expected {expected:.6}");
+            assert!(
+                (mean - expected).abs() < 4.0 * error + 1e-4 * expected,
+                "{name} {strategy}: {mean} ± {error} against {expected}"
+            );
+        }
+    }
+}

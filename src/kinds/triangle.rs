@@ -1,7 +1,7 @@
 //! Triangles: the faces of meshes.
 
 use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
-use crate::gpu::layout::{WgslValue, gpu_struct};
+use crate::gpu::layout::gpu_struct;
 use crate::scene::Scene;
 use crate::shader::shader_module;
 use glam::Vec3;
@@ -25,7 +25,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
             .collect()
     },
     never_hit: || {
-        let nan = Point([f32::NAN; 3]);
+        let nan = [f32::NAN; 3];
         let never = Triangle {
             p0: nan,
             p1: nan,
@@ -36,51 +36,40 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     },
     bounds: |bytes| {
         let t: Triangle = bytemuck::pod_read_unaligned(bytes);
-        let [a, b, c] = [t.p0, t.p1, t.p2].map(|p| Vec3::from(p.0));
+        let [a, b, c] = [t.p0, t.p1, t.p2].map(Vec3::from);
         (a.min(b).min(c), a.max(b).max(c))
     },
     shading_normals: Some(ErasedLayout::of::<TriangleNormals>()),
     grouped_lights: true,
 };
 
-/// A point as WGSL's `array<f32, 3>`: 4-byte aligned where a `vec3<f32>` takes
-/// 16, so a triangle packs into 40 bytes instead of 48 (device memory per
-/// triangle, with the BVH, stays under 96 bytes).
-#[repr(transparent)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Point(pub [f32; 3]);
-
-impl WgslValue for Point {
-    fn wgsl_value(&self) -> String {
-        let [x, y, z] = self.0.map(|c| c.wgsl_value());
-        format!("array<f32, 3>({x}, {y}, {z})")
-    }
-
-    fn is_finite(&self) -> bool {
-        self.0.is_finite()
-    }
-}
-
 gpu_struct! {
     /// The vertices only: the face normal and area are computed where needed
     /// (at the closest hit, in the light density), which costs less than the
-    /// memory traffic of storing them.
+    /// memory traffic of storing them. Each vertex fills a 16-byte slot, so the
+    /// kernel reads a triangle in three loads: lavapipe loads a storage buffer
+    /// lane by lane once per load instruction, whatever its width, and ten
+    /// 4-byte loads (the 40-byte packing of `array<f32, 3>` vertices) cost more
+    /// than the 8 bytes saved.
     pub struct Triangle {
-        pub p0: Point,
-        pub p1: Point,
-        pub p2: Point,
+        pub p0: [f32; 3],
         pub material: u32,
+        pub p1: [f32; 3],
+        pub _pad1: u32,
+        pub p2: [f32; 3],
+        pub _pad2: u32,
     }
 }
 
 impl Triangle {
     pub fn new(triangle: &crate::scene::Triangle) -> Triangle {
-        let [p0, p1, p2] = triangle.vertices.map(|p| Point(p.to_array()));
+        let [p0, p1, p2] = triangle.vertices.map(|p| p.to_array());
         Triangle {
             p0,
             p1,
             p2,
             material: triangle.material,
+            ..Triangle::default()
         }
     }
 }
