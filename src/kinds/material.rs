@@ -3,6 +3,7 @@
 //! description which BSDF lobes its WGSL module implements.
 
 use super::coat::CoatTables;
+use std::sync::Mutex;
 use crate::gpu::layout::{Material, material_flag};
 use crate::scene::{self, Distribution};
 use crate::shader::{ShaderModule, shader_module};
@@ -161,12 +162,27 @@ impl MaterialTables {
         if let Some(&(_, offset, internal)) = self.coats.iter().find(|(k, ..)| *k == key) {
             return (offset, internal);
         }
-        let tables = CoatTables::new(distribution, alpha, eta);
+        let tables = coat_tables(key);
         let offset = self.values.len() as u32;
         self.values.extend_from_slice(&tables.transmittance);
         self.coats.push((key, offset, tables.internal_reflectance));
         (offset, tables.internal_reflectance)
     }
+}
+
+/// [`CoatTables::new`] for `(distribution, alpha bits, eta bits)`, computed once per
+/// process: a run may pack its scene once per kernel (the `auto` strategy's pilot
+/// candidates, `converge`'s variants), and each coat costs a million samples.
+fn coat_tables(key: (Distribution, u32, u32)) -> CoatTables {
+    static COMPUTED: Mutex<Vec<((Distribution, u32, u32), CoatTables)>> = Mutex::new(Vec::new());
+    let mut computed = COMPUTED.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some((_, tables)) = computed.iter().find(|(k, _)| *k == key) {
+        return tables.clone();
+    }
+    let (distribution, alpha, eta) = key;
+    let tables = CoatTables::new(distribution, f32::from_bits(alpha), f32::from_bits(eta));
+    computed.push((key, tables.clone()));
+    tables
 }
 
 /// Mitsuba steers samples between a coat and its base by the lobes' mean
