@@ -3,10 +3,10 @@
 //! description which BSDF lobes its WGSL module implements.
 
 use super::coat::CoatTables;
-use std::sync::Mutex;
 use crate::gpu::layout::{Material, material_flag};
 use crate::scene::{self, Distribution};
 use crate::shader::{ShaderModule, shader_module};
+use std::sync::Mutex;
 
 /// What a material kind's BSDF is made of (the interface is in materials.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,6 +144,9 @@ fn beckmann_flag(distribution: Distribution) -> u32 {
     }
 }
 
+/// A coat's distribution, alpha and eta (as bits).
+type CoatKey = (Distribution, u32, u32);
+
 /// The tables of a scene's materials (`MaterialKind::tables`), one array of
 /// floats the kernel reads at the offset a packed material holds. Materials with
 /// the same coat share one table.
@@ -152,7 +155,7 @@ pub struct MaterialTables {
     pub values: Vec<f32>,
     /// The coats tabulated so far (distribution, alpha and eta, as bits), and
     /// their tables' offsets and internal reflectances.
-    coats: Vec<((Distribution, u32, u32), u32, f32)>,
+    coats: Vec<(CoatKey, u32, f32)>,
 }
 
 impl MaterialTables {
@@ -170,12 +173,14 @@ impl MaterialTables {
     }
 }
 
-/// [`CoatTables::new`] for `(distribution, alpha bits, eta bits)`, computed once per
+/// [`CoatTables::new`] for a coat, computed once per
 /// process: a run may pack its scene once per kernel (the `auto` strategy's pilot
 /// candidates, `converge`'s variants), and each coat costs a million samples.
-fn coat_tables(key: (Distribution, u32, u32)) -> CoatTables {
-    static COMPUTED: Mutex<Vec<((Distribution, u32, u32), CoatTables)>> = Mutex::new(Vec::new());
-    let mut computed = COMPUTED.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+fn coat_tables(key: CoatKey) -> CoatTables {
+    static COMPUTED: Mutex<Vec<(CoatKey, CoatTables)>> = Mutex::new(Vec::new());
+    let mut computed = COMPUTED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
     if let Some((_, tables)) = computed.iter().find(|(k, _)| *k == key) {
         return tables.clone();
     }
