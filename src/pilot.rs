@@ -25,6 +25,10 @@ pub const SIDE: u32 = 64;
 pub const MAX_SPP: u32 = 64;
 /// Fewest: two per Sobol replicate.
 pub const MIN_SPP: u32 = 2 * REPLICATES;
+/// The pilot measures no further candidate once its wall time reaches this fraction
+/// of the run's estimated time (at the best candidate's speed so far): on a small
+/// image, building the candidates' kernels alone can take longer than the run.
+pub const BUDGET: f64 = 0.1;
 /// The mixture's light weight tried first, and those tried when it wins.
 pub const FIRST_WEIGHT: f32 = 0.5;
 pub const MORE_WEIGHTS: [f32; 2] = [0.25, 0.75];
@@ -48,17 +52,19 @@ pub fn spp(final_spp: u32) -> u32 {
     final_spp.clamp(MIN_SPP, MAX_SPP) / REPLICATES * REPLICATES
 }
 
-/// The first candidates for `scene`: `bsdf`, `nee-mis` where the scene has an emitter
-/// for its shadow rays, and `mixture` at [`FIRST_WEIGHT`] where it has anything to aim
-/// at (the fallbacks of [`prepare_scene`] decide both).
+/// The first candidates for `scene`, in the order measured: `mixture` at
+/// [`FIRST_WEIGHT`] where the scene has anything to aim at, `nee-mis` where it has an
+/// emitter for its shadow rays (the fallbacks of [`prepare_scene`] decide both), and
+/// `bsdf`. The default strategy first: a pilot cut short by its budget keeps it.
 pub fn first_candidates(scene: &Scene) -> Result<Vec<Variant>, RenderError> {
-    let mut candidates = vec![Variant::BSDF];
-    if prepare_scene(scene, Strategy::NeeMis)?.1 == Strategy::NeeMis {
-        candidates.push(Variant::NEE_MIS);
-    }
+    let mut candidates = Vec::new();
     if prepare_scene(scene, Strategy::Mixture)?.1 == Strategy::Mixture {
         candidates.push(Variant::mixture(FIRST_WEIGHT));
     }
+    if prepare_scene(scene, Strategy::NeeMis)?.1 == Strategy::NeeMis {
+        candidates.push(Variant::NEE_MIS);
+    }
+    candidates.push(Variant::BSDF);
     Ok(candidates)
 }
 
@@ -88,6 +94,8 @@ pub struct Pilot {
     pub spp: u32,
     /// In the order measured; empty when `bsdf` was the only candidate.
     pub rows: Vec<Row>,
+    /// Candidates left unmeasured: the pilot had spent its [`BUDGET`].
+    pub skipped: Vec<Variant>,
     pub choice: Variant,
     /// Wall time of the whole pilot: pipelines, warm-up, samples and readbacks.
     pub seconds: f64,
@@ -171,8 +179,9 @@ pub fn measure(
 }
 
 /// Runs the pilot for a render of `scene` (its size) at `final_spp` samples per pixel
-/// with `options`, and chooses the candidate of highest efficiency. `on_row` sees each
-/// row as it is measured.
+/// (`u32::MAX`: a time or error target decides) with `options`, and chooses the
+/// candidate of highest efficiency among those measured within the [`BUDGET`].
+/// `on_row` sees each row as it is measured.
 pub fn run(
     ctx: &GpuContext,
     scene: &Scene,
@@ -184,9 +193,20 @@ pub fn run(
     let (width, height) = size(scene.camera.width, scene.camera.height);
     let spp = spp(final_spp);
     let candidates = first_candidates(scene)?;
-    let mut rows = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
+    let mut skipped = Vec::new();
+    // The run's time at the best candidate's speed (unknown for an open-ended run).
+    let pixels = |w: u32, h: u32| w as f64 * h as f64;
+    let scale = pixels(scene.camera.width, scene.camera.height) * final_spp as f64
+        / (pixels(width, height) * spp as f64);
     let mut try_each = |variants: &[Variant], rows: &mut Vec<Row>| -> Result<(), RenderError> {
         for &variant in variants {
+            let run_seconds = best(rows).map(|r| r.seconds * scale);
+            let spent = started.elapsed().as_secs_f64();
+            if final_spp != u32::MAX && run_seconds.is_some_and(|run| spent >= BUDGET * run) {
+                skipped.push(variant);
+                continue;
+            }
             let (row, _) = measure(ctx, scene, options, variant, (width, height), spp)?;
             on_row(&row);
             rows.push(row);
@@ -195,7 +215,8 @@ pub fn run(
     };
     if candidates.len() > 1 {
         try_each(&candidates, &mut rows)?;
-        if best(&rows).map(|r| r.variant) == Some(Variant::mixture(FIRST_WEIGHT)) {
+        let all_measured = rows.len() == candidates.len();
+        if all_measured && best(&rows).map(|r| r.variant) == Some(Variant::mixture(FIRST_WEIGHT)) {
             try_each(&MORE_WEIGHTS.map(Variant::mixture), &mut rows)?;
         }
     }
@@ -205,6 +226,7 @@ pub fn run(
         height,
         spp,
         rows,
+        skipped,
         choice,
         seconds: started.elapsed().as_secs_f64(),
     })
@@ -278,13 +300,14 @@ mod tests {
 
     #[test]
     fn the_best_has_the_highest_efficiency_then_the_least_time() {
-        // 1/(0.1² × 1) = 100 against 1/(0.05² × 8) = 50.
+        // 1/(0.125² × 1) = 64 against 1/(0.0625² × 8) = 32.
         let rows = [
-            row(Variant::BSDF, 1.0, Some(0.1)),
-            row(Variant::NEE_MIS, 8.0, Some(0.05)),
+            row(Variant::BSDF, 1.0, Some(0.125)),
+            row(Variant::NEE_MIS, 8.0, Some(0.0625)),
             row(Variant::mixture(0.5), 0.5, None),
         ];
-        assert_eq!(rows[0].efficiency, Some(100.0));
+        assert_eq!(rows[0].efficiency, Some(64.0));
+        assert_eq!(rows[1].efficiency, Some(32.0));
         assert_eq!(best(&rows).unwrap().variant, Variant::BSDF);
         let black = [
             row(Variant::BSDF, 1.0, None),
@@ -309,6 +332,7 @@ mod tests {
                 row(Variant::BSDF, 1.0, Some(0.1)),
                 row(Variant::NEE_MIS, 2.0, Some(0.1)),
             ],
+            skipped: Vec::new(),
             choice: Variant::BSDF,
             seconds: 3.5,
         };

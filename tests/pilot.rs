@@ -38,9 +38,10 @@ const TINY_BRIGHT_LIGHT: &str = "[materials.lamp]\ntype = \"light\"\nemit = [120
 const LARGE_DIM_EMITTER: &str = "[materials.sky]\ntype = \"light\"\nemit = [0.5, 0.5, 0.5]\n\
      [[objects]]\ntype = \"quad\"\nq = [-100, 5, -100]\nu = [200, 0, 0]\nv = [0, 0, 200]\nmaterial = \"sky\"\n";
 
+/// The pilot of an open-ended run (no budget: every candidate is measured).
 fn run_pilot(scene: &Scene) -> Pilot {
     let ctx = common::gpu().unwrap();
-    let pilot = pilot::run(ctx, scene, &RenderOptions::default(), 64, |_| {}).unwrap();
+    let pilot = pilot::run(ctx, scene, &RenderOptions::default(), u32::MAX, |_| {}).unwrap();
     eprintln!("{}chose {}", pilot::table(&pilot), pilot.choice);
     pilot
 }
@@ -103,6 +104,19 @@ fn without_lights_bsdf_is_chosen_without_a_pilot() {
     scene.render.background = glam::Vec3::ONE;
     let pilot = run_pilot(&scene);
     assert_eq!((pilot.choice, pilot.rows.len()), (Variant::BSDF, 0));
+}
+
+/// On a run far shorter than building a kernel (8×8 pixels, 1 spp), the pilot stops
+/// after its first candidate, the default mixture, and keeps it.
+#[test]
+fn the_pilot_of_a_tiny_run_stops_at_its_budget() {
+    let ctx = gpu_or_skip!();
+    let mut scene = lit_floor(TINY_BRIGHT_LIGHT);
+    (scene.camera.width, scene.camera.height) = (8, 8);
+    let pilot = pilot::run(ctx, &scene, &RenderOptions::default(), 1, |_| {}).unwrap();
+    assert_eq!(pilot.rows.len(), 1, "{}", pilot::table(&pilot));
+    assert_eq!(pilot.choice, Variant::mixture(pilot::FIRST_WEIGHT));
+    assert_eq!(pilot.skipped, [Variant::NEE_MIS, Variant::BSDF]);
 }
 
 /// The pilot's estimated relative error against the relative RMSE measured against a

@@ -862,6 +862,14 @@ fn choose_strategy(
                 pilot.choice
             ),
         }
+        if !pilot.skipped.is_empty() {
+            let names: Vec<String> = pilot.skipped.iter().map(|v| v.name()).collect();
+            eprintln!(
+                "not measured: {} (the pilot had spent {:.0}% of the run's estimated time)",
+                names.join(", "),
+                pilot::BUDGET * 100.0
+            );
+        }
     }
     let choice = pilot.choice;
     let (render, overrides) = (&mut plan.scene.render, &mut plan.overrides);
