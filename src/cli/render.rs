@@ -796,9 +796,10 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     );
     if let Some(pilot) = &pilot {
         println!(
-            "strategy auto: {} (pilot of {} candidates in {:.2} s)",
+            "strategy auto: {} (pilot of {} candidate{} in {:.2} s)",
             pilot.choice,
             pilot.rows.len(),
+            plural(pilot.rows.len()),
             pilot.seconds
         );
     }
@@ -852,8 +853,9 @@ fn choose_strategy(
                 pilot.choice
             ),
             n => eprintln!(
-                "strategy auto: pilot of {n} candidates at {}x{}, {} spp each, {:.2} s in all \
+                "strategy auto: pilot of {n} candidate{} at {}x{}, {} spp each, {:.2} s in all \
                  (efficiency = 1 / (estimated relative MSE x seconds)):\n{}chose {}",
+                plural(n),
                 pilot.width,
                 pilot.height,
                 pilot.spp,
@@ -883,6 +885,10 @@ fn choose_strategy(
     plan.identity = SceneIdentity::of(&plan.scene);
     render::check_emission(&plan.scene, plan.stop.max_samples, plan.variance).map_err(input)?;
     Ok(pilot)
+}
+
+fn plural(count: usize) -> &'static str {
+    if count == 1 { "" } else { "s" }
 }
 
 /// What an interrupted run tells the user (what was saved, how to go on) and its
