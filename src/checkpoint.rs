@@ -125,6 +125,8 @@ impl SceneIdentity {
             spp: _,
             max_depth,
             strategy,
+            // A run starts only once the pilot has set the strategy it hashes.
+            auto_strategy: _,
             light_weight,
             background,
             seed,

@@ -6,7 +6,8 @@
 //! `render` runs the progressive accumulation; `checkpoint` saves and restores
 //! it; `shard` writes and merges partial results; `output` and `stats` work on
 //! plain arrays; `paths` finds a command's paths that name one file;
-//! `converge` measures the strategies' speed/accuracy trade.
+//! `converge` measures the strategies' speed/accuracy trade; `pilot` chooses one
+//! for `strategy = "auto"`.
 
 pub mod accel;
 pub mod bench;
@@ -19,6 +20,7 @@ pub mod kinds;
 pub mod lights;
 pub mod output;
 pub mod paths;
+pub mod pilot;
 pub mod render;
 pub mod scene;
 pub mod shader;

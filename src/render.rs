@@ -62,6 +62,11 @@ pub enum RenderError {
     )]
     LightStrategyWithoutTargets { scene: String },
     #[error(
+        "{scene}: strategy `auto` must be resolved by the pilot (`pathmix::pilot::run`) \
+         before a renderer is built"
+    )]
+    StrategyNotChosen { scene: String },
+    #[error(
         "adapter {adapter} has no read-write rgba32float storage textures; \
          use the buffer accumulator"
     )]
@@ -542,6 +547,11 @@ pub fn plan_kernel(
     options: &RenderOptions,
 ) -> Result<KernelPlan, RenderError> {
     let settings = &scene.render;
+    if settings.auto_strategy {
+        return Err(RenderError::StrategyNotChosen {
+            scene: scene.source.clone(),
+        });
+    }
     let (used, dropped_materials) = scene.without_unused_materials();
     let (data, strategy, warnings) = prepare_scene(&used, settings.strategy)?;
     let (width, height) = (scene.camera.width, scene.camera.height);

@@ -8,7 +8,6 @@ use pathmix::gpu::layout::PackedArray;
 use pathmix::kernel::SceneStorage;
 use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
 use pathmix::render::{KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel};
-use pathmix::scene::Strategy;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -31,8 +30,18 @@ pub struct InfoArgs {
 
 pub fn info(args: InfoArgs) -> Result<(), Failure> {
     let mut scene = super::load_scene(&args.scene, &args.define)?;
-    let strategy = args.strategy.map_or(scene.render.strategy, Strategy::from);
-    scene.render.strategy = strategy;
+    if let Some(arg) = args.strategy {
+        match arg.strategy() {
+            Some(strategy) => {
+                scene.render.strategy = strategy;
+                scene.render.auto_strategy = false;
+            }
+            None => scene.render.auto_strategy = true,
+        }
+    }
+    // A pilot chooses at render time; the kernel shown is the default strategy's.
+    let auto = std::mem::take(&mut scene.render.auto_strategy);
+    let strategy = scene.render.strategy;
     let (width, height) = (scene.camera.width, scene.camera.height);
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let options = RenderOptions {
@@ -54,7 +63,11 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         height,
         scene.render.spp,
         scene.render.max_depth,
-        strategy,
+        match auto {
+            true =>
+                format!("auto (a pilot chooses when rendering; the kernel below is {strategy}'s)"),
+            false => strategy.to_string(),
+        },
         scene.render.light_weight,
         scene.render.sampler
     );

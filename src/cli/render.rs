@@ -10,6 +10,7 @@ use pathmix::gpu::accumulator::LAYER_SQUARES_COMPENSATION;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::output::{self, ImageFormat};
 use pathmix::paths::{self, PathUse};
+use pathmix::pilot::{self, Pilot};
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopReason, StopRule};
 use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::shard::{self, Partial};
@@ -62,7 +63,8 @@ pub struct RenderArgs {
     /// Most scattering events on a path; 0 shows emitters only [scene: render.max_depth].
     #[arg(long, value_name = "D", allow_negative_numbers = true)]
     pub max_depth: Option<u32>,
-    /// Direction sampling at diffuse surfaces [scene: render.strategy].
+    /// Direction sampling at diffuse surfaces; `auto` lets a short pilot choose
+    /// [scene: render.strategy].
     #[arg(long, value_enum)]
     pub strategy: Option<StrategyArg>,
     /// Mixture weight of the light density, in [0, 1] (default 0.5) [scene: render.light_weight].
@@ -141,15 +143,20 @@ pub enum StrategyArg {
     Light,
     /// Next-event estimation (shadow rays to emitters) with multiple importance sampling.
     NeeMis,
+    /// Chosen by a short pilot: bsdf, nee-mis and mixture (light weights 0.25, 0.5,
+    /// 0.75) rendered at low resolution, the most efficient kept.
+    Auto,
 }
 
-impl From<StrategyArg> for Strategy {
-    fn from(arg: StrategyArg) -> Strategy {
-        match arg {
-            StrategyArg::Mixture => Strategy::Mixture,
-            StrategyArg::Bsdf => Strategy::Bsdf,
-            StrategyArg::Light => Strategy::Light,
-            StrategyArg::NeeMis => Strategy::NeeMis,
+impl StrategyArg {
+    /// The strategy named; `None` for `auto`.
+    pub fn strategy(self) -> Option<Strategy> {
+        match self {
+            StrategyArg::Mixture => Some(Strategy::Mixture),
+            StrategyArg::Bsdf => Some(Strategy::Bsdf),
+            StrategyArg::Light => Some(Strategy::Light),
+            StrategyArg::NeeMis => Some(Strategy::NeeMis),
+            StrategyArg::Auto => None,
         }
     }
 }
@@ -274,7 +281,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
             width: args.width,
             height: args.height,
             max_depth: args.max_depth,
-            strategy: args.strategy.map(Strategy::from),
+            strategy: args.strategy.and_then(StrategyArg::strategy),
             light_weight: args.light_weight,
             seed: args.seed,
             rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
@@ -318,6 +325,19 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
             ..overrides.clone()
         })
         .map_err(Failure::input)?;
+    if let Some(StrategyArg::Auto) = args.strategy {
+        scene.render.auto_strategy = true;
+    }
+    match &resume {
+        // A resumed run keeps the strategy it was rendered with: the checkpoint's own
+        // (its overrides set it after the pilot; this covers a scene file changed to auto).
+        Some(c) if scene.render.auto_strategy => {
+            scene.render.strategy = c.identity.strategy;
+            scene.render.light_weight = c.identity.light_weight;
+            scene.render.auto_strategy = false;
+        }
+        _ => refuse_auto_conflicts(args, &scene)?,
+    }
     let identity = SceneIdentity::of(&scene);
     let open_ended = args.time.is_some() || args.target_error.is_some();
     let (first_sample, stop, variance) = match &resume {
@@ -440,6 +460,40 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         first_sample,
         resume,
     })
+}
+
+/// `strategy = "auto"` chooses per run: shards merged into one image must share a
+/// strategy, and the pilot chooses the light weight.
+fn refuse_auto_conflicts(args: &RenderArgs, scene: &Scene) -> Result<(), Failure> {
+    if !scene.render.auto_strategy {
+        return Ok(());
+    }
+    let how = if args.strategy.is_some() {
+        "--strategy auto"
+    } else {
+        "the scene's `strategy = \"auto\"`"
+    };
+    let flag = [
+        ("--shard", args.shard.is_some()),
+        ("--sample-range", args.sample_range.is_some()),
+        ("--partial", args.partial.is_some()),
+    ]
+    .into_iter()
+    .find_map(|(flag, given)| given.then_some(flag));
+    if let Some(flag) = flag {
+        return Err(Failure::input(format!(
+            "{flag}: with {how} each part would run its own pilot and could choose another \
+             strategy than the others; give the strategy with --strategy (a render with \
+             --strategy auto prints its choice)"
+        )));
+    }
+    if args.light_weight.is_some() {
+        return Err(Failure::input(format!(
+            "--light-weight: with {how} the pilot chooses the light weight; give --strategy \
+             mixture to set it"
+        )));
+    }
+    Ok(())
 }
 
 /// A checkpoint records its scene and output paths as text (TOML): a path that is
@@ -593,9 +647,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             )));
         }
     }
-    let plan = plan(&args)?;
-    let scene = &plan.scene;
-    let stop = plan.stop;
+    let mut plan = plan(&args)?;
     // From here on a signal stops the run cleanly (during the kernel's build too).
     let signals = Signals::install().map_err(Failure::runtime)?;
     // Held to the end: a second run saving to the same checkpoint is refused.
@@ -612,6 +664,13 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         scene_storage: args.scene_storage.map(SceneStorage::from),
         ..Default::default()
     };
+    let pilot = match plan.scene.render.auto_strategy {
+        true => Some(choose_strategy(&ctx, &mut plan, &options, quiet)?),
+        false => None,
+    };
+    let plan = plan;
+    let scene = &plan.scene;
+    let stop = plan.stop;
     let mut renderer =
         Renderer::new(&ctx, scene, &options).map_err(|e| Failure::input(with_flag(&e)))?;
     match &plan.resume {
@@ -735,6 +794,15 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         summary.elapsed.as_secs_f64(),
         summary.paths_per_second / 1e6
     );
+    if let Some(pilot) = &pilot {
+        println!(
+            "strategy auto: {} (pilot of {} candidate{} in {:.2} s)",
+            pilot.choice,
+            pilot.rows.len(),
+            plural(pilot.rows.len()),
+            pilot.seconds
+        );
+    }
     if plan.first_sample > 0 || outputs.partial.is_some() {
         println!(
             "sample indices {}..{}",
@@ -764,6 +832,63 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// Runs the pilot (`strategy = "auto"`) and makes its choice the run's: the scene's
+/// strategy and light weight, the overrides a checkpoint records (so that a resume
+/// renders with it, without a pilot) and the scene identity.
+fn choose_strategy(
+    ctx: &GpuContext,
+    plan: &mut Plan,
+    options: &RenderOptions,
+    quiet: bool,
+) -> Result<Pilot, Failure> {
+    let input = |e: RenderError| Failure::input(with_flag(&e));
+    let pilot =
+        pilot::run(ctx, &plan.scene, options, plan.stop.max_samples, |_| {}).map_err(input)?;
+    if !quiet {
+        match pilot.rows.len() {
+            0 => eprintln!(
+                "strategy auto: {} (the only candidate: nothing to aim at)",
+                pilot.choice
+            ),
+            n => eprintln!(
+                "strategy auto: pilot of {n} candidate{} at {}x{}, {} spp each, {:.2} s in all \
+                 (efficiency = 1 / (estimated relative MSE x seconds)):\n{}chose {}",
+                plural(n),
+                pilot.width,
+                pilot.height,
+                pilot.spp,
+                pilot.seconds,
+                pilot::table(&pilot),
+                pilot.choice
+            ),
+        }
+        if !pilot.skipped.is_empty() {
+            let names: Vec<String> = pilot.skipped.iter().map(|v| v.name()).collect();
+            eprintln!(
+                "not measured: {} (the pilot had spent {:.0}% of the run's estimated time)",
+                names.join(", "),
+                pilot::BUDGET * 100.0
+            );
+        }
+    }
+    let choice = pilot.choice;
+    let (render, overrides) = (&mut plan.scene.render, &mut plan.overrides);
+    render.strategy = choice.strategy;
+    render.auto_strategy = false;
+    overrides.strategy = Some(choice.strategy);
+    if let Some(weight) = choice.light_weight {
+        render.light_weight = weight;
+        overrides.light_weight = Some(weight);
+    }
+    plan.identity = SceneIdentity::of(&plan.scene);
+    render::check_emission(&plan.scene, plan.stop.max_samples, plan.variance).map_err(input)?;
+    Ok(pilot)
+}
+
+fn plural(count: usize) -> &'static str {
+    if count == 1 { "" } else { "s" }
 }
 
 /// What an interrupted run tells the user (what was saved, how to go on) and its

@@ -919,6 +919,7 @@ mod tests {
             spp: 1,
             max_depth: 4,
             strategy: Strategy::Mixture,
+            auto_strategy: false,
             light_weight: 0.5,
             background: glam::Vec3::ZERO,
             seed: 0,

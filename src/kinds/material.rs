@@ -6,6 +6,7 @@ use super::coat::CoatTables;
 use crate::gpu::layout::{Material, material_flag};
 use crate::scene::{self, Distribution};
 use crate::shader::{ShaderModule, shader_module};
+use std::sync::Mutex;
 
 /// What a material kind's BSDF is made of (the interface is in materials.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -143,6 +144,9 @@ fn beckmann_flag(distribution: Distribution) -> u32 {
     }
 }
 
+/// A coat's distribution, alpha and eta (as bits).
+type CoatKey = (Distribution, u32, u32);
+
 /// The tables of a scene's materials (`MaterialKind::tables`), one array of
 /// floats the kernel reads at the offset a packed material holds. Materials with
 /// the same coat share one table.
@@ -151,7 +155,7 @@ pub struct MaterialTables {
     pub values: Vec<f32>,
     /// The coats tabulated so far (distribution, alpha and eta, as bits), and
     /// their tables' offsets and internal reflectances.
-    coats: Vec<((Distribution, u32, u32), u32, f32)>,
+    coats: Vec<(CoatKey, u32, f32)>,
 }
 
 impl MaterialTables {
@@ -161,12 +165,29 @@ impl MaterialTables {
         if let Some(&(_, offset, internal)) = self.coats.iter().find(|(k, ..)| *k == key) {
             return (offset, internal);
         }
-        let tables = CoatTables::new(distribution, alpha, eta);
+        let tables = coat_tables(key);
         let offset = self.values.len() as u32;
         self.values.extend_from_slice(&tables.transmittance);
         self.coats.push((key, offset, tables.internal_reflectance));
         (offset, tables.internal_reflectance)
     }
+}
+
+/// [`CoatTables::new`] for a coat, computed once per
+/// process: a run may pack its scene once per kernel (the `auto` strategy's pilot
+/// candidates, `converge`'s variants), and each coat costs a million samples.
+fn coat_tables(key: CoatKey) -> CoatTables {
+    static COMPUTED: Mutex<Vec<(CoatKey, CoatTables)>> = Mutex::new(Vec::new());
+    let mut computed = COMPUTED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some((_, tables)) = computed.iter().find(|(k, _)| *k == key) {
+        return tables.clone();
+    }
+    let (distribution, alpha, eta) = key;
+    let tables = CoatTables::new(distribution, f32::from_bits(alpha), f32::from_bits(eta));
+    computed.push((key, tables.clone()));
+    tables
 }
 
 /// Mitsuba steers samples between a coat and its base by the lobes' mean

@@ -12,7 +12,7 @@ use std::fmt;
 use std::path::Path;
 
 pub use envmap::EnvironmentMap;
-pub use parse::SceneOverrides;
+pub use parse::{AUTO_STRATEGY, SceneOverrides};
 
 /// How a diffuse bounce picks its direction (see DESIGN.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -130,6 +130,10 @@ pub struct RenderSettings {
     /// Maximum number of scattering events on a path; 0 shows emission only.
     pub max_depth: u32,
     pub strategy: Strategy,
+    /// `strategy = "auto"`: a pilot (`crate::pilot`) chooses `strategy` and
+    /// `light_weight` before the run, and until then they hold the defaults; a
+    /// renderer refuses the scene while this is set. Setting a strategy clears it.
+    pub auto_strategy: bool,
     /// Weight `w` of the light density in the mixture, in [0, 1].
     pub light_weight: f32,
     /// Radiance of rays that escape the scene.

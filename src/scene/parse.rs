@@ -195,6 +195,8 @@ pub struct SceneOverrides {
 
 type Result<T> = std::result::Result<T, SceneError>;
 
+/// The `render.strategy` that asks for a pilot's choice.
+pub const AUTO_STRATEGY: &str = "auto";
 const U32_MAX: i64 = u32::MAX as i64;
 const IMAGE_SIDE: (i64, i64) = (1, 65536);
 const SPP: (i64, i64) = (1, U32_MAX);
@@ -405,6 +407,7 @@ impl Scene {
         }
         if let Some(v) = o.strategy {
             self.render.strategy = v;
+            self.render.auto_strategy = false;
         }
         if let Some(v) = o.light_weight {
             self.render.light_weight = v;
@@ -522,6 +525,7 @@ fn default_render() -> RenderSettings {
         spp: 100,
         max_depth: 50,
         strategy: Strategy::Mixture,
+        auto_strategy: false,
         light_weight: 0.5,
         background: Vec3::ZERO,
         seed: 0,
@@ -533,17 +537,12 @@ fn default_render() -> RenderSettings {
 fn parse_render(t: &Tab) -> Result<RenderSettings> {
     t.check_keys(RENDER_KEYS, None)?;
     let d = default_render();
+    let (strategy, auto_strategy) = parse_strategy(t)?;
     Ok(RenderSettings {
         spp: t.int("spp", SPP)?.unwrap_or(d.spp),
         max_depth: t.int("max_depth", MAX_DEPTH)?.unwrap_or(d.max_depth),
-        strategy: named(
-            t,
-            "strategy",
-            &Strategy::ALL,
-            Strategy::name,
-            Strategy::from_name,
-        )?
-        .unwrap_or(d.strategy),
+        strategy: strategy.unwrap_or(d.strategy),
+        auto_strategy,
         light_weight: t
             .float("light_weight", check_unit)?
             .unwrap_or(d.light_weight),
@@ -559,6 +558,22 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
         )?
         .unwrap_or(d.sampler),
     })
+}
+
+/// `render.strategy`: a strategy's name, or `auto` (true: the pilot chooses).
+fn parse_strategy(t: &Tab) -> Result<(Option<Strategy>, bool)> {
+    match t.string("strategy")? {
+        None => Ok((None, false)),
+        Some(AUTO_STRATEGY) => Ok((None, true)),
+        Some(given) => match Strategy::from_name(given) {
+            Some(strategy) => Ok((Some(strategy), false)),
+            None => {
+                let mut names: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
+                names.push(AUTO_STRATEGY);
+                Err(t.err(t.at("strategy"), unknown_name("strategy", given, &names)))
+            }
+        },
+    }
 }
 
 /// `[environment]`: the map's file (relative to the scene file), `scale`, and its
@@ -2790,6 +2805,19 @@ material = "white"
             "render.strategy",
             &["did you mean `mixture`?", "`bsdf`"],
         );
+        let e = error("light_weight = 0.5", "strategy = \"autoo\"");
+        assert_error(&e, "render.strategy", &["did you mean `auto`?"]);
+        let s = parse(&BASE.replace("light_weight = 0.5", "strategy = \"auto\""));
+        assert!(s.render.auto_strategy);
+        let mut chosen = s.clone();
+        chosen
+            .apply_overrides(&SceneOverrides {
+                strategy: Some(Strategy::NeeMis),
+                ..SceneOverrides::default()
+            })
+            .unwrap();
+        assert_eq!(chosen.render.strategy, Strategy::NeeMis);
+        assert!(!chosen.render.auto_strategy, "a strategy set replaces auto");
         let e = error("light_weight = 0.5", "sampler = \"sobl\"");
         assert_error(
             &e,

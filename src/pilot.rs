@@ -1,0 +1,347 @@
+//! `strategy = "auto"`: a short pilot renders the scene at low resolution with each
+//! candidate strategy, estimates each one's relative error from its own per-pixel
+//! error estimate (the Sobol replicates' spread, or the sample variance), and ranks
+//! them by efficiency `1 / (relative MSE × seconds)`, as `converge` ranks them
+//! against a reference.
+//!
+//! Candidates: `bsdf`; `nee-mis` where something emits; the mixture at weight 0.5
+//! where anything is aimed at, and at 0.25 and 0.75 only when 0.5 beats the others
+//! (each candidate is a pipeline to compile, and compilation can cost more than the
+//! pilot's samples). `light` is biased and never a candidate. Like the rest of the
+//! engine, this module prints nothing.
+
+use crate::converge::{Variant, rms, short_number};
+use crate::gpu::GpuContext;
+use crate::gpu::accumulator::REPLICATES;
+use crate::render::{self, RenderError, RenderOptions, Renderer, prepare_scene};
+use crate::scene::{Scene, Strategy};
+use crate::stats::{self, Accumulation};
+use std::fmt::Write as _;
+use std::time::Instant;
+
+/// Longest side of the pilot's image, in pixels (the scene's aspect ratio kept).
+pub const SIDE: u32 = 64;
+/// Most samples per pixel a candidate renders in the pilot.
+pub const MAX_SPP: u32 = 64;
+/// Fewest: two per Sobol replicate.
+pub const MIN_SPP: u32 = 2 * REPLICATES;
+/// The pilot measures no further candidate once its wall time reaches this fraction
+/// of the run's estimated time (at the best candidate's speed so far): on a small
+/// image, building the candidates' kernels alone can take longer than the run.
+pub const BUDGET: f64 = 0.1;
+/// The mixture's light weight tried first, and those tried when it wins.
+pub const FIRST_WEIGHT: f32 = 0.5;
+pub const MORE_WEIGHTS: [f32; 2] = [0.25, 0.75];
+
+/// The pilot's image size for a `width` x `height` render.
+pub fn size(width: u32, height: u32) -> (u32, u32) {
+    let longest = width.max(height);
+    if longest <= SIDE {
+        return (width, height);
+    }
+    let side = |s: u32| ((s as f64 * SIDE as f64 / longest as f64).round() as u32).max(1);
+    (side(width), side(height))
+}
+
+/// Samples per pixel of each candidate for a run of `final_spp` (`u32::MAX` when a
+/// time or error target ends it): the run's own count within [`MIN_SPP`, `MAX_SPP`],
+/// a multiple of the replicates. Under the Sobol sampler the error falls faster than
+/// `1/sqrt(n)`, by how much depends on the strategy, so the ranking is measured near
+/// the run's sample count.
+pub fn spp(final_spp: u32) -> u32 {
+    final_spp.clamp(MIN_SPP, MAX_SPP) / REPLICATES * REPLICATES
+}
+
+/// The first candidates for `scene`, in the order measured: `mixture` at
+/// [`FIRST_WEIGHT`] where the scene has anything to aim at, `nee-mis` where it has an
+/// emitter for its shadow rays (the fallbacks of [`prepare_scene`] decide both), and
+/// `bsdf`. The default strategy first: a pilot cut short by its budget keeps it.
+pub fn first_candidates(scene: &Scene) -> Result<Vec<Variant>, RenderError> {
+    let mut candidates = Vec::new();
+    if prepare_scene(scene, Strategy::Mixture)?.1 == Strategy::Mixture {
+        candidates.push(Variant::mixture(FIRST_WEIGHT));
+    }
+    if prepare_scene(scene, Strategy::NeeMis)?.1 == Strategy::NeeMis {
+        candidates.push(Variant::NEE_MIS);
+    }
+    candidates.push(Variant::BSDF);
+    Ok(candidates)
+}
+
+/// One candidate's pilot run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub variant: Variant,
+    pub spp: u32,
+    /// Time of the pilot's samples: the pipeline's compilation and first two
+    /// one-sample dispatches (where lavapipe compiles) are not counted.
+    pub seconds: f64,
+    /// Wall time before those samples: building the renderer and the two warm-up
+    /// dispatches, mostly the kernel's compilation (little with a warm shader cache).
+    pub build_seconds: f64,
+    /// [`relative_noise`] of the candidate's pilot image; `None` for a black image.
+    pub relative_error: Option<f64>,
+    /// `1 / (relative_error² × seconds)`: infinite for an image without noise.
+    pub efficiency: Option<f64>,
+}
+
+/// The pilot's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pilot {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel of each candidate.
+    pub spp: u32,
+    /// In the order measured; empty when `bsdf` was the only candidate.
+    pub rows: Vec<Row>,
+    /// Candidates left unmeasured: the pilot had spent its [`BUDGET`].
+    pub skipped: Vec<Variant>,
+    pub choice: Variant,
+    /// Wall time of the whole pilot: pipelines, warm-up, samples and readbacks.
+    pub seconds: f64,
+}
+
+/// The relative RMSE the noise explains: the RMS over pixels and channels of the
+/// per-pixel standard error of the mean ([`Accumulation::standard_error`]), over the
+/// mean over pixels and channels of the image. It estimates what `converge` measures
+/// against a reference ([`stats::relative_rmse`]). `None` without an error estimate
+/// or for a black image.
+pub fn relative_noise(accumulation: &Accumulation) -> Option<f64> {
+    let error = accumulation.standard_error()?;
+    let mean = stats::mean_value(&accumulation.mean());
+    (mean > 0.0).then(|| rms(&error) / mean)
+}
+
+/// `1 / (relative_error² × seconds)`.
+fn efficiency(relative_error: Option<f64>, seconds: f64) -> Option<f64> {
+    relative_error.map(|e| 1.0 / (e * e * seconds.max(1e-9)))
+}
+
+/// The best row: the highest efficiency, then the fastest (a black or noiseless
+/// pilot ranks by time alone).
+pub fn best(rows: &[Row]) -> Option<&Row> {
+    rows.iter().max_by(|a, b| {
+        let rank = |r: &Row| r.efficiency.unwrap_or(-1.0);
+        rank(a)
+            .total_cmp(&rank(b))
+            .then(b.seconds.total_cmp(&a.seconds))
+    })
+}
+
+/// Renders `variant` of `scene` at `width` x `height` and `spp`, with `options`
+/// (variance on, for the error estimate): the row, and the sums it came from.
+pub fn measure(
+    ctx: &GpuContext,
+    scene: &Scene,
+    options: &RenderOptions,
+    variant: Variant,
+    (width, height): (u32, u32),
+    spp: u32,
+) -> Result<(Row, Accumulation), RenderError> {
+    let mut scene = scene.clone();
+    scene.camera.width = width;
+    scene.camera.height = height;
+    scene.render.strategy = variant.strategy;
+    scene.render.auto_strategy = false;
+    if let Some(weight) = variant.light_weight {
+        scene.render.light_weight = weight;
+    }
+    render::check_emission(&scene, spp, true)?;
+    let built = Instant::now();
+    let options = RenderOptions {
+        variance: true,
+        ..options.clone()
+    };
+    let mut renderer = Renderer::new(ctx, &scene, &options)?;
+    // lavapipe compiles at the first dispatch, sometimes again at the second.
+    renderer.advance(1);
+    renderer.advance(1);
+    renderer.reset();
+    let build_seconds = built.elapsed().as_secs_f64();
+    let started = Instant::now();
+    while renderer.samples() < spp {
+        renderer.advance(spp - renderer.samples());
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    renderer.check_counters()?;
+    let accumulation = renderer.accumulation();
+    render::check_sums_finite(&accumulation)?;
+    let relative_error = relative_noise(&accumulation);
+    let row = Row {
+        variant,
+        spp,
+        seconds,
+        build_seconds,
+        relative_error,
+        efficiency: efficiency(relative_error, seconds),
+    };
+    Ok((row, accumulation))
+}
+
+/// Runs the pilot for a render of `scene` (its size) at `final_spp` samples per pixel
+/// (`u32::MAX`: a time or error target decides) with `options`, and chooses the
+/// candidate of highest efficiency among those measured within the [`BUDGET`].
+/// `on_row` sees each row as it is measured.
+pub fn run(
+    ctx: &GpuContext,
+    scene: &Scene,
+    options: &RenderOptions,
+    final_spp: u32,
+    mut on_row: impl FnMut(&Row),
+) -> Result<Pilot, RenderError> {
+    let started = Instant::now();
+    let (width, height) = size(scene.camera.width, scene.camera.height);
+    let spp = spp(final_spp);
+    let candidates = first_candidates(scene)?;
+    let mut rows: Vec<Row> = Vec::new();
+    let mut skipped = Vec::new();
+    // The run's time at the best candidate's speed (unknown for an open-ended run).
+    let pixels = |w: u32, h: u32| w as f64 * h as f64;
+    let scale = pixels(scene.camera.width, scene.camera.height) * final_spp as f64
+        / (pixels(width, height) * spp as f64);
+    let mut try_each = |variants: &[Variant], rows: &mut Vec<Row>| -> Result<(), RenderError> {
+        for &variant in variants {
+            let run_seconds = best(rows).map(|r| r.seconds * scale);
+            let spent = started.elapsed().as_secs_f64();
+            if final_spp != u32::MAX && run_seconds.is_some_and(|run| spent >= BUDGET * run) {
+                skipped.push(variant);
+                continue;
+            }
+            let (row, _) = measure(ctx, scene, options, variant, (width, height), spp)?;
+            on_row(&row);
+            rows.push(row);
+        }
+        Ok(())
+    };
+    if candidates.len() > 1 {
+        try_each(&candidates, &mut rows)?;
+        let all_measured = rows.len() == candidates.len();
+        if all_measured && best(&rows).map(|r| r.variant) == Some(Variant::mixture(FIRST_WEIGHT)) {
+            try_each(&MORE_WEIGHTS.map(Variant::mixture), &mut rows)?;
+        }
+    }
+    let choice = best(&rows).map_or(candidates[0], |r| r.variant);
+    Ok(Pilot {
+        width,
+        height,
+        spp,
+        rows,
+        skipped,
+        choice,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// The pilot's table, one line per candidate: samples, seconds of the samples and of
+/// the build before them, estimated relative error, efficiency, and efficiency
+/// relative to the best.
+pub fn table(pilot: &Pilot) -> String {
+    let best = best(&pilot.rows).and_then(|r| r.efficiency);
+    let mut out = format!(
+        "{:<14} {:>5} {:>9} {:>9} {:>11} {:>11} {:>8}\n",
+        "candidate", "spp", "seconds", "build s", "rel. error", "efficiency", "vs best"
+    );
+    let dash = || "–".to_string();
+    for r in &pilot.rows {
+        let relative = match (r.efficiency, best) {
+            (Some(e), Some(b)) if b.is_finite() && b > 0.0 => format!("{:.2}", e / b),
+            _ => dash(),
+        };
+        let _ = writeln!(
+            out,
+            "{:<14} {:>5} {:>9} {:>9} {:>11} {:>11} {:>8}",
+            r.variant.name(),
+            r.spp,
+            short_number(r.seconds),
+            short_number(r.build_seconds),
+            r.relative_error.map_or_else(dash, short_number),
+            r.efficiency.map_or_else(dash, short_number),
+            relative
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(variant: Variant, seconds: f64, relative_error: Option<f64>) -> Row {
+        Row {
+            variant,
+            spp: 64,
+            seconds,
+            build_seconds: 0.25,
+            relative_error,
+            efficiency: efficiency(relative_error, seconds),
+        }
+    }
+
+    #[test]
+    fn the_pilot_image_keeps_the_aspect_ratio_within_the_side() {
+        assert_eq!(size(600, 600), (64, 64));
+        assert_eq!(size(768, 512), (64, 43));
+        assert_eq!(size(400, 225), (64, 36));
+        assert_eq!(size(225, 400), (36, 64));
+        assert_eq!(size(32, 32), (32, 32));
+        assert_eq!(size(4000, 10), (64, 1));
+    }
+
+    #[test]
+    fn pilot_samples_follow_the_run_within_bounds_in_whole_replicates() {
+        assert_eq!(spp(1000), MAX_SPP);
+        assert_eq!(spp(u32::MAX), MAX_SPP);
+        assert_eq!(spp(64), 64);
+        assert_eq!(spp(30), 28);
+        assert_eq!(spp(1), MIN_SPP);
+        assert_eq!(MIN_SPP % REPLICATES, 0);
+        assert_eq!(MAX_SPP % REPLICATES, 0);
+    }
+
+    #[test]
+    fn the_best_has_the_highest_efficiency_then_the_least_time() {
+        // 1/(0.125² × 1) = 64 against 1/(0.0625² × 8) = 32.
+        let rows = [
+            row(Variant::BSDF, 1.0, Some(0.125)),
+            row(Variant::NEE_MIS, 8.0, Some(0.0625)),
+            row(Variant::mixture(0.5), 0.5, None),
+        ];
+        assert_eq!(rows[0].efficiency, Some(64.0));
+        assert_eq!(rows[1].efficiency, Some(32.0));
+        assert_eq!(best(&rows).unwrap().variant, Variant::BSDF);
+        let black = [
+            row(Variant::BSDF, 1.0, None),
+            row(Variant::mixture(0.5), 0.5, None),
+        ];
+        assert_eq!(best(&black).unwrap().variant, Variant::mixture(0.5));
+        let noiseless = [
+            row(Variant::BSDF, 1.0, Some(0.0)),
+            row(Variant::NEE_MIS, 2.0, Some(0.0)),
+        ];
+        assert_eq!(best(&noiseless).unwrap().variant, Variant::BSDF);
+        assert_eq!(best(&[]), None);
+    }
+
+    #[test]
+    fn the_table_has_a_line_per_candidate_relative_to_the_best() {
+        let pilot = Pilot {
+            width: 64,
+            height: 64,
+            spp: 64,
+            rows: vec![
+                row(Variant::BSDF, 1.0, Some(0.1)),
+                row(Variant::NEE_MIS, 2.0, Some(0.1)),
+            ],
+            skipped: Vec::new(),
+            choice: Variant::BSDF,
+            seconds: 3.5,
+        };
+        let text = table(&pilot);
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3);
+        assert!(lines[0].starts_with("candidate"), "{text}");
+        assert!(lines[1].starts_with("bsdf") && lines[1].ends_with("1.00"));
+        assert!(lines[2].starts_with("nee-mis") && lines[2].ends_with("0.50"));
+        assert!(lines[2].contains(" 50.0 "), "{text}");
+    }
+}
