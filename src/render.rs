@@ -255,6 +255,16 @@ impl<'a> Renderer<'a> {
                         never_hit = vec![0; size_of::<crate::gpu::layout::Material>()];
                         &never_hit[..]
                     }
+                    // A light of no intensity: a general kernel's shadow rays find nothing.
+                    ArraySource::DeltaLights if data.delta_lights.is_empty() => {
+                        never_hit = bytemuck::bytes_of(&crate::lights::DeltaLight {
+                            pmf: 1.0,
+                            cdf: 1.0,
+                            ..Default::default()
+                        })
+                        .to_vec();
+                        &never_hit[..]
+                    }
                     // Nor does a general kernel read tables of materials the scene lacks.
                     ArraySource::MaterialTables if data.material_tables.is_empty() => {
                         never_hit = vec![0; size_of::<f32>()];

@@ -12,7 +12,7 @@ use crate::gpu::accumulator::{
 };
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
 use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
-use crate::lights::{LightGroup, LightPick};
+use crate::lights::{DeltaLight, LightGroup, LightPick};
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
@@ -30,6 +30,7 @@ pub const KERNEL: ShaderModule = shader_module!("kernel");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
+pub const DELTA_LIGHTS: ShaderModule = shader_module!("delta_lights");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -46,6 +47,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "ONE_SIDED",
     "ENVIRONMENT",
     "LIGHT_ENVIRONMENT",
+    "DELTA_LIGHTS",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -128,6 +130,8 @@ pub enum ArraySource {
     /// The environment map's tables (`environment::EnvironmentTables`): always
     /// read from buffers, a map being far too large to bake.
     Environment(EnvironmentPart),
+    /// The point and spot lights (`lights::DeltaLight`).
+    DeltaLights,
 }
 
 impl ArraySource {
@@ -243,6 +247,9 @@ pub struct KernelConfig {
     pub environment: bool,
     /// The environment map is one object of the light density.
     pub light_environment: bool,
+    /// Point and spot lights, estimated by a shadow ray at every vertex with a
+    /// smooth lobe whatever the strategy (none without a smooth material).
+    pub delta_lights: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -286,6 +293,7 @@ impl KernelConfig {
             one_sided: data.has_one_sided_materials(),
             environment,
             light_environment: samples_lights && environment,
+            delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
         }
     }
 
@@ -327,6 +335,7 @@ impl KernelConfig {
             one_sided: true,
             environment: true,
             light_environment: strategy != Strategy::Bsdf,
+            delta_lights: true,
         }
     }
 
@@ -388,6 +397,7 @@ impl KernelConfig {
             ),
             ("ENVIRONMENT", self.environment),
             ("LIGHT_ENVIRONMENT", self.light_environment),
+            ("DELTA_LIGHTS", self.delta_lights),
         ];
         for (flag, on) in features {
             if on {
@@ -426,6 +436,9 @@ impl KernelConfig {
             modules.push(ENVIRONMENT);
         }
         modules.extend(self.material_modules());
+        if self.delta_lights {
+            modules.push(DELTA_LIGHTS);
+        }
         modules.push(STRATEGY);
         modules.push(match self.accumulator {
             AccumulatorKind::Texture => ACCUMULATE_TEXTURE,
@@ -662,6 +675,17 @@ impl KernelConfig {
                 });
             }
         }
+        if self.delta_lights {
+            arrays.push(SceneArray {
+                name: "delta_lights".into(),
+                wgsl_type: DeltaLight::WGSL_NAME,
+                element_size: size_of::<DeltaLight>(),
+                // After the material tables.
+                binding: 7 + 7 * count,
+                indexed: true,
+                source: ArraySource::DeltaLights,
+            });
+        }
         arrays
     }
 
@@ -673,7 +697,7 @@ impl KernelConfig {
                 ArraySource::Primitives(k) => data.primitives[k].len(),
                 ArraySource::Lights(k) => data.lights[k].len(),
                 ArraySource::Normals(k) => data.primitives[k].len(),
-                ArraySource::LightTable(..) => {
+                ArraySource::LightTable(..) | ArraySource::DeltaLights => {
                     data.array_bytes(array.source).len() / array.element_size
                 }
                 ArraySource::BvhNodes => {
@@ -789,6 +813,7 @@ impl SceneData {
                 }
             }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
+            ArraySource::DeltaLights => bytemuck::cast_slice(&self.delta_lights),
             ArraySource::Environment(part) => {
                 let tables = self
                     .environment
@@ -859,8 +884,8 @@ mod tests {
                             (true, false) => primitive_kinds,
                         };
                         let variance = mask >> primitives & 1 != 0;
-                        // Smooth shading goes with variance (two independent features
-                        // on one bit, to keep the variants few).
+                        // Smooth shading and delta lights go with variance (independent
+                        // features on one bit, to keep the variants few).
                         let normal_kinds = primitive_kinds
                             .iter()
                             .filter(|&k| variance && general.normal_kinds.contains(k))
@@ -874,6 +899,7 @@ mod tests {
                             bvh: mask >> (primitives + 1) != 0,
                             environment: false,
                             light_environment: false,
+                            delta_lights: variance && has_smooth_lobe(material_kinds),
                             ..general.clone()
                         });
                     }
@@ -1229,6 +1255,7 @@ mod tests {
                 .with(kind_index("light")),
             environment: false,
             light_environment: false,
+            delta_lights: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let source = config.source().unwrap();
@@ -1241,6 +1268,7 @@ mod tests {
             "shading_normal(",
             "bsdf_leaks",
             "environment",
+            "delta_light",
         ] {
             assert!(!source.contains(absent), "{absent} compiled in");
         }
@@ -1400,6 +1428,7 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<crate::lights::LightGroup>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
         check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
+        check_layout(&module, ErasedLayout::of::<DeltaLight>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {

@@ -29,7 +29,7 @@ type Result<T> = std::result::Result<T, SceneError>;
 const UNBOUNDED_DEPTH: i64 = 100_000;
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
-                               plastic, roughplastic, twosided";
+                               thindielectric, plastic, roughplastic, twosided";
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const SUPPORTED_TOP: &str = "default, include, path, integrator, sensor, shape, bsdf, emitter";
 
@@ -970,9 +970,9 @@ impl<'a> Builder<'a> {
                     ior: int_ior / ext_ior,
                 }
             }
-            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "plastic"
-            | "roughplastic") => {
-                let transmits = ty == "roughdielectric";
+            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "thindielectric"
+            | "plastic" | "roughplastic") => {
+                let transmits = ty.ends_with("dielectric");
                 Surface::Mitsuba {
                     table: mitsuba_material(ty, &mut props)?,
                     transmits,
@@ -1567,7 +1567,7 @@ impl<'a> Builder<'a> {
 }
 
 /// The pathmix material of Mitsuba's `conductor`, `roughconductor`,
-/// `roughdielectric`, `plastic` or `roughplastic`: the same parameter names (the TOML parser
+/// `roughdielectric`, `thindielectric`, `plastic` or `roughplastic`: the same parameter names (the TOML parser
 /// validates them and fills Mitsuba's defaults), IORs given by name turned into
 /// numbers; a conductor's named `material` stays a name.
 fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
@@ -1576,7 +1576,7 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     let rough = ty.starts_with("rough");
     let colors: &[&str] = match ty {
         "conductor" | "roughconductor" => &["eta", "k", "specular_reflectance"],
-        "roughdielectric" => &["specular_reflectance", "specular_transmittance"],
+        "roughdielectric" | "thindielectric" => &["specular_reflectance", "specular_transmittance"],
         _ => &["diffuse_reflectance", "specular_reflectance"],
     };
     for &name in colors {
