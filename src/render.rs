@@ -717,7 +717,8 @@ fn next_paths_per_submission(paths: u64, elapsed: Duration, target_seconds: f64)
 /// really uses, and what the user should be told. Next-event estimation aims only
 /// at emitters (a shadow ray toward a non-emitting importance object finds no
 /// light). A strategy with nothing to aim at falls back to the materials' own (`bsdf`) sampling, except
-/// `light`, which is refused there and warned about everywhere (it is biased).
+/// `light`, which is refused there unless the scene has point or spot lights (which every
+/// strategy estimates by shadow rays), and warned about everywhere (it is biased).
 pub fn prepare_scene(
     scene: &Scene,
     wanted: Strategy,
@@ -729,13 +730,20 @@ pub fn prepare_scene(
     let mut warnings = scene.warnings.clone();
     let mut strategy = wanted;
     if data.light_count() == 0 && data.environment.is_none() && strategy != Strategy::Bsdf {
-        if strategy == Strategy::Light {
+        // Point and spot lights are estimated by shadow rays whatever the strategy.
+        let delta_lights = !data.delta_lights.is_empty();
+        if strategy == Strategy::Light && !delta_lights {
             return Err(RenderError::LightStrategyWithoutTargets {
                 scene: scene.source.clone(),
             });
         }
+        let also = if delta_lights {
+            " (point and spot lights are estimated by shadow rays under every strategy)"
+        } else {
+            ""
+        };
         warnings.push(format!(
-            "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to bsdf sampling (the materials' own: cosine-weighted on diffuse surfaces)",
+            "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to bsdf sampling (the materials' own: cosine-weighted on diffuse surfaces){also}",
             scene.source
         ));
         strategy = Strategy::Bsdf;
