@@ -1,7 +1,7 @@
 // Point and spot lights (Mitsuba's `point` and `spot`): delta lights, which no
 // sampled direction can hit. Whatever the strategy, each vertex with a smooth
-// lobe sends one shadow ray toward one of them, picked in proportion to its
-// power; the kernel traces it and adds what it carries where nothing is in the way.
+// lobe sends shadow rays toward them (`delta_shadow_rays`); the kernel traces
+// them and adds what they carry where nothing is in the way.
 
 // Mirrors `lights::DeltaLight`.
 struct DeltaLight {
@@ -33,25 +33,46 @@ fn delta_light_falloff(light: DeltaLight, cos_theta: f32) -> f32 {
     return select(0.0, beam, cos_theta > light.cos_cutoff);
 }
 
-// `p` is the hit point, `normal` its geometric normal.
-fn delta_light_shadow(m: Material, frame: Frame, wo: vec3<f32>, p: vec3<f32>, normal: vec3<f32>) -> DeltaShadow {
-    // Drawn at every vertex, to keep the dimensions of what follows aligned.
-    let u = sample_1d();
-    let none = DeltaShadow(Ray(p, vec3<f32>(0.0)), 0.0, vec3<f32>(0.0));
-    if !bsdf_is_smooth(m) {
-        return none;
-    }
+// Whether delta lights light this vertex: a smooth lobe, and a side that scatters.
+fn delta_lights_reach(m: Material, frame: Frame) -> bool {
 #if ONE_SIDED
     if (m.flags & MATERIAL_ONE_SIDED) != 0u && !frame.front_face {
-        return none;
+        return false;
     }
 #endif
+    return bsdf_is_smooth(m);
+}
+
+// Shadow rays per vertex: one toward each light, or, in scenes with more than
+// `KernelConfig::MAX_DELTA_SHADOW_RAYS`, one toward a light picked by power.
+fn delta_shadow_rays() -> u32 {
+#if DELTA_LIGHTS_PICK
+    return 1u;
+#else
+    return delta_lights_count();
+#endif
+}
+
+// The light of shadow ray `i`, its `pmf` the probability that a vertex estimates it.
+fn delta_light_chosen(i: u32) -> DeltaLight {
+#if DELTA_LIGHTS_PICK
+    let u = sample_1d();
     var light = delta_lights_at(0u);
-    for (var i = 1u; i < delta_lights_count(); i++) {
+    for (var j = 1u; j < delta_lights_count(); j++) {
         if u >= light.cdf {
-            light = delta_lights_at(i);
+            light = delta_lights_at(j);
         }
     }
+    return light;
+#else
+    var light = delta_lights_at(i);
+    light.pmf = 1.0;
+    return light;
+#endif
+}
+
+// The shadow ray toward `light` from the hit point `p` (geometric normal `normal`).
+fn delta_light_shadow(m: Material, frame: Frame, wo: vec3<f32>, p: vec3<f32>, normal: vec3<f32>, light: DeltaLight) -> DeltaShadow {
     let to_light = light.position - p;
     let distance_sqr = dot(to_light, to_light);
     let wi = to_light * inverseSqrt(distance_sqr);

@@ -820,16 +820,14 @@ pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 
 
 /// The most loop iterations one path vertex can take (see `max_samples_per_dispatch`).
 fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
-    let mut inner_loops = match config.scene_storage() {
-        SceneStorage::Baked => data.light_density_iterations(BVH_ITERATIONS_PER_RAY, true),
-        SceneStorage::Buffers => {
-            data.primitive_count() as u64
-                + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, false)
-        }
-        SceneStorage::Bvh => {
-            BVH_ITERATIONS_PER_RAY + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, false)
-        }
+    let closest_hit = match config.scene_storage() {
+        SceneStorage::Baked => 0,
+        SceneStorage::Buffers => data.primitive_count() as u64,
+        SceneStorage::Bvh => BVH_ITERATIONS_PER_RAY,
     };
+    let baked = config.scene_storage() == SceneStorage::Baked;
+    let mut inner_loops =
+        closest_hit + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, baked);
     // The environment's sampling bisects its two CDFs.
     if let Some(tables) = data
         .environment
@@ -841,6 +839,15 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     }
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;
+    }
+    // The delta lights' shadow rays: a linear pick and one closest hit, or one
+    // closest hit per light.
+    if config.delta_lights {
+        let lights = data.delta_lights.len() as u64;
+        inner_loops += match config.delta_light_pick {
+            true => lights + closest_hit,
+            false => lights * (closest_hit + 1),
+        };
     }
     // One spare iteration per vertex, for safety.
     inner_loops + 2

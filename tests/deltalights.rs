@@ -309,3 +309,98 @@ fn thindielectric_conserves_energy_in_a_furnace() {
     let acc = common::render(ctx, &scene, &RenderOptions::default());
     common::assert_every_pixel_is(&acc, 1.0, 1e-6, "thindielectric furnace");
 }
+
+/// Beyond `KernelConfig::MAX_DELTA_SHADOW_RAYS` lights each vertex picks one by
+/// power: 72 point lights of unequal intensities over a diffuse floor still give
+/// a/pi sum I cos / d^2 (within 4 standard errors).
+#[test]
+fn many_point_lights_picked_by_power_give_the_analytic_irradiance() {
+    let ctx = gpu_or_skip!();
+    let albedo = 0.5f64;
+    let count = pathmix::kernel::KernelConfig::MAX_DELTA_SHADOW_RAYS + 8;
+    let mut lights = String::new();
+    let mut irradiance = 0.0;
+    for i in 0..count {
+        let angle = i as f64 * 2.399963;
+        let radius = 0.5 + 0.05 * i as f64;
+        let p = [
+            radius * angle.cos(),
+            1.0 + 0.02 * i as f64,
+            radius * angle.sin(),
+        ];
+        let intensity = 0.2 + (i % 7) as f64 * 0.3;
+        let d2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+        irradiance += intensity * (p[1] / d2.sqrt()) / d2;
+        lights +=
+            &format!("[[lights]]\ntype = \"point\"\nposition = {p:?}\nintensity = {intensity}\n");
+    }
+    let expected = albedo / PI * irradiance;
+    let scene = common::scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 0.5, 0]
+        lookat = [0, 0, 0]
+        vup = [0, 0, -1]
+        vfov = 0.01
+        width = 4
+        height = 4
+        [render]
+        spp = 4096
+        max_depth = 1
+        sampler = "independent"
+        [materials.floor]
+        type = "lambertian"
+        albedo = [{albedo}, {albedo}, {albedo}]
+        [[objects]]
+        type = "quad"
+        q = [-10, 0, -10]
+        u = [0, 0, 20]
+        v = [20, 0, 0]
+        material = "floor"
+        {lights}
+        "#
+    ));
+    let acc = common::render(ctx, &scene, &common::with_variance());
+    let (mean, error) = common::image_mean_and_error(&acc);
+    println!("{count} lights: {mean:.5} ± {error:.5}, expected {expected:.5}");
+    assert!(error > 0.0, "picking one light per vertex is noisy");
+    assert!(
+        (mean - expected).abs() < 4.0 * error,
+        "{mean} ± {error} against {expected}"
+    );
+}
+
+/// A bad light exits with code 2 naming the file and the field, writing nothing.
+#[test]
+fn bad_lights_exit_2_naming_file_and_field() {
+    let dir = std::env::temp_dir().join(format!("pathmix-deltalights-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = "[camera]\nlookfrom = [0, 1, -3]\nlookat = [0, 0, 0]\n[[lights]]\n";
+    for (light, field, message) in [
+        (
+            "type = \"point\"\nposition = [0, 1, 0]\nintensity = [1, -1, 1]",
+            "lights[0].intensity[1]",
+            "must be >= 0",
+        ),
+        (
+            "type = \"spot\"\nposition = [0, 1, 0]\nintensity = 1\ndirection = [0, -1, 0]\ncutoff_angle = 200",
+            "lights[0].cutoff_angle",
+            "must be in (0, 180) degrees",
+        ),
+    ] {
+        let scene = dir.join("case.toml");
+        std::fs::write(&scene, format!("{base}{light}\n")).unwrap();
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_pathmix"))
+            .args(["render", scene.to_str().unwrap(), "-o"])
+            .arg(dir.join("out.png"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        for part in ["case.toml", field, message] {
+            assert!(stderr.contains(part), "{part:?} not in {stderr}");
+        }
+        assert!(!dir.join("out.png").exists());
+    }
+}

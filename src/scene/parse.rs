@@ -164,10 +164,10 @@
 //!
 //! ## `[[lights]]` (array of tables, optional)
 //! Point and spot lights, Mitsuba's `point` and `spot` emitters. They are delta lights:
-//! no sampled direction can hit them, so under every strategy they are estimated by a
-//! shadow ray (next-event estimation) at each vertex with a smooth lobe, one light picked
-//! per vertex in proportion to its power, added to whatever the strategy estimates for
-//! the other lights. They light nothing through a delta lobe (a mirror, glass, the coat
+//! no sampled direction can hit them, so under every strategy they are estimated by
+//! shadow rays (next-event estimation) at each vertex with a smooth lobe, one toward each
+//! (beyond 64 lights, one toward a light picked in proportion to its power), added to
+//! whatever the strategy estimates for the other lights. They light nothing through a delta lobe (a mirror, glass, the coat
 //! of `plastic`), and no ray sees them.
 //! - `type = "point"`: `position` (vector, required), `intensity` (W/sr: vector, or one
 //!   number for grey, components >= 0, required): irradiance `intensity cos / d^2`.
