@@ -436,9 +436,9 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             ":2:1: <shape type=\"cylinder\">: not supported (supported: obj, ply, rectangle, cube, disk, sphere)",
         ),
         (
-            "point",
-            "<scene version=\"3.0.0\">\n<emitter type=\"point\"/>\n</scene>",
-            ":2:1: <emitter type=\"point\">: not supported",
+            "directional",
+            "<scene version=\"3.0.0\">\n<emitter type=\"directional\"/>\n</scene>",
+            ":2:1: <emitter type=\"directional\">: not supported (supported: area, constant, envmap, point, spot)",
         ),
         (
             "envmap",
