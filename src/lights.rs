@@ -5,6 +5,9 @@
 //! in O(1). The density of a direction sums every primitive of the kind the ray
 //! meets, found through a BVH over the light primitives alone, so evaluating it
 //! costs O(log n), not O(n).
+//!
+//! Also the point and spot lights ([`DeltaLight`]), which are no part of the
+//! light density: the kernel sends them shadow rays of their own.
 
 use crate::accel::Bvh;
 use crate::gpu::layout::{Material, PackedArray, SceneData, gpu_struct};

@@ -338,25 +338,6 @@ pub struct Spot {
     pub beam_width: f32,
 }
 
-impl PointLight {
-    /// Mitsuba's falloff (`spot.cpp`'s `falloff_curve`) toward unit direction
-    /// `dir` from the light: what multiplies the intensity.
-    pub fn falloff(&self, dir: Vec3) -> f32 {
-        let Some(spot) = self.spot else {
-            return 1.0;
-        };
-        let (cutoff, beam) = (spot.cutoff_angle.to_radians(), spot.beam_width.to_radians());
-        let cos_theta = dir.dot(spot.direction);
-        if cos_theta <= cutoff.cos() {
-            0.0
-        } else if cos_theta >= beam.cos() {
-            1.0
-        } else {
-            (cutoff - cos_theta.acos()) / (cutoff - beam)
-        }
-    }
-}
-
 /// A validated scene: world-space primitives after box expansion and transforms.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
