@@ -170,6 +170,22 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
                     front_face,
                     select(-hit.normal, hit.normal, front_face),
                 );
+#if DELTA_LIGHTS
+                // No strategy's sampled direction finds a point or spot light: every
+                // strategy estimates them by these shadow rays.
+                if delta_lights_reach(material, frame) {
+                    for (var j = 0u; j < delta_shadow_rays(); j++) {
+                        let delta = delta_light_shadow(material, frame, -ray.dir, hit.p, hit.normal, delta_light_chosen(j));
+                        if any(delta.weight > vec3<f32>(0.0)) {
+                            let delta_hit = intersect_scene(delta.ray);
+                            segments += 1u;
+                            if delta_hit.t >= delta.distance {
+                                radiance += throughput * delta.weight;
+                            }
+                        }
+                    }
+                }
+#endif
                 let scattered = scatter(material, frame, -ray.dir, hit.p + frame.ng * params.ray_offset);
 #if STRATEGY_NEE
                 // The shadow ray is traced within the vertex's iteration. As an

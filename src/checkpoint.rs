@@ -107,6 +107,7 @@ impl SceneIdentity {
             triangles,
             // Follows from the mesh files, whose faces are hashed.
             degenerate_triangles: _,
+            point_lights,
             // Messages only: what they describe is in the materials.
             warnings: _,
             environment,
@@ -140,11 +141,11 @@ impl SceneIdentity {
                 _ => debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height, filter)),
             },
             materials_hash: debug_hash(materials),
-            // Without disks the geometry hashes as before disks existed.
-            geometry_hash: if disks.is_empty() {
-                debug_hash(&(quads, spheres, triangles))
-            } else {
-                debug_hash(&(quads, disks, spheres, triangles))
+            // Without disks or point lights the geometry hashes as before they existed.
+            geometry_hash: match (disks.is_empty(), point_lights.is_empty()) {
+                (true, true) => debug_hash(&(quads, spheres, triangles)),
+                (false, true) => debug_hash(&(quads, disks, spheres, triangles)),
+                _ => debug_hash(&(quads, disks, spheres, triangles, point_lights)),
             },
             // Without an environment map the settings hash as before maps existed.
             settings_hash: match environment {

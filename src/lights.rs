@@ -5,9 +5,13 @@
 //! in O(1). The density of a direction sums every primitive of the kind the ray
 //! meets, found through a BVH over the light primitives alone, so evaluating it
 //! costs O(log n), not O(n).
+//!
+//! Also the point and spot lights ([`DeltaLight`]), which are no part of the
+//! light density: the kernel sends them shadow rays of their own.
 
 use crate::accel::Bvh;
 use crate::gpu::layout::{Material, PackedArray, SceneData, gpu_struct};
+use crate::scene::PointLight;
 
 gpu_struct! {
     /// A group's primitives: `count` from `first` on in the kind's light array.
@@ -29,6 +33,100 @@ gpu_struct! {
         /// This primitive's probability within its group.
         pub pmf: f32,
     }
+}
+
+gpu_struct! {
+    /// A point or spot light as the kernel reads it (`shaders/delta_lights.wgsl`).
+    /// A point light is a spot whose cone covers every direction.
+    pub struct DeltaLight {
+        pub position: [f32; 3],
+        /// Cosine of the cutoff angle: dark at and beyond it (-2 for a point light).
+        pub cos_cutoff: f32,
+        pub intensity: [f32; 3],
+        /// Cosine of the beam width: full intensity at and within it.
+        pub cos_beam: f32,
+        /// The cone's axis (unit).
+        pub direction: [f32; 3],
+        /// The cutoff angle in radians.
+        pub cutoff: f32,
+        /// 1 / (cutoff - beam width) in radians; 0 where they are equal (then unused).
+        pub inv_transition: f32,
+        /// The probability of picking this light at a vertex.
+        pub pmf: f32,
+        /// The probabilities of the lights up to this one, included (1 for the last).
+        pub cdf: f32,
+        pub _pad: f32,
+    }
+}
+
+/// The packed delta lights, each picked in proportion to its power: the
+/// intensity's luminance times the solid angle it lights (a spot's counted to
+/// the middle of its falloff). Lights that all have no power are picked uniformly.
+pub fn pack_delta_lights(lights: &[PointLight]) -> Vec<DeltaLight> {
+    let power: Vec<f64> = lights
+        .iter()
+        .map(|l| {
+            let solid_angle = match l.spot {
+                None => 4.0 * std::f64::consts::PI,
+                Some(spot) => {
+                    let middle = 0.5 * (spot.cutoff_angle as f64 + spot.beam_width as f64);
+                    2.0 * std::f64::consts::PI * (1.0 - middle.to_radians().cos())
+                }
+            };
+            luminance(l.intensity.to_array()) * solid_angle
+        })
+        .collect();
+    let total: f64 = power.iter().sum();
+    let mut cumulative = 0.0;
+    lights
+        .iter()
+        .zip(&power)
+        .enumerate()
+        .map(|(i, (l, &p))| {
+            let pmf = if total > 0.0 {
+                p / total
+            } else {
+                1.0 / lights.len() as f64
+            };
+            cumulative += pmf;
+            // As Mitsuba computes them: f32 radians, then cosines.
+            let (cos_cutoff, cos_beam, direction, cutoff, inv_transition) = match l.spot {
+                None => (-2.0, -2.0, [0.0, 0.0, 1.0], 0.0, 0.0),
+                Some(spot) => {
+                    let (cutoff, beam) =
+                        (spot.cutoff_angle.to_radians(), spot.beam_width.to_radians());
+                    let inv = if cutoff > beam {
+                        1.0 / (cutoff - beam)
+                    } else {
+                        0.0
+                    };
+                    (
+                        cutoff.cos(),
+                        beam.cos(),
+                        spot.direction.to_array(),
+                        cutoff,
+                        inv,
+                    )
+                }
+            };
+            DeltaLight {
+                position: l.position.to_array(),
+                cos_cutoff,
+                intensity: l.intensity.to_array(),
+                cos_beam,
+                direction,
+                cutoff,
+                inv_transition,
+                pmf: pmf as f32,
+                cdf: if i + 1 == lights.len() {
+                    1.0
+                } else {
+                    cumulative as f32
+                },
+                _pad: 0.0,
+            }
+        })
+        .collect()
 }
 
 /// The tables of one grouped kind's lights.
@@ -140,6 +238,36 @@ mod tests {
             p[pick.other as usize] += (1.0 - pick.threshold as f64) / n;
         }
         p
+    }
+
+    #[test]
+    fn delta_lights_are_picked_by_power() {
+        use crate::scene::Spot;
+        use glam::Vec3;
+        let point = |i: f32| PointLight {
+            position: Vec3::ZERO,
+            intensity: Vec3::splat(i),
+            spot: None,
+        };
+        let packed = pack_delta_lights(&[point(1.0), point(3.0), point(0.0)]);
+        let pmf: Vec<f32> = packed.iter().map(|l| l.pmf).collect();
+        let cdf: Vec<f32> = packed.iter().map(|l| l.cdf).collect();
+        assert_eq!(pmf, [0.25, 0.75, 0.0]);
+        assert_eq!(cdf, [0.25, 1.0, 1.0]);
+        let dark = pack_delta_lights(&[point(0.0), point(0.0)]);
+        assert_eq!((dark[0].pmf, dark[1].cdf), (0.5, 1.0));
+        // A spot of 90 degrees lights half the sphere a point light does.
+        let spot = PointLight {
+            spot: Some(Spot {
+                direction: Vec3::Z,
+                cutoff_angle: 90.0,
+                beam_width: 90.0,
+            }),
+            ..point(1.0)
+        };
+        let packed = pack_delta_lights(&[point(1.0), spot]);
+        assert!((packed[0].pmf - 2.0 / 3.0).abs() < 1e-6, "{packed:?}");
+        assert_eq!(packed[1].inv_transition, 0.0);
     }
 
     #[test]

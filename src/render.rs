@@ -260,6 +260,16 @@ impl<'a> Renderer<'a> {
                         never_hit = vec![0; size_of::<crate::gpu::layout::Material>()];
                         &never_hit[..]
                     }
+                    // A light of no intensity: a general kernel's shadow rays find nothing.
+                    ArraySource::DeltaLights if data.delta_lights.is_empty() => {
+                        never_hit = bytemuck::bytes_of(&crate::lights::DeltaLight {
+                            pmf: 1.0,
+                            cdf: 1.0,
+                            ..Default::default()
+                        })
+                        .to_vec();
+                        &never_hit[..]
+                    }
                     // Nor does a general kernel read tables of materials the scene lacks.
                     ArraySource::MaterialTables if data.material_tables.is_empty() => {
                         never_hit = vec![0; size_of::<f32>()];
@@ -717,7 +727,8 @@ fn next_paths_per_submission(paths: u64, elapsed: Duration, target_seconds: f64)
 /// really uses, and what the user should be told. Next-event estimation aims only
 /// at emitters (a shadow ray toward a non-emitting importance object finds no
 /// light). A strategy with nothing to aim at falls back to the materials' own (`bsdf`) sampling, except
-/// `light`, which is refused there and warned about everywhere (it is biased).
+/// `light`, which is refused there unless the scene has point or spot lights (which every
+/// strategy estimates by shadow rays), and warned about everywhere (it is biased).
 pub fn prepare_scene(
     scene: &Scene,
     wanted: Strategy,
@@ -729,13 +740,20 @@ pub fn prepare_scene(
     let mut warnings = scene.warnings.clone();
     let mut strategy = wanted;
     if data.light_count() == 0 && data.environment.is_none() && strategy != Strategy::Bsdf {
-        if strategy == Strategy::Light {
+        // Point and spot lights are estimated by shadow rays whatever the strategy.
+        let delta_lights = !data.delta_lights.is_empty();
+        if strategy == Strategy::Light && !delta_lights {
             return Err(RenderError::LightStrategyWithoutTargets {
                 scene: scene.source.clone(),
             });
         }
+        let also = if delta_lights {
+            " (point and spot lights are estimated by shadow rays under every strategy)"
+        } else {
+            ""
+        };
         warnings.push(format!(
-            "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to bsdf sampling (the materials' own: cosine-weighted on diffuse surfaces)",
+            "{}: no emitting or `importance = true` object to aim at: {wanted} falls back to bsdf sampling (the materials' own: cosine-weighted on diffuse surfaces){also}",
             scene.source
         ));
         strategy = Strategy::Bsdf;
@@ -812,16 +830,14 @@ pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 
 
 /// The most loop iterations one path vertex can take (see `max_samples_per_dispatch`).
 fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
-    let mut inner_loops = match config.scene_storage() {
-        SceneStorage::Baked => data.light_density_iterations(BVH_ITERATIONS_PER_RAY, true),
-        SceneStorage::Buffers => {
-            data.primitive_count() as u64
-                + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, false)
-        }
-        SceneStorage::Bvh => {
-            BVH_ITERATIONS_PER_RAY + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, false)
-        }
+    let closest_hit = match config.scene_storage() {
+        SceneStorage::Baked => 0,
+        SceneStorage::Buffers => data.primitive_count() as u64,
+        SceneStorage::Bvh => BVH_ITERATIONS_PER_RAY,
     };
+    let baked = config.scene_storage() == SceneStorage::Baked;
+    let mut inner_loops =
+        closest_hit + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, baked);
     // The environment's sampling bisects its two CDFs.
     if let Some(tables) = data
         .environment
@@ -833,6 +849,15 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     }
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;
+    }
+    // The delta lights' shadow rays: a linear pick and one closest hit, or one
+    // closest hit per light.
+    if config.delta_lights {
+        let lights = data.delta_lights.len() as u64;
+        inner_loops += match config.delta_light_pick {
+            true => lights + closest_hit,
+            false => lights * (closest_hit + 1),
+        };
     }
     // One spare iteration per vertex, for safety.
     inner_loops + 2

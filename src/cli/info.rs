@@ -98,6 +98,33 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         kinds.join(", "),
         lights.join(", ")
     );
+    if !scene.point_lights.is_empty() {
+        let spots = scene
+            .point_lights
+            .iter()
+            .filter(|l| l.spot.is_some())
+            .count();
+        let points = scene.point_lights.len() - spots;
+        println!(
+            "  delta lights: {points} point, {spots} spot (each vertex's shadow ray picks one by power, under every strategy)"
+        );
+        for (i, light) in scene.point_lights.iter().enumerate() {
+            let [x, y, z] = light.position.to_array();
+            let [r, g, b] = light.intensity.to_array();
+            match light.spot {
+                None => println!(
+                    "    lights[{i}]: point at ({x}, {y}, {z}), intensity ({r}, {g}, {b}) W/sr"
+                ),
+                Some(spot) => {
+                    let [dx, dy, dz] = spot.direction.to_array();
+                    println!(
+                        "    lights[{i}]: spot at ({x}, {y}, {z}) toward ({dx}, {dy}, {dz}), intensity ({r}, {g}, {b}) W/sr, cutoff {}°, beam width {}°",
+                        spot.cutoff_angle, spot.beam_width
+                    );
+                }
+            }
+        }
+    }
     if dropped_materials > 0 {
         println!("  {dropped_materials} materials no object uses: dropped before packing");
     }

@@ -6,7 +6,7 @@ use crate::environment::EnvironmentTables;
 use crate::kinds::{
     KindSet, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material,
 };
-use crate::lights::LightTables;
+use crate::lights::{DeltaLight, LightTables, pack_delta_lights};
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
 use glam::Vec3;
@@ -215,6 +215,8 @@ pub struct SceneData {
     pub bvh: Option<Bvh>,
     /// The environment map's texels and sampling tables (shared: a map is large).
     pub environment: Option<Arc<EnvironmentTables>>,
+    /// Point and spot lights.
+    pub delta_lights: Vec<DeltaLight>,
 }
 
 impl Default for SceneData {
@@ -229,6 +231,7 @@ impl Default for SceneData {
             light_tables: vec![None; PRIMITIVE_KINDS.len()],
             bvh: None,
             environment: None,
+            delta_lights: Vec::new(),
         }
     }
 }
@@ -251,6 +254,7 @@ impl SceneData {
                 .environment
                 .as_ref()
                 .map(|map| Arc::new(EnvironmentTables::build(map))),
+            delta_lights: pack_delta_lights(&scene.point_lights),
             ..SceneData::default()
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
@@ -322,6 +326,7 @@ impl SceneData {
             (0..array.len()).all(|i| (kind.layout.is_finite)(array.element(i, kind.layout.size)))
         };
         self.materials.iter().all(GpuLayout::is_finite)
+            && self.delta_lights.iter().all(GpuLayout::is_finite)
             && PRIMITIVE_KINDS.iter().enumerate().all(|(k, kind)| {
                 array_finite(kind, &self.primitives[k]) && array_finite(kind, &self.lights[k])
             })

@@ -140,6 +140,11 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
                 LightTablePart::BvhRefs => tables.refs.iter().map(|r| format!("{r}u")).collect(),
             }
         }
+        ArraySource::DeltaLights => data
+            .delta_lights
+            .iter()
+            .map(GpuLayout::wgsl_value)
+            .collect(),
         ArraySource::BvhNodes => unreachable!("a baked scene has no BVH"),
         ArraySource::Environment(_) | ArraySource::MaterialTables => unreachable!("never baked"),
     };
@@ -492,7 +497,7 @@ fn {lights}_groups_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {{
 /// The BSDF interface's dispatch by material kind (materials.wgsl), over the
 /// kinds compiled in. `bsdf_sample` takes any material; `bsdf_is_smooth`,
 /// `bsdf_eval`, `bsdf_pdf` and `smooth_bsdf_sample` exist where strategies
-/// sample lights, and the last three take only materials with a smooth lobe (a
+/// sample lights or the scene has delta lights, and the last three take only materials with a smooth lobe (a
 /// direct call when the kernel has one such kind).
 pub fn bsdf(config: &KernelConfig) -> String {
     let mut out = String::new();
@@ -528,7 +533,8 @@ pub fn bsdf(config: &KernelConfig) -> String {
 ",
         );
     }
-    if !config.samples_lights() {
+    // Light sampling and the delta lights' shadow rays evaluate the BSDF.
+    if !config.samples_lights() && !config.delta_lights {
         return out;
     }
     let ids: Vec<String> = smooth

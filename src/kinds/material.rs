@@ -127,6 +127,13 @@ pub const MATERIAL_KINDS: &[MaterialKind] = &[
         lobe: Lobe::Smooth,
         tables: true,
     },
+    MaterialKind {
+        name: "thindielectric",
+        module: Some(shader_module!("thindielectric")),
+        helpers: &[FRESNEL],
+        lobe: Lobe::Delta,
+        tables: false,
+    },
 ];
 
 /// The index of the kind named `name` in [`MATERIAL_KINDS`].
@@ -290,6 +297,20 @@ pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) ->
                 param: alpha_u,
                 param2: alpha_v,
                 flags: beckmann_flag(distribution),
+                ..Default::default()
+            },
+        ),
+        K::ThinDielectric {
+            int_ior,
+            ext_ior,
+            specular_reflectance,
+            specular_transmittance,
+        } => (
+            "thindielectric",
+            Material {
+                albedo: specular_reflectance.to_array(),
+                color2: specular_transmittance.to_array(),
+                param: int_ior / ext_ior,
                 ..Default::default()
             },
         ),

@@ -7,7 +7,7 @@
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
-//! `constant` and `envmap` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
+//! `constant`, `envmap`, `point` and `spot` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
 //! `gaussian` filter and a sampler; the `path` and `direct` integrators. Anything
 //! else is an error naming `file:line:col` and the element; an approximation is a
 //! warning.
@@ -29,7 +29,7 @@ type Result<T> = std::result::Result<T, SceneError>;
 const UNBOUNDED_DEPTH: i64 = 100_000;
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
-                               plastic, roughplastic, twosided";
+                               thindielectric, plastic, roughplastic, twosided";
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const SUPPORTED_TOP: &str = "default, include, path, integrator, sensor, shape, bsdf, emitter";
 
@@ -802,6 +802,8 @@ struct Builder<'a> {
     environment: Option<(Table, Origin)>,
     materials: Table,
     objects: Vec<Value>,
+    /// `[[lights]]`, from `point` and `spot` emitters.
+    lights: Vec<Value>,
     origins: Vec<(String, Origin)>,
     anonymous: usize,
 }
@@ -836,6 +838,7 @@ impl<'a> Builder<'a> {
             environment: None,
             materials: Table::new(),
             objects: Vec::new(),
+            lights: Vec::new(),
             origins: Vec::new(),
             anonymous: 0,
         })
@@ -900,10 +903,10 @@ impl<'a> Builder<'a> {
                     Ok(())
                 }
                 "envmap" => self.envmap(e),
-                _ => Err(e.origin.error(
-                    "not supported (supported: area, constant, envmap; point and spot wait \
-                     for pathmix's delta lights)",
-                )),
+                "point" | "spot" => self.delta_light(e),
+                _ => Err(e
+                    .origin
+                    .error("not supported (supported: area, constant, envmap, point, spot)")),
             },
             "texture" => Err(e
                 .origin
@@ -912,6 +915,64 @@ impl<'a> Builder<'a> {
                 "not supported at the top level (supported: {SUPPORTED_TOP})"
             ))),
         }
+    }
+
+    /// `<emitter type="point">` and `"spot"`: a `[[lights]]` entry. The position is
+    /// `position` (point only) or `to_world`'s translation; a spot's axis is
+    /// `to_world`'s z axis, its cone kept circular (Mitsuba's falloff is taken in
+    /// the light's own frame, which a shear or an uneven scale would distort).
+    fn delta_light(&mut self, e: &'a Elem) -> Result<()> {
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e);
+        let ty = e.ty();
+        let mut light = Table::new();
+        light.insert("type".into(), Value::String(ty.into()));
+        let intensity = props.color("intensity")?.unwrap_or([1.0; 3]);
+        light.insert("intensity".into(), color_value(intensity));
+        let position = if ty == "point" {
+            props.point("position")?
+        } else {
+            None
+        };
+        let to_world = props.transform("to_world")?;
+        let position = match position {
+            Some(_) if to_world != DMat4::IDENTITY => {
+                return Err(e
+                    .origin
+                    .error("give either `position` or `to_world`, not both (as Mitsuba)"));
+            }
+            Some(p) => p,
+            None => to_world.transform_point3(DVec3::ZERO),
+        };
+        light.insert("position".into(), vec_value(position));
+        if ty == "spot" {
+            let axis = to_world.transform_vector3(DVec3::Z);
+            light.insert("direction".into(), vec_value(axis));
+            let linear = glam::DMat3::from_mat4(to_world);
+            let gram = linear.transpose() * linear;
+            let scale = gram.x_axis.x;
+            let uneven = (gram - glam::DMat3::from_diagonal(DVec3::splat(scale)))
+                .to_cols_array()
+                .iter()
+                .any(|x| x.abs() > 1e-6 * scale);
+            if uneven {
+                self.warn(format!(
+                    "{}: the spot light's to_world shears or scales unevenly; pathmix keeps its \
+                     cone circular around the transformed z axis",
+                    e.origin.element
+                ));
+            }
+            for name in ["cutoff_angle", "beam_width"] {
+                if let Some(angle) = props.float(name)? {
+                    light.insert(name.into(), Value::Float(angle));
+                }
+            }
+        }
+        props.finish()?;
+        self.origins
+            .push((format!("lights[{}]", self.lights.len()), e.origin.clone()));
+        self.lights.push(Value::Table(light));
+        Ok(())
     }
 
     /// `<emitter type="envmap">`: `filename`, `scale` and `to_world` as
@@ -970,9 +1031,9 @@ impl<'a> Builder<'a> {
                     ior: int_ior / ext_ior,
                 }
             }
-            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "plastic"
-            | "roughplastic") => {
-                let transmits = ty == "roughdielectric";
+            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "thindielectric"
+            | "plastic" | "roughplastic") => {
+                let transmits = ty.ends_with("dielectric");
                 Surface::Mitsuba {
                     table: mitsuba_material(ty, &mut props)?,
                     transmits,
@@ -1305,6 +1366,12 @@ impl<'a> Builder<'a> {
             "objects".into(),
             Value::Array(std::mem::take(&mut self.objects)),
         );
+        if !self.lights.is_empty() {
+            document.insert(
+                "lights".into(),
+                Value::Array(std::mem::take(&mut self.lights)),
+            );
+        }
         if let Some((environment, origin)) = self.environment.take() {
             document.insert("environment".into(), Value::Table(environment));
             self.origins.push(("environment".into(), origin));
@@ -1567,7 +1634,7 @@ impl<'a> Builder<'a> {
 }
 
 /// The pathmix material of Mitsuba's `conductor`, `roughconductor`,
-/// `roughdielectric`, `plastic` or `roughplastic`: the same parameter names (the TOML parser
+/// `roughdielectric`, `thindielectric`, `plastic` or `roughplastic`: the same parameter names (the TOML parser
 /// validates them and fills Mitsuba's defaults), IORs given by name turned into
 /// numbers; a conductor's named `material` stays a name.
 fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
@@ -1576,7 +1643,7 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     let rough = ty.starts_with("rough");
     let colors: &[&str] = match ty {
         "conductor" | "roughconductor" => &["eta", "k", "specular_reflectance"],
-        "roughdielectric" => &["specular_reflectance", "specular_transmittance"],
+        "roughdielectric" | "thindielectric" => &["specular_reflectance", "specular_transmittance"],
         _ => &["diffuse_reflectance", "specular_reflectance"],
     };
     for &name in colors {
@@ -1704,7 +1771,7 @@ const CUBE_FACES: [[DVec3; 3]; 6] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Disk, Filter, Scene, Strategy};
+    use crate::scene::{Disk, Filter, MaterialKind, Scene, Strategy};
     use glam::Vec3;
 
     /// `files` written into a fresh folder; the first is the scene.
@@ -2276,6 +2343,87 @@ mod tests {
         assert!(
             e.contains("<bsdf type=\"diffuse\">") && e.contains("albedo"),
             "{e}"
+        );
+    }
+
+    /// `point` and `spot` emitters become `[[lights]]` with Mitsuba's defaults
+    /// (intensity 1; cutoff 20 degrees, beam width 3/4 of it), placed by
+    /// `position` or `to_world`, a spot aimed down its `to_world`'s z axis.
+    #[test]
+    fn point_and_spot_emitters_become_lights() {
+        use crate::scene::{PointLight, Spot};
+        let s = scene(
+            "delta-lights",
+            r#"<emitter type="point"><point name="position" value="1, 2, 3"/>
+                 <rgb name="intensity" value="4, 5, 6"/></emitter>
+               <emitter type="point"><transform name="to_world"><translate x="-1"/></transform></emitter>
+               <emitter type="spot"><float name="cutoff_angle" value="30"/>
+                 <transform name="to_world"><lookat origin="0, 5, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+               </emitter>"#,
+        );
+        assert_eq!(
+            s.point_lights[0],
+            PointLight {
+                position: Vec3::new(1.0, 2.0, 3.0),
+                intensity: Vec3::new(4.0, 5.0, 6.0),
+                spot: None,
+            }
+        );
+        assert_eq!(s.point_lights[1].position, Vec3::new(-1.0, 0.0, 0.0));
+        assert_eq!(s.point_lights[1].intensity, Vec3::ONE);
+        let spot = s.point_lights[2];
+        assert_eq!(spot.position, Vec3::new(0.0, 5.0, 0.0));
+        let Some(Spot {
+            direction,
+            cutoff_angle,
+            beam_width,
+        }) = spot.spot
+        else {
+            panic!("{spot:?}");
+        };
+        assert!((direction - Vec3::NEG_Y).length() < 1e-6, "{direction}");
+        assert_eq!((cutoff_angle, beam_width), (30.0, 22.5));
+        let e = error(
+            "spot-beam",
+            r#"<emitter type="spot"><float name="cutoff_angle" value="10"/>
+                 <float name="beam_width" value="20"/></emitter>"#,
+        );
+        assert!(
+            e.contains("scene.xml:") && e.contains("lights[0].beam_width"),
+            "{e}"
+        );
+        let e = error(
+            "point-negative",
+            r#"<emitter type="point"><rgb name="intensity" value="-1"/></emitter>"#,
+        );
+        assert!(
+            e.contains("<emitter type=\"point\">") && e.contains("must be >= 0"),
+            "{e}"
+        );
+        let e = error(
+            "point-both",
+            r#"<emitter type="point"><point name="position" value="1, 2, 3"/>
+                 <transform name="to_world"><translate x="1"/></transform></emitter>"#,
+        );
+        assert!(e.contains("either `position` or `to_world`"), "{e}");
+    }
+
+    #[test]
+    fn thindielectric_is_read_with_mitsuba_defaults() {
+        let s = scene(
+            "thindielectric",
+            r#"<shape type="rectangle"><bsdf type="thindielectric">
+                 <float name="int_ior" value="1.33"/><rgb name="specular_transmittance" value="0.5"/>
+               </bsdf></shape>"#,
+        );
+        assert_eq!(
+            s.materials[s.quads[0].material as usize].kind,
+            MaterialKind::ThinDielectric {
+                int_ior: 1.33,
+                ext_ior: 1.000277,
+                specular_reflectance: Vec3::ONE,
+                specular_transmittance: Vec3::splat(0.5),
+            }
         );
     }
 }

@@ -187,6 +187,15 @@ pub enum MaterialKind {
         specular_reflectance: Vec3,
         specular_transmittance: Vec3,
     },
+    /// A thin slab of dielectric (two parallel interfaces): reflects with the
+    /// slab's reflectance summed over its internal bounces and lets the rest
+    /// through without bending it (Mitsuba's `thindielectric`).
+    ThinDielectric {
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Vec3,
+        specular_transmittance: Vec3,
+    },
     /// A diffuse base under a smooth dielectric coat: a specular (delta) lobe and
     /// a diffuse one.
     Plastic {
@@ -307,6 +316,32 @@ impl Triangle {
     }
 }
 
+/// A light at a point (Mitsuba's `point` and `spot` emitters): a delta light,
+/// which no sampled direction can hit, so every strategy estimates it by a
+/// shadow ray (next-event estimation) at each vertex with a smooth lobe.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    pub position: Vec3,
+    /// Radiant intensity (W/sr) per RGB channel; irradiance at distance d,
+    /// facing it, is intensity / d^2.
+    pub intensity: Vec3,
+    /// A spot light's cone; `None`: the same intensity in every direction.
+    pub spot: Option<Spot>,
+}
+
+/// A spot light's cone, with Mitsuba's smooth falloff: full intensity within
+/// `beam_width` of the axis, none beyond `cutoff_angle`, linear in the angle
+/// between them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spot {
+    /// The cone's axis, unit length, pointing away from the light.
+    pub direction: Vec3,
+    /// Degrees, in (0, 180).
+    pub cutoff_angle: f32,
+    /// Degrees, in [0, cutoff_angle].
+    pub beam_width: f32,
+}
+
 /// A validated scene: world-space primitives after box expansion and transforms.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
@@ -322,6 +357,8 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     /// Mesh faces dropped for having no area.
     pub degenerate_triangles: usize,
+    /// Point and spot lights (`[[lights]]`).
+    pub point_lights: Vec<PointLight>,
     /// Radiance arriving from every direction a ray escapes in (`[environment]`);
     /// a scene with one has no `background`.
     pub environment: Option<EnvironmentMap>,
@@ -434,6 +471,9 @@ impl Scene {
             for v in t.vertices {
                 extent = extent.max(v.abs().max_element());
             }
+        }
+        for l in &self.point_lights {
+            extent = extent.max(l.position.abs().max_element());
         }
         extent
     }

@@ -88,6 +88,11 @@
 //!   `"air"`, 1.000277): numbers > 0 or Mitsuba's names (`"water"`, `"diamond"`,
 //!   `"polypropylene"`, ...), which must differ; `specular_reflectance`,
 //!   `specular_transmittance` (default 1).
+//! - `"thindielectric"`: a thin slab (a window pane, a soap film): `int_ior`, `ext_ior`,
+//!   `specular_reflectance`, `specular_transmittance` as for `roughdielectric`. It reflects
+//!   `R' = R + T^2 R / (1 - R^2) = 2R / (1 + R)` (R the Fresnel reflectance of one
+//!   interface, every internal bounce summed) and lets `1 - R'` straight through, unbent;
+//!   both are delta lobes, the one followed chosen with its probability.
 //! - `"plastic"`: a diffuse base under a smooth dielectric coat: `diffuse_reflectance`
 //!   (default 0.5), `specular_reflectance` (default 1), `int_ior` (default
 //!   `"polypropylene"`, 1.49), `ext_ior` (default air), `nonlinear` (bool, default false:
@@ -99,7 +104,7 @@
 //!   for `"plastic"`. Both lobes have densities, so every strategy applies to both; the
 //!   coat's transmittance is tabulated per material as Mitsuba does.
 //!
-//! Every material but `dielectric`, `roughdielectric` and `light` also takes `one_sided`
+//! Every material but `dielectric`, `roughdielectric`, `thindielectric` and `light` also takes `one_sided`
 //! (bool, default false): a one-sided surface scatters only on the side its normal
 //! faces and is black from behind, as Mitsuba's BSDFs are outside `twosided`.
 //!
@@ -157,6 +162,23 @@
 //! centre is transformed and its radius scaled; a mesh's vertices are transformed (a
 //! mirroring transform keeps each face's side).
 //!
+//! ## `[[lights]]` (array of tables, optional)
+//! Point and spot lights, Mitsuba's `point` and `spot` emitters. They are delta lights:
+//! no sampled direction can hit them, so under every strategy they are estimated by
+//! shadow rays (next-event estimation) at each vertex with a smooth lobe, one toward each
+//! (beyond 64 lights, one toward a light picked in proportion to its power), added to
+//! whatever the strategy estimates for the other lights. They light nothing through a delta lobe (a mirror, glass, the coat
+//! of `plastic`), and no ray sees them.
+//! - `type = "point"`: `position` (vector, required), `intensity` (W/sr: vector, or one
+//!   number for grey, components >= 0, required): irradiance `intensity cos / d^2`.
+//! - `type = "spot"`: the same and `direction` (vector, not zero: the cone's axis),
+//!   `cutoff_angle` (degrees in (0, 180), default 20): dark beyond it; `beam_width`
+//!   (degrees in [0, cutoff_angle], default `cutoff_angle * 3/4`): full intensity within
+//!   it, falling off linearly in the angle between the two, as Mitsuba's `spot`.
+//!
+//! `[scene] scale` moves the lights with the geometry and multiplies their intensity by
+//! `scale^2`, so the image stays the same.
+//!
 //! ## `[environment]` (optional)
 //! An environment map (`envmap`, Mitsuba 3's mapping; see docs/scene-format.md):
 //! `file` (string, required: `.exr` or `.hdr`, relative to the scene file, texels
@@ -172,8 +194,8 @@ use toml::{Table, Value};
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
 use super::{
-    Camera, Disk, Distribution, Filter, Material, MaterialKind, Quad, RenderSettings, Sampler,
-    Scene, SceneError, Sphere, Strategy, Triangle,
+    Camera, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
+    Sampler, Scene, SceneError, Sphere, Spot, Strategy, Triangle,
 };
 use std::path::Path;
 
@@ -212,6 +234,7 @@ const TOP_KEYS: &[&str] = &[
     "materials",
     "objects",
     "environment",
+    "lights",
 ];
 const ENVIRONMENT_KEYS: &[&str] = &["file", "scale", "rotate_y", "rotate", "matrix"];
 const SCENE_KEYS: &[&str] = &["scale"];
@@ -237,6 +260,7 @@ const MATERIAL_TYPES: &[&str] = &[
     "conductor",
     "roughconductor",
     "roughdielectric",
+    "thindielectric",
     "plastic",
     "roughplastic",
 ];
@@ -260,6 +284,15 @@ const ALL_MATERIAL_KEYS: &[&str] = &[
     "material",
     "nonlinear",
     "one_sided",
+];
+const LIGHT_TYPES: &[&str] = &["point", "spot"];
+const ALL_LIGHT_KEYS: &[&str] = &[
+    "type",
+    "position",
+    "intensity",
+    "direction",
+    "cutoff_angle",
+    "beam_width",
 ];
 const OBJECT_TYPES: &[&str] = &["sphere", "quad", "disk", "box", "mesh"];
 const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
@@ -316,6 +349,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         Some(t) => Some(parse_environment(&t)?),
         None => None,
     };
+    let point_lights = parse_lights(&top)?;
     if environment.is_some()
         && let Some(r) = top.sub("render")?
         && r.table.contains_key("background")
@@ -337,6 +371,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         spheres: objects.spheres,
         triangles: objects.triangles,
         degenerate_triangles: objects.degenerate_triangles,
+        point_lights,
         warnings: objects.warnings,
         environment,
     };
@@ -422,8 +457,9 @@ impl Scene {
     }
 
     /// The same scene with every position and length (camera `lookfrom`/`lookat`,
-    /// quad `q`/`u`/`v`, disk centre and axes, sphere centre and radius) multiplied
-    /// by `factor`.
+    /// quad `q`/`u`/`v`, disk centre and axes, sphere centre and radius, light
+    /// positions) multiplied by `factor`, and point and spot lights' intensities by
+    /// `factor^2`, so that the irradiance they give, and the image, stay the same.
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
         s.camera.lookfrom *= factor;
@@ -446,6 +482,10 @@ impl Scene {
             for v in &mut t.vertices {
                 *v *= factor;
             }
+        }
+        for l in &mut s.point_lights {
+            l.position *= factor;
+            l.intensity *= factor * factor;
         }
         s
     }
@@ -789,6 +829,26 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                 };
                 (kind, Vec3::ZERO, Vec3::ZERO)
             }
+            "thindielectric" => {
+                t.check_keys(
+                    &[
+                        "type",
+                        "int_ior",
+                        "ext_ior",
+                        "specular_reflectance",
+                        "specular_transmittance",
+                    ],
+                    Some("a thindielectric material"),
+                )?;
+                let (int_ior, ext_ior) = iors(&t, IOR_BK7)?;
+                let kind = MaterialKind::ThinDielectric {
+                    int_ior,
+                    ext_ior,
+                    specular_reflectance: reflectance(&t, "specular_reflectance", 1.0)?,
+                    specular_transmittance: reflectance(&t, "specular_transmittance", 1.0)?,
+                };
+                (kind, Vec3::ZERO, Vec3::ZERO)
+            }
             "plastic" => {
                 t.check_keys(
                     &[
@@ -1048,6 +1108,99 @@ fn check_roughness(x: f32) -> std::result::Result<(), String> {
     } else {
         Err(format!("must be in (0, 1], got {}", fmt_num(x)))
     }
+}
+
+fn check_cutoff(x: f32) -> std::result::Result<(), String> {
+    if x > 0.0 && x < 180.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be in (0, 180) degrees, exclusive, got {}",
+            fmt_num(x)
+        ))
+    }
+}
+
+/// The `[[lights]]`: point and spot lights.
+fn parse_lights(top: &Tab) -> Result<Vec<PointLight>> {
+    let Some(value) = top.table.get("lights") else {
+        return Ok(Vec::new());
+    };
+    let Value::Array(items) = value else {
+        return Err(top.err(
+            "lights",
+            format!(
+                "expected an array of tables (`[[lights]]`), got {}",
+                type_name(value)
+            ),
+        ));
+    };
+    let mut lights = Vec::with_capacity(items.len());
+    for (i, item) in items.iter().enumerate() {
+        let path = format!("lights[{i}]");
+        let Value::Table(table) = item else {
+            return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
+        };
+        let t = Tab {
+            file: top.file,
+            table,
+            path,
+        };
+        let Some(ty) = t.string("type")? else {
+            t.check_keys(ALL_LIGHT_KEYS, None)?;
+            return Err(t.err(
+                t.here(),
+                format!(
+                    "missing required key `type` (expected one of {})",
+                    list(LIGHT_TYPES)
+                ),
+            ));
+        };
+        match ty {
+            "point" => t.check_keys(&["type", "position", "intensity"], Some("a point light"))?,
+            "spot" => t.check_keys(ALL_LIGHT_KEYS, Some("a spot light"))?,
+            other => {
+                return Err(t.err(t.at("type"), unknown_name("light type", other, LIGHT_TYPES)));
+            }
+        }
+        let position = t.require("position", t.vec3("position", ok)?)?;
+        if !t.table.contains_key("intensity") {
+            return Err(t.err(t.here(), "missing required key `intensity`"));
+        }
+        let intensity = colour(&t, "intensity", 0.0, check_nonneg)?;
+        let spot = if ty == "spot" {
+            let direction = t.require("direction", t.vec3("direction", ok)?)?;
+            if !usable_length_squared(direction.length_squared()) {
+                return Err(t.err(t.at("direction"), "must not be zero"));
+            }
+            let cutoff_angle = t.float("cutoff_angle", check_cutoff)?.unwrap_or(20.0);
+            let beam_width = t.float("beam_width", check_nonneg)?;
+            let beam_width = beam_width.unwrap_or(cutoff_angle * 3.0 / 4.0);
+            if beam_width > cutoff_angle {
+                return Err(t.err(
+                    t.at("beam_width"),
+                    format!(
+                        "must not exceed `cutoff_angle` ({}), got {}",
+                        fmt_num(cutoff_angle),
+                        fmt_num(beam_width)
+                    ),
+                ));
+            }
+            Some(Spot {
+                direction: direction.normalize(),
+                cutoff_angle,
+                beam_width,
+            })
+        } else {
+            None
+        };
+        lights.push(PointLight {
+            position,
+            intensity,
+            spot,
+        });
+    }
+    Ok(lights)
 }
 
 /// The objects of a scene file, in world space.
@@ -3188,5 +3341,134 @@ material = "white"
         );
         let s = parse(&ok);
         assert!((s.spheres[0].radius - 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn point_and_spot_lights_parse_with_mitsuba_defaults() {
+        let s = parse(&format!(
+            "{BASE}\n[[lights]]\ntype = \"point\"\nposition = [1, 2, 3]\nintensity = 5\n\
+             [[lights]]\ntype = \"spot\"\nposition = [0, 1, 0]\nintensity = [1, 2, 3]\n\
+             direction = [0, -2, 0]\n[[lights]]\ntype = \"spot\"\nposition = [0, 0, 0]\n\
+             intensity = 1\ndirection = [1, 0, 0]\ncutoff_angle = 30\nbeam_width = 10\n"
+        ));
+        assert_eq!(
+            s.point_lights[0],
+            PointLight {
+                position: Vec3::new(1.0, 2.0, 3.0),
+                intensity: Vec3::splat(5.0),
+                spot: None,
+            }
+        );
+        assert_eq!(
+            s.point_lights[1].spot,
+            Some(Spot {
+                direction: Vec3::new(0.0, -1.0, 0.0),
+                cutoff_angle: 20.0,
+                beam_width: 15.0,
+            })
+        );
+        let spot = s.point_lights[2];
+        assert_eq!(spot.spot.unwrap().beam_width, 10.0);
+        // Scaling keeps the irradiance: intensity / d^2.
+        let scaled = s.scaled(10.0);
+        assert_eq!(scaled.point_lights[0].position, Vec3::new(10.0, 20.0, 30.0));
+        assert_eq!(scaled.point_lights[0].intensity, Vec3::splat(500.0));
+        assert!(s.extent() >= 3.0);
+    }
+
+    #[test]
+    fn light_errors() {
+        let light =
+            |body: &str| parse_scene(&format!("{BASE}\n[[lights]]\n{body}\n"), FILE).unwrap_err();
+        let spot = "type = \"spot\"\nposition = [0, 1, 0]\nintensity = 1\ndirection = [0, -1, 0]";
+        let cases: &[(String, &str, &[&str])] = &[
+            (
+                "type = \"point\"\nposition = [0, 1, 0]\nintensity = -1".into(),
+                "lights[0].intensity",
+                &["must be >= 0, got -1"],
+            ),
+            (
+                "type = \"point\"\nposition = [0, 1, 0]\nintensity = [1, -2, 1]".into(),
+                "lights[0].intensity[1]",
+                &["must be >= 0, got -2"],
+            ),
+            (
+                "type = \"point\"\nintensity = 1".into(),
+                "lights[0]",
+                &["missing required key `position`"],
+            ),
+            (
+                "type = \"point\"\nposition = [0, 1, 0]".into(),
+                "lights[0]",
+                &["missing required key `intensity`"],
+            ),
+            (
+                "type = \"lamp\"".into(),
+                "lights[0].type",
+                &["`lamp`", "point", "spot"],
+            ),
+            (
+                "type = \"point\"\nposition = [0, 1, 0]\nintensity = 1\ncutoff_angle = 5".into(),
+                "lights[0]",
+                &["unknown key `cutoff_angle` for a point light"],
+            ),
+            (
+                format!("{spot}\ncutoff_angle = 0"),
+                "lights[0].cutoff_angle",
+                &["must be in (0, 180) degrees", "got 0"],
+            ),
+            (
+                format!("{spot}\ncutoff_angle = 180"),
+                "lights[0].cutoff_angle",
+                &["must be in (0, 180) degrees", "got 180"],
+            ),
+            (
+                format!("{spot}\ncutoff_angle = 30\nbeam_width = 40"),
+                "lights[0].beam_width",
+                &["must not exceed `cutoff_angle` (30), got 40"],
+            ),
+            (
+                format!("{spot}\nbeam_width = -1"),
+                "lights[0].beam_width",
+                &["must be >= 0, got -1"],
+            ),
+            (
+                "type = \"spot\"\nposition = [0, 1, 0]\nintensity = 1\ndirection = [0, 0, 0]"
+                    .into(),
+                "lights[0].direction",
+                &["must not be zero"],
+            ),
+        ];
+        for (body, location, parts) in cases {
+            assert_error(&light(body), location, parts);
+        }
+        let not_array =
+            parse_scene(&format!("{BASE}\n[lights]\ntype = \"point\"\n"), FILE).unwrap_err();
+        assert_error(&not_array, "lights", &["expected an array of tables"]);
+    }
+
+    #[test]
+    fn thindielectric_parses_with_mitsuba_defaults() {
+        let kind = |body: &str| parse(&red(body)).materials[0].kind;
+        assert_eq!(
+            kind("type = \"thindielectric\""),
+            MaterialKind::ThinDielectric {
+                int_ior: IOR_BK7,
+                ext_ior: IOR_AIR,
+                specular_reflectance: Vec3::ONE,
+                specular_transmittance: Vec3::ONE,
+            }
+        );
+        assert_eq!(
+            kind("type = \"thindielectric\"\nint_ior = \"water\"\nspecular_transmittance = 0.5"),
+            MaterialKind::ThinDielectric {
+                int_ior: 1.333,
+                ext_ior: IOR_AIR,
+                specular_reflectance: Vec3::ONE,
+                specular_transmittance: Vec3::splat(0.5),
+            }
+        );
+        let e = parse_scene(&red("type = \"thindielectric\"\none_sided = true"), FILE).unwrap_err();
+        assert_error(&e, "materials.red", &["unknown key `one_sided`"]);
     }
 }
