@@ -129,6 +129,28 @@ fn triangle_shading_normal(index: u32, p: vec3<f32>, ng: vec3<f32>) -> vec3<f32>
 }
 #endif
 
+#if TEXTURES
+// Mirrors `kinds::TriangleUvs`.
+struct TriangleUvs {
+    uv0: vec2<f32>,
+    uv1: vec2<f32>,
+    uv2: vec2<f32>,
+}
+
+// The vertex uvs interpolated at `point` (barycentric, from the areas of the
+// sub-triangles).
+fn triangle_hit_uv(tri: Triangle, uvs: TriangleUvs, point: vec3<f32>) -> vec2<f32> {
+    let p0 = triangle_point(tri.p0);
+    let p1 = triangle_point(tri.p1);
+    let p2 = triangle_point(tri.p2);
+    let n = cross(p1 - p0, p2 - p0);
+    let inv_n2 = 1.0 / dot(n, n);
+    let b1 = dot(cross(p2 - point, p0 - point), n) * inv_n2;
+    let b2 = dot(cross(p0 - point, p1 - point), n) * inv_n2;
+    return (1.0 - b1 - b2) * uvs.uv0 + b1 * uvs.uv1 + b2 * uvs.uv2;
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point of the triangle.
 fn triangle_light_sample(tri: Triangle, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let s = sqrt(u.x);

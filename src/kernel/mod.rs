@@ -11,7 +11,7 @@ use crate::gpu::accumulator::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
 };
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
-use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
+use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, TextureInfo};
 use crate::lights::{LightGroup, LightPick};
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
@@ -30,6 +30,7 @@ pub const KERNEL: ShaderModule = shader_module!("kernel");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
+pub const TEXTURES: ShaderModule = shader_module!("textures");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -46,6 +47,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "ONE_SIDED",
     "ENVIRONMENT",
     "LIGHT_ENVIRONMENT",
+    "TEXTURES",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -116,6 +118,11 @@ pub enum ArraySource {
     Materials,
     /// The materials' tables (`SceneData::material_tables`).
     MaterialTables,
+    /// The textures (`SceneData::textures`) and their texels.
+    Textures,
+    TextureTexels,
+    /// The texture coordinates of the primitives of kind `k`.
+    Uvs(usize),
     /// The primitives of kind `k` of `PRIMITIVE_KINDS`.
     Primitives(usize),
     /// The primitives of kind `k` in the light density.
@@ -139,7 +146,11 @@ impl ArraySource {
     pub fn bakes(self) -> bool {
         !matches!(
             self,
-            ArraySource::Environment(_) | ArraySource::MaterialTables
+            ArraySource::Environment(_)
+                | ArraySource::MaterialTables
+                | ArraySource::Textures
+                | ArraySource::TextureTexels
+                | ArraySource::Uvs(_)
         )
     }
 }
@@ -200,8 +211,9 @@ pub struct SceneArray {
     pub element_size: usize,
     /// Its binding in group 1 when the scene is read from buffers: materials 0,
     /// then the primitive kinds in table order, then their light arrays, the
-    /// BVH, the shading normals, the light tables, the environment map and the
-    /// material tables (fixed per array, whichever arrays a kernel declares).
+    /// BVH, the shading normals, the light tables, the environment map, the
+    /// material tables, the textures and the texture coordinates (fixed per
+    /// array, whichever arrays a kernel declares).
     pub binding: u32,
     /// Read by a dynamic index (`NAME_at`), not only walked by `#for_each`.
     pub indexed: bool,
@@ -243,6 +255,8 @@ pub struct KernelConfig {
     pub environment: bool,
     /// The environment map is one object of the light density.
     pub light_environment: bool,
+    /// Some material has a texture: hits carry texture coordinates.
+    pub textures: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -286,6 +300,7 @@ impl KernelConfig {
             one_sided: data.has_one_sided_materials(),
             environment,
             light_environment: samples_lights && environment,
+            textures: !data.textures.is_empty(),
         }
     }
 
@@ -327,6 +342,7 @@ impl KernelConfig {
             one_sided: true,
             environment: true,
             light_environment: strategy != Strategy::Bsdf,
+            textures: true,
         }
     }
 
@@ -388,6 +404,7 @@ impl KernelConfig {
             ),
             ("ENVIRONMENT", self.environment),
             ("LIGHT_ENVIRONMENT", self.light_environment),
+            ("TEXTURES", self.textures),
         ];
         for (flag, on) in features {
             if on {
@@ -439,6 +456,9 @@ impl KernelConfig {
     /// the kinds' modules and the generated dispatch.
     fn material_modules(&self) -> Vec<ShaderModule> {
         let mut modules = vec![MATERIALS];
+        if self.textures {
+            modules.push(TEXTURES);
+        }
         for k in self.material_kinds.iter() {
             for helper in MATERIAL_KINDS[k].helpers {
                 if !modules.iter().any(|m| m.name == helper.name) {
@@ -497,6 +517,7 @@ impl KernelConfig {
             sampler: Sampler::Independent,
             environment: false,
             light_environment: false,
+            textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let mut modules = vec![
@@ -577,9 +598,9 @@ impl KernelConfig {
                 wgsl_type: kind.layout.wgsl_name,
                 element_size: kind.layout.size,
                 binding: 1 + k as u32,
-                // The BVH's leaves, and the shading normal at the closest hit,
-                // look primitives up by index.
-                indexed: self.bvh || self.normal_kinds.contains(k),
+                // The BVH's leaves, and the shading normal and texture
+                // coordinates at the closest hit, look primitives up by index.
+                indexed: self.bvh || self.normal_kinds.contains(k) || self.textures,
                 source: ArraySource::Primitives(k),
             });
         }
@@ -631,6 +652,37 @@ impl KernelConfig {
                 source: ArraySource::BvhNodes,
             });
         }
+        if self.textures {
+            arrays.push(SceneArray {
+                name: "textures".into(),
+                wgsl_type: TextureInfo::WGSL_NAME,
+                element_size: size_of::<TextureInfo>(),
+                binding: 7 + 7 * count,
+                indexed: true,
+                source: ArraySource::Textures,
+            });
+            arrays.push(SceneArray {
+                name: "texture_texels".into(),
+                wgsl_type: "f32",
+                element_size: size_of::<f32>(),
+                binding: 8 + 7 * count,
+                indexed: true,
+                source: ArraySource::TextureTexels,
+            });
+            for k in self.primitive_kinds.iter() {
+                let kind = PRIMITIVE_KINDS[k];
+                if let Some(layout) = kind.texture_uvs {
+                    arrays.push(SceneArray {
+                        name: kind.uvs_array(),
+                        wgsl_type: layout.wgsl_name,
+                        element_size: layout.size,
+                        binding: 9 + 7 * count + k as u32,
+                        indexed: true,
+                        source: ArraySource::Uvs(k),
+                    });
+                }
+            }
+        }
         if self.environment {
             let parts: &[(EnvironmentPart, &str, &'static str, usize)] = &[
                 (
@@ -679,9 +731,11 @@ impl KernelConfig {
                 ArraySource::BvhNodes => {
                     unreachable!("a baked scene has no BVH")
                 }
-                ArraySource::Environment(_) | ArraySource::MaterialTables => {
-                    unreachable!("never baked")
-                }
+                ArraySource::Environment(_)
+                | ArraySource::MaterialTables
+                | ArraySource::Textures
+                | ArraySource::TextureTexels
+                | ArraySource::Uvs(_) => unreachable!("never baked"),
             }),
             _ => ArrayForm::Buffer,
         }
@@ -774,6 +828,9 @@ impl SceneData {
         match source {
             ArraySource::Materials => bytemuck::cast_slice(&self.materials),
             ArraySource::MaterialTables => bytemuck::cast_slice(&self.material_tables),
+            ArraySource::Textures => bytemuck::cast_slice(&self.textures),
+            ArraySource::TextureTexels => bytemuck::cast_slice(&self.texture_texels),
+            ArraySource::Uvs(k) => &self.uvs[k],
             ArraySource::Primitives(k) => &self.primitives[k].bytes,
             ArraySource::Lights(k) => &self.lights[k].bytes,
             ArraySource::Normals(k) => &self.normals[k],
@@ -1400,10 +1457,14 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<crate::lights::LightGroup>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
         check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
+        check_layout(&module, ErasedLayout::of::<TextureInfo>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {
                 check_layout(&module, normals);
+            }
+            if let Some(uvs) = kind.texture_uvs {
+                check_layout(&module, uvs);
             }
         }
     }
