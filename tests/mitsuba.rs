@@ -454,6 +454,26 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             ":2:22: <ref id=\"nope\">: no element has the id `nope`",
         ),
         (
+            "missing-texture",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"d\"><texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"gone.png\"/></texture></bsdf>\n</scene>",
+            ":2:71: <string name=\"filename\">: cannot find the texture image `gone.png`",
+        ),
+        (
+            "texture-type",
+            "<scene version=\"3.0.0\">\n<texture type=\"mesh_attribute\" id=\"t\"/>\n</scene>",
+            ":2:1: <texture type=\"mesh_attribute\" id=\"t\">: not supported (supported textures: bitmap, checkerboard)",
+        ),
+        (
+            "texture-slot",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"plastic\" id=\"p\"><texture type=\"checkerboard\" name=\"specular_reflectance\"/></bsdf>\n</scene>",
+            ":2:29: <texture type=\"checkerboard\" name=\"specular_reflectance\">: a texture here is not supported",
+        ),
+        (
+            "turned-textured-sphere",
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\"><transform name=\"to_world\"><rotate x=\"1\" angle=\"90\"/></transform><bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"/></bsdf></shape>\n</scene>",
+            ":2:1: <shape type=\"sphere\">: a textured sphere's to_world may only scale and translate",
+        ),
+        (
             "missing-mesh",
             "<scene version=\"3.0.0\">\n<shape type=\"ply\"><string name=\"filename\" value=\"gone.ply\"/></shape>\n</scene>",
             ":2:19: <string name=\"filename\">: cannot find the mesh file `gone.ply`",
@@ -472,11 +492,6 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             "integer",
             "<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"6.5\"/></integrator>\n</scene>",
             "`value=\"6.5\"` is not an integer",
-        ),
-        (
-            "texture",
-            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"checkerboard\"/></bsdf>\n</scene>",
-            ":2:22: <texture type=\"checkerboard\" name=\"reflectance\">: textures (bitmap, checkerboard) are not supported yet",
         ),
         (
             "shape",

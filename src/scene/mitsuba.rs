@@ -814,6 +814,17 @@ enum Surface {
     },
 }
 
+impl Surface {
+    /// Whether one of its colours is a texture (a table among its values).
+    fn is_textured(&self) -> bool {
+        match self {
+            Surface::Lambertian { albedo, .. } => albedo.is_table(),
+            Surface::Dielectric { .. } => false,
+            Surface::Mitsuba { table, .. } => table.values().any(Value::is_table),
+        }
+    }
+}
+
 struct Builder<'a> {
     file: String,
     search: &'a [PathBuf],
@@ -1378,6 +1389,15 @@ impl<'a> Builder<'a> {
                     return Err(e
                         .origin
                         .error("a sphere's to_world must scale every direction alike"));
+                }
+                // Its texture coordinates turn with it; pathmix's spheres keep no rotation.
+                let turned =
+                    (0..3).any(|i| (columns[i] - scale * DVec3::AXES[i]).length() > 1e-6 * scale);
+                if turned && surface.is_textured() {
+                    return Err(e.origin.error(
+                        "a textured sphere's to_world may only scale and translate \
+                         (pathmix's spheres keep no rotation for the texture to turn with)",
+                    ));
                 }
                 object.insert("type".into(), Value::String("sphere".into()));
                 object.insert(
