@@ -12,6 +12,7 @@ mod common;
 
 use glam::{DVec3, Vec2, Vec3};
 use pathmix::gpu::layout::CameraFrame;
+use pathmix::kernel::SceneStorage;
 use pathmix::render::RenderOptions;
 use pathmix::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -180,13 +181,30 @@ fn the_texture(scene: &Scene) -> &pathmix::scene::Texture {
         .expect("a textured material")
 }
 
-/// Renders and checks every pixel whose footprint shows one colour of the
-/// texture: exactly that colour. Returns how many pixels were checked.
+/// Renders with the scene baked, in buffers, through the BVH and with the
+/// general kernel, and checks every pixel whose footprint shows one colour of
+/// the texture: exactly that colour. Returns how many pixels were checked.
 fn assert_uniform_pixels_exact(scene: &Scene, shape: &Shape, what: &str) -> usize {
     let ctx = common::gpu().expect("a device");
     let texture = the_texture(scene);
     let lookup = |uv: Vec2| texture.eval(uv);
-    let mean = common::render(ctx, scene, &RenderOptions::default()).mean();
+    let storage = |s| RenderOptions {
+        scene_storage: Some(s),
+        ..RenderOptions::default()
+    };
+    let general = RenderOptions {
+        general_kernel: true,
+        ..RenderOptions::default()
+    };
+    let means: Vec<_> = [
+        storage(SceneStorage::Baked),
+        storage(SceneStorage::Buffers),
+        storage(SceneStorage::Bvh),
+        general,
+    ]
+    .iter()
+    .map(|options| common::render(ctx, scene, options).mean())
+    .collect();
     let width = scene.camera.width;
     let mut checked = 0;
     for y in 0..scene.camera.height {
@@ -197,12 +215,14 @@ fn assert_uniform_pixels_exact(scene: &Scene, shape: &Shape, what: &str) -> usiz
             if values.iter().any(|v| *v != values[0]) {
                 continue;
             }
-            let got = Vec3::from(mean.pixels[(y * width + x) as usize]);
-            assert!(
-                (got - values[0]).abs().max_element() <= 1e-6,
-                "{what}: pixel ({x}, {y}) is {got}, the texel there {}",
-                values[0]
-            );
+            for (k, mean) in means.iter().enumerate() {
+                let got = Vec3::from(mean.pixels[(y * width + x) as usize]);
+                assert!(
+                    (got - values[0]).abs().max_element() <= 1e-6,
+                    "{what} (render {k}): pixel ({x}, {y}) is {got}, the texel there {}",
+                    values[0]
+                );
+            }
             checked += 1;
         }
     }
@@ -213,7 +233,7 @@ fn assert_uniform_pixels_exact(scene: &Scene, shape: &Shape, what: &str) -> usiz
 /// every texel a different colour) where Mitsuba's parameterisation says:
 /// quads (a, b), disks polar (r, phi / 2 pi), spheres (phi / 2 pi, theta / pi)
 /// about +z, mesh faces their vertex uvs (OBJ's v flipped) or, without, the
-/// barycentric (b1, b2). Each render checks at least a quarter of its pixels.
+/// barycentric (b1, b2), whichever way the kernel reads the scene.
 #[test]
 fn texels_land_where_each_shapes_uvs_say() {
     if common::gpu().is_none() {
@@ -323,7 +343,7 @@ fn bilinear_lookups_weigh_the_four_nearest_texels() {
         return;
     };
     let dir = TempDir::new("bilinear");
-    write_exr(&dir.0.join("map.exr"), 3, 2, |x, y| distinct(x, y));
+    write_exr(&dir.0.join("map.exr"), 3, 2, distinct);
     let (q, u, v) = ([-1.0, -1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
     let shape = quad_uv(DVec3::from(q), DVec3::from(u), DVec3::from(v));
     let mut worst: f32 = 0.0;

@@ -106,6 +106,14 @@
 //! `Scene::materials` holds the materials sorted by name (deterministic whatever the
 //! TOML map's ordering); objects refer to them by index. Unused materials are fine.
 //!
+//! ## Textures
+//! The colour a kind packs as `albedo` (lambertian and metal `albedo`, conductors' and
+//! `roughdielectric`'s `specular_reflectance`, plastics' `diffuse_reflectance`) may be
+//! an inline texture table instead: `{ type = "checkerboard", color0, color1, to_uv }`
+//! or `{ type = "bitmap", file, wrap_mode, filter_type, raw, to_uv }`, with Mitsuba's
+//! meanings (`scene::texture`; docs/scene-format.md). The material's colour is then
+//! the texture's mean (`scene::Material::texture`).
+//!
 //! ## `[[objects]]` (array of tables; zero objects is a valid scene)
 //! `type` (required) is one of:
 //! - `"sphere"`: `center` (vector), `radius` (float > 0). The normal points outwards.
