@@ -916,8 +916,8 @@ mod tests {
                             (true, false) => primitive_kinds,
                         };
                         let variance = mask >> primitives & 1 != 0;
-                        // Smooth shading goes with variance (two independent features
-                        // on one bit, to keep the variants few).
+                        // Smooth shading and textures go with variance (independent
+                        // features on one bit, to keep the variants few).
                         let normal_kinds = primitive_kinds
                             .iter()
                             .filter(|&k| variance && general.normal_kinds.contains(k))
@@ -931,6 +931,7 @@ mod tests {
                             bvh: mask >> (primitives + 1) != 0,
                             environment: false,
                             light_environment: false,
+                            textures: variance,
                             ..general.clone()
                         });
                     }
@@ -1021,6 +1022,101 @@ mod tests {
                 validate(&all_lights);
             }
         }
+    }
+
+    /// A textured scene of every primitive kind (a mesh face too) under every
+    /// strategy and scene storage: the texture arrays and the faces' uvs are
+    /// bound in baked kernels too, and only where the scene has a texture.
+    #[test]
+    fn textured_kernels_validate() {
+        let text = r#"
+            [camera]
+            lookfrom = [0, 0, -5]
+            lookat = [0, 0, 0]
+            [materials.checks]
+            type = "lambertian"
+            albedo = { type = "checkerboard", to_uv = { scale = 4 } }
+            [materials.lamp]
+            type = "light"
+            emit = [1, 1, 1]
+            [[objects]]
+            type = "quad"
+            q = [0, 0, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "checks"
+            [[objects]]
+            type = "sphere"
+            center = [0, 0, 2]
+            radius = 1
+            material = "lamp"
+            [[objects]]
+            type = "disk"
+            center = [0, 2, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "checks"
+        "#;
+        let mut scene = crate::scene::Scene::parse(text, "textured.toml").unwrap();
+        scene.triangles.push(crate::scene::Triangle {
+            vertices: [glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
+            normals: None,
+            uvs: None,
+            material: 0,
+            importance: false,
+            mesh: 0,
+        });
+        let data = SceneData::pack(&scene);
+        assert_eq!(data.textures.len(), 1);
+        for strategy in Strategy::ALL {
+            for storage in [
+                SceneStorage::Baked,
+                SceneStorage::Buffers,
+                SceneStorage::Bvh,
+            ] {
+                let config = KernelConfig::for_scene(
+                    &data,
+                    strategy,
+                    &scene.render,
+                    Filter::Box,
+                    AccumulatorKind::Buffer,
+                    false,
+                    storage,
+                );
+                assert!(config.textures);
+                validate(&config);
+                let bound: Vec<String> = config
+                    .scene_bindings()
+                    .into_iter()
+                    .map(|a| a.name)
+                    .collect();
+                for array in ["textures", "texture_texels", "triangle_uvs"] {
+                    assert!(bound.contains(&array.to_string()), "{bound:?}");
+                }
+            }
+        }
+        // Without the texture (its mean colour left as the constant) the
+        // materials differ only by the texture's index in the flags.
+        scene.materials[0].texture = None;
+        let plain = SceneData::pack(&scene);
+        assert!(plain.textures.is_empty() && plain.uvs.iter().all(Vec::is_empty));
+        let shift = crate::kinds::MATERIAL_TEXTURE_SHIFT;
+        assert_eq!(data.materials[0].flags >> shift, 1);
+        let mut untextured = data.materials.clone();
+        untextured[0].flags &= (1 << shift) - 1;
+        assert_eq!(plain.materials, untextured);
+        assert!(
+            !KernelConfig::for_scene(
+                &plain,
+                Strategy::Mixture,
+                &scene.render,
+                Filter::Box,
+                AccumulatorKind::Buffer,
+                false,
+                SceneStorage::Baked,
+            )
+            .textures
+        );
     }
 
     #[test]
