@@ -63,6 +63,10 @@ struct Hit {
     // else `normal`.
     shading_normal: vec3<f32>,
     material: u32,
+#if TEXTURES
+    // Texture coordinates (`NAME_hit_uv` of the primitive's kind).
+    uv: vec2<f32>,
+#endif
 }
 
 // The dispatch's parameters come from a storage buffer, not a uniform buffer:
@@ -79,7 +83,11 @@ fn load_params() {
 @group(0) @binding(BINDING_COUNTERS) var<storage, read_write> counters: Counters;
 
 fn no_hit() -> Hit {
+#if TEXTURES
+    return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), 0u, vec2<f32>(0.0));
+#else
     return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), 0u);
+#endif
 }
 
 // Moves a point off a surface on the side `dir` leaves toward.

@@ -44,6 +44,21 @@ fn disk_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
     return keep.xyz;
 }
 
+#if TEXTURES
+// Mitsuba's disk: polar, (r, phi / 2 pi) of the point center + a u + b v with
+// (a, b) = r (cos phi, sin phi).
+fn disk_hit_uv(disk: Disk, point: vec3<f32>) -> vec2<f32> {
+    let planar = point - disk.center;
+    let a = dot(disk.w, cross(planar, disk.v));
+    let b = dot(disk.w, cross(disk.u, planar));
+    var v = atan2(b, a) / (2.0 * PI);
+    if v < 0.0 {
+        v += 1.0;
+    }
+    return vec2<f32>(sqrt(a * a + b * b), v);
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point on the disk (the concentric
 // map keeps the unit square's stratification).
 fn disk_light_sample(disk: Disk, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {

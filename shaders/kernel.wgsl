@@ -148,7 +148,11 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
 #endif
             path_done = true;
         } else {
+#if TEXTURES
+            let material = textured(materials_at(hit.material), hit.uv);
+#else
             let material = materials_at(hit.material);
+#endif
             let front_face = dot(ray.dir, hit.normal) < 0.0;
             if front_face {
 #if STRATEGY_NEE

@@ -41,6 +41,14 @@ fn quad_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
     return keep.xyz;
 }
 
+#if TEXTURES
+// Mitsuba's rectangle: (a, b) of the point q + a u + b v.
+fn quad_hit_uv(quad: Quad, point: vec3<f32>) -> vec2<f32> {
+    let planar = point - quad.q;
+    return vec2<f32>(dot(quad.w, cross(planar, quad.v)), dot(quad.w, cross(quad.u, planar)));
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point on the quad.
 fn quad_light_sample(quad: Quad, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let target_point = quad.q + u.x * quad.u + u.y * quad.v;

@@ -42,6 +42,20 @@ fn sphere_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
     return (p - keep.xyz) / keep.w;
 }
 
+#if TEXTURES
+// Mitsuba's sphere: (phi / 2 pi, theta / pi), theta from +z and phi from +x
+// toward +y, about the centre.
+fn sphere_hit_uv(sphere: Sphere, point: vec3<f32>) -> vec2<f32> {
+    let local = (point - sphere.center) / sphere.radius;
+    var phi = atan2(local.y, local.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let theta = acos(clamp(local.z, -1.0, 1.0));
+    return vec2<f32>(phi / (2.0 * PI), theta / PI);
+}
+#endif
+
 // 1 - cos(theta_max) of the cone the sphere subtends, computed without cancellation
 // so a pin-point sphere still gets a finite density.
 fn sphere_cone_one_minus_cos(radius: f32, dist2: f32) -> f32 {

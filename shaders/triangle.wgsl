@@ -127,6 +127,25 @@ fn triangle_shading_normal(index: u32, p: vec3<f32>, ng: vec3<f32>) -> vec3<f32>
 }
 #endif
 
+#if TEXTURES
+// Mirrors `kinds::TriangleUvs`.
+struct TriangleUvs {
+    uv0: vec2<f32>,
+    uv1: vec2<f32>,
+    uv2: vec2<f32>,
+}
+
+// The vertex uvs interpolated at `point` (barycentric, from the areas of the
+// sub-triangles).
+fn triangle_hit_uv(tri: Triangle, uvs: TriangleUvs, point: vec3<f32>) -> vec2<f32> {
+    let n = triangle_cross(tri);
+    let inv_n2 = 1.0 / dot(n, n);
+    let b1 = dot(cross(tri.p2 - point, tri.p0 - point), n) * inv_n2;
+    let b2 = dot(cross(tri.p0 - point, tri.p1 - point), n) * inv_n2;
+    return (1.0 - b1 - b2) * uvs.uv0 + b1 * uvs.uv1 + b2 * uvs.uv2;
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point of the triangle. (Uniform
 // in solid angle, as pbrt-v4, was measured: 2.5-4.6x as efficient under a large,
 // near triangle light, but 0.7x on Mitsuba's Cornell box, where its code alone

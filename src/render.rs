@@ -275,6 +275,19 @@ impl<'a> Renderer<'a> {
                         never_hit = vec![0; size_of::<f32>()];
                         &never_hit[..]
                     }
+                    // Nor textures, or texture coordinates, of a scene without textures.
+                    ArraySource::Textures if data.textures.is_empty() => {
+                        never_hit = vec![0; size_of::<crate::kinds::TextureInfo>()];
+                        &never_hit[..]
+                    }
+                    ArraySource::TextureTexels if data.texture_texels.is_empty() => {
+                        never_hit = vec![0; size_of::<f32>()];
+                        &never_hit[..]
+                    }
+                    ArraySource::Uvs(k) if data.uvs[k].is_empty() => {
+                        never_hit = vec![0; binding.element_size];
+                        &never_hit[..]
+                    }
                     source => data.array_bytes(source),
                 };
                 let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {

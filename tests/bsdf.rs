@@ -77,6 +77,7 @@ impl Setup {
                 albedo: glam::Vec3::splat(0.8),
                 emit: glam::Vec3::ZERO,
                 one_sided: false,
+                texture: None,
             },
             &mut material_tables,
         );

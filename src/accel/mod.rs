@@ -93,7 +93,7 @@ struct Item {
 impl Bvh {
     /// The BVH over every primitive of `data`, whose primitive arrays it puts
     /// in leaf order, and with them every array indexed like them (the shading
-    /// normals); `None` (and `data` unchanged) when it has none.
+    /// normals, the texture coordinates); `None` (and `data` unchanged) when it has none.
     pub fn build(data: &mut SceneData) -> Option<Bvh> {
         let started = Instant::now();
         let (mut bvh, leaf_order) = Bvh::build_order(data)?;
@@ -108,19 +108,20 @@ impl Bvh {
                 sorted.materials.push(array.materials[i as usize]);
             }
             *array = sorted;
-            let normals = &mut data.normals[k];
-            if !normals.is_empty() {
-                let size = normals.len() / order.len();
-                assert_eq!(
-                    normals.len(),
-                    size * order.len(),
-                    "one shading normal per primitive"
-                );
-                *normals = order
-                    .iter()
-                    .flat_map(|&i| &normals[i as usize * size..(i as usize + 1) * size])
-                    .copied()
-                    .collect();
+            for per_primitive in [&mut data.normals[k], &mut data.uvs[k]] {
+                if !per_primitive.is_empty() {
+                    let size = per_primitive.len() / order.len();
+                    assert_eq!(
+                        per_primitive.len(),
+                        size * order.len(),
+                        "one element per primitive"
+                    );
+                    *per_primitive = order
+                        .iter()
+                        .flat_map(|&i| &per_primitive[i as usize * size..(i as usize + 1) * size])
+                        .copied()
+                        .collect();
+                }
             }
         }
         bvh.build_seconds = started.elapsed().as_secs_f64();

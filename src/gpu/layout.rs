@@ -4,7 +4,8 @@
 use crate::accel::Bvh;
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
-    KindSet, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive, PrimitiveKind, pack_material,
+    KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive,
+    PrimitiveKind, TextureInfo, TextureTables, pack_material,
 };
 use crate::lights::{DeltaLight, LightTables, pack_delta_lights};
 use crate::scene::{Camera, MaterialKind, Scene};
@@ -206,6 +207,12 @@ pub struct SceneData {
     /// Per kind: the shading normals of `primitives`, one element each, where
     /// any of them is smooth (else empty).
     pub normals: Vec<Vec<u8>>,
+    /// Per kind with `texture_uvs`: the texture coordinates of `primitives`,
+    /// one element each, where the scene has textures (else empty).
+    pub uvs: Vec<Vec<u8>>,
+    /// The materials' textures (`kinds::TextureTables`); empty without.
+    pub textures: Vec<TextureInfo>,
+    pub texture_texels: Vec<f32>,
     /// Per kind with grouped lights: each light's group and area, as `lights`.
     pub light_members: Vec<Vec<(u32, f32)>>,
     /// Per kind with grouped lights that has some: their groups, alias tables
@@ -227,6 +234,9 @@ impl Default for SceneData {
             primitives: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
             lights: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
             normals: vec![Vec::new(); PRIMITIVE_KINDS.len()],
+            uvs: vec![Vec::new(); PRIMITIVE_KINDS.len()],
+            textures: Vec::new(),
+            texture_texels: Vec::new(),
             light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
             light_tables: vec![None; PRIMITIVE_KINDS.len()],
             bvh: None,
@@ -239,10 +249,20 @@ impl Default for SceneData {
 impl SceneData {
     pub fn pack(scene: &Scene) -> SceneData {
         let mut material_tables = MaterialTables::default();
+        let mut textures = TextureTables::default();
         let materials = scene
             .materials
             .iter()
-            .map(|m| pack_material(m, &mut material_tables))
+            .map(|m| {
+                let packed = pack_material(m, &mut material_tables);
+                match &m.texture {
+                    Some(texture) => Material {
+                        flags: packed.flags | (textures.add(texture) + 1) << MATERIAL_TEXTURE_SHIFT,
+                        ..packed
+                    },
+                    None => packed,
+                }
+            })
             .collect();
         // A dielectric of ior 1 bends and reflects nothing: it is left out of the
         // geometry (it may still guide sampling if marked for importance).
@@ -250,6 +270,8 @@ impl SceneData {
         let mut data = SceneData {
             materials,
             material_tables: material_tables.values,
+            textures: textures.infos,
+            texture_texels: textures.texels,
             environment: scene
                 .environment
                 .as_ref()
@@ -263,6 +285,9 @@ impl SceneData {
                 if !invisible(primitive.material) {
                     data.primitives[k].push(&primitive);
                     data.normals[k].extend_from_slice(&primitive.normals);
+                    if !data.textures.is_empty() {
+                        data.uvs[k].extend_from_slice(&primitive.uvs);
+                    }
                     smooth |= primitive.smooth;
                 }
                 if primitive.importance && kind.light_density {

@@ -11,7 +11,10 @@ use crate::gpu::accumulator::{
 };
 use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
 use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
-use crate::kinds::{Lobe, MATERIAL_KINDS, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES};
+use crate::kinds::{
+    Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, PRIMITIVE_KINDS, PrimitiveKind,
+    ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
+};
 use crate::shader::element_constant;
 use std::fmt::Write;
 
@@ -39,6 +42,10 @@ pub fn shared_constants() -> String {
     }
     for &(name, bit) in MATERIAL_FLAGS {
         constant(name, bit);
+    }
+    constant("MATERIAL_TEXTURE_SHIFT", MATERIAL_TEXTURE_SHIFT);
+    for &(name, value) in TEXTURE_CONSTANTS {
+        constant(name, value);
     }
     constant("ROUGH_TRANSMITTANCE_RES", ROUGH_TRANSMITTANCE_RES as u32);
     constant("BVH_STACK", accel::MAX_DEPTH);
@@ -146,7 +153,11 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             .map(GpuLayout::wgsl_value)
             .collect(),
         ArraySource::BvhNodes => unreachable!("a baked scene has no BVH"),
-        ArraySource::Environment(_) | ArraySource::MaterialTables => unreachable!("never baked"),
+        ArraySource::Environment(_)
+        | ArraySource::MaterialTables
+        | ArraySource::Textures
+        | ArraySource::TextureTexels
+        | ArraySource::Uvs(_) => unreachable!("never baked"),
     };
     let n = values.len();
     writeln!(out, "fn {name}_count() -> u32 {{ return {n}u; }}").unwrap();
@@ -181,8 +192,9 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
 }
 
 /// The closest hit keeps only each kind's `NAME_hit_keep` of the closest
-/// primitive (and its index, for kinds with shading normals), and computes the
-/// normals from it once at the end. The primitives are walked by `#for_each`,
+/// primitive (and its index, for kinds with shading normals and in kernels
+/// with textures), and computes the normals (and texture coordinates) from it
+/// once at the end. The primitives are walked by `#for_each`,
 /// or reached through the BVH.
 fn closest_hit(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.primitive_kinds.iter().collect();
@@ -192,7 +204,8 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         return;
     }
     out.push_str("    var hit_keep = vec4<f32>(0.0);\n");
-    if !config.normal_kinds.is_empty() {
+    let keeps_index = |k: usize| config.normal_kinds.contains(k) || config.textures;
+    if kinds.iter().any(|&k| keeps_index(k)) {
         out.push_str("    var hit_index = 0u;\n");
     }
     let several = kinds.len() > 1;
@@ -207,7 +220,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         } else {
             String::new()
         };
-        if config.normal_kinds.contains(k) {
+        if keeps_index(k) {
             writeln!(tag, "{indent}    hit_index = primitive_index;").unwrap();
         }
         format!(
@@ -242,7 +255,23 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         } else {
             "hit.normal".to_string()
         };
-        format!("hit.normal = {name}_hit_normal(hit_keep, hit.p); hit.shading_normal = {shading};")
+        let mut set = format!(
+            "hit.normal = {name}_hit_normal(hit_keep, hit.p); hit.shading_normal = {shading};"
+        );
+        if config.textures {
+            let kind = PRIMITIVE_KINDS[k];
+            let uvs = match kind.texture_uvs {
+                Some(_) => format!("{}_at(hit_index), ", kind.uvs_array()),
+                None => String::new(),
+            };
+            write!(
+                set,
+                " hit.uv = {name}_hit_uv({}_at(hit_index), {uvs}hit.p);",
+                kind.array
+            )
+            .unwrap();
+        }
+        set
     };
     if several {
         out.push_str("    switch hit_kind {\n");

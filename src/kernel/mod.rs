@@ -11,7 +11,7 @@ use crate::gpu::accumulator::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
 };
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
-use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS};
+use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, TextureInfo};
 use crate::lights::{DeltaLight, LightGroup, LightPick};
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
@@ -31,6 +31,7 @@ pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
 pub const DELTA_LIGHTS: ShaderModule = shader_module!("delta_lights");
+pub const TEXTURES: ShaderModule = shader_module!("textures");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -49,6 +50,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "LIGHT_ENVIRONMENT",
     "DELTA_LIGHTS",
     "DELTA_LIGHTS_PICK",
+    "TEXTURES",
 ];
 
 /// Every flag a module may test: the features and each kind's presence flags.
@@ -119,6 +121,11 @@ pub enum ArraySource {
     Materials,
     /// The materials' tables (`SceneData::material_tables`).
     MaterialTables,
+    /// The textures (`SceneData::textures`) and their texels.
+    Textures,
+    TextureTexels,
+    /// The texture coordinates of the primitives of kind `k`.
+    Uvs(usize),
     /// The primitives of kind `k` of `PRIMITIVE_KINDS`.
     Primitives(usize),
     /// The primitives of kind `k` in the light density.
@@ -144,7 +151,11 @@ impl ArraySource {
     pub fn bakes(self) -> bool {
         !matches!(
             self,
-            ArraySource::Environment(_) | ArraySource::MaterialTables
+            ArraySource::Environment(_)
+                | ArraySource::MaterialTables
+                | ArraySource::Textures
+                | ArraySource::TextureTexels
+                | ArraySource::Uvs(_)
         )
     }
 }
@@ -205,8 +216,9 @@ pub struct SceneArray {
     pub element_size: usize,
     /// Its binding in group 1 when the scene is read from buffers: materials 0,
     /// then the primitive kinds in table order, then their light arrays, the
-    /// BVH, the shading normals, the light tables, the environment map and the
-    /// material tables (fixed per array, whichever arrays a kernel declares).
+    /// BVH, the shading normals, the light tables, the environment map, the
+    /// material tables, the textures and the texture coordinates (fixed per
+    /// array, whichever arrays a kernel declares).
     pub binding: u32,
     /// Read by a dynamic index (`NAME_at`), not only walked by `#for_each`.
     pub indexed: bool,
@@ -254,6 +266,8 @@ pub struct KernelConfig {
     /// More than [`KernelConfig::MAX_DELTA_SHADOW_RAYS`] of them: one shadow ray
     /// per vertex, toward a light picked by power, instead of one toward each.
     pub delta_light_pick: bool,
+    /// Some material has a texture: hits carry texture coordinates.
+    pub textures: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -309,6 +323,7 @@ impl KernelConfig {
             light_environment: samples_lights && environment,
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
+            textures: !data.textures.is_empty(),
         }
     }
 
@@ -352,6 +367,7 @@ impl KernelConfig {
             light_environment: strategy != Strategy::Bsdf,
             delta_lights: true,
             delta_light_pick: false,
+            textures: true,
         }
     }
 
@@ -418,6 +434,7 @@ impl KernelConfig {
                 "DELTA_LIGHTS_PICK",
                 self.delta_lights && self.delta_light_pick,
             ),
+            ("TEXTURES", self.textures),
         ];
         for (flag, on) in features {
             if on {
@@ -472,6 +489,9 @@ impl KernelConfig {
     /// the kinds' modules and the generated dispatch.
     fn material_modules(&self) -> Vec<ShaderModule> {
         let mut modules = vec![MATERIALS];
+        if self.textures {
+            modules.push(TEXTURES);
+        }
         for k in self.material_kinds.iter() {
             for helper in MATERIAL_KINDS[k].helpers {
                 if !modules.iter().any(|m| m.name == helper.name) {
@@ -530,6 +550,7 @@ impl KernelConfig {
             sampler: Sampler::Independent,
             environment: false,
             light_environment: false,
+            textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let mut modules = vec![
@@ -610,9 +631,9 @@ impl KernelConfig {
                 wgsl_type: kind.layout.wgsl_name,
                 element_size: kind.layout.size,
                 binding: 1 + k as u32,
-                // The BVH's leaves, and the shading normal at the closest hit,
-                // look primitives up by index.
-                indexed: self.bvh || self.normal_kinds.contains(k),
+                // The BVH's leaves, and the shading normal and texture
+                // coordinates at the closest hit, look primitives up by index.
+                indexed: self.bvh || self.normal_kinds.contains(k) || self.textures,
                 source: ArraySource::Primitives(k),
             });
         }
@@ -664,6 +685,37 @@ impl KernelConfig {
                 source: ArraySource::BvhNodes,
             });
         }
+        if self.textures {
+            arrays.push(SceneArray {
+                name: "textures".into(),
+                wgsl_type: TextureInfo::WGSL_NAME,
+                element_size: size_of::<TextureInfo>(),
+                binding: 7 + 7 * count,
+                indexed: true,
+                source: ArraySource::Textures,
+            });
+            arrays.push(SceneArray {
+                name: "texture_texels".into(),
+                wgsl_type: "f32",
+                element_size: size_of::<f32>(),
+                binding: 8 + 7 * count,
+                indexed: true,
+                source: ArraySource::TextureTexels,
+            });
+            for k in self.primitive_kinds.iter() {
+                let kind = PRIMITIVE_KINDS[k];
+                if let Some(layout) = kind.texture_uvs {
+                    arrays.push(SceneArray {
+                        name: kind.uvs_array(),
+                        wgsl_type: layout.wgsl_name,
+                        element_size: layout.size,
+                        binding: 9 + 7 * count + k as u32,
+                        indexed: true,
+                        source: ArraySource::Uvs(k),
+                    });
+                }
+            }
+        }
         if self.environment {
             let parts: &[(EnvironmentPart, &str, &'static str, usize)] = &[
                 (
@@ -700,8 +752,8 @@ impl KernelConfig {
                 name: "delta_lights".into(),
                 wgsl_type: DeltaLight::WGSL_NAME,
                 element_size: size_of::<DeltaLight>(),
-                // After the material tables.
-                binding: 7 + 7 * count,
+                // After the texture coordinates (one binding per primitive kind).
+                binding: 9 + 8 * count,
                 indexed: true,
                 source: ArraySource::DeltaLights,
             });
@@ -723,9 +775,11 @@ impl KernelConfig {
                 ArraySource::BvhNodes => {
                     unreachable!("a baked scene has no BVH")
                 }
-                ArraySource::Environment(_) | ArraySource::MaterialTables => {
-                    unreachable!("never baked")
-                }
+                ArraySource::Environment(_)
+                | ArraySource::MaterialTables
+                | ArraySource::Textures
+                | ArraySource::TextureTexels
+                | ArraySource::Uvs(_) => unreachable!("never baked"),
             }),
             _ => ArrayForm::Buffer,
         }
@@ -818,6 +872,9 @@ impl SceneData {
         match source {
             ArraySource::Materials => bytemuck::cast_slice(&self.materials),
             ArraySource::MaterialTables => bytemuck::cast_slice(&self.material_tables),
+            ArraySource::Textures => bytemuck::cast_slice(&self.textures),
+            ArraySource::TextureTexels => bytemuck::cast_slice(&self.texture_texels),
+            ArraySource::Uvs(k) => &self.uvs[k],
             ArraySource::Primitives(k) => &self.primitives[k].bytes,
             ArraySource::Lights(k) => &self.lights[k].bytes,
             ArraySource::Normals(k) => &self.normals[k],
@@ -904,7 +961,7 @@ mod tests {
                             (true, false) => primitive_kinds,
                         };
                         let variance = mask >> primitives & 1 != 0;
-                        // Smooth shading and delta lights go with variance (independent
+                        // Smooth shading, delta lights and textures go with variance (independent
                         // features on one bit, to keep the variants few).
                         let normal_kinds = primitive_kinds
                             .iter()
@@ -922,6 +979,7 @@ mod tests {
                             delta_lights: variance && has_smooth_lobe(material_kinds),
                             // Both ways of estimating them, on the BVH bit.
                             delta_light_pick: mask >> (primitives + 1) != 0,
+                            textures: variance,
                             ..general.clone()
                         });
                     }
@@ -935,6 +993,11 @@ mod tests {
     fn every_module_combination_validates() {
         for config in all_variants() {
             validate(&config);
+            let mut bindings: Vec<u32> = config.scene_arrays().iter().map(|a| a.binding).collect();
+            bindings.sort_unstable();
+            let before = bindings.len();
+            bindings.dedup();
+            assert_eq!(bindings.len(), before, "two scene arrays share a binding");
         }
     }
 
@@ -1013,6 +1076,101 @@ mod tests {
                 validate(&all_lights);
             }
         }
+    }
+
+    /// A textured scene of every primitive kind (a mesh face too) under every
+    /// strategy and scene storage: the texture arrays and the faces' uvs are
+    /// bound in baked kernels too, and only where the scene has a texture.
+    #[test]
+    fn textured_kernels_validate() {
+        let text = r#"
+            [camera]
+            lookfrom = [0, 0, -5]
+            lookat = [0, 0, 0]
+            [materials.checks]
+            type = "lambertian"
+            albedo = { type = "checkerboard", to_uv = { scale = 4 } }
+            [materials.lamp]
+            type = "light"
+            emit = [1, 1, 1]
+            [[objects]]
+            type = "quad"
+            q = [0, 0, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "checks"
+            [[objects]]
+            type = "sphere"
+            center = [0, 0, 2]
+            radius = 1
+            material = "lamp"
+            [[objects]]
+            type = "disk"
+            center = [0, 2, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "checks"
+        "#;
+        let mut scene = crate::scene::Scene::parse(text, "textured.toml").unwrap();
+        scene.triangles.push(crate::scene::Triangle {
+            vertices: [glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
+            normals: None,
+            uvs: None,
+            material: 0,
+            importance: false,
+            mesh: 0,
+        });
+        let data = SceneData::pack(&scene);
+        assert_eq!(data.textures.len(), 1);
+        for strategy in Strategy::ALL {
+            for storage in [
+                SceneStorage::Baked,
+                SceneStorage::Buffers,
+                SceneStorage::Bvh,
+            ] {
+                let config = KernelConfig::for_scene(
+                    &data,
+                    strategy,
+                    &scene.render,
+                    Filter::Box,
+                    AccumulatorKind::Buffer,
+                    false,
+                    storage,
+                );
+                assert!(config.textures);
+                validate(&config);
+                let bound: Vec<String> = config
+                    .scene_bindings()
+                    .into_iter()
+                    .map(|a| a.name)
+                    .collect();
+                for array in ["textures", "texture_texels", "triangle_uvs"] {
+                    assert!(bound.contains(&array.to_string()), "{bound:?}");
+                }
+            }
+        }
+        // Without the texture (its mean colour left as the constant) the
+        // materials differ only by the texture's index in the flags.
+        scene.materials[0].texture = None;
+        let plain = SceneData::pack(&scene);
+        assert!(plain.textures.is_empty() && plain.uvs.iter().all(Vec::is_empty));
+        let shift = crate::kinds::MATERIAL_TEXTURE_SHIFT;
+        assert_eq!(data.materials[0].flags >> shift, 1);
+        let mut untextured = data.materials.clone();
+        untextured[0].flags &= (1 << shift) - 1;
+        assert_eq!(plain.materials, untextured);
+        assert!(
+            !KernelConfig::for_scene(
+                &plain,
+                Strategy::Mixture,
+                &scene.render,
+                Filter::Box,
+                AccumulatorKind::Buffer,
+                false,
+                SceneStorage::Baked,
+            )
+            .textures
+        );
     }
 
     #[test]
@@ -1452,10 +1610,14 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
         check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
         check_layout(&module, ErasedLayout::of::<DeltaLight>());
+        check_layout(&module, ErasedLayout::of::<TextureInfo>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {
                 check_layout(&module, normals);
+            }
+            if let Some(uvs) = kind.texture_uvs {
+                check_layout(&module, uvs);
             }
         }
     }

@@ -33,6 +33,7 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
         (c - half, c + half)
     },
     shading_normals: None,
+    texture_uvs: None,
     grouped_lights: false,
 };
 

@@ -13,6 +13,7 @@ mod disk;
 mod material;
 mod quad;
 mod sphere;
+mod texture;
 mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
@@ -22,7 +23,8 @@ pub use material::{
 };
 pub use quad::Quad;
 pub use sphere::Sphere;
-pub use triangle::{Triangle, TriangleNormals};
+pub use texture::{MATERIAL_TEXTURE_SHIFT, TEXTURE_CONSTANTS, TextureInfo, TextureTables};
+pub use triangle::{Triangle, TriangleNormals, TriangleUvs};
 
 use crate::gpu::layout::GpuLayout;
 use crate::scene::Scene;
@@ -54,7 +56,11 @@ pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[
 ///   `fn NAME_shading_normal(index: u32, p: vec3<f32>, normal: vec3<f32>) ->
 ///   vec3<f32>`: the shading normal at `p` on primitive `index`, on the side of
 ///   the geometric `normal`, from the array `NAME_normals` (one element per
-///   primitive). Kinds without it shade with the geometric normal.
+///   primitive). Kinds without it shade with the geometric normal;
+/// - under the flag `TEXTURES`, `fn NAME_hit_uv(p: S, point: vec3<f32>) ->
+///   vec2<f32>`: Mitsuba's texture coordinates of the shape at a hit point; a
+///   kind with `texture_uvs` takes them from its element `uvs` of the array
+///   `NAME_uvs` as a second argument.
 ///
 /// The WGSL struct's first `u32` field named `material` indexes the materials.
 pub struct PrimitiveKind {
@@ -78,6 +84,10 @@ pub struct PrimitiveKind {
     /// for kinds that can be shaded smooth; the array and its code exist only in
     /// kernels of scenes with such a primitive.
     pub shading_normals: Option<ErasedLayout>,
+    /// Per-primitive texture coordinates (`PackedPrimitive::uvs`), for kinds
+    /// whose own geometry does not give them (mesh faces); the array exists
+    /// only in kernels of scenes with textures.
+    pub texture_uvs: Option<ErasedLayout>,
     /// Its lights come in groups (a mesh's faces), each group one object of the
     /// light density, a member picked by power (`lights::LightTables`). The
     /// module then defines `fn NAME_light_sample` and `NAME_light_pdf` per
@@ -98,6 +108,11 @@ impl PrimitiveKind {
 
     pub fn light_flag(&self) -> String {
         self.light_array().to_uppercase()
+    }
+
+    /// The texture coordinates' array of this kind (`triangle_uvs`).
+    pub fn uvs_array(&self) -> String {
+        format!("{}_uvs", self.name)
     }
 
     /// The shading normals' array of this kind (`triangle_normals`).
@@ -124,6 +139,8 @@ pub struct PackedPrimitive {
     pub normals: Vec<u8>,
     /// Shaded with interpolated normals: the scene needs the kind's normals array.
     pub smooth: bool,
+    /// Its packed texture coordinates, for kinds with `PrimitiveKind::texture_uvs`.
+    pub uvs: Vec<u8>,
     /// For kinds with `PrimitiveKind::grouped_lights`: its group (the object it
     /// belongs to) and its area, for picking it by power (`lights`).
     pub light_group: Option<(u32, f32)>,
@@ -137,6 +154,7 @@ impl PackedPrimitive {
             importance,
             normals: Vec::new(),
             smooth: false,
+            uvs: Vec::new(),
             light_group: None,
         }
     }

@@ -34,6 +34,7 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
         (min, max)
     },
     shading_normals: None,
+    texture_uvs: None,
     grouped_lights: false,
 };
 

@@ -40,6 +40,7 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
         (center - sphere.radius, center + sphere.radius)
     },
     shading_normals: None,
+    texture_uvs: None,
     grouped_lights: false,
 };
 

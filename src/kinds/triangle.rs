@@ -19,6 +19,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
             .map(|t| PackedPrimitive {
                 normals: bytemuck::bytes_of(&TriangleNormals::new(t)).to_vec(),
                 smooth: t.normals.is_some(),
+                uvs: bytemuck::bytes_of(&TriangleUvs::new(t)).to_vec(),
                 light_group: Some((t.mesh, t.area())),
                 ..PackedPrimitive::new(&Triangle::new(t), t.material, t.importance)
             })
@@ -40,6 +41,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
         (a.min(b).min(c), a.max(b).max(c))
     },
     shading_normals: Some(ErasedLayout::of::<TriangleNormals>()),
+    texture_uvs: Some(ErasedLayout::of::<TriangleUvs>()),
     grouped_lights: true,
 };
 
@@ -93,6 +95,27 @@ impl TriangleNormals {
         let normals = triangle.normals.unwrap_or([face; 3]);
         let [n0, n1, n2] = normals.map(|n| oct_encode(if n == Vec3::ZERO { face } else { n }));
         TriangleNormals { n0, n1, n2 }
+    }
+}
+
+gpu_struct! {
+    /// A face's texture coordinates at its vertices.
+    pub struct TriangleUvs {
+        pub uv0: [f32; 2],
+        pub uv1: [f32; 2],
+        pub uv2: [f32; 2],
+    }
+}
+
+impl TriangleUvs {
+    /// The face's vertex uvs, or Mitsuba's default for a mesh without: (0, 0),
+    /// (1, 0), (0, 1), which interpolate to the barycentric (b1, b2).
+    fn new(triangle: &crate::scene::Triangle) -> TriangleUvs {
+        let [uv0, uv1, uv2] = triangle
+            .uvs
+            .unwrap_or([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y])
+            .map(|uv| uv.to_array());
+        TriangleUvs { uv0, uv1, uv2 }
     }
 }
 

@@ -130,7 +130,7 @@ pub fn load_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
     {
         let (x, y) = (i as u32 % width, i as u32 / width);
         return Err(format!(
-            "{shown}: texel ({x}, {y}) is [{}, {}, {}]: radiance must be finite and >= 0",
+            "{shown}: texel ({x}, {y}) is [{}, {}, {}]: texel values must be finite and >= 0",
             texel[0], texel[1], texel[2]
         ));
     }

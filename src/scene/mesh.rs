@@ -20,7 +20,8 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Per-vertex normals, where the file has them (same length as positions).
     pub normals: Option<Vec<glam::Vec3>>,
-    /// Per-vertex texture coordinates, where the file has them.
+    /// Per-vertex texture coordinates, where the file has them, v down from the
+    /// image's top row (OBJ's flipped, as Mitsuba reads them).
     pub uvs: Option<Vec<glam::Vec2>>,
     /// glTF: the file's materials that its triangles use, in order of first use.
     pub materials: Vec<MeshMaterial>,
@@ -261,7 +262,12 @@ fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
         }
         mesh.uvs = mesh.uvs.filter(|_| m.texcoords.len() == 2 * vertices);
         if let Some(uvs) = &mut mesh.uvs {
-            uvs.extend(m.texcoords.chunks_exact(2).map(Vec2::from_slice));
+            // OBJ's v runs up the image; Mitsuba's (and pathmix's) down from its top row.
+            uvs.extend(
+                m.texcoords
+                    .chunks_exact(2)
+                    .map(|t| Vec2::new(t[0], 1.0 - t[1])),
+            );
         }
         // tobj leaves the arities out when every face is a triangle.
         let arities = if m.face_arities.is_empty() {
@@ -879,9 +885,11 @@ f 3/3/2 2/2/2 1/1/2
         let normals = mesh.normals.unwrap();
         assert_eq!(normals[..4], [Vec3::Z; 4]);
         assert_eq!(normals[4..], [Vec3::NEG_Z; 3]);
+        // v flipped: `vt 1 1` is the image's top right.
         let uvs = mesh.uvs.unwrap();
-        assert_eq!(uvs[2], Vec2::new(1.0, 1.0));
-        assert_eq!(uvs[4], Vec2::new(1.0, 1.0));
+        assert_eq!(uvs[1], Vec2::new(1.0, 1.0));
+        assert_eq!(uvs[2], Vec2::new(1.0, 0.0));
+        assert_eq!(uvs[4], Vec2::new(1.0, 0.0));
         assert_eq!(mesh.positions[4], Vec3::new(1.0, 1.0, 0.0));
     }
 

@@ -7,7 +7,8 @@
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
-//! `constant`, `envmap`, `point` and `spot` emitters; the `perspective` sensor with `hdrfilm`, its `box` or
+//! `constant`, `envmap`, `point` and `spot` emitters; `bitmap` and `checkerboard` textures (nested or
+//! by `<ref>`) on the colour each BSDF can take one for (`Builder::texturable`); the `perspective` sensor with `hdrfilm`, its `box` or
 //! `gaussian` filter and a sampler; the `path` and `direct` integrators. Anything
 //! else is an error naming `file:line:col` and the element; an approximation is a
 //! warning.
@@ -31,7 +32,8 @@ const UNBOUNDED_DEPTH: i64 = 100_000;
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
                                thindielectric, plastic, roughplastic, twosided";
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
-const SUPPORTED_TOP: &str = "default, include, path, integrator, sensor, shape, bsdf, emitter";
+const SUPPORTED_TOP: &str =
+    "default, include, path, integrator, sensor, shape, bsdf, emitter, texture";
 
 /// A `-D name=value` parameter, as `mitsuba -D`.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -159,6 +161,17 @@ impl Converted {
         }
         if let Some(Value::Table(environment)) = document.get_mut("environment") {
             relative(environment);
+        }
+        if let Some(Value::Table(materials)) = document.get_mut("materials") {
+            for (_, material) in materials.iter_mut() {
+                if let Value::Table(material) = material {
+                    for (_, texture) in material.iter_mut() {
+                        if let Value::Table(texture) = texture {
+                            relative(texture);
+                        }
+                    }
+                }
+            }
         }
         let mut text = format!(
             "# Converted by pathmix {} from the Mitsuba scene {}.\n",
@@ -535,14 +548,14 @@ impl<'e> Props<'e> {
 
     /// A colour: `<rgb>`, a uniform `<spectrum>` or a `<float>` (grey).
     fn color(&mut self, name: &str) -> Result<Option<[f64; 3]>> {
-        if let Some(texture) = self
-            .elem
-            .children
-            .iter()
-            .find(|c| c.tag == "texture" && c.name() == Some(name))
-        {
+        // One `Builder::texturable` took is no longer a problem.
+        if let Some((_, texture)) = self.elem.children.iter().enumerate().find(|&(i, c)| {
+            matches!(c.tag.as_str(), "texture" | "ref") && c.name() == Some(name) && !self.used[i]
+        }) {
             return Err(texture.origin.error(
-                "textures (bitmap, checkerboard) are not supported yet: give a constant <rgb>",
+                "a texture here is not supported: pathmix textures diffuse `reflectance`, \
+                 plastics' `diffuse_reflectance` and conductors' and roughdielectric's \
+                 `specular_reflectance`; give a constant <rgb>",
             ));
         }
         let Some(e) = self.get(name) else {
@@ -584,6 +597,16 @@ impl<'e> Props<'e> {
             Some(e) => transform(e),
             None => Ok(DMat4::IDENTITY),
         }
+    }
+
+    /// The `<texture name="NAME">` or `<ref name="NAME">` child, if any.
+    fn texture(&mut self, name: &str) -> Option<&'e Elem> {
+        let i =
+            self.elem.children.iter().position(|c| {
+                matches!(c.tag.as_str(), "texture" | "ref") && c.name() == Some(name)
+            })?;
+        self.used[i] = true;
+        Some(&self.elem.children[i])
     }
 
     /// Errors on the first child nothing used.
@@ -775,7 +798,8 @@ enum Surface {
     /// `one_sided`: outside a `twosided`, black from behind (as all of these
     /// but the dielectrics, which scatter from both sides by nature).
     Lambertian {
-        albedo: [f64; 3],
+        /// A colour or a texture table.
+        albedo: Value,
         one_sided: bool,
     },
     Dielectric {
@@ -788,6 +812,17 @@ enum Surface {
         transmits: bool,
         one_sided: bool,
     },
+}
+
+impl Surface {
+    /// Whether one of its colours is a texture (a table among its values).
+    fn is_textured(&self) -> bool {
+        match self {
+            Surface::Lambertian { albedo, .. } => albedo.is_table(),
+            Surface::Dielectric { .. } => false,
+            Surface::Mitsuba { table, .. } => table.values().any(Value::is_table),
+        }
+    }
 }
 
 struct Builder<'a> {
@@ -908,9 +943,8 @@ impl<'a> Builder<'a> {
                     .origin
                     .error("not supported (supported: area, constant, envmap, point, spot)")),
             },
-            "texture" => Err(e
-                .origin
-                .error("textures (bitmap, checkerboard) are not supported yet")),
+            // A definition, used through <ref>; checked here as bsdfs are.
+            "texture" => self.texture(e).map(drop),
             _ => Err(e.origin.error(format!(
                 "not supported at the top level (supported: {SUPPORTED_TOP})"
             ))),
@@ -1018,7 +1052,9 @@ impl<'a> Builder<'a> {
         let mut props = Props::new(e);
         let surface = match e.ty() {
             "diffuse" => {
-                let albedo = props.color("reflectance")?.unwrap_or([0.5; 3]);
+                let albedo = self
+                    .texturable(&mut props, "reflectance")?
+                    .unwrap_or_else(|| color_value([0.5; 3]));
                 Surface::Lambertian {
                     albedo,
                     one_sided: !twosided,
@@ -1034,8 +1070,21 @@ impl<'a> Builder<'a> {
             ty @ ("conductor" | "roughconductor" | "roughdielectric" | "thindielectric"
             | "plastic" | "roughplastic") => {
                 let transmits = ty.ends_with("dielectric");
+                let textured = match ty {
+                    "plastic" | "roughplastic" => Some("diffuse_reflectance"),
+                    "thindielectric" => None,
+                    _ => Some("specular_reflectance"),
+                };
+                let texture = match textured {
+                    Some(name) => self.texturable(&mut props, name)?,
+                    None => None,
+                };
+                let mut table = mitsuba_material(ty, &mut props)?;
+                if let (Some(name), Some(texture)) = (textured, texture) {
+                    table.insert(name.into(), texture);
+                }
                 Surface::Mitsuba {
-                    table: mitsuba_material(ty, &mut props)?,
+                    table,
                     transmits,
                     one_sided: !twosided && !transmits,
                 }
@@ -1058,6 +1107,86 @@ impl<'a> Builder<'a> {
         };
         props.finish()?;
         Ok(surface)
+    }
+
+    /// The colour property `name`: a constant (`[r, g, b]`), or a nested or
+    /// referenced `<texture>` as the TOML texture table it means.
+    fn texturable(&mut self, props: &mut Props<'a>, name: &str) -> Result<Option<Value>> {
+        match props.texture(name) {
+            Some(e) => {
+                let target = self.resolve(e)?;
+                if target.tag != "texture" {
+                    return Err(e.origin.error(format!(
+                        "`{name}` refers to a <{}>, not a <texture>",
+                        target.tag
+                    )));
+                }
+                self.texture(target).map(Some)
+            }
+            None => Ok(props.color(name)?.map(color_value)),
+        }
+    }
+
+    /// `<texture type="bitmap">` (`filename`, `wrap_mode`, `filter_type`, `raw`,
+    /// `to_uv`) or `"checkerboard"` (`color0`, `color1`, `to_uv`), as the TOML
+    /// texture table of the same meaning.
+    fn texture(&mut self, e: &'a Elem) -> Result<Value> {
+        e.check_attrs(&["type", "id", "name"])?;
+        let mut props = Props::new(e);
+        let mut table = Table::new();
+        table.insert("type".into(), Value::String(e.ty().into()));
+        match e.ty() {
+            "bitmap" => {
+                let (name, at) = props
+                    .string("filename")?
+                    .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
+                let path = resolve(self.search, name).ok_or_else(|| {
+                    at.origin
+                        .error(format!("cannot find the texture image `{name}`"))
+                })?;
+                let path = path.canonicalize().unwrap_or(path);
+                table.insert(
+                    "file".into(),
+                    Value::String(path.to_string_lossy().into_owned()),
+                );
+                for key in ["wrap_mode", "filter_type"] {
+                    if let Some((value, _)) = props.string(key)? {
+                        table.insert(key.into(), Value::String(value.into()));
+                    }
+                }
+                if let Some(raw) = props.boolean("raw")? {
+                    table.insert("raw".into(), Value::Boolean(raw));
+                }
+            }
+            "checkerboard" => {
+                for key in ["color0", "color1"] {
+                    if let Some(c) = props.color(key)? {
+                        table.insert(key.into(), color_value(c));
+                    }
+                }
+            }
+            _ => {
+                return Err(e
+                    .origin
+                    .error("not supported (supported textures: bitmap, checkerboard)"));
+            }
+        }
+        // Mitsuba keeps the 2D affine part of a 4x4 `to_uv`: u' = m00 u + m01 v + m03.
+        let m = props.transform("to_uv")?;
+        if m != DMat4::IDENTITY {
+            let row = |r: usize| {
+                Value::Array(
+                    [m.col(0)[r], m.col(1)[r], m.col(3)[r]]
+                        .map(Value::Float)
+                        .to_vec(),
+                )
+            };
+            let mut to_uv = Table::new();
+            to_uv.insert("matrix".into(), Value::Array(vec![row(0), row(1)]));
+            table.insert("to_uv".into(), Value::Table(to_uv));
+        }
+        props.finish()?;
+        Ok(Value::Table(table))
     }
 
     fn radiance(&mut self, e: &'a Elem) -> Result<[f64; 3]> {
@@ -1104,7 +1233,7 @@ impl<'a> Builder<'a> {
                 (
                     name.to_string(),
                     Surface::Lambertian {
-                        albedo: [albedo; 3],
+                        albedo: color_value([albedo; 3]),
                         one_sided: true,
                     },
                 )
@@ -1126,7 +1255,7 @@ impl<'a> Builder<'a> {
         let full_name = match (&surface, &emit) {
             (Surface::Lambertian { albedo, one_sided }, _) => {
                 table.insert("type".into(), Value::String("lambertian".into()));
-                table.insert("albedo".into(), color_value(*albedo));
+                table.insert("albedo".into(), albedo.clone());
                 if *one_sided {
                     table.insert("one_sided".into(), Value::Boolean(true));
                 }
@@ -1325,6 +1454,15 @@ impl<'a> Builder<'a> {
                     return Err(e
                         .origin
                         .error("a sphere's to_world must scale every direction alike"));
+                }
+                // Its texture coordinates turn with it; pathmix's spheres keep no rotation.
+                let turned =
+                    (0..3).any(|i| (columns[i] - scale * DVec3::AXES[i]).length() > 1e-6 * scale);
+                if turned && surface.is_textured() {
+                    return Err(e.origin.error(
+                        "a textured sphere's to_world may only scale and translate \
+                         (pathmix's spheres keep no rotation for the texture to turn with)",
+                    ));
                 }
                 object.insert("type".into(), Value::String("sphere".into()));
                 object.insert(

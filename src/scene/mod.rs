@@ -6,6 +6,7 @@ pub mod mesh;
 pub mod mitsuba;
 mod parse;
 mod prune;
+pub mod texture;
 
 use glam::Vec3;
 use std::fmt;
@@ -13,6 +14,7 @@ use std::path::Path;
 
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, SceneOverrides};
+pub use texture::Texture;
 
 /// How a diffuse bounce picks its direction (see DESIGN.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -255,6 +257,11 @@ pub struct Material {
     /// Scatters only on the side the normal faces, black from behind (Mitsuba's
     /// BSDFs outside `twosided`); the book's materials scatter on both sides.
     pub one_sided: bool,
+    /// A texture on the kind's colour that `kinds::pack_material` packs as
+    /// `albedo` (lambertian and metal `albedo`, conductors' and rough
+    /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
+    /// which then holds the texture's mean.
+    pub texture: Option<Texture>,
 }
 
 impl Material {
@@ -303,6 +310,9 @@ pub struct Triangle {
     /// Unit shading normals at the vertices, interpolated across the face (a
     /// smooth mesh); `None`: shaded with the face normal.
     pub normals: Option<[Vec3; 3]>,
+    /// Texture coordinates at the vertices (v down the image, as Mitsuba's);
+    /// `None`: Mitsuba's default, the barycentric (b1, b2).
+    pub uvs: Option<[glam::Vec2; 3]>,
     pub material: u32,
     pub importance: bool,
     /// The index of the mesh object it belongs to: its group in the light density.

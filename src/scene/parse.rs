@@ -111,6 +111,14 @@
 //! `Scene::materials` holds the materials sorted by name (deterministic whatever the
 //! TOML map's ordering); objects refer to them by index. Unused materials are fine.
 //!
+//! ## Textures
+//! The colour a kind packs as `albedo` (lambertian and metal `albedo`, conductors' and
+//! `roughdielectric`'s `specular_reflectance`, plastics' `diffuse_reflectance`) may be
+//! an inline texture table instead: `{ type = "checkerboard", color0, color1, to_uv }`
+//! or `{ type = "bitmap", file, wrap_mode, filter_type, raw, to_uv }`, with Mitsuba's
+//! meanings (`scene::texture`; docs/scene-format.md). The material's colour is then
+//! the texture's mean (`scene::Material::texture`).
+//!
 //! ## `[[objects]]` (array of tables; zero objects is a valid scene)
 //! `type` (required) is one of:
 //! - `"sphere"`: `center` (vector), `radius` (float > 0). The normal points outwards.
@@ -193,9 +201,12 @@ use toml::{Table, Value};
 
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
+use super::texture::{
+    Bitmap, TextureFilter, TextureKind, UvTransform, WrapMode, load_texture_image,
+};
 use super::{
     Camera, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
-    Sampler, Scene, SceneError, Sphere, Spot, Strategy, Triangle,
+    Sampler, Scene, SceneError, Sphere, Spot, Strategy, Texture, Triangle,
 };
 use std::path::Path;
 
@@ -694,13 +705,15 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                 ),
             ));
         };
+        // The kind's colour packed as `albedo` may be a texture (`scene::Material::texture`).
+        let mut texture = None;
         let (kind, albedo, emit) = match ty {
             "lambertian" => {
                 t.check_keys(
                     &["type", "albedo", "emit", "one_sided"],
                     Some("a lambertian material"),
                 )?;
-                let albedo = t.require("albedo", t.vec3("albedo", check_unit)?)?;
+                let albedo = t.require("albedo", texturable(&t, "albedo", None, &mut texture)?)?;
                 let emit = t.vec3("emit", check_nonneg)?.unwrap_or(Vec3::ZERO);
                 (MaterialKind::Lambertian, albedo, emit)
             }
@@ -709,7 +722,7 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                     &["type", "albedo", "fuzz", "one_sided"],
                     Some("a metal material"),
                 )?;
-                let albedo = t.require("albedo", t.vec3("albedo", check_unit)?)?;
+                let albedo = t.require("albedo", texturable(&t, "albedo", None, &mut texture)?)?;
                 let fuzz = t.float("fuzz", check_unit)?.unwrap_or(0.0);
                 (MaterialKind::Metal { fuzz }, albedo, Vec3::ZERO)
             }
@@ -762,7 +775,9 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                     Some("a conductor material"),
                 )?;
                 let (eta, k) = conductor_ior(&t)?;
-                let specular_reflectance = reflectance(&t, "specular_reflectance", 1.0)?;
+                let specular_reflectance =
+                    texturable(&t, "specular_reflectance", Some(1.0), &mut texture)?
+                        .expect("defaulted");
                 let kind = MaterialKind::Conductor {
                     eta,
                     k,
@@ -789,7 +804,9 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                 let distribution = distribution(&t)?;
                 let (alpha_u, alpha_v) = roughness(&t)?;
                 let (eta, k) = conductor_ior(&t)?;
-                let specular_reflectance = reflectance(&t, "specular_reflectance", 1.0)?;
+                let specular_reflectance =
+                    texturable(&t, "specular_reflectance", Some(1.0), &mut texture)?
+                        .expect("defaulted");
                 let kind = MaterialKind::RoughConductor {
                     distribution,
                     alpha_u,
@@ -824,7 +841,13 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                     alpha_v,
                     int_ior,
                     ext_ior,
-                    specular_reflectance: reflectance(&t, "specular_reflectance", 1.0)?,
+                    specular_reflectance: texturable(
+                        &t,
+                        "specular_reflectance",
+                        Some(1.0),
+                        &mut texture,
+                    )?
+                    .expect("defaulted"),
                     specular_transmittance: reflectance(&t, "specular_transmittance", 1.0)?,
                 };
                 (kind, Vec3::ZERO, Vec3::ZERO)
@@ -866,7 +889,13 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                 let kind = MaterialKind::Plastic {
                     int_ior,
                     ext_ior,
-                    diffuse_reflectance: reflectance(&t, "diffuse_reflectance", 0.5)?,
+                    diffuse_reflectance: texturable(
+                        &t,
+                        "diffuse_reflectance",
+                        Some(0.5),
+                        &mut texture,
+                    )?
+                    .expect("defaulted"),
                     specular_reflectance: reflectance(&t, "specular_reflectance", 1.0)?,
                     nonlinear: t.boolean("nonlinear")?.unwrap_or(false),
                 };
@@ -893,7 +922,13 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                     alpha: t.float("alpha", check_roughness)?.unwrap_or(0.1),
                     int_ior,
                     ext_ior,
-                    diffuse_reflectance: reflectance(&t, "diffuse_reflectance", 0.5)?,
+                    diffuse_reflectance: texturable(
+                        &t,
+                        "diffuse_reflectance",
+                        Some(0.5),
+                        &mut texture,
+                    )?
+                    .expect("defaulted"),
                     specular_reflectance: reflectance(&t, "specular_reflectance", 1.0)?,
                     nonlinear: t.boolean("nonlinear")?.unwrap_or(false),
                 };
@@ -912,6 +947,7 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
             albedo,
             emit,
             one_sided: t.boolean("one_sided")?.unwrap_or(false),
+            texture,
         });
     }
     Ok(out)
@@ -1048,6 +1084,172 @@ fn conductor_ior(t: &Tab) -> Result<(Vec3, Vec3)> {
             Err(t.err(t.at("material"), unknown_name("conductor", name, &names)))
         }
     }
+}
+
+/// A reflectance that may be a texture: a constant in [0, 1] (a vector, or,
+/// with a `default` for when it is absent, one number for grey), or a texture table, stored in
+/// `texture`, whose mean it then gives.
+fn texturable(
+    t: &Tab,
+    key: &str,
+    default: Option<f32>,
+    texture: &mut Option<Texture>,
+) -> Result<Option<Vec3>> {
+    match t.table.get(key) {
+        Some(Value::Table(_)) => {
+            let parsed = parse_texture(&t.sub(key)?.expect("a table"))?;
+            let mean = parsed.mean();
+            *texture = Some(parsed);
+            Ok(Some(mean))
+        }
+        None => Ok(default.map(Vec3::splat)),
+        // The book's `albedo` (no default) is a vector only.
+        Some(_) if default.is_none() => t.vec3(key, check_unit),
+        Some(_) => Ok(Some(colour(t, key, 0.0, check_unit)?)),
+    }
+}
+
+/// Textures in device memory: one storage binding holds every texel (three
+/// floats each), and wgpu's default limit on a binding, lavapipe's too, is 128 MiB.
+pub const MAX_TEXTURE_TEXELS: u64 = (128 << 20) / 12;
+
+/// `{ type = "checkerboard" | "bitmap", ... }` (`scene::texture`).
+fn parse_texture(s: &Tab) -> Result<Texture> {
+    const TYPES: &[&str] = &["checkerboard", "bitmap"];
+    let Some(ty) = s.string("type")? else {
+        return Err(s.err(
+            s.here(),
+            format!(
+                "missing required key `type` for a texture (expected one of {})",
+                list(TYPES)
+            ),
+        ));
+    };
+    let kind = match ty {
+        "checkerboard" => {
+            s.check_keys(
+                &["type", "color0", "color1", "to_uv"],
+                Some("a checkerboard texture"),
+            )?;
+            TextureKind::Checkerboard {
+                color0: reflectance(s, "color0", 0.4)?,
+                color1: reflectance(s, "color1", 0.2)?,
+            }
+        }
+        "bitmap" => {
+            s.check_keys(
+                &["type", "file", "wrap_mode", "filter_type", "raw", "to_uv"],
+                Some("a bitmap texture"),
+            )?;
+            let file = s.require("file", s.string("file")?)?;
+            let raw = s.boolean("raw")?.unwrap_or(false);
+            let wrap = named(
+                s,
+                "wrap_mode",
+                &WrapMode::ALL,
+                WrapMode::name,
+                WrapMode::from_name,
+            )?
+            .unwrap_or(WrapMode::Repeat);
+            let filter = named(
+                s,
+                "filter_type",
+                &TextureFilter::ALL,
+                TextureFilter::name,
+                TextureFilter::from_name,
+            )?
+            .unwrap_or(TextureFilter::Bilinear);
+            let path = Path::new(s.file)
+                .parent()
+                .unwrap_or(Path::new(""))
+                .join(file);
+            let (width, height, texels) =
+                load_texture_image(&path, raw).map_err(|m| s.err(s.at("file"), m))?;
+            if width as u64 * height as u64 > MAX_TEXTURE_TEXELS {
+                return Err(s.err(
+                    s.at("file"),
+                    format!(
+                        "{}: {width}x{height} texels do not fit the 128 MiB storage binding                          that holds a scene's textures (at most {MAX_TEXTURE_TEXELS} texels):                          scale the image down",
+                        path.display()
+                    ),
+                ));
+            }
+            TextureKind::Bitmap(Bitmap {
+                file: file.to_string(),
+                width,
+                height,
+                texels: std::sync::Arc::new(texels),
+                raw,
+                wrap,
+                filter,
+            })
+        }
+        other => {
+            return Err(s.err(s.at("type"), unknown_name("texture type", other, TYPES)));
+        }
+    };
+    let to_uv = match s.sub("to_uv")? {
+        Some(u) => parse_to_uv(&u)?,
+        None => UvTransform::IDENTITY,
+    };
+    Ok(Texture { kind, to_uv })
+}
+
+/// `to_uv = { scale = [su, sv], translate = [tu, tv] }` (u' = su u + tu; one
+/// number scales both), or `{ matrix = [[a, b, c], [d, e, f]] }` (u' = a u + b v
+/// + c, v' = d u + e v + f): Mitsuba's `to_uv` transform.
+fn parse_to_uv(u: &Tab) -> Result<UvTransform> {
+    u.check_keys(&["scale", "translate", "matrix"], Some("to_uv"))?;
+    if let Some(rows) = u.table.get("matrix") {
+        if let Some(key) = ["scale", "translate"]
+            .into_iter()
+            .find(|k| u.table.contains_key(*k))
+        {
+            return Err(u.err(
+                u.at(key),
+                "give either `matrix` or `scale`/`translate`, not both",
+            ));
+        }
+        let bad = || {
+            u.err(
+                u.at("matrix"),
+                "expected two rows of three numbers, [[a, b, c], [d, e, f]]",
+            )
+        };
+        let Value::Array(rows) = rows else {
+            return Err(bad());
+        };
+        let mut m = [[0.0f32; 3]; 2];
+        if rows.len() != 2 {
+            return Err(bad());
+        }
+        for (r, row) in rows.iter().enumerate() {
+            let Value::Array(row) = row else {
+                return Err(bad());
+            };
+            if row.len() != 3 {
+                return Err(bad());
+            }
+            for (c, x) in row.iter().enumerate() {
+                m[r][c] =
+                    number(x).map_err(|e| u.err(format!("{}[{r}][{c}]", u.at("matrix")), e))?;
+            }
+        }
+        return Ok(UvTransform(m));
+    }
+    let scale = match u.table.get("scale") {
+        Some(Value::Array(_)) => u.numbers::<2>("scale")?,
+        Some(_) => [u.float("scale", check_finite)?.expect("present"); 2],
+        None => [1.0; 2],
+    };
+    let translate = match u.table.get("translate") {
+        Some(_) => u.numbers::<2>("translate")?,
+        None => [0.0; 2],
+    };
+    Ok(UvTransform([
+        [scale[0], 0.0, translate[0]],
+        [0.0, scale[1], translate[1]],
+    ]))
 }
 
 /// An RGB reflectance or transmittance in [0, 1].
@@ -1418,6 +1620,7 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                     triangles.push(Triangle {
                         vertices,
                         normals: normals.as_ref().map(|n| face.map(|i| n[i as usize])),
+                        uvs: mesh.uvs.as_ref().map(|uvs| face.map(|i| uvs[i as usize])),
                         material,
                         importance,
                         mesh: i as u32,
@@ -1495,6 +1698,7 @@ fn file_materials(t: &Tab, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Ma
                 albedo: m.base_color,
                 emit: m.emission,
                 one_sided: false,
+                texture: None,
             })
         })
         .collect()
