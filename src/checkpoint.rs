@@ -131,9 +131,11 @@ impl SceneIdentity {
             light_weight,
             background,
             seed,
-            rr_depth,
+            // Hashed as resolved, as before the strategy chose the default.
+            rr_depth: _,
             sampler,
         } = render;
+        let rr_depth = render.roulette_depth();
         SceneIdentity {
             // The box filter hashes as before filters existed, so older checkpoints resume.
             camera_hash: match filter {
@@ -176,7 +178,7 @@ impl SceneIdentity {
             max_depth: *max_depth,
             strategy: *strategy,
             light_weight: *light_weight,
-            rr_depth: *rr_depth,
+            rr_depth,
             sampler: *sampler,
             materials: materials.len() as u32,
             quads: quads.len() as u32,

@@ -5,7 +5,7 @@ mod common;
 use pathmix::gpu::accumulator::REPLICATES;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
-use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
+use pathmix::scene::{Roulette, Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::stats;
 
 /// Every pixel of the white furnace converges to E * sum_{k=0}^{D} a^k.
@@ -218,7 +218,7 @@ fn bvh_matches_scene_buffers() {
         for strategy in Strategy::ALL {
             let mut scene = scene.clone();
             scene.render.strategy = strategy;
-            scene.render.rr_depth = Some(3);
+            scene.render.rr_depth = Roulette::From(3);
             let render = |storage| {
                 let options = RenderOptions {
                     scene_storage: Some(storage),

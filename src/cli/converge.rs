@@ -36,7 +36,7 @@ pub struct ConvergeArgs {
     #[arg(long, value_name = "D")]
     pub max_depth: Option<u32>,
     /// Russian roulette from this many bounces on, or `off`, for every variant
-    /// [scene: render.rr_depth].
+    /// [scene: render.rr_depth; default: each variant's strategy's own].
     #[arg(long, value_name = "N|off", value_parser = super::render::parse_rr_depth)]
     pub rr_depth: Option<super::render::RrDepth>,
     /// Where the random numbers come from, for every variant and the rendered

@@ -71,7 +71,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "W", allow_negative_numbers = true)]
     pub light_weight: Option<f32>,
     /// Russian roulette from this many bounces on, or `off` (paths end only at
-    /// --max-depth) [scene: render.rr_depth; default off].
+    /// --max-depth) [scene: render.rr_depth; default: 5 for nee-mis and bsdf, off for
+    /// mixture and light].
     #[arg(long, value_name = "N|off", value_parser = parse_rr_depth)]
     pub rr_depth: Option<RrDepth>,
     /// Where the random numbers come from [scene: render.sampler].

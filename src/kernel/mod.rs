@@ -311,7 +311,7 @@ impl KernelConfig {
             strategy,
             max_depth: settings.max_depth,
             light_weight: settings.light_weight,
-            rr_depth: settings.rr_depth,
+            rr_depth: settings.roulette_depth(),
             sampler: settings.sampler,
             accumulator,
             variance,
@@ -1034,7 +1034,7 @@ mod tests {
             light_weight: 0.5,
             background: glam::Vec3::ZERO,
             seed: 0,
-            rr_depth: None,
+            rr_depth: crate::scene::Roulette::Off,
             sampler: Sampler::Sobol,
         };
         for strategy in Strategy::ALL {

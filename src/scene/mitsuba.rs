@@ -1585,9 +1585,11 @@ impl<'a> Builder<'a> {
             (max_depth - 1).min(UNBOUNDED_DEPTH)
         };
         render.insert("max_depth".into(), Value::Integer(max_depth));
-        if let Some(rr) = rr_depth {
-            render.insert("rr_depth".into(), Value::Integer(rr));
-        }
+        // Mitsuba's `direct` has no roulette (nor would pathmix's default at depth 1).
+        render.insert(
+            "rr_depth".into(),
+            rr_depth.map_or(Value::String("off".into()), Value::Integer),
+        );
         Ok(render)
     }
 
@@ -1909,7 +1911,7 @@ const CUBE_FACES: [[DVec3; 3]; 6] = [
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Disk, Filter, MaterialKind, Scene, Strategy};
+    use crate::scene::{Disk, Filter, MaterialKind, Roulette, Scene, Strategy};
     use glam::Vec3;
 
     /// `files` written into a fresh folder; the first is the scene.
@@ -2098,9 +2100,12 @@ mod tests {
             r#"<integrator type="path"><integer name="max_depth" value="6"/></integrator>"#,
         );
         assert_eq!(s.render.strategy, Strategy::NeeMis);
-        assert_eq!((s.render.max_depth, s.render.rr_depth), (5, Some(5)));
+        assert_eq!(
+            (s.render.max_depth, s.render.roulette_depth()),
+            (5, Some(5))
+        );
         let (s, c) = render("direct", r#"<integrator type="direct"/>"#);
-        assert_eq!((s.render.max_depth, s.render.rr_depth), (1, None));
+        assert_eq!((s.render.max_depth, s.render.rr_depth), (1, Roulette::Off));
         assert!(
             c.warnings.iter().all(|w| !w.contains("sided")),
             "{:?}",
@@ -2110,7 +2115,10 @@ mod tests {
             "unbounded",
             r#"<integrator type="path"><integer name="rr_depth" value="3"/></integrator>"#,
         );
-        assert_eq!((s.render.max_depth, s.render.rr_depth), (100_000, Some(3)));
+        assert_eq!(
+            (s.render.max_depth, s.render.roulette_depth()),
+            (100_000, Some(3))
+        );
         assert!(c.warnings.iter().any(|w| w.contains("max_depth -1")));
         assert!(
             error(

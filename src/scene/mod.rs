@@ -55,6 +55,30 @@ impl Strategy {
             _ => Strategy::ALL.into_iter().find(|s| s.name() == name),
         }
     }
+
+    /// Russian roulette's start where the scene and the command line leave it
+    /// unset, chosen by measured efficiency (README, "Default settings"): from
+    /// bounce 5 for `nee-mis` and `bsdf`, whose paths otherwise run to `max_depth`
+    /// in a closed scene; off for the mixture and `light`, whose paths are short
+    /// (half their directions aim at a light) and lose more to the roulette's
+    /// noise than they save.
+    pub fn default_rr_depth(self) -> Option<u32> {
+        match self {
+            Strategy::NeeMis | Strategy::Bsdf => Some(5),
+            Strategy::Mixture | Strategy::Light => None,
+        }
+    }
+}
+
+/// Where Russian roulette starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Roulette {
+    /// The strategy's own (`Strategy::default_rr_depth`).
+    StrategyDefault,
+    /// Paths end only at `max_depth`.
+    Off,
+    /// From this many bounces on.
+    From(u32),
 }
 
 impl fmt::Display for Strategy {
@@ -141,9 +165,19 @@ pub struct RenderSettings {
     /// Radiance of rays that escape the scene.
     pub background: Vec3,
     pub seed: u32,
-    /// Russian roulette from this many bounces on (`None`: paths end only at `max_depth`).
-    pub rr_depth: Option<u32>,
+    pub rr_depth: Roulette,
     pub sampler: Sampler,
+}
+
+impl RenderSettings {
+    /// Russian roulette from this many bounces on (`None`: paths end only at `max_depth`).
+    pub fn roulette_depth(&self) -> Option<u32> {
+        match self.rr_depth {
+            Roulette::StrategyDefault => self.strategy.default_rr_depth(),
+            Roulette::Off => None,
+            Roulette::From(depth) => Some(depth),
+        }
+    }
 }
 
 /// The material kinds. The book's (`Lambertian`, `Metal`, `Dielectric`, `Light`)

@@ -42,10 +42,11 @@
 //! - `background` (vector, components >= 0, default `[0, 0, 0]`): radiance of rays
 //!   that escape the scene. Not with `[environment]`.
 //! - `seed` (integer in 0..=4294967295, default 0): random seed.
-//! - `rr_depth` (integer in 0..=100000, default: off): Russian roulette from this many
-//!   bounces on; a path survives with probability min(1, max(0.05, largest throughput
-//!   component)) and is reweighted, so the estimate stays unbiased. Off, paths end only at
-//!   `max_depth`.
+//! - `rr_depth` (integer in 0..=100000, or `"off"`; default: the strategy's, 5 for
+//!   `nee-mis` and `bsdf`, off for `mixture` and `light`): Russian roulette from this
+//!   many bounces on; a path survives with probability min(1, max(0.05, largest
+//!   throughput component)) and is reweighted, so the estimate stays unbiased. Off,
+//!   paths end only at `max_depth`.
 //! - `sampler` (`"sobol"` | `"independent"`, default `"sobol"`): where the random
 //!   numbers come from. `sobol` stratifies each pair of dimensions over a pixel's
 //!   samples (Owen-scrambled Sobol points): unbiased and much less noisy, but the
@@ -206,7 +207,7 @@ use super::texture::{
 };
 use super::{
     Camera, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
-    Sampler, Scene, SceneError, Sphere, Spot, Strategy, Texture, Triangle,
+    Roulette, Sampler, Scene, SceneError, Sphere, Spot, Strategy, Texture, Triangle,
 };
 use std::path::Path;
 
@@ -427,8 +428,9 @@ impl Scene {
         let max_depth = int("--max-depth", o.max_depth, MAX_DEPTH)?;
         let seed = int("--seed", o.seed, SEED)?;
         let rr_depth = match o.rr_depth {
-            Some(Some(depth)) => Some(int("--rr-depth", Some(depth), MAX_DEPTH)?),
-            other => other,
+            Some(Some(depth)) => int("--rr-depth", Some(depth), MAX_DEPTH)?.map(Roulette::From),
+            Some(None) => Some(Roulette::Off),
+            None => None,
         };
         if let Some(w) = o.light_weight {
             check_finite(w)
@@ -580,7 +582,7 @@ fn default_render() -> RenderSettings {
         light_weight: 0.5,
         background: Vec3::ZERO,
         seed: 0,
-        rr_depth: None,
+        rr_depth: Roulette::StrategyDefault,
         sampler: Sampler::Sobol,
     }
 }
@@ -599,7 +601,21 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
             .unwrap_or(d.light_weight),
         background: t.vec3("background", check_nonneg)?.unwrap_or(d.background),
         seed: t.int("seed", SEED)?.unwrap_or(d.seed),
-        rr_depth: t.int("rr_depth", MAX_DEPTH)?.or(d.rr_depth),
+        rr_depth: match t.table.get("rr_depth") {
+            Some(Value::String(off)) if off == "off" => Roulette::Off,
+            Some(Value::String(other)) => {
+                return Err(t.err(
+                    t.at("rr_depth"),
+                    format!(
+                        "must be an integer between {} and {} or \"off\", got {other:?}",
+                        MAX_DEPTH.0, MAX_DEPTH.1
+                    ),
+                ));
+            }
+            _ => t
+                .int("rr_depth", MAX_DEPTH)?
+                .map_or(d.rr_depth, Roulette::From),
+        },
         sampler: named(
             t,
             "sampler",
@@ -2419,6 +2435,36 @@ material = "white"
 
     fn parse(text: &str) -> Scene {
         parse_scene(text, FILE).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Unset, roulette follows the strategy (5 for nee-mis and bsdf, off for the
+    /// mixture and light), also when the command line changes the strategy;
+    /// `"off"` and a depth are kept whatever the strategy.
+    #[test]
+    fn roulette_defaults_to_the_strategys_own() {
+        let with = |render: &str| parse(&BASE.replace("light_weight = 0.5", render));
+        let depth = |render: &str| with(render).render.roulette_depth();
+        assert_eq!(depth(""), None);
+        assert_eq!(depth("strategy = \"nee-mis\""), Some(5));
+        assert_eq!(depth("strategy = \"bsdf\""), Some(5));
+        assert_eq!(depth("strategy = \"light\""), None);
+        assert_eq!(depth("strategy = \"nee-mis\"\nrr_depth = \"off\""), None);
+        assert_eq!(depth("rr_depth = 3"), Some(3));
+        let mut s = with("");
+        let nee = SceneOverrides {
+            strategy: Some(Strategy::NeeMis),
+            ..SceneOverrides::default()
+        };
+        s.apply_overrides(&nee).unwrap();
+        assert_eq!(s.render.roulette_depth(), Some(5));
+        let off = SceneOverrides {
+            rr_depth: Some(None),
+            ..SceneOverrides::default()
+        };
+        s.apply_overrides(&off).unwrap();
+        assert_eq!(s.render.roulette_depth(), None);
+        let e = error("light_weight = 0.5", "rr_depth = \"never\"").to_string();
+        assert!(e.contains("rr_depth") && e.contains("\"off\""), "{e}");
     }
 
     /// The error for `BASE` with `from` replaced by `to`.
