@@ -138,6 +138,8 @@ pub struct RenderSettings {
     /// Russian roulette from this many bounces on (`None`: paths end only at `max_depth`).
     pub rr_depth: Option<u32>,
     pub sampler: Sampler,
+    /// Adaptive sampling (`crate::adaptive`), as the command line's `--adaptive`.
+    pub adaptive: bool,
 }
 
 /// The material kinds. The book's (`Lambertian`, `Metal`, `Dielectric`, `Light`)

@@ -226,6 +226,7 @@ const RENDER_KEYS: &[&str] = &[
     "seed",
     "rr_depth",
     "sampler",
+    "adaptive",
 ];
 const MATERIAL_TYPES: &[&str] = &[
     "lambertian",
@@ -527,6 +528,7 @@ fn default_render() -> RenderSettings {
         seed: 0,
         rr_depth: None,
         sampler: Sampler::Sobol,
+        adaptive: false,
     }
 }
 
@@ -558,6 +560,7 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
             Sampler::from_name,
         )?
         .unwrap_or(d.sampler),
+        adaptive: t.boolean("adaptive")?.unwrap_or(d.adaptive),
     })
 }
 

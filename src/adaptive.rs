@@ -1,0 +1,216 @@
+//! Adaptive sampling's rule: after a pilot, which pixels the next round samples
+//! and how many samples each gets. Plain data in, plain data out: the renderer
+//! reads the sums back at each round's start and hands them here.
+//!
+//! The image's squared error is the sum of the pixels' `σ_p² / n_p`; for a given
+//! total of samples it is least with `n_p ∝ σ_p` (each sample goes where it
+//! lowers the error most: the pixel's priority `σ_p² / n_p²`, the error one more
+//! sample removes). Each round samples the pixels whose priority is at least the
+//! image's mean priority, all by the same number of samples, so that every pixel
+//! of a round continues from where it is and one dispatch covers them all. Uniform
+//! sampling (`n_p` equal) is the special case of equal `σ_p`.
+
+use crate::gpu::accumulator::REPLICATES;
+use crate::stats::{Accumulation, luminance_f64};
+
+/// Samples per pixel of the first round (every pixel), before anything is decided.
+pub const PILOT_SAMPLES: u32 = 16;
+
+/// A pixel's count is capped at this many times the run's samples per pixel.
+pub const MAX_SAMPLES_FACTOR: u32 = 16;
+
+/// A pixel's standard deviation counts as at least this fraction of the image's
+/// mean luminance: a pixel whose pilot missed a rare bright path (zero spread)
+/// still gets samples, in proportion to the floor.
+pub const SPREAD_FLOOR: f64 = 0.1;
+
+/// The next round: the pixels it samples (indices, ascending) and the samples
+/// each gets, a multiple of `REPLICATES` so every replicate keeps its share.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Round {
+    pub pixels: Vec<u32>,
+    pub samples: u32,
+}
+
+/// The most samples a pixel may take in a run of `samples_per_pixel` (the
+/// uniform run's count): `MAX_SAMPLES_FACTOR` times it, in whole replicate sets.
+pub fn pixel_cap(samples_per_pixel: u32) -> u32 {
+    let cap = samples_per_pixel.saturating_mul(MAX_SAMPLES_FACTOR);
+    (cap - cap % REPLICATES).max(REPLICATES)
+}
+
+/// Rounds a count up to whole replicate sets.
+fn whole_sets(n: u64) -> u64 {
+    n.div_ceil(REPLICATES as u64) * REPLICATES as u64
+}
+
+/// The round after the sums of `accumulation` (with its per-pixel `counts`,
+/// `sum_sq` needed), for pixels of at most `cap` samples, tracing at most about
+/// `budget` samples in all (over by less than `REPLICATES`). `None` when no pixel
+/// can take more (all at the cap, or no budget left).
+pub fn next_round(accumulation: &Accumulation, counts: &[u32], cap: u32, budget: u64) -> Option<Round> {
+    let sets = REPLICATES as u64;
+    if budget == 0 {
+        return None;
+    }
+    let pixels = counts.len() as u64;
+    // The pilot: every pixel, the same count.
+    if counts.iter().all(|&n| n == 0) {
+        let samples = whole_sets(PILOT_SAMPLES.min(cap) as u64).min(whole_sets(budget.div_ceil(pixels)));
+        return Some(Round {
+            pixels: (0..pixels as u32).collect(),
+            samples: samples as u32,
+        });
+    }
+    let priorities = priorities(accumulation, counts);
+    let mean = priorities.iter().sum::<f64>() / pixels as f64;
+    // Equal priorities must not all fall below their mean by its rounding.
+    let threshold = mean * (1.0 - 1e-9);
+    let mut active: Vec<u32> = (0..pixels as usize)
+        .filter(|&p| counts[p] < cap && priorities[p] >= threshold)
+        .map(|p| p as u32)
+        .collect();
+    if active.is_empty() {
+        return None;
+    }
+    // Half again the least sampled active pixel's count (at least a set), at
+    // most what lifts one to the cap.
+    let least = active.iter().map(|&p| counts[p as usize]).min().unwrap() as u64;
+    let headroom = active.iter().map(|&p| cap - counts[p as usize]).min().unwrap() as u64;
+    let mut samples = whole_sets((least / 2).max(sets)).min(whole_sets(headroom));
+    let affordable = budget / samples;
+    if (active.len() as u64) > affordable {
+        // The budget's last round: the highest priorities first, one set each.
+        samples = sets;
+        let keep = budget.div_ceil(sets).clamp(1, active.len() as u64) as usize;
+        active.sort_by(|&a, &b| {
+            let (qa, qb) = (priorities[a as usize], priorities[b as usize]);
+            qb.total_cmp(&qa).then(a.cmp(&b))
+        });
+        active.truncate(keep);
+        active.sort_unstable();
+    }
+    Some(Round {
+        pixels: active,
+        samples: samples as u32,
+    })
+}
+
+/// Each pixel's priority `σ_p² / n_p²`, with `σ_p` the luminance of its per-channel
+/// sample standard deviations (from the sums of squares), floored at
+/// `SPREAD_FLOOR` of the image's mean luminance.
+fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
+    let sum_sq = accumulation
+        .sum_sq
+        .as_ref()
+        .expect("adaptive sampling accumulates squares");
+    let means: Vec<[f64; 3]> = (accumulation.sum.iter().zip(counts))
+        .map(|(s, &n)| s.map(|c| c / n.max(1) as f64))
+        .collect();
+    let image_mean = means.iter().map(|&m| luminance_f64(m)).sum::<f64>() / means.len() as f64;
+    let floor = SPREAD_FLOOR * image_mean.max(0.0);
+    (means.iter().zip(sum_sq).zip(counts))
+        .map(|((mean, squares), &n)| {
+            let n = n as f64;
+            if n < 2.0 {
+                return f64::INFINITY;
+            }
+            let deviation = std::array::from_fn(|c| {
+                ((squares[c] - n * mean[c] * mean[c]) / (n - 1.0)).max(0.0).sqrt()
+            });
+            let spread = luminance_f64(deviation).max(floor);
+            // NaN (overflowed sums) sorts as most urgent; the run refuses such sums anyway.
+            let priority = spread * spread / (n * n);
+            if priority.is_nan() { f64::INFINITY } else { priority }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sums for pixels of `counts` samples each, whose samples are `mean ± deviation`
+    /// alternately (grey), so the sample standard deviation is about `deviation`.
+    fn accumulation(pixels: &[(u32, f64, f64)]) -> (Accumulation, Vec<u32>) {
+        let counts: Vec<u32> = pixels.iter().map(|p| p.0).collect();
+        let sum = pixels.iter().map(|&(n, m, _)| [m * n as f64; 3]).collect();
+        let sum_sq = pixels
+            .iter()
+            .map(|&(n, m, d)| [n as f64 * (m * m + d * d); 3])
+            .collect();
+        let accumulation = Accumulation {
+            width: pixels.len() as u32,
+            height: 1,
+            samples: 0,
+            counts: Some(counts.clone()),
+            sum,
+            sum_sq: Some(sum_sq),
+            replicates: None,
+        };
+        (accumulation, counts)
+    }
+
+    #[test]
+    fn the_pilot_samples_every_pixel_alike() {
+        let (acc, counts) = accumulation(&[(0, 0.0, 0.0); 3]);
+        let round = next_round(&acc, &counts, 64, u64::MAX).unwrap();
+        assert_eq!(round, Round { pixels: vec![0, 1, 2], samples: PILOT_SAMPLES });
+        // A budget of 2 samples per pixel: one replicate set each.
+        let round = next_round(&acc, &counts, 64, 6).unwrap();
+        assert_eq!(round.samples, REPLICATES);
+        assert_eq!(next_round(&acc, &counts, 64, 0), None);
+    }
+
+    #[test]
+    fn noisy_pixels_get_the_round() {
+        // Pixel 1 is 10x noisier than pixel 0 and 2 (means 1): priorities 1e-2/256, 1/256.
+        let (acc, counts) = accumulation(&[(16, 1.0, 0.1), (16, 1.0, 1.0), (16, 1.0, 0.1)]);
+        let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+        assert_eq!(round, Round { pixels: vec![1], samples: 8 });
+        // At the cap, nothing: the run ends.
+        let (acc, counts) = accumulation(&[(64, 1.0, 0.1), (64, 1.0, 1.0)]);
+        assert_eq!(next_round(&acc, &counts, 64, u64::MAX), None);
+    }
+
+    #[test]
+    fn equal_priorities_sample_every_pixel() {
+        // n ∝ σ already holds (here: all alike), as under uniform sampling; also
+        // where the mean of the equal priorities rounds above them.
+        for pixels in [4, 3, 7, 1000] {
+            let (acc, counts) = accumulation(&vec![(16, 0.3, 0.1); pixels]);
+            let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+            assert_eq!(round.pixels.len(), pixels);
+            assert_eq!(round.samples, 8);
+        }
+    }
+
+    #[test]
+    fn zero_spread_pixels_keep_a_floor() {
+        // Pixel 0 has no spread; its priority is the floor's, (0.1 · mean)² / n².
+        let (acc, counts) = accumulation(&[(16, 1.0, 0.0), (256, 1.0, 0.5)]);
+        let q = priorities(&acc, &counts);
+        assert!((q[0] - 0.01 / 256.0).abs() < 1e-12, "{q:?}");
+        let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+        assert_eq!(round.pixels, [0]);
+    }
+
+    #[test]
+    fn the_last_round_keeps_to_the_budget() {
+        // Pixels 1 and 2 are above the mean priority and would take 8 samples each.
+        let (acc, counts) = accumulation(&[(16, 1.0, 1.0), (16, 1.0, 3.0), (16, 1.0, 3.0)]);
+        // Room for 8 samples: both, one set each.
+        let round = next_round(&acc, &counts, 1024, 8).unwrap();
+        assert_eq!(round, Round { pixels: vec![1, 2], samples: REPLICATES });
+        // Room for 1: one set (over by 3), the first of the equal priorities.
+        let round = next_round(&acc, &counts, 1024, 1).unwrap();
+        assert_eq!(round, Round { pixels: vec![1], samples: REPLICATES });
+    }
+
+    #[test]
+    fn caps_are_whole_replicate_sets() {
+        assert_eq!(pixel_cap(1), 16);
+        assert_eq!(pixel_cap(0), REPLICATES);
+        assert_eq!(pixel_cap(u32::MAX), u32::MAX - u32::MAX % REPLICATES);
+    }
+}
