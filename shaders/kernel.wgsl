@@ -246,7 +246,15 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             compensated_add(&radiance_sum, radiance);
 #if VARIANCE
+#if ADAPTIVE
+            // Adaptive sampling decides from replicate 0 alone, so only its squares
+            // are summed; the image comes from the other replicates (`crate::adaptive`).
+            if (sample_start + samples_done) % REPLICATES == 0u {
+                compensated_add(&squares_sum, radiance * radiance);
+            }
+#else
             compensated_add(&squares_sum, radiance * radiance);
+#endif
 #endif
 #if REPLICATE_SUMS
             let replicate = (sample_start + samples_done) % REPLICATES;

@@ -9,6 +9,15 @@
 //! image's mean priority, all by the same number of samples, so that every pixel
 //! of a round continues from where it is and one dispatch covers them all. Uniform
 //! sampling (`n_p` equal) is the special case of equal `σ_p`.
+//!
+//! Unbiased by construction: the decisions read only replicate 0 (sample indices
+//! `0 mod 4`, an independently scrambled sequence: its sums and, in an adaptive
+//! kernel, the squares), and the image is the mean of replicates 1 to 3, which
+//! are independent of replicate 0. Each pixel's count is therefore independent of
+//! the samples averaged, and the mean of a fixed number of them is unbiased.
+//! (Deciding from all samples instead, the Cornell boxes' image came out 2.6% dark,
+//! 13 standard errors: pixels whose early samples missed the light stop early.)
+//! The price: a quarter of the samples only decides.
 
 use crate::gpu::accumulator::REPLICATES;
 use crate::stats::{Accumulation, luminance_f64};
@@ -48,7 +57,12 @@ fn whole_sets(n: u64) -> u64 {
 /// `sum_sq` needed), for pixels of at most `cap` samples, tracing at most about
 /// `budget` samples in all (over by less than `REPLICATES`). `None` when no pixel
 /// can take more (all at the cap, or no budget left).
-pub fn next_round(accumulation: &Accumulation, counts: &[u32], cap: u32, budget: u64) -> Option<Round> {
+pub fn next_round(
+    accumulation: &Accumulation,
+    counts: &[u32],
+    cap: u32,
+    budget: u64,
+) -> Option<Round> {
     let sets = REPLICATES as u64;
     if budget == 0 {
         return None;
@@ -56,7 +70,8 @@ pub fn next_round(accumulation: &Accumulation, counts: &[u32], cap: u32, budget:
     let pixels = counts.len() as u64;
     // The pilot: every pixel, the same count.
     if counts.iter().all(|&n| n == 0) {
-        let samples = whole_sets(PILOT_SAMPLES.min(cap) as u64).min(whole_sets(budget.div_ceil(pixels)));
+        let samples =
+            whole_sets(PILOT_SAMPLES.min(cap) as u64).min(whole_sets(budget.div_ceil(pixels)));
         return Some(Round {
             pixels: (0..pixels as u32).collect(),
             samples: samples as u32,
@@ -76,7 +91,11 @@ pub fn next_round(accumulation: &Accumulation, counts: &[u32], cap: u32, budget:
     // Half again the least sampled active pixel's count (at least a set), at
     // most what lifts one to the cap.
     let least = active.iter().map(|&p| counts[p as usize]).min().unwrap() as u64;
-    let headroom = active.iter().map(|&p| cap - counts[p as usize]).min().unwrap() as u64;
+    let headroom = active
+        .iter()
+        .map(|&p| cap - counts[p as usize])
+        .min()
+        .unwrap() as u64;
     let mut samples = whole_sets((least / 2).max(sets)).min(whole_sets(headroom));
     let affordable = budget / samples;
     if (active.len() as u64) > affordable {
@@ -97,31 +116,38 @@ pub fn next_round(accumulation: &Accumulation, counts: &[u32], cap: u32, budget:
 }
 
 /// Each pixel's priority `σ_p² / n_p²`, with `σ_p` the luminance of its per-channel
-/// sample standard deviations (from the sums of squares), floored at
-/// `SPREAD_FLOOR` of the image's mean luminance.
+/// sample standard deviations and `n_p` its count, floored at `SPREAD_FLOOR` of the
+/// image's mean luminance: all from replicate 0 alone (its sums and the squares).
 fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
-    let sum_sq = accumulation
-        .sum_sq
-        .as_ref()
-        .expect("adaptive sampling accumulates squares");
-    let means: Vec<[f64; 3]> = (accumulation.sum.iter().zip(counts))
-        .map(|(s, &n)| s.map(|c| c / n.max(1) as f64))
+    let squares = (accumulation.sum_sq.as_ref()).expect("adaptive sampling sums squares");
+    let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
+    let k = replicates.sums.len() as u32;
+    let deciding = &replicates.sums[0];
+    let means: Vec<[f64; 3]> = (deciding.iter().zip(counts))
+        .map(|(s, &n)| s.map(|c| c / (n / k).max(1) as f64))
         .collect();
     let image_mean = means.iter().map(|&m| luminance_f64(m)).sum::<f64>() / means.len() as f64;
     let floor = SPREAD_FLOOR * image_mean.max(0.0);
-    (means.iter().zip(sum_sq).zip(counts))
+    (means.iter().zip(squares).zip(counts))
         .map(|((mean, squares), &n)| {
-            let n = n as f64;
-            if n < 2.0 {
+            let m = (n / k) as f64;
+            if m < 2.0 {
                 return f64::INFINITY;
             }
             let deviation = std::array::from_fn(|c| {
-                ((squares[c] - n * mean[c] * mean[c]) / (n - 1.0)).max(0.0).sqrt()
+                ((squares[c] - m * mean[c] * mean[c]) / (m - 1.0))
+                    .max(0.0)
+                    .sqrt()
             });
             let spread = luminance_f64(deviation).max(floor);
             // NaN (overflowed sums) sorts as most urgent; the run refuses such sums anyway.
+            let n = n as f64;
             let priority = spread * spread / (n * n);
-            if priority.is_nan() { f64::INFINITY } else { priority }
+            if priority.is_nan() {
+                f64::INFINITY
+            } else {
+                priority
+            }
         })
         .collect()
 }
@@ -129,24 +155,31 @@ fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stats::Replicates;
 
-    /// Sums for pixels of `counts` samples each, whose samples are `mean ± deviation`
-    /// alternately (grey), so the sample standard deviation is about `deviation`.
+    /// Sums for pixels of `counts` samples each, whose samples in replicate 0 (a
+    /// quarter) are `mean ± deviation` alternately (grey), so its sample standard
+    /// deviation is about `deviation`. The other replicates are far off: they must
+    /// not matter.
     fn accumulation(pixels: &[(u32, f64, f64)]) -> (Accumulation, Vec<u32>) {
         let counts: Vec<u32> = pixels.iter().map(|p| p.0).collect();
-        let sum = pixels.iter().map(|&(n, m, _)| [m * n as f64; 3]).collect();
-        let sum_sq = pixels
-            .iter()
-            .map(|&(n, m, d)| [n as f64 * (m * m + d * d); 3])
+        let quarter = |n: u32| (n / REPLICATES) as f64;
+        let deciding: Vec<[f64; 3]> = (pixels.iter())
+            .map(|&(n, m, _)| [m * quarter(n); 3])
+            .collect();
+        let others = vec![vec![[1e6; 3]; pixels.len()]; REPLICATES as usize - 1];
+        let sum: Vec<[f64; 3]> = deciding.iter().map(|d| d.map(|c| c + 3e6)).collect();
+        let sum_sq = (pixels.iter())
+            .map(|&(n, m, d)| [quarter(n) * (m * m + d * d); 3])
             .collect();
         let accumulation = Accumulation {
             width: pixels.len() as u32,
             height: 1,
             samples: 0,
             counts: Some(counts.clone()),
+            replicates: Some(Replicates::from_others(0..0, &sum, others)),
             sum,
             sum_sq: Some(sum_sq),
-            replicates: None,
         };
         (accumulation, counts)
     }
@@ -155,7 +188,13 @@ mod tests {
     fn the_pilot_samples_every_pixel_alike() {
         let (acc, counts) = accumulation(&[(0, 0.0, 0.0); 3]);
         let round = next_round(&acc, &counts, 64, u64::MAX).unwrap();
-        assert_eq!(round, Round { pixels: vec![0, 1, 2], samples: PILOT_SAMPLES });
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![0, 1, 2],
+                samples: PILOT_SAMPLES
+            }
+        );
         // A budget of 2 samples per pixel: one replicate set each.
         let round = next_round(&acc, &counts, 64, 6).unwrap();
         assert_eq!(round.samples, REPLICATES);
@@ -167,7 +206,13 @@ mod tests {
         // Pixel 1 is 10x noisier than pixel 0 and 2 (means 1): priorities 1e-2/256, 1/256.
         let (acc, counts) = accumulation(&[(16, 1.0, 0.1), (16, 1.0, 1.0), (16, 1.0, 0.1)]);
         let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
-        assert_eq!(round, Round { pixels: vec![1], samples: 8 });
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![1],
+                samples: 8
+            }
+        );
         // At the cap, nothing: the run ends.
         let (acc, counts) = accumulation(&[(64, 1.0, 0.1), (64, 1.0, 1.0)]);
         assert_eq!(next_round(&acc, &counts, 64, u64::MAX), None);
@@ -189,6 +234,10 @@ mod tests {
     fn zero_spread_pixels_keep_a_floor() {
         // Pixel 0 has no spread; its priority is the floor's, (0.1 · mean)² / n².
         let (acc, counts) = accumulation(&[(16, 1.0, 0.0), (256, 1.0, 0.5)]);
+        assert_eq!(
+            acc.replicates.as_ref().unwrap().sums[0],
+            [[4.0; 3], [64.0; 3]]
+        );
         let q = priorities(&acc, &counts);
         assert!((q[0] - 0.01 / 256.0).abs() < 1e-12, "{q:?}");
         let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
@@ -201,10 +250,22 @@ mod tests {
         let (acc, counts) = accumulation(&[(16, 1.0, 1.0), (16, 1.0, 3.0), (16, 1.0, 3.0)]);
         // Room for 8 samples: both, one set each.
         let round = next_round(&acc, &counts, 1024, 8).unwrap();
-        assert_eq!(round, Round { pixels: vec![1, 2], samples: REPLICATES });
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![1, 2],
+                samples: REPLICATES
+            }
+        );
         // Room for 1: one set (over by 3), the first of the equal priorities.
         let round = next_round(&acc, &counts, 1024, 1).unwrap();
-        assert_eq!(round, Round { pixels: vec![1], samples: REPLICATES });
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![1],
+                samples: REPLICATES
+            }
+        );
     }
 
     #[test]

@@ -782,10 +782,14 @@ fn parse_header(
         });
     }
     if entries.is_some() {
-        let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| missing(format!("state.{key}")));
+        let need =
+            |key: &str| u32_in(s, "state", key)?.ok_or_else(|| missing(format!("state.{key}")));
         state.adaptive = Some(AdaptiveState {
             counts: words[..pixels].to_vec(),
-            round: words[pixels..].chunks_exact(2).map(|w| [w[0], w[1]]).collect(),
+            round: words[pixels..]
+                .chunks_exact(2)
+                .map(|w| [w[0], w[1]])
+                .collect(),
             round_samples: need("adaptive_round_samples")?,
             round_done: need("adaptive_round_done")?,
         });

@@ -115,6 +115,11 @@ pub enum RenderError {
     #[error("saved adaptive state does not fit the image (counts or round entries are wrong)")]
     StateAdaptiveInvalid,
     #[error(
+        "adaptive sampling needs the sobol sampler: it decides from one of its independent \
+         replicates and estimates from the others"
+    )]
+    AdaptiveNeedsSobol,
+    #[error(
         "an adaptive run cannot be split into sample ranges: each pixel continues its own \
          sequence as far as its error asks, so shards would not add up to one run"
     )]
@@ -495,7 +500,9 @@ impl<'a> Renderer<'a> {
         // pixel's count a multiple of them; dispatches within the loop budget.
         let (shape_samples, rows) =
             submission_shape(self.paths_per_submission, width, list_rows, left);
-        let samples = (shape_samples - shape_samples % REPLICATES).max(REPLICATES).min(left);
+        let samples = (shape_samples - shape_samples % REPLICATES)
+            .max(REPLICATES)
+            .min(left);
         let started = Instant::now();
         let mut row = 0;
         while row < list_rows {
@@ -642,9 +649,11 @@ impl<'a> Renderer<'a> {
                 adaptive.round.clone_from(&saved.round);
                 adaptive.round_samples = saved.round_samples;
                 adaptive.round_done = saved.round_done;
-                self.ctx
-                    .queue
-                    .write_buffer(&adaptive.list, 0, bytemuck::cast_slice(&adaptive.round));
+                self.ctx.queue.write_buffer(
+                    &adaptive.list,
+                    0,
+                    bytemuck::cast_slice(&adaptive.round),
+                );
             }
             (adaptive, _) => {
                 return Err(RenderError::StateAdaptiveMismatch {
@@ -800,6 +809,9 @@ pub fn plan_kernel(
     } else {
         config
     };
+    if options.adaptive && config.sampler != Sampler::Sobol {
+        return Err(RenderError::AdaptiveNeedsSobol);
+    }
     let config = KernelConfig {
         variance: config.variance || options.adaptive,
         adaptive: options.adaptive,
@@ -1262,9 +1274,7 @@ pub fn run_with<E: From<RenderError>>(
         let to_next_check = match stop.target_error {
             // Adaptive rounds are decided from the samples left to the cap alone,
             // so that a resumed run makes the same rounds.
-            Some(_) if next_check > samples && !renderer.config().adaptive => {
-                next_check - samples
-            }
+            Some(_) if next_check > samples && !renderer.config().adaptive => next_check - samples,
             _ => u32::MAX,
         };
         if renderer.advance((stop.max_samples - samples).min(to_next_check)) == 0 {

@@ -16,7 +16,9 @@ pub struct Accumulation {
     /// Samples per pixel; with `counts`, the floor of their mean.
     pub samples: u64,
     /// Adaptive sampling: each pixel's own sample count, a multiple of the replicate
-    /// count (each replicate holds a quarter), from sample index 0.
+    /// count (each replicate holds a quarter), from sample index 0. Replicate 0
+    /// decided the counts (`crate::adaptive`; `sum_sq` holds its squares alone), so
+    /// the mean and its error come from the other replicates: unbiased.
     pub counts: Option<Vec<u32>>,
     pub sum: Vec<[f64; 3]>,
     pub sum_sq: Option<Vec<[f64; 3]>>,
@@ -73,18 +75,19 @@ impl Replicates {
     /// plain average (K − 1 degrees of freedom). Replicates that differ by one
     /// sample (a count that is not a multiple of K) are treated as equal. None
     /// unless every replicate has a sample. `per_replicate`: the pixel's own count in
-    /// each replicate (adaptive sampling), instead of `samples`.
+    /// each replicate (adaptive sampling), instead of `samples`, and then replicate 0
+    /// (the deciding one) is left out.
     fn standard_error(&self, p: usize, per_replicate: Option<u64>) -> Option<[f64; 3]> {
-        let k = self.samples.len() as f64;
+        let first = per_replicate.is_some() as usize;
+        let k = (self.samples.len() - first) as f64;
         let count = |r: usize| per_replicate.unwrap_or(self.samples[r]);
-        if k < 2.0 || (0..self.samples.len()).any(|r| count(r) == 0) {
+        if k < 2.0 || (first..self.samples.len()).any(|r| count(r) == 0) {
             return None;
         }
         Some(std::array::from_fn(|c| {
             let means = || {
-                self.sums
-                    .iter()
-                    .enumerate()
+                (self.sums.iter().enumerate())
+                    .skip(first)
                     .map(|(r, s)| s[p][c] / count(r) as f64)
             };
             let average = means().sum::<f64>() / k;
@@ -111,16 +114,28 @@ impl Accumulation {
         self.counts.as_ref().map_or(self.samples, |c| c[p] as u64)
     }
 
-    /// `sum / samples` (each pixel's own count) as f32; black where a pixel has no samples.
-    pub fn mean(&self) -> Image {
-        let pixels = self
-            .sum
-            .iter()
-            .enumerate()
-            .map(|(p, s)| match self.samples_at(p) {
+    /// Pixel `p`'s mean: `sum / samples`, or under adaptive sampling the mean of
+    /// replicates 1.. over the pixel's own count (see `counts`); 0 without samples.
+    fn pixel_mean(&self, p: usize) -> [f64; 3] {
+        match (&self.counts, &self.replicates) {
+            (Some(counts), Some(replicates)) if counts[p] > 0 => {
+                let k = replicates.sums.len();
+                let n = counts[p] as f64 * (k - 1) as f64 / k as f64;
+                std::array::from_fn(|c| {
+                    replicates.sums[1..].iter().map(|s| s[p][c]).sum::<f64>() / n
+                })
+            }
+            _ => match self.samples_at(p) {
                 0 => [0.0; 3],
-                n => s.map(|c| (c / n as f64) as f32),
-            })
+                n => self.sum[p].map(|s| s / n as f64),
+            },
+        }
+    }
+
+    /// The mean image (`pixel_mean`) as f32; black where a pixel has no samples.
+    pub fn mean(&self) -> Image {
+        let pixels = (0..self.sum.len())
+            .map(|p| self.pixel_mean(p).map(|c| c as f32))
             .collect();
         Image {
             width: self.width,
@@ -179,8 +194,7 @@ impl Accumulation {
         if fewest < 2 {
             return None;
         }
-        let means = (self.sum.iter().enumerate())
-            .map(|(p, sum)| sum.map(|s| s / self.samples_at(p) as f64));
+        let means = (0..self.sum.len()).map(|p| self.pixel_mean(p));
         if let Some(replicates) = &self.replicates {
             let k = replicates.samples.len() as u64;
             return means

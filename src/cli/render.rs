@@ -230,6 +230,7 @@ pub fn with_flag(e: &RenderError) -> String {
             "--accumulator buffer"
         }
         RenderError::TruncatedInvocations { .. } => "--max-depth D",
+        RenderError::AdaptiveNeedsSobol => "--sampler sobol",
         _ => return e.to_string(),
     };
     format!("{e} ({flag})")
@@ -468,8 +469,8 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         &outputs.sample_counts,
         &outputs.partial,
     ]
-        .into_iter()
-        .flatten()
+    .into_iter()
+    .flatten()
     {
         output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
     }
@@ -571,7 +572,11 @@ fn check_collisions(
         ("-o", &outputs.png, &args.output),
         ("--exr", &outputs.exr, &args.exr),
         ("--variance", &outputs.variance, &args.variance),
-        ("--sample-counts", &outputs.sample_counts, &args.sample_counts),
+        (
+            "--sample-counts",
+            &outputs.sample_counts,
+            &args.sample_counts,
+        ),
         ("--partial", &outputs.partial, &args.partial),
     ] {
         if let Some(path) = path {
