@@ -78,25 +78,32 @@ pub fn next_round(
         });
     }
     let priorities = priorities(accumulation, counts);
-    let mean = priorities.iter().sum::<f64>() / pixels as f64;
+    // The mean over the pixels that can take samples: one capped pixel of huge
+    // priority (an emitter's edge) would otherwise leave every other one below it.
+    let open: Vec<usize> = (0..pixels as usize).filter(|&p| counts[p] < cap).collect();
+    let mean = open.iter().map(|&p| priorities[p]).sum::<f64>() / open.len().max(1) as f64;
     // Equal priorities must not all fall below their mean by its rounding.
     let threshold = mean * (1.0 - 1e-9);
-    let mut active: Vec<u32> = (0..pixels as usize)
-        .filter(|&p| counts[p] < cap && priorities[p] >= threshold)
+    let mut active: Vec<u32> = (open.into_iter())
+        .filter(|&p| priorities[p] >= threshold)
         .map(|p| p as u32)
         .collect();
     if active.is_empty() {
         return None;
     }
-    // Half again the least sampled active pixel's count (at least a set), at
-    // most what lifts one to the cap.
+    // Half again the least sampled active pixel's count, and at least a quarter
+    // of the samples traced so far in all (each round's readback and decision
+    // then cost little beside its work; rounds of a few pixels were mostly
+    // overhead), at most what lifts one to the cap.
     let least = active.iter().map(|&p| counts[p as usize]).min().unwrap() as u64;
     let headroom = active
         .iter()
         .map(|&p| cap - counts[p as usize])
         .min()
         .unwrap() as u64;
-    let mut samples = whole_sets((least / 2).max(sets)).min(whole_sets(headroom));
+    let traced: u64 = counts.iter().map(|&n| n as u64).sum();
+    let by_work = (traced / 4).div_ceil(active.len() as u64);
+    let mut samples = whole_sets((least / 2).max(by_work).max(sets)).min(whole_sets(headroom));
     let affordable = budget / samples;
     if (active.len() as u64) > affordable {
         // The budget's last round: the highest priorities first, one set each.
@@ -115,9 +122,14 @@ pub fn next_round(
     })
 }
 
-/// Each pixel's priority `σ_p² / n_p²`, with `σ_p` the luminance of its per-channel
-/// sample standard deviations and `n_p` its count, floored at `SPREAD_FLOOR` of the
-/// image's mean luminance: all from replicate 0 alone (its sums and the squares).
+/// Each pixel's priority `σ_p² / n_p²`, with `σ_p` the largest spread of the
+/// pixel and its 8 neighbours, a spread being the luminance of the per-channel
+/// sample standard deviations, floored at `SPREAD_FLOOR` of the image's mean
+/// luminance, and `n_p` the pixel's count: all from replicate 0 alone (its sums and
+/// the squares). The neighbours' maximum guards against a pixel whose few
+/// replicate-0 samples all missed a rare bright path its neighbours found (a
+/// caustic, a small light's glossy reflection): starved, such pixels dominated the
+/// image's error.
 fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
     let squares = (accumulation.sum_sq.as_ref()).expect("adaptive sampling sums squares");
     let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
@@ -128,7 +140,8 @@ fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
         .collect();
     let image_mean = means.iter().map(|&m| luminance_f64(m)).sum::<f64>() / means.len() as f64;
     let floor = SPREAD_FLOOR * image_mean.max(0.0);
-    (means.iter().zip(squares).zip(counts))
+    // Too few samples for a spread: infinite, sampled first.
+    let spreads: Vec<f64> = (means.iter().zip(squares).zip(counts))
         .map(|((mean, squares), &n)| {
             let m = (n / k) as f64;
             if m < 2.0 {
@@ -139,15 +152,27 @@ fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
                     .max(0.0)
                     .sqrt()
             });
+            // NaN (overflowed sums) counts as most urgent; the run refuses such sums anyway.
             let spread = luminance_f64(deviation).max(floor);
-            // NaN (overflowed sums) sorts as most urgent; the run refuses such sums anyway.
-            let n = n as f64;
-            let priority = spread * spread / (n * n);
-            if priority.is_nan() {
+            if spread.is_nan() {
                 f64::INFINITY
             } else {
-                priority
+                spread
             }
+        })
+        .collect();
+    let (width, height) = (accumulation.width as usize, accumulation.height as usize);
+    (0..spreads.len())
+        .map(|p| {
+            let (x, y) = (p % width, p / width);
+            let mut spread = 0.0f64;
+            for ny in y.saturating_sub(1)..(y + 2).min(height) {
+                for nx in x.saturating_sub(1)..(x + 2).min(width) {
+                    spread = spread.max(spreads[ny * width + nx]);
+                }
+            }
+            let n = counts[p] as f64;
+            spread * spread / (n * n)
         })
         .collect()
 }
@@ -202,20 +227,28 @@ mod tests {
     }
 
     #[test]
-    fn noisy_pixels_get_the_round() {
-        // Pixel 1 is 10x noisier than pixel 0 and 2 (means 1): priorities 1e-2/256, 1/256.
-        let (acc, counts) = accumulation(&[(16, 1.0, 0.1), (16, 1.0, 1.0), (16, 1.0, 0.1)]);
+    fn noisy_pixels_and_their_neighbours_get_the_round() {
+        // One row; pixel 3 is 10x noisier than the others (means 1), and its
+        // neighbours 2 and 4 share its spread.
+        let quiet = (16, 1.0, 0.1);
+        let (acc, counts) = accumulation(&[quiet, quiet, quiet, (16, 1.0, 1.0), quiet]);
         let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+        // Half the least count: 8 (a quarter of the 80 traced is 7 each).
         assert_eq!(
             round,
             Round {
-                pixels: vec![1],
+                pixels: vec![2, 3, 4],
                 samples: 8
             }
         );
         // At the cap, nothing: the run ends.
         let (acc, counts) = accumulation(&[(64, 1.0, 0.1), (64, 1.0, 1.0)]);
         assert_eq!(next_round(&acc, &counts, 64, u64::MAX), None);
+        // A capped pixel, however noisy, leaves the round to the others (here its
+        // neighbour, which shares its spread, is above the others' mean).
+        let far = (16, 1.0, 0.1);
+        let (acc, counts) = accumulation(&[(64, 1.0, 100.0), far, far, far, (16, 1.0, 1.0)]);
+        assert_eq!(next_round(&acc, &counts, 64, u64::MAX).unwrap().pixels, [1]);
     }
 
     #[test]
@@ -232,37 +265,49 @@ mod tests {
 
     #[test]
     fn zero_spread_pixels_keep_a_floor() {
-        // Pixel 0 has no spread; its priority is the floor's, (0.1 · mean)² / n².
-        let (acc, counts) = accumulation(&[(16, 1.0, 0.0), (256, 1.0, 0.5)]);
+        // Pixels 0 to 2 have no spread; 0 and 1 (no noisy neighbour) keep the floor's
+        // priority, (0.1 · mean)² / n².
+        let flat = (16, 1.0, 0.0);
+        let (acc, counts) = accumulation(&[flat, flat, flat, (256, 1.0, 0.5)]);
         assert_eq!(
-            acc.replicates.as_ref().unwrap().sums[0],
-            [[4.0; 3], [64.0; 3]]
+            acc.replicates.as_ref().unwrap().sums[0][..2],
+            [[4.0; 3], [4.0; 3]]
         );
         let q = priorities(&acc, &counts);
-        assert!((q[0] - 0.01 / 256.0).abs() < 1e-12, "{q:?}");
+        for p in [0, 1] {
+            assert!((q[p] - 0.01 / 256.0).abs() < 1e-12, "{q:?}");
+        }
+        // Pixel 2 takes its neighbour's spread at its own count.
+        let spread = 0.5 * (64.0f64 / 63.0).sqrt();
+        assert!((q[2] - spread * spread / 256.0).abs() < 1e-12, "{q:?}");
         let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
-        assert_eq!(round.pixels, [0]);
+        assert_eq!(round.pixels, [2]);
     }
 
     #[test]
     fn the_last_round_keeps_to_the_budget() {
-        // Pixels 1 and 2 are above the mean priority and would take 8 samples each.
-        let (acc, counts) = accumulation(&[(16, 1.0, 1.0), (16, 1.0, 3.0), (16, 1.0, 3.0)]);
-        // Room for 8 samples: both, one set each.
+        // Pixels 2 to 4 share pixel 3's spread and would take 8 samples each.
+        let quiet = (16, 1.0, 1.0);
+        let (acc, counts) = accumulation(&[quiet, quiet, quiet, (16, 1.0, 3.0), quiet]);
+        assert_eq!(
+            next_round(&acc, &counts, 1024, u64::MAX).unwrap().pixels,
+            [2, 3, 4]
+        );
+        // Room for 8 samples: two of them, one set each (equal priorities: by index).
         let round = next_round(&acc, &counts, 1024, 8).unwrap();
         assert_eq!(
             round,
             Round {
-                pixels: vec![1, 2],
+                pixels: vec![2, 3],
                 samples: REPLICATES
             }
         );
-        // Room for 1: one set (over by 3), the first of the equal priorities.
+        // Room for 1: one set (over by 3).
         let round = next_round(&acc, &counts, 1024, 1).unwrap();
         assert_eq!(
             round,
             Round {
-                pixels: vec![1],
+                pixels: vec![2],
                 samples: REPLICATES
             }
         );
