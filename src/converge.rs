@@ -885,7 +885,24 @@ mod tests {
         assert_eq!(Variant::parse("mixture"), Ok(Variant::mixture(0.5)));
         assert_eq!(Variant::parse("mixture:0.25"), Ok(Variant::mixture(0.25)));
         assert_eq!(Variant::parse("nee-mis"), Ok(Variant::NEE_MIS));
-        for bad in ["uniform", "mixture:1.5", "mixture:x", "cosine:0.5", ""] {
+        let adaptive = Variant::parse("mixture:0.25+adaptive").unwrap();
+        assert_eq!(
+            adaptive,
+            Variant {
+                adaptive: true,
+                ..Variant::mixture(0.25)
+            }
+        );
+        assert_eq!(Variant::parse(&adaptive.name()), Ok(adaptive));
+        for bad in [
+            "uniform",
+            "mixture:1.5",
+            "mixture:x",
+            "cosine:0.5",
+            "",
+            "cosine+adaptive+adaptive",
+            "+adaptive",
+        ] {
             assert!(Variant::parse(bad).is_err(), "{bad}");
         }
         let names: Vec<String> = Variant::defaults().iter().map(Variant::name).collect();
