@@ -34,7 +34,8 @@ struct Params {
     reset: u32,
     // Always 0; see `compensated_add`.
     zero_bits: u32,
-    _pad1: u32,
+    // Adaptive sampling: entries of `active_pixels` (kernel.wgsl).
+    active_count: u32,
 }
 
 // Mirrors `gpu::layout::Counters`.

@@ -22,8 +22,8 @@ fn compensated_add(acc: ptr<function, CompensatedSum>, value: vec3<f32>) {
     (*acc).sum = t;
 }
 
-fn load_sum(pixel: vec2<u32>, layer: u32, compensation_layer: u32) -> CompensatedSum {
-    if params.reset != 0u {
+fn load_sum(pixel: vec2<u32>, layer: u32, compensation_layer: u32, reset: bool) -> CompensatedSum {
+    if reset {
         return CompensatedSum(vec3<f32>(0.0), vec3<f32>(0.0));
     }
     return CompensatedSum(
@@ -91,30 +91,54 @@ fn camera_ray(pixel: vec2<u32>) -> CameraRay {
 #endif
 }
 
+#if ADAPTIVE
+// Adaptive sampling: the pixels this round samples (the index, and the pixel's
+// sample count when the round began), laid out in rows of `params.width`
+// entries that the dispatch's tile covers like an image. A dispatch traces
+// samples `sample_start..` of the round, so each pixel continues its own
+// sequence; finished pixels are not in the list and cost nothing.
+@group(0) @binding(BINDING_ACTIVE_PIXELS) var<storage, read> active_pixels: array<vec2<u32>>;
+#endif
+
 @compute @workgroup_size(WORKGROUP_SIZE_X, WORKGROUP_SIZE_Y, 1)
 fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     load_params();
     if id.x >= params.tile_size.x || id.y >= params.tile_size.y {
         return;
     }
+#if ADAPTIVE
+    let entry_index = (params.tile_origin.y + id.y) * params.width + id.x;
+    if entry_index >= params.active_count {
+        return;
+    }
+    let entry = active_pixels[entry_index];
+    let pixel_index = entry.x;
+    let pixel = vec2<u32>(pixel_index % params.width, pixel_index / params.width);
+    let sample_start = entry.y + params.sample_start;
+    // A pixel's first samples start its sums.
+    let reset = sample_start == 0u;
+#else
     let pixel = params.tile_origin + id.xy;
     let pixel_index = pixel.y * params.width + pixel.x;
+    let sample_start = params.sample_start;
+    let reset = params.reset != 0u;
+#endif
 
-    var radiance_sum = load_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION);
+    var radiance_sum = load_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, reset);
 #if VARIANCE
-    var squares_sum = load_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION);
+    var squares_sum = load_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, reset);
 #endif
 #if REPLICATE_SUMS
     // Replicates 1.. (see `sampler_begin`); replicate 0's is the total minus theirs.
     var replicate_sums: array<CompensatedSum, REPLICATES - 1u>;
     for (var r = 0u; r < REPLICATES - 1u; r++) {
-        replicate_sums[r] = load_sum(pixel, LAYER_REPLICATES + 2u * r, LAYER_REPLICATES + 2u * r + 1u);
+        replicate_sums[r] = load_sum(pixel, LAYER_REPLICATES + 2u * r, LAYER_REPLICATES + 2u * r + 1u, reset);
     }
 #endif
 
     var samples_done = 0u;
     var segments = 0u;
-    sampler_begin(pixel_index, params.sample_start);
+    sampler_begin(pixel_index, sample_start);
     let camera = camera_ray(pixel);
     var ray = camera.ray;
     var throughput = vec3<f32>(camera.weight);
@@ -242,10 +266,18 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             compensated_add(&radiance_sum, radiance);
 #if VARIANCE
+#if ADAPTIVE
+            // Adaptive sampling decides from replicate 0 alone, so only its squares
+            // are summed; the image comes from the other replicates (`crate::adaptive`).
+            if (sample_start + samples_done) % REPLICATES == 0u {
+                compensated_add(&squares_sum, radiance * radiance);
+            }
+#else
             compensated_add(&squares_sum, radiance * radiance);
 #endif
+#endif
 #if REPLICATE_SUMS
-            let replicate = (params.sample_start + samples_done) % REPLICATES;
+            let replicate = (sample_start + samples_done) % REPLICATES;
             // Constant indices once unrolled, so the sums can stay in registers.
             // Through a copy: naga's SPIR-V writer fails on a pointer to an indexed
             // element passed to a function.
@@ -261,7 +293,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
             if samples_done == params.sample_count {
                 break;
             }
-            sampler_begin(pixel_index, params.sample_start + samples_done);
+            sampler_begin(pixel_index, sample_start + samples_done);
             let camera = camera_ray(pixel);
             ray = camera.ray;
             throughput = vec3<f32>(camera.weight);

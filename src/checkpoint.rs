@@ -12,10 +12,12 @@
 //! | H | header: UTF-8 TOML (scene, overrides, state, the caller's `[run]` table) |
 //! | 8 | number of f32 values N (u64) |
 //! | 4·N | the raw accumulator texels (`AccumulatorState::texels`, rgba f32) |
+//! | 8 | number of u32 values M (u64): 0, or for an adaptive run... |
+//! | 4·M | ...each pixel's sample count, then the round's `[pixel, count at its start]` pairs |
 //! | 4 | CRC-32 (IEEE) of every byte before it |
 
 use crate::output::{self, OutputError};
-use crate::render::AccumulatorState;
+use crate::render::{AccumulatorState, AdaptiveState};
 use crate::scene::{Camera, Filter, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
 use std::fmt;
 use std::io::{self, Write};
@@ -25,7 +27,8 @@ pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
 /// 2: the scene hashes come from the whole scene's `Debug` text (1: chosen fields).
 /// 3: Sobol samples come from interleaved replicates (other images), whose sums
 /// variance adds as layers.
-pub const VERSION: u32 = 3;
+/// 4: adaptive runs' per-pixel counts and round follow the texels.
+pub const VERSION: u32 = 4;
 
 /// FNV-1a, 64 bits: the scene identity's hash function (stable across platforms).
 #[derive(Clone, Copy, Debug)]
@@ -134,6 +137,9 @@ impl SceneIdentity {
             // Hashed as resolved, as before the strategy chose the default.
             rr_depth: _,
             sampler,
+            // How the run samples, not what it estimates; the state says whether
+            // it was adaptive (its counts), and a resume must match it.
+            adaptive: _,
         } = render;
         let rr_depth = render.roulette_depth();
         SceneIdentity {
@@ -464,6 +470,13 @@ pub enum HeaderError {
     },
     #[error("the sums' size differs from the scene's")]
     SizeDiffers,
+    #[error("{count} adaptive counts for {width}x{height} pixels and {entries} round entries")]
+    AdaptiveCount {
+        count: usize,
+        width: u32,
+        height: u32,
+        entries: u32,
+    },
 }
 
 /// Writes `checkpoint` atomically (temporary file, fsync, rename).
@@ -474,7 +487,7 @@ pub fn write(path: &Path, checkpoint: &Checkpoint) -> Result<(), OutputError> {
             inner: file,
             crc: crc32fast::Hasher::new(),
         };
-        encode(&mut writer, &header, &checkpoint.state.texels)?;
+        encode(&mut writer, &header, &checkpoint.state)?;
         let crc = writer.crc.finalize();
         writer.inner.write_all(&crc.to_le_bytes())
     })
@@ -483,7 +496,7 @@ pub fn write(path: &Path, checkpoint: &Checkpoint) -> Result<(), OutputError> {
 /// The file's bytes, as `write` writes them.
 pub fn to_bytes(checkpoint: &Checkpoint) -> Vec<u8> {
     let mut bytes = Vec::new();
-    encode(&mut bytes, &header(checkpoint), &checkpoint.state.texels).expect("writing to memory");
+    encode(&mut bytes, &header(checkpoint), &checkpoint.state).expect("writing to memory");
     let crc = crc32fast::hash(&bytes);
     bytes.extend_from_slice(&crc.to_le_bytes());
     bytes
@@ -506,13 +519,20 @@ impl<W: Write> Write for CrcWriter<W> {
     }
 }
 
-fn encode(out: &mut impl Write, header: &str, texels: &[[f32; 4]]) -> io::Result<()> {
+fn encode(out: &mut impl Write, header: &str, state: &AccumulatorState) -> io::Result<()> {
     out.write_all(&MAGIC)?;
     out.write_all(&VERSION.to_le_bytes())?;
     out.write_all(&(header.len() as u32).to_le_bytes())?;
     out.write_all(header.as_bytes())?;
-    out.write_all(&(texels.len() as u64 * 4).to_le_bytes())?;
-    write_f32s(out, bytemuck::cast_slice(texels))
+    out.write_all(&(state.texels.len() as u64 * 4).to_le_bytes())?;
+    write_f32s(out, bytemuck::cast_slice(&state.texels))?;
+    let words: Vec<u32> = state.adaptive.as_ref().map_or_else(Vec::new, |a| {
+        let round = a.round.iter().flatten();
+        a.counts.iter().chain(round).copied().collect()
+    });
+    out.write_all(&(words.len() as u64).to_le_bytes())?;
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    out.write_all(&bytes)
 }
 
 /// Little-endian f32s, in chunks.
@@ -581,6 +601,15 @@ fn header(c: &Checkpoint) -> String {
     ] {
         state.insert(key.into(), Value::Integer(v.into()));
     }
+    if let Some(a) = &s.adaptive {
+        for (key, v) in [
+            ("adaptive_round_entries", a.round.len() as u32),
+            ("adaptive_round_samples", a.round_samples),
+            ("adaptive_round_done", a.round_done),
+        ] {
+            state.insert(key.into(), Value::Integer(v.into()));
+        }
+    }
     // TOML integers are i64; a count past that is not a real case.
     state.insert(
         "discarded".into(),
@@ -606,7 +635,7 @@ pub fn read(path: &Path) -> Result<Checkpoint, CheckpointError> {
 
 /// Decodes what `to_bytes` made.
 pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, FormatError> {
-    const FIXED: usize = 8 + 4 + 4 + 8 + 4;
+    const FIXED: usize = 8 + 4 + 4 + 8 + 8 + 4;
     let truncated = FormatError::Truncated { len: bytes.len() };
     if bytes.len() < 8 || bytes[..8] != MAGIC {
         if bytes.len() < 8 && MAGIC.starts_with(bytes) {
@@ -628,11 +657,17 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, FormatError> {
         len: bytes.len(),
         expected,
     };
-    if bytes.len() < count_at + 8 + 4 {
+    if bytes.len() < FIXED + header_len {
         return Err(truncated((FIXED + header_len) as u128));
     }
     let count = u64::from_le_bytes(bytes[count_at..count_at + 8].try_into().unwrap());
-    let expected = FIXED as u128 + header_len as u128 + 4 * count as u128;
+    let words_at = count_at as u128 + 8 + 4 * count as u128;
+    if (bytes.len() as u128) < words_at + 8 + 4 {
+        return Err(truncated(words_at + 8 + 4));
+    }
+    let words_at = words_at as usize;
+    let words = u64::from_le_bytes(bytes[words_at..words_at + 8].try_into().unwrap());
+    let expected = FIXED as u128 + header_len as u128 + 4 * count as u128 + 4 * words as u128;
     if bytes.len() as u128 != expected {
         return Err(truncated(expected));
     }
@@ -642,17 +677,25 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, FormatError> {
     }
     let header =
         std::str::from_utf8(&bytes[16..count_at]).map_err(|_| FormatError::HeaderNotUtf8)?;
-    let data = &bytes[count_at + 8..bytes.len() - 4];
+    let data = &bytes[count_at + 8..words_at];
+    let words: Vec<u32> = bytes[words_at + 8..bytes.len() - 4]
+        .chunks_exact(4)
+        .map(|w| u32::from_le_bytes(w.try_into().unwrap()))
+        .collect();
     let texels: Vec<[f32; 4]> = data
         .chunks_exact(16)
         .map(|t| {
             std::array::from_fn(|c| f32::from_le_bytes(t[4 * c..4 * c + 4].try_into().unwrap()))
         })
         .collect();
-    Ok(parse_header(header, texels)?)
+    Ok(parse_header(header, texels, words)?)
 }
 
-fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, HeaderError> {
+fn parse_header(
+    text: &str,
+    texels: Vec<[f32; 4]>,
+    words: Vec<u32>,
+) -> Result<Checkpoint, HeaderError> {
     let root: toml::Table = text.parse()?;
     let missing = |key: String| HeaderError::Missing { key };
     let table = |key: &str| -> Result<&toml::Table, HeaderError> {
@@ -729,7 +772,33 @@ fn parse_header(text: &str, texels: Vec<[f32; 4]>) -> Result<Checkpoint, HeaderE
         first_sample: need("first_sample")?,
         samples: need("samples")?,
         texels,
+        adaptive: None,
     };
+    let mut state = state;
+    let entries = u32_in(s, "state", "adaptive_round_entries")?;
+    let pixels = state.width as usize * state.height as usize;
+    let words_expected = entries.map_or(0, |e| pixels + 2 * e as usize);
+    if words.len() != words_expected {
+        return Err(HeaderError::AdaptiveCount {
+            count: words.len(),
+            width: state.width,
+            height: state.height,
+            entries: entries.unwrap_or(0),
+        });
+    }
+    if entries.is_some() {
+        let need =
+            |key: &str| u32_in(s, "state", key)?.ok_or_else(|| missing(format!("state.{key}")));
+        state.adaptive = Some(AdaptiveState {
+            counts: words[..pixels].to_vec(),
+            round: words[pixels..]
+                .chunks_exact(2)
+                .map(|w| [w[0], w[1]])
+                .collect(),
+            round_samples: need("adaptive_round_samples")?,
+            round_done: need("adaptive_round_done")?,
+        });
+    }
     let texel_count = state.width as u64 * state.height as u64 * state.layers as u64;
     if state.texels.len() as u64 != texel_count {
         return Err(HeaderError::TexelCount {
@@ -970,6 +1039,7 @@ mod tests {
                 texels: (0..width * height * layers)
                     .map(|i| [i as f32 * 0.1, -1e-9 * i as f32, f32::MIN_POSITIVE, 0.0])
                     .collect(),
+                adaptive: None,
             },
         }
     }
@@ -977,6 +1047,19 @@ mod tests {
     #[test]
     fn round_trip_is_exact() {
         let c = sample();
+        let bytes = to_bytes(&c);
+        assert_eq!(from_bytes(&bytes).unwrap(), c);
+    }
+
+    #[test]
+    fn adaptive_state_round_trips() {
+        let mut c = sample();
+        c.state.adaptive = Some(AdaptiveState {
+            counts: vec![16, 24, 16, 28, 16, 16],
+            round: vec![[1, 16], [3, 20]],
+            round_samples: 8,
+            round_done: 8,
+        });
         let bytes = to_bytes(&c);
         assert_eq!(from_bytes(&bytes).unwrap(), c);
     }

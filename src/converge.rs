@@ -28,12 +28,15 @@ use std::time::{Duration, Instant};
 
 pub use plot::plot_png;
 
-/// A strategy to measure: `cosine`, `light`, `nee-mis`, or `mixture` with its light weight.
+/// A strategy to measure: `cosine`, `light`, `nee-mis`, or `mixture` with its light
+/// weight; uniformly or with adaptive sampling.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Variant {
     pub strategy: Strategy,
     /// The mixture's weight of the light density; `None` for the other strategies.
     pub light_weight: Option<f32>,
+    /// Adaptive sampling (`crate::adaptive`); its rungs are sample budgets.
+    pub adaptive: bool,
 }
 
 impl Variant {
@@ -43,20 +46,24 @@ impl Variant {
     pub const BSDF: Variant = Variant {
         strategy: Strategy::Bsdf,
         light_weight: None,
+        adaptive: false,
     };
     pub const LIGHT: Variant = Variant {
         strategy: Strategy::Light,
         light_weight: None,
+        adaptive: false,
     };
     pub const NEE_MIS: Variant = Variant {
         strategy: Strategy::NeeMis,
         light_weight: None,
+        adaptive: false,
     };
 
     pub fn mixture(light_weight: f32) -> Variant {
         Variant {
             strategy: Strategy::Mixture,
             light_weight: Some(light_weight),
+            adaptive: false,
         }
     }
 
@@ -72,9 +79,20 @@ impl Variant {
         ]
     }
 
-    /// `cosine`, `light`, `nee-mis`, `mixture` (weight 0.5) or `mixture:W` with W in [0, 1].
+    /// `cosine`, `light`, `nee-mis`, `mixture` (weight 0.5) or `mixture:W` with W in
+    /// [0, 1], each with `+adaptive` for adaptive sampling.
     pub fn parse(text: &str) -> Result<Variant, String> {
         let text = text.trim();
+        if let Some(uniform) = text.strip_suffix("+adaptive") {
+            let variant = Variant::parse(uniform)?;
+            if variant.adaptive {
+                return Err(format!("variant `{text}`: `+adaptive` once"));
+            }
+            return Ok(Variant {
+                adaptive: true,
+                ..variant
+            });
+        }
         let (name, weight) = match text.split_once(':') {
             Some((name, weight)) => (name, Some(weight)),
             None => (text, None),
@@ -95,6 +113,7 @@ impl Variant {
             (_, None) => Ok(Variant {
                 strategy,
                 light_weight: None,
+                adaptive: false,
             }),
             (_, Some(_)) => Err(format!(
                 "variant `{text}`: only the mixture takes a light weight"
@@ -104,9 +123,13 @@ impl Variant {
 
     /// As [`parse`](Self::parse) reads it: `cosine`, `light`, `mixture:0.5`.
     pub fn name(&self) -> String {
-        match self.light_weight {
+        let strategy = match self.light_weight {
             Some(w) => format!("{}:{w}", self.strategy),
             None => self.strategy.to_string(),
+        };
+        match self.adaptive {
+            true => format!("{strategy}+adaptive"),
+            false => strategy,
         }
     }
 }
@@ -303,9 +326,11 @@ fn renderer<'a>(
     ctx: &'a GpuContext,
     scene: &Scene,
     variance: bool,
+    adaptive: bool,
 ) -> Result<Renderer<'a>, ConvergeError> {
     let options = RenderOptions {
         variance,
+        adaptive,
         ..Default::default()
     };
     Renderer::new(ctx, scene, &options).map_err(|e| match e {
@@ -443,7 +468,7 @@ pub fn cached_or_rendered_reference(
             ..Default::default()
         })
         .map_err(|e| ConvergeError::Input(e.to_string()))?;
-    let mut renderer = renderer(ctx, &scene, true)?;
+    let mut renderer = renderer(ctx, &scene, true, false)?;
     render::run(&mut renderer, StopRule::samples(spp), on_progress)?;
     let accumulation = renderer.accumulation();
     let image = accumulation.mean();
@@ -509,7 +534,7 @@ pub fn measure_variant(
     if scene.render.seed == REFERENCE_SEED {
         return Err(ConvergeError::ReferenceSeed);
     }
-    let mut renderer = renderer(ctx, &scene, true)?;
+    let mut renderer = renderer(ctx, &scene, true, variant.adaptive)?;
     let (width, height) = renderer.size();
     if (reference.width, reference.height) != (width, height) {
         return Err(ConvergeError::ReferenceSize {
@@ -527,8 +552,12 @@ pub fn measure_variant(
     let mut rows = Vec::with_capacity(ladder.len());
     for &rung in ladder {
         let started = Instant::now();
+        // Adaptive: `rung` samples per pixel on average, or fewer if every pixel
+        // is at its cap.
         while renderer.samples() < rung {
-            renderer.advance(rung - renderer.samples());
+            if renderer.advance(rung - renderer.samples()) == 0 {
+                break;
+            }
         }
         elapsed += started.elapsed();
         let accumulation = renderer.accumulation();
@@ -856,7 +885,24 @@ mod tests {
         assert_eq!(Variant::parse("mixture"), Ok(Variant::mixture(0.5)));
         assert_eq!(Variant::parse("mixture:0.25"), Ok(Variant::mixture(0.25)));
         assert_eq!(Variant::parse("nee-mis"), Ok(Variant::NEE_MIS));
-        for bad in ["uniform", "mixture:1.5", "mixture:x", "cosine:0.5", ""] {
+        let adaptive = Variant::parse("mixture:0.25+adaptive").unwrap();
+        assert_eq!(
+            adaptive,
+            Variant {
+                adaptive: true,
+                ..Variant::mixture(0.25)
+            }
+        );
+        assert_eq!(Variant::parse(&adaptive.name()), Ok(adaptive));
+        for bad in [
+            "uniform",
+            "mixture:1.5",
+            "mixture:x",
+            "cosine:0.5",
+            "",
+            "cosine+adaptive+adaptive",
+            "+adaptive",
+        ] {
             assert!(Variant::parse(bad).is_err(), "{bad}");
         }
         let names: Vec<String> = Variant::defaults().iter().map(Variant::name).collect();

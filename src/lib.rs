@@ -3,13 +3,15 @@
 //!
 //! `scene` turns a file into a validated `Scene`; `kernel` and `shader` decide
 //! and compose the WGSL for it; `gpu` owns the device, buffers and pipeline;
-//! `render` runs the progressive accumulation; `checkpoint` saves and restores
+//! `render` runs the progressive accumulation (`adaptive`: which pixels
+//! its rounds sample); `checkpoint` saves and restores
 //! it; `shard` writes and merges partial results; `output` and `stats` work on
 //! plain arrays; `paths` finds a command's paths that name one file;
 //! `converge` measures the strategies' speed/accuracy trade; `pilot` chooses one
 //! for `strategy = "auto"`.
 
 pub mod accel;
+pub mod adaptive;
 pub mod bench;
 pub mod checkpoint;
 pub mod converge;

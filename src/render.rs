@@ -2,11 +2,14 @@
 //! the running sums back, and the rules that stop a run.
 
 use crate::accel::Bvh;
+use crate::adaptive;
 use crate::gpu::accumulator::{
     Accumulator, LAYER_SQUARES, LAYER_SUM, REPLICATES, compensated_sums, map_read, replicate_layer,
 };
 use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
-use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Kernel};
+use crate::gpu::pipeline::{
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, Kernel,
+};
 use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{AccumulatorKind, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE};
 use crate::kinds::PRIMITIVE_KINDS;
@@ -31,6 +34,9 @@ pub struct RenderOptions {
     /// Compile every primitive and material kind in, not only the scene's
     /// (`KernelConfig::generalized`): for benchmarks.
     pub general_kernel: bool,
+    /// Adaptive sampling (`crate::adaptive`): rounds over the pixels whose
+    /// samples lower the error most. Accumulates the variance sums too.
+    pub adaptive: bool,
 }
 
 impl Default for RenderOptions {
@@ -41,6 +47,7 @@ impl Default for RenderOptions {
             scene_storage: None,
             submission_seconds: 0.25,
             general_kernel: false,
+            adaptive: false,
         }
     }
 }
@@ -104,6 +111,24 @@ pub enum RenderError {
     StateLayersMismatch { saved: u32, layers: u32 },
     #[error("saved sums hold {count} texels, expected {expected}")]
     StateTexelCountMismatch { count: usize, expected: u64 },
+    #[error(
+        "saved sums are of {}, this render is {}",
+        if *.saved { "an adaptive run" } else { "a uniform run" },
+        if *.saved { "uniform" } else { "adaptive" }
+    )]
+    StateAdaptiveMismatch { saved: bool },
+    #[error("saved adaptive state does not fit the image (counts or round entries are wrong)")]
+    StateAdaptiveInvalid,
+    #[error(
+        "adaptive sampling needs the sobol sampler: it decides from one of its independent \
+         replicates and estimates from the others"
+    )]
+    AdaptiveNeedsSobol,
+    #[error(
+        "an adaptive run cannot be split into sample ranges: each pixel continues its own \
+         sequence as far as its error asks, so shards would not add up to one run"
+    )]
+    AdaptiveShard,
     #[error("a target error needs the variance sums: render with variance on")]
     TargetErrorWithoutVariance,
     #[error(
@@ -156,8 +181,12 @@ pub struct Renderer<'a> {
     counters_buffer: wgpu::Buffer,
     frame_group: wgpu::BindGroup,
     scene_group: wgpu::BindGroup,
-    /// Samples per pixel accumulated so far.
+    /// Samples per pixel accumulated so far (adaptive: the floor of their mean).
     samples: u32,
+    /// Adaptive sampling's per-pixel counts and round.
+    adaptive: Option<AdaptiveRun>,
+    /// Paths traced since the renderer was made (for timing).
+    paths_traced: u64,
     /// Sample index of the first sample accumulated (see `set_first_sample`).
     first_sample: u32,
     /// Paths one submission should trace, adapted to the measured speed.
@@ -225,23 +254,43 @@ impl<'a> Renderer<'a> {
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
         });
+        let pixels = width as usize * height as usize;
+        let adaptive = kernel.config.adaptive.then(|| AdaptiveRun {
+            counts: vec![0; pixels],
+            round: Vec::new(),
+            round_samples: 0,
+            round_done: 0,
+            list: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("active pixels"),
+                size: (pixels * size_of::<[u32; 2]>()) as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        });
+        let mut frame_entries = vec![
+            wgpu::BindGroupEntry {
+                binding: BINDING_PARAMS,
+                resource: params_buffer.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: BINDING_ACCUMULATOR,
+                resource: accumulator.binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: BINDING_COUNTERS,
+                resource: counters_buffer.as_entire_binding(),
+            },
+        ];
+        if let Some(adaptive) = &adaptive {
+            frame_entries.push(wgpu::BindGroupEntry {
+                binding: BINDING_ACTIVE_PIXELS,
+                resource: adaptive.list.as_entire_binding(),
+            });
+        }
         let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &kernel.frame_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: BINDING_PARAMS,
-                    resource: params_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: BINDING_ACCUMULATOR,
-                    resource: accumulator.binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: BINDING_COUNTERS,
-                    resource: counters_buffer.as_entire_binding(),
-                },
-            ],
+            entries: &frame_entries,
         });
         let scene_buffers: Vec<(u32, wgpu::Buffer)> = kernel
             .config
@@ -326,6 +375,8 @@ impl<'a> Renderer<'a> {
             frame_group,
             scene_group,
             samples: 0,
+            adaptive,
+            paths_traced: 0,
             first_sample: 0,
             paths_per_submission: 1 << 18,
             max_samples_per_dispatch,
@@ -352,12 +403,31 @@ impl<'a> Renderer<'a> {
     /// then matches a fresh renderer's sample for sample.
     pub fn reset(&mut self) {
         self.samples = 0;
+        if let Some(adaptive) = &mut self.adaptive {
+            adaptive.counts.fill(0);
+            adaptive.round.clear();
+            adaptive.round_samples = 0;
+            adaptive.round_done = 0;
+        }
+    }
+
+    /// Adaptive sampling: each pixel's sample count so far.
+    pub fn sample_counts(&self) -> Option<&[u32]> {
+        self.adaptive.as_ref().map(|a| &a.counts[..])
     }
 
     /// Traces up to `max_samples` more samples per pixel in about one submission's
     /// time, waits for them, and returns how many were added. A very large image
     /// takes one sample over several submissions.
+    ///
+    /// Adaptive: `max_samples` more samples per pixel on average (the run's total);
+    /// the submission continues the current round, or starts the next one
+    /// (`adaptive::next_round`), and the return is the samples each of the round's
+    /// pixels got, 0 when no pixel can take more.
     pub fn advance(&mut self, max_samples: u32) -> u32 {
+        if self.adaptive.is_some() {
+            return self.advance_adaptive(max_samples);
+        }
         let (width, height) = self.size();
         let (samples, rows) = submission_shape(
             self.paths_per_submission,
@@ -375,6 +445,7 @@ impl<'a> Renderer<'a> {
         self.wait();
         self.samples += samples;
         let paths = width as u64 * height as u64 * samples as u64;
+        self.paths_traced += paths;
         self.paths_per_submission =
             next_paths_per_submission(paths, started.elapsed(), self.submission_seconds);
         samples
@@ -389,12 +460,14 @@ impl<'a> Renderer<'a> {
     /// submissions, the time per path of the last two within 1.5 times the fastest
     /// (then neither compilation nor per-submission overhead dominates).
     pub fn warm_up(&mut self, max_samples: u32) {
-        let (width, height) = self.size();
         let mut per_path = Vec::new();
         while per_path.len() < WARM_UP_MAX_SUBMISSIONS {
             let started = Instant::now();
-            let samples = self.advance(max_samples);
-            let paths = width as f64 * height as f64 * samples as f64;
+            let traced = self.paths_traced;
+            if self.advance(max_samples) == 0 {
+                break;
+            }
+            let paths = (self.paths_traced - traced) as f64;
             per_path.push(started.elapsed().as_secs_f64() / paths);
             let fastest = per_path.iter().copied().fold(f64::INFINITY, f64::min);
             if per_path.len() >= 3
@@ -417,6 +490,84 @@ impl<'a> Renderer<'a> {
             reset: (self.samples == 0) as u32,
             ..self.params
         };
+        self.submit(params);
+    }
+
+    /// The adaptive kernel's submission: `samples` samples from the round's
+    /// `round_done`, for its list entries `origin_row * width..` in `rows` rows.
+    fn advance_adaptive(&mut self, max_samples: u32) -> u32 {
+        let (width, height) = self.size();
+        let pixels = width as u64 * height as u64;
+        let adaptive = self.adaptive.as_ref().expect("an adaptive renderer");
+        if adaptive.round_done == adaptive.round_samples {
+            let total: u64 = adaptive.counts.iter().map(|&n| n as u64).sum();
+            let run_samples = self.samples.saturating_add(max_samples);
+            let budget = (run_samples as u64 * pixels).saturating_sub(total);
+            let cap = adaptive::pixel_cap(run_samples);
+            let accumulation = self.accumulation();
+            let adaptive = self.adaptive.as_mut().expect("an adaptive renderer");
+            let Some(round) = adaptive::next_round(&accumulation, &adaptive.counts, cap, budget)
+            else {
+                return 0;
+            };
+            adaptive.round = (round.pixels.iter())
+                .map(|&p| [p, adaptive.counts[p as usize]])
+                .collect();
+            adaptive.round_samples = round.samples;
+            adaptive.round_done = 0;
+            self.ctx
+                .queue
+                .write_buffer(&adaptive.list, 0, bytemuck::cast_slice(&adaptive.round));
+        }
+        let adaptive = self.adaptive.as_ref().expect("an adaptive renderer");
+        let entries = adaptive.round.len() as u32;
+        let list_rows = entries.div_ceil(width);
+        let left = adaptive.round_samples - adaptive.round_done;
+        let round_done = adaptive.round_done;
+        // Whole replicate sets per submission, so an interrupted round leaves every
+        // pixel's count a multiple of them; dispatches within the loop budget.
+        let (shape_samples, rows) =
+            submission_shape(self.paths_per_submission, width, list_rows, left);
+        let samples = (shape_samples - shape_samples % REPLICATES)
+            .max(REPLICATES)
+            .min(left);
+        let started = Instant::now();
+        let mut row = 0;
+        while row < list_rows {
+            let tile_rows = rows.min(list_rows - row);
+            let mut done = 0;
+            while done < samples {
+                let count = (samples - done).min(self.max_samples_per_dispatch);
+                let params = Params {
+                    sample_start: round_done + done,
+                    sample_count: count,
+                    tile_origin: [0, row],
+                    tile_size: [width, tile_rows],
+                    active_count: entries,
+                    ..self.params
+                };
+                self.submit(params);
+                done += count;
+            }
+            row += tile_rows;
+        }
+        self.wait();
+        let adaptive = self.adaptive.as_mut().expect("an adaptive renderer");
+        adaptive.round_done += samples;
+        for &[p, _] in &adaptive.round {
+            adaptive.counts[p as usize] += samples;
+        }
+        let total: u64 = adaptive.counts.iter().map(|&n| n as u64).sum();
+        self.samples = (total / pixels) as u32;
+        let paths = entries as u64 * samples as u64;
+        self.paths_traced += paths;
+        self.paths_per_submission =
+            next_paths_per_submission(paths, started.elapsed(), self.submission_seconds);
+        samples
+    }
+
+    fn submit(&mut self, params: Params) {
+        let tile_size = params.tile_size;
         self.ctx
             .queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
@@ -453,6 +604,7 @@ impl<'a> Renderer<'a> {
         let layer = |sum| compensated_sums(&texels, pixels, sum, sum + 1).collect::<Vec<_>>();
         let config = &self.kernel.config;
         let sum = layer(LAYER_SUM);
+        // Adaptive: each pixel's own count decides its replicates' (`counts`).
         let range = self.first_sample as u64..(self.first_sample + self.samples) as u64;
         let replicates = (config.variance && config.sampler == Sampler::Sobol).then(|| {
             let others = (1..REPLICATES).map(|r| layer(replicate_layer(r))).collect();
@@ -462,6 +614,7 @@ impl<'a> Renderer<'a> {
             width,
             height,
             samples: self.samples as u64,
+            counts: self.sample_counts().map(<[u32]>::to_vec),
             sum,
             sum_sq: config.variance.then(|| layer(LAYER_SQUARES)),
             replicates,
@@ -476,8 +629,11 @@ impl<'a> Renderer<'a> {
 
     /// Makes the accumulation start at sample index `first` instead of 0, so that
     /// separate runs can render disjoint sample ranges of one image (shards).
-    /// Only before the first sample is traced.
+    /// Only before the first sample is traced, and not in an adaptive run.
     pub fn set_first_sample(&mut self, first: u32) -> Result<(), RenderError> {
+        if self.adaptive.is_some() && first > 0 {
+            return Err(RenderError::AdaptiveShard);
+        }
         if self.samples > 0 {
             return Err(RenderError::FirstSampleAfterRendering);
         }
@@ -496,6 +652,12 @@ impl<'a> Renderer<'a> {
             first_sample: self.first_sample,
             samples: self.samples,
             texels: self.accumulator.read(self.ctx),
+            adaptive: self.adaptive.as_ref().map(|a| AdaptiveState {
+                counts: a.counts.clone(),
+                round: a.round.clone(),
+                round_samples: a.round_samples,
+                round_done: a.round_done,
+            }),
         }
     }
 
@@ -505,6 +667,28 @@ impl<'a> Renderer<'a> {
     pub fn import_state(&mut self, state: &AccumulatorState) -> Result<(), RenderError> {
         let (width, height) = self.size();
         check_state(state, width, height, self.accumulator.layers)?;
+        match (&mut self.adaptive, &state.adaptive) {
+            (None, None) => {}
+            (Some(adaptive), Some(saved)) => {
+                if !saved.fits(width, height) {
+                    return Err(RenderError::StateAdaptiveInvalid);
+                }
+                adaptive.counts.clone_from(&saved.counts);
+                adaptive.round.clone_from(&saved.round);
+                adaptive.round_samples = saved.round_samples;
+                adaptive.round_done = saved.round_done;
+                self.ctx.queue.write_buffer(
+                    &adaptive.list,
+                    0,
+                    bytemuck::cast_slice(&adaptive.round),
+                );
+            }
+            (adaptive, _) => {
+                return Err(RenderError::StateAdaptiveMismatch {
+                    saved: adaptive.is_none(),
+                });
+            }
+        }
         self.accumulator.write(self.ctx, &state.texels);
         self.first_sample = state.first_sample;
         self.samples = state.samples;
@@ -551,6 +735,44 @@ pub struct AccumulatorState {
     /// `layers * width * height` texels, layer-major, rows top first; rgb are the
     /// channels, w is unused (0).
     pub texels: Vec<[f32; 4]>,
+    /// Adaptive sampling's counts and round; `None` for a uniform run.
+    pub adaptive: Option<AdaptiveState>,
+}
+
+/// An adaptive run's state besides the sums: with them, a resumed run makes the
+/// same decisions as the uninterrupted one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AdaptiveState {
+    /// Each pixel's sample count, row-major.
+    pub counts: Vec<u32>,
+    /// The current round's pixels, each with its count when the round began.
+    pub round: Vec<[u32; 2]>,
+    /// Samples the round gives each of its pixels, and how many it has given.
+    pub round_samples: u32,
+    pub round_done: u32,
+}
+
+impl AdaptiveState {
+    /// Whether the state is one a `width` x `height` run could have reached.
+    pub fn fits(&self, width: u32, height: u32) -> bool {
+        let pixels = width as usize * height as usize;
+        self.counts.len() == pixels
+            && self.round_done <= self.round_samples
+            && self.round.len() <= pixels
+            && self.round.iter().all(|&[p, start]| {
+                (p as usize) < pixels && self.counts[p as usize] == start + self.round_done
+            })
+    }
+}
+
+/// The adaptive renderer's counts and round, and the device list of the round's pixels.
+struct AdaptiveRun {
+    counts: Vec<u32>,
+    round: Vec<[u32; 2]>,
+    round_samples: u32,
+    round_done: u32,
+    /// Room for every pixel, as `[pixel, count when the round began]`.
+    list: wgpu::Buffer,
 }
 
 /// What a run's kernel is: the packed scene, the kernel configuration, and what
@@ -619,6 +841,14 @@ pub fn plan_kernel(
         config.generalized()
     } else {
         config
+    };
+    if options.adaptive && config.sampler != Sampler::Sobol {
+        return Err(RenderError::AdaptiveNeedsSobol);
+    }
+    let config = KernelConfig {
+        variance: config.variance || options.adaptive,
+        adaptive: options.adaptive,
+        ..config
     };
     check_size(ctx, &config, width, height)?;
     check_scene_limits(ctx, scene, &data, &config)?;
@@ -1090,10 +1320,15 @@ pub fn run_with<E: From<RenderError>>(
         let samples = renderer.samples();
         let next_check = MIN_SAMPLES_FOR_ERROR.max(checked_at.saturating_mul(2));
         let to_next_check = match stop.target_error {
-            Some(_) if next_check > samples => next_check - samples,
+            // Adaptive rounds are decided from the samples left to the cap alone,
+            // so that a resumed run makes the same rounds.
+            Some(_) if next_check > samples && !renderer.config().adaptive => next_check - samples,
             _ => u32::MAX,
         };
-        renderer.advance((stop.max_samples - samples).min(to_next_check));
+        if renderer.advance((stop.max_samples - samples).min(to_next_check)) == 0 {
+            // Adaptive: every pixel is at its cap.
+            break StopReason::Samples;
+        }
         let elapsed = started.elapsed();
         let wants_error = renderer.config().variance && renderer.samples() >= MIN_SAMPLES_FOR_ERROR;
         let due = last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL)
@@ -1243,6 +1478,7 @@ mod tests {
             first_sample: 0,
             samples: 7,
             texels: vec![[0.0; 4]; texels],
+            adaptive: None,
         }
     }
 

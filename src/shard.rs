@@ -753,6 +753,7 @@ pub fn merge_with(
             width: first.identity.width,
             height: first.identity.height,
             samples,
+            counts: None,
             sum,
             sum_sq,
             replicates,
@@ -808,6 +809,7 @@ mod tests {
                 first_sample: range.start,
                 samples: range.len() as u32,
                 texels,
+                adaptive: None,
             },
         )
     }

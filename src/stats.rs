@@ -6,13 +6,20 @@ use std::ops::Range;
 /// Rec. 709 / sRGB luminance weights.
 const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
-/// Per-pixel sums of samples and of squared samples (f64), over `samples` samples per pixel.
-/// `sum` and `sum_sq` hold `width * height` pixels, row-major, top row first.
+/// Per-pixel sums of samples and of squared samples (f64), over `samples` samples per pixel
+/// (or each pixel's own count, `counts`). `sum` and `sum_sq` hold `width * height` pixels,
+/// row-major, top row first.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Accumulation {
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel; with `counts`, the floor of their mean.
     pub samples: u64,
+    /// Adaptive sampling: each pixel's own sample count, a multiple of the replicate
+    /// count (each replicate holds a quarter), from sample index 0. Replicate 0
+    /// decided the counts (`crate::adaptive`; `sum_sq` holds its squares alone), so
+    /// the mean and its error come from the other replicates: unbiased.
+    pub counts: Option<Vec<u32>>,
     pub sum: Vec<[f64; 3]>,
     pub sum_sq: Option<Vec<[f64; 3]>>,
     /// Under the Sobol sampler with variance on: the independent replicates' sums.
@@ -67,18 +74,21 @@ impl Replicates {
     /// K replicate means: `SE² = Σ_r (m_r − m̄)² / (K (K − 1))`, with `m̄` their
     /// plain average (K − 1 degrees of freedom). Replicates that differ by one
     /// sample (a count that is not a multiple of K) are treated as equal. None
-    /// unless every replicate has a sample.
-    fn standard_error(&self, p: usize) -> Option<[f64; 3]> {
-        let k = self.samples.len() as f64;
-        if k < 2.0 || self.samples.contains(&0) {
+    /// unless every replicate has a sample. `per_replicate`: the pixel's own count in
+    /// each replicate (adaptive sampling), instead of `samples`, and then replicate 0
+    /// (the deciding one) is left out.
+    fn standard_error(&self, p: usize, per_replicate: Option<u64>) -> Option<[f64; 3]> {
+        let first = per_replicate.is_some() as usize;
+        let k = (self.samples.len() - first) as f64;
+        let count = |r: usize| per_replicate.unwrap_or(self.samples[r]);
+        if k < 2.0 || (first..self.samples.len()).any(|r| count(r) == 0) {
             return None;
         }
         Some(std::array::from_fn(|c| {
             let means = || {
-                self.sums
-                    .iter()
-                    .zip(&self.samples)
-                    .map(|(s, &n)| s[p][c] / n as f64)
+                (self.sums.iter().enumerate())
+                    .skip(first)
+                    .map(|(r, s)| s[p][c] / count(r) as f64)
             };
             let average = means().sum::<f64>() / k;
             let squares: f64 = means().map(|m| (m - average).powi(2)).sum();
@@ -99,14 +109,34 @@ impl Accumulation {
             .count()
     }
 
-    /// `sum / samples` as f32; all zeros when `samples == 0`.
+    /// Pixel `p`'s sample count.
+    pub fn samples_at(&self, p: usize) -> u64 {
+        self.counts.as_ref().map_or(self.samples, |c| c[p] as u64)
+    }
+
+    /// Pixel `p`'s mean: `sum / samples`, or under adaptive sampling the mean of
+    /// replicates 1.. over the pixel's own count (see `counts`); 0 without samples.
+    fn pixel_mean(&self, p: usize) -> [f64; 3] {
+        match (&self.counts, &self.replicates) {
+            (Some(counts), Some(replicates)) if counts[p] > 0 => {
+                let k = replicates.sums.len();
+                let n = counts[p] as f64 * (k - 1) as f64 / k as f64;
+                std::array::from_fn(|c| {
+                    replicates.sums[1..].iter().map(|s| s[p][c]).sum::<f64>() / n
+                })
+            }
+            _ => match self.samples_at(p) {
+                0 => [0.0; 3],
+                n => self.sum[p].map(|s| s / n as f64),
+            },
+        }
+    }
+
+    /// The mean image (`pixel_mean`) as f32; black where a pixel has no samples.
     pub fn mean(&self) -> Image {
-        let n = self.samples as f64;
-        let pixels = if self.samples == 0 {
-            vec![[0.0; 3]; self.sum.len()]
-        } else {
-            self.sum.iter().map(|s| s.map(|c| (c / n) as f32)).collect()
-        };
+        let pixels = (0..self.sum.len())
+            .map(|p| self.pixel_mean(p).map(|c| c as f32))
+            .collect();
         Image {
             width: self.width,
             height: self.height,
@@ -158,22 +188,30 @@ impl Accumulation {
 
     /// Per pixel: the mean and the standard error of the mean, per channel, in f64.
     fn mean_and_standard_error(&self) -> Option<Vec<([f64; 3], [f64; 3])>> {
-        if self.samples < 2 {
+        let fewest = self.counts.as_ref().map_or(self.samples, |c| {
+            c.iter().copied().min().unwrap_or(0) as u64
+        });
+        if fewest < 2 {
             return None;
         }
-        let n = self.samples as f64;
-        let means = self.sum.iter().map(|sum| sum.map(|s| s / n));
+        let means = (0..self.sum.len()).map(|p| self.pixel_mean(p));
         if let Some(replicates) = &self.replicates {
+            let k = replicates.samples.len() as u64;
             return means
                 .enumerate()
-                .map(|(p, mean)| Some((mean, replicates.standard_error(p)?)))
+                .map(|(p, mean)| {
+                    let own = self.counts.as_ref().map(|c| c[p] as u64 / k);
+                    Some((mean, replicates.standard_error(p, own)?))
+                })
                 .collect();
         }
         let sum_sq = self.sum_sq.as_ref()?;
         Some(
             means
                 .zip(sum_sq)
-                .map(|(mean, sum_sq)| {
+                .enumerate()
+                .map(|(p, (mean, sum_sq))| {
+                    let n = self.samples_at(p) as f64;
                     let se = std::array::from_fn(|c| {
                         let variance = ((sum_sq[c] - n * mean[c] * mean[c]) / (n - 1.0)).max(0.0);
                         (variance / n).sqrt()
@@ -190,7 +228,7 @@ pub fn luminance(rgb: [f32; 3]) -> f32 {
     luminance_f64(rgb.map(f64::from)) as f32
 }
 
-fn luminance_f64(rgb: [f64; 3]) -> f64 {
+pub(crate) fn luminance_f64(rgb: [f64; 3]) -> f64 {
     rgb.iter().zip(LUMINANCE_WEIGHTS).map(|(c, w)| c * w).sum()
 }
 
@@ -275,6 +313,7 @@ mod tests {
             width,
             height,
             samples: samples.len() as u64,
+            counts: None,
             sum,
             sum_sq: Some(sum_sq),
             replicates: None,
@@ -352,6 +391,7 @@ mod tests {
             width: 2,
             height: 1,
             samples: 0,
+            counts: None,
             sum: vec![[0.0; 3]; 2],
             sum_sq: None,
             replicates: None,
@@ -367,6 +407,7 @@ mod tests {
             width: 2,
             height: 1,
             samples: 2,
+            counts: None,
             sum: vec![[2.0; 3], [6.0; 3]],
             sum_sq: Some(vec![[0.5625 + 1.5625; 3], [4.0 + 16.0, 18.0, 18.0]]),
             replicates: None,

@@ -61,7 +61,9 @@ pub struct ConvergeArgs {
           value_parser = clap::value_parser!(u32).range(1..))]
     pub reference_spp: u32,
     /// Comma-separated strategies to measure: cosine, light, nee-mis, mixture (weight
-    /// 0.5), mixture:W. Default: cosine,light,nee-mis,mixture:0.25,mixture:0.5,mixture:0.75.
+    /// 0.5), mixture:W; each with `+adaptive` for adaptive sampling (rungs are then
+    /// sample budgets: the uniform run's total), e.g. mixture,mixture+adaptive. Default:
+    /// cosine,light,nee-mis,mixture:0.25,mixture:0.5,mixture:0.75.
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = Variant::parse)]
     pub variants: Option<Vec<Variant>>,
     /// Use the first adapter whose name contains NAME (case-insensitive) [env: PATHMIX_ADAPTER].

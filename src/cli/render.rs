@@ -4,6 +4,7 @@ use super::Failure;
 use super::progress::ProgressDisplay;
 use super::signals::Signals;
 use clap::{Args, ValueEnum};
+use pathmix::adaptive;
 use pathmix::checkpoint::{self, Checkpoint, CheckpointLock, SceneIdentity};
 use pathmix::gpu::GpuContext;
 use pathmix::gpu::accumulator::LAYER_SQUARES_COMPENSATION;
@@ -54,6 +55,17 @@ pub struct RenderArgs {
     /// Also write the per-pixel standard error of the mean (linear RGB OpenEXR).
     #[arg(long, value_name = "FILE")]
     pub variance: Option<PathBuf>,
+    /// Adaptive sampling [scene: render.adaptive]: after a 16-spp pilot, rounds
+    /// sample the pixels whose samples lower the image's error most (each pixel's
+    /// count in proportion to its noise). --spp is then the budget (the uniform
+    /// run's total samples: N per pixel on average), a pixel takes at most 16 N;
+    /// --time and --target-error stop as without it. Not with shards.
+    #[arg(long)]
+    pub adaptive: bool,
+    /// With adaptive sampling: also write each pixel's sample count (OpenEXR, in
+    /// every channel).
+    #[arg(long, value_name = "FILE")]
+    pub sample_counts: Option<PathBuf>,
     /// Image width in pixels [scene: camera.width].
     #[arg(long, value_name = "W", allow_negative_numbers = true)]
     pub width: Option<u32>,
@@ -226,6 +238,7 @@ pub fn with_flag(e: &RenderError) -> String {
             "--accumulator buffer"
         }
         RenderError::TruncatedInvocations { .. } => "--max-depth D",
+        RenderError::AdaptiveNeedsSobol => "--sampler sobol",
         _ => return e.to_string(),
     };
     format!("{e} ({flag})")
@@ -236,6 +249,7 @@ struct Outputs {
     png: Option<PathBuf>,
     exr: Option<PathBuf>,
     variance: Option<PathBuf>,
+    sample_counts: Option<PathBuf>,
     partial: Option<PathBuf>,
 }
 
@@ -253,6 +267,7 @@ struct Plan {
     /// `max_samples` counts the renderer's samples (saved ones included).
     stop: StopRule,
     variance: bool,
+    adaptive: bool,
     first_sample: u32,
     resume: Option<Checkpoint>,
 }
@@ -310,6 +325,10 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         }),
         exr: args.exr.clone().or_else(|| recorded_path("exr")),
         variance: args.variance.clone().or_else(|| recorded_path("variance")),
+        sample_counts: args
+            .sample_counts
+            .clone()
+            .or_else(|| recorded_path("sample_counts")),
         partial: args.partial.clone().or_else(|| recorded_path("partial")),
     };
     let checkpoint = args.checkpoint.clone().or_else(|| args.resume.clone());
@@ -341,6 +360,37 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
     }
     let identity = SceneIdentity::of(&scene);
     let open_ended = args.time.is_some() || args.target_error.is_some();
+    let adaptive = match &resume {
+        Some(c) => {
+            let saved = c.state.adaptive.is_some();
+            if args.adaptive && !saved {
+                return Err(Failure::input(format!(
+                    "cannot resume from `{}` with --adaptive: it was a uniform run",
+                    args.resume.as_ref().unwrap().display()
+                )));
+            }
+            saved
+        }
+        None => args.adaptive || scene.render.adaptive,
+    };
+    if adaptive {
+        for (flag, given) in [
+            ("--sample-range", args.sample_range.is_some()),
+            ("--shard", args.shard.is_some()),
+            ("--partial", outputs.partial.is_some()),
+        ] {
+            if given {
+                return Err(Failure::input(format!(
+                    "{flag} with adaptive sampling: {}",
+                    RenderError::AdaptiveShard
+                )));
+            }
+        }
+    } else if outputs.sample_counts.is_some() {
+        return Err(Failure::input(
+            "--sample-counts: only an adaptive run (--adaptive) has per-pixel counts",
+        ));
+    }
     let (first_sample, stop, variance) = match &resume {
         Some(c) => {
             let differences = SceneIdentity::differences(
@@ -434,9 +484,14 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
     if let Some(png) = &outputs.png {
         output::check_output_path(png, ImageFormat::Png).map_err(Failure::input)?;
     }
-    for exr in [&outputs.exr, &outputs.variance, &outputs.partial]
-        .into_iter()
-        .flatten()
+    for exr in [
+        &outputs.exr,
+        &outputs.variance,
+        &outputs.sample_counts,
+        &outputs.partial,
+    ]
+    .into_iter()
+    .flatten()
     {
         output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
     }
@@ -445,7 +500,12 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         checkpoint::check_replaceable(path)
             .map_err(|e| Failure::input(format!("--checkpoint: {e}")))?;
     }
-    render::check_emission(&scene, stop.max_samples, variance)
+    // An adaptive pixel may take up to its cap; adaptive runs sum squares.
+    let most = match adaptive {
+        true => adaptive::pixel_cap(stop.max_samples),
+        false => stop.max_samples,
+    };
+    render::check_emission(&scene, most, variance || adaptive)
         .map_err(|e| Failure::input(with_flag(&e)))?;
     Ok(Plan {
         scene,
@@ -458,6 +518,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         preview_every,
         stop,
         variance,
+        adaptive,
         first_sample,
         resume,
     })
@@ -508,6 +569,7 @@ fn refuse_unrecordable_paths(args: &RenderArgs) -> Result<(), Failure> {
         ("-o", &args.output),
         ("--exr", &args.exr),
         ("--variance", &args.variance),
+        ("--sample-counts", &args.sample_counts),
         ("--partial", &args.partial),
         ("--checkpoint", &args.checkpoint),
         ("--resume", &args.resume),
@@ -565,6 +627,11 @@ fn check_collisions(
         ("-o", &outputs.png, &args.output),
         ("--exr", &outputs.exr, &args.exr),
         ("--variance", &outputs.variance, &args.variance),
+        (
+            "--sample-counts",
+            &outputs.sample_counts,
+            &args.sample_counts,
+        ),
         ("--partial", &outputs.partial, &args.partial),
     ] {
         if let Some(path) = path {
@@ -602,6 +669,7 @@ fn run_table(plan: &Plan, elapsed: Duration) -> toml::Table {
         ("output", &outputs.png),
         ("exr", &outputs.exr),
         ("variance", &outputs.variance),
+        ("sample_counts", &outputs.sample_counts),
         ("partial", &outputs.partial),
     ] {
         if let Some(path) = path {
@@ -663,6 +731,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         accumulator: args.accumulator.map(AccumulatorKind::from),
         variance: plan.variance,
         scene_storage: args.scene_storage.map(SceneStorage::from),
+        adaptive: plan.adaptive,
         ..Default::default()
     };
     let pilot = match plan.scene.render.auto_strategy {
@@ -777,6 +846,14 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         })?;
         output::write_exr(path, &error, &[]).map_err(Failure::runtime)?;
     }
+    if let (Some(path), Some(counts)) = (&outputs.sample_counts, &accumulation.counts) {
+        let image = output::Image {
+            width,
+            height,
+            pixels: counts.iter().map(|&n| [n as f32; 3]).collect(),
+        };
+        output::write_exr(path, &image, &[]).map_err(Failure::runtime)?;
+    }
     if discarded > 0 {
         eprintln!("pathmix: warning: {discarded} samples were NaN or infinite and counted as zero");
     }
@@ -824,6 +901,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         outputs.png.as_ref(),
         outputs.exr.as_ref(),
         outputs.variance.as_ref(),
+        outputs.sample_counts.as_ref(),
         outputs.partial.as_ref(),
         plan.checkpoint.as_ref(),
     ]

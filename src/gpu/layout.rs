@@ -107,7 +107,8 @@ gpu_struct! {
         pub ray_offset: f32,
         pub reset: u32,
         pub zero_bits: u32,
-        pub _pad1: u32,
+        /// Adaptive sampling: entries of the active-pixel list this dispatch covers.
+        pub active_count: u32,
     }
 }
 

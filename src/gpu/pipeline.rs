@@ -9,6 +9,8 @@ use crate::shader::ComposeError;
 pub const BINDING_PARAMS: u32 = 0;
 pub const BINDING_ACCUMULATOR: u32 = 1;
 pub const BINDING_COUNTERS: u32 = 2;
+/// Only in an adaptive kernel: the active-pixel list (kernel.wgsl).
+pub const BINDING_ACTIVE_PIXELS: u32 = 3;
 
 pub struct Kernel {
     pub config: KernelConfig,
@@ -51,15 +53,19 @@ impl Kernel {
             },
             AccumulatorKind::Buffer => storage_buffer(false),
         };
+        let mut frame_entries = vec![
+            compute_entry(BINDING_PARAMS, storage_buffer(true)),
+            compute_entry(BINDING_ACCUMULATOR, accumulator),
+            compute_entry(BINDING_COUNTERS, storage_buffer(false)),
+        ];
+        if config.adaptive {
+            frame_entries.push(compute_entry(BINDING_ACTIVE_PIXELS, storage_buffer(true)));
+        }
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("frame"),
-                entries: &[
-                    compute_entry(BINDING_PARAMS, storage_buffer(true)),
-                    compute_entry(BINDING_ACCUMULATOR, accumulator),
-                    compute_entry(BINDING_COUNTERS, storage_buffer(false)),
-                ],
+                entries: &frame_entries,
             });
         let scene_entries: Vec<_> = config
             .scene_bindings()

@@ -10,7 +10,9 @@ use crate::gpu::accumulator::{
     REPLICATES,
 };
 use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
-use crate::gpu::pipeline::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS};
+use crate::gpu::pipeline::{
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
+};
 use crate::kinds::{
     Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, PRIMITIVE_KINDS, PrimitiveKind,
     ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
@@ -31,6 +33,7 @@ pub fn shared_constants() -> String {
     constant("BINDING_PARAMS", BINDING_PARAMS);
     constant("BINDING_ACCUMULATOR", BINDING_ACCUMULATOR);
     constant("BINDING_COUNTERS", BINDING_COUNTERS);
+    constant("BINDING_ACTIVE_PIXELS", BINDING_ACTIVE_PIXELS);
     constant("LAYER_SUM", LAYER_SUM);
     constant("LAYER_SUM_COMPENSATION", LAYER_SUM_COMPENSATION);
     constant("LAYER_SQUARES", LAYER_SQUARES);

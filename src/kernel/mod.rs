@@ -41,6 +41,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "LIGHT_DENSITY",
     "VARIANCE",
     "REPLICATE_SUMS",
+    "ADAPTIVE",
     "SAMPLER_SOBOL",
     "BVH",
     "SHADING_NORMALS",
@@ -247,6 +248,9 @@ pub struct KernelConfig {
     pub accumulator: AccumulatorKind,
     /// Accumulate squared samples too, for per-pixel error estimates.
     pub variance: bool,
+    /// Adaptive sampling: each dispatch runs over a list of active pixels, each
+    /// continuing its own sample sequence (needs `variance`).
+    pub adaptive: bool,
     /// The scene compiled into the kernel (`SceneStorage::Baked`), or `None`
     /// to read it from storage buffers.
     pub baked_scene: Option<SceneData>,
@@ -315,6 +319,7 @@ impl KernelConfig {
             sampler: settings.sampler,
             accumulator,
             variance,
+            adaptive: false,
             baked_scene: (scene_storage == SceneStorage::Baked).then(|| data.clone()),
             bvh: scene_storage == SceneStorage::Bvh,
             filter,
@@ -359,6 +364,7 @@ impl KernelConfig {
             sampler: Sampler::Sobol,
             accumulator,
             variance: true,
+            adaptive: false,
             baked_scene: None,
             bvh: false,
             filter: Filter::Box,
@@ -419,6 +425,7 @@ impl KernelConfig {
                 "REPLICATE_SUMS",
                 self.variance && self.sampler == Sampler::Sobol,
             ),
+            ("ADAPTIVE", self.adaptive),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
@@ -938,7 +945,8 @@ mod tests {
 
     /// Every subset of primitive kinds with every set of at most two material
     /// kinds and with all of them (what a module needs of another shows in
-    /// pairs: shared helpers, dispatch), with and without variance and the BVH,
+    /// pairs: shared helpers, dispatch), with and without variance, the BVH and
+    /// adaptive sampling,
     /// for every strategy and accumulator. Lights are sampled where a smooth
     /// material exists: from the kinds present, or from all when none is.
     fn all_variants() -> Vec<KernelConfig> {
@@ -973,6 +981,9 @@ mod tests {
                             normal_kinds,
                             material_kinds,
                             variance,
+                            // Adaptive sampling needs variance; with the BVH
+                            // bit, to keep the variants few.
+                            adaptive: variance && mask >> (primitives + 1) != 0,
                             bvh: mask >> (primitives + 1) != 0,
                             environment: false,
                             light_environment: false,
@@ -1036,6 +1047,7 @@ mod tests {
             seed: 0,
             rr_depth: crate::scene::Roulette::Off,
             sampler: Sampler::Sobol,
+            adaptive: false,
         };
         for strategy in Strategy::ALL {
             for storage in [
@@ -1480,6 +1492,7 @@ mod tests {
             ("BINDING_PARAMS", BINDING_PARAMS),
             ("BINDING_ACCUMULATOR", BINDING_ACCUMULATOR),
             ("BINDING_COUNTERS", BINDING_COUNTERS),
+            ("BINDING_ACTIVE_PIXELS", BINDING_ACTIVE_PIXELS),
             (
                 "ROUGH_TRANSMITTANCE_RES",
                 crate::kinds::ROUGH_TRANSMITTANCE_RES as u32,
@@ -1512,6 +1525,18 @@ mod tests {
         assert_eq!(binding("dispatch_params"), Some((0, BINDING_PARAMS)));
         assert_eq!(binding("accumulator"), Some((0, BINDING_ACCUMULATOR)));
         assert_eq!(binding("counters"), Some((0, BINDING_COUNTERS)));
+        assert_eq!(binding("active_pixels"), None);
+        let adaptive = validate(&KernelConfig {
+            adaptive: true,
+            ..KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer)
+        });
+        let active = adaptive
+            .global_variables
+            .iter()
+            .find(|(_, v)| v.name.as_deref() == Some("active_pixels"))
+            .and_then(|(_, v)| v.binding.as_ref())
+            .map(|b| (b.group, b.binding));
+        assert_eq!(active, Some((0, BINDING_ACTIVE_PIXELS)));
         for array in KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer).scene_arrays()
         {
             assert_eq!(

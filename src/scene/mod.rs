@@ -167,6 +167,8 @@ pub struct RenderSettings {
     pub seed: u32,
     pub rr_depth: Roulette,
     pub sampler: Sampler,
+    /// Adaptive sampling (`crate::adaptive`), as the command line's `--adaptive`.
+    pub adaptive: bool,
 }
 
 impl RenderSettings {

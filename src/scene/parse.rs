@@ -263,6 +263,7 @@ const RENDER_KEYS: &[&str] = &[
     "seed",
     "rr_depth",
     "sampler",
+    "adaptive",
 ];
 const MATERIAL_TYPES: &[&str] = &[
     "lambertian",
@@ -584,6 +585,7 @@ fn default_render() -> RenderSettings {
         seed: 0,
         rr_depth: Roulette::StrategyDefault,
         sampler: Sampler::Sobol,
+        adaptive: false,
     }
 }
 
@@ -624,6 +626,7 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
             Sampler::from_name,
         )?
         .unwrap_or(d.sampler),
+        adaptive: t.boolean("adaptive")?.unwrap_or(d.adaptive),
     })
 }
 

@@ -1,0 +1,322 @@
+//! Adaptive sampling's rule: after a pilot, which pixels the next round samples
+//! and how many samples each gets. Plain data in, plain data out: the renderer
+//! reads the sums back at each round's start and hands them here.
+//!
+//! The image's squared error is the sum of the pixels' `σ_p² / n_p`; for a given
+//! total of samples it is least with `n_p ∝ σ_p` (each sample goes where it
+//! lowers the error most: the pixel's priority `σ_p² / n_p²`, the error one more
+//! sample removes). Each round samples the pixels whose priority is at least the
+//! image's mean priority, all by the same number of samples, so that every pixel
+//! of a round continues from where it is and one dispatch covers them all. Uniform
+//! sampling (`n_p` equal) is the special case of equal `σ_p`.
+//!
+//! Unbiased by construction: the decisions read only replicate 0 (sample indices
+//! `0 mod 4`, an independently scrambled sequence: its sums and, in an adaptive
+//! kernel, the squares), and the image is the mean of replicates 1 to 3, which
+//! are independent of replicate 0. Each pixel's count is therefore independent of
+//! the samples averaged, and the mean of a fixed number of them is unbiased.
+//! (Deciding from all samples instead, the Cornell boxes' image came out 2.6% dark,
+//! 13 standard errors: pixels whose early samples missed the light stop early.)
+//! The price: a quarter of the samples only decides.
+
+use crate::gpu::accumulator::REPLICATES;
+use crate::stats::{Accumulation, luminance_f64};
+
+/// Samples per pixel of the first round (every pixel), before anything is decided.
+pub const PILOT_SAMPLES: u32 = 16;
+
+/// A pixel's count is capped at this many times the run's samples per pixel.
+pub const MAX_SAMPLES_FACTOR: u32 = 16;
+
+/// A pixel's standard deviation counts as at least this fraction of the image's
+/// mean luminance: a pixel whose pilot missed a rare bright path (zero spread)
+/// still gets samples, in proportion to the floor.
+pub const SPREAD_FLOOR: f64 = 0.1;
+
+/// The next round: the pixels it samples (indices, ascending) and the samples
+/// each gets, a multiple of `REPLICATES` so every replicate keeps its share.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Round {
+    pub pixels: Vec<u32>,
+    pub samples: u32,
+}
+
+/// The most samples a pixel may take in a run of `samples_per_pixel` (the
+/// uniform run's count): `MAX_SAMPLES_FACTOR` times it, in whole replicate sets.
+pub fn pixel_cap(samples_per_pixel: u32) -> u32 {
+    let cap = samples_per_pixel.saturating_mul(MAX_SAMPLES_FACTOR);
+    (cap - cap % REPLICATES).max(REPLICATES)
+}
+
+/// Rounds a count up to whole replicate sets.
+fn whole_sets(n: u64) -> u64 {
+    n.div_ceil(REPLICATES as u64) * REPLICATES as u64
+}
+
+/// The round after the sums of `accumulation` (with its per-pixel `counts`,
+/// `sum_sq` needed), for pixels of at most `cap` samples, tracing at most about
+/// `budget` samples in all (over by less than `REPLICATES`). `None` when no pixel
+/// can take more (all at the cap, or no budget left).
+pub fn next_round(
+    accumulation: &Accumulation,
+    counts: &[u32],
+    cap: u32,
+    budget: u64,
+) -> Option<Round> {
+    let sets = REPLICATES as u64;
+    if budget == 0 {
+        return None;
+    }
+    let pixels = counts.len() as u64;
+    // The pilot: every pixel, the same count.
+    if counts.iter().all(|&n| n == 0) {
+        let samples =
+            whole_sets(PILOT_SAMPLES.min(cap) as u64).min(whole_sets(budget.div_ceil(pixels)));
+        return Some(Round {
+            pixels: (0..pixels as u32).collect(),
+            samples: samples as u32,
+        });
+    }
+    let priorities = priorities(accumulation, counts);
+    // The mean over the pixels that can take samples: one capped pixel of huge
+    // priority (an emitter's edge) would otherwise leave every other one below it.
+    let open: Vec<usize> = (0..pixels as usize).filter(|&p| counts[p] < cap).collect();
+    let mean = open.iter().map(|&p| priorities[p]).sum::<f64>() / open.len().max(1) as f64;
+    // Equal priorities must not all fall below their mean by its rounding.
+    let threshold = mean * (1.0 - 1e-9);
+    let mut active: Vec<u32> = (open.into_iter())
+        .filter(|&p| priorities[p] >= threshold)
+        .map(|p| p as u32)
+        .collect();
+    if active.is_empty() {
+        return None;
+    }
+    // Half again the least sampled active pixel's count, and at least a quarter
+    // of the samples traced so far in all (each round's readback and decision
+    // then cost little beside its work; rounds of a few pixels were mostly
+    // overhead), at most what lifts one to the cap.
+    let least = active.iter().map(|&p| counts[p as usize]).min().unwrap() as u64;
+    let headroom = active
+        .iter()
+        .map(|&p| cap - counts[p as usize])
+        .min()
+        .unwrap() as u64;
+    let traced: u64 = counts.iter().map(|&n| n as u64).sum();
+    let by_work = (traced / 4).div_ceil(active.len() as u64);
+    let mut samples = whole_sets((least / 2).max(by_work).max(sets)).min(whole_sets(headroom));
+    let affordable = budget / samples;
+    if (active.len() as u64) > affordable {
+        // The budget's last round: the highest priorities first, one set each.
+        samples = sets;
+        let keep = budget.div_ceil(sets).clamp(1, active.len() as u64) as usize;
+        active.sort_by(|&a, &b| {
+            let (qa, qb) = (priorities[a as usize], priorities[b as usize]);
+            qb.total_cmp(&qa).then(a.cmp(&b))
+        });
+        active.truncate(keep);
+        active.sort_unstable();
+    }
+    Some(Round {
+        pixels: active,
+        samples: samples as u32,
+    })
+}
+
+/// Each pixel's priority `σ_p² / n_p²`, with `σ_p` the largest spread of the
+/// pixel and its 8 neighbours, a spread being the luminance of the per-channel
+/// sample standard deviations, floored at `SPREAD_FLOOR` of the image's mean
+/// luminance, and `n_p` the pixel's count: all from replicate 0 alone (its sums and
+/// the squares). The neighbours' maximum guards against a pixel whose few
+/// replicate-0 samples all missed a rare bright path its neighbours found (a
+/// caustic, a small light's glossy reflection): starved, such pixels dominated the
+/// image's error.
+fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
+    let squares = (accumulation.sum_sq.as_ref()).expect("adaptive sampling sums squares");
+    let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
+    let k = replicates.sums.len() as u32;
+    let deciding = &replicates.sums[0];
+    let means: Vec<[f64; 3]> = (deciding.iter().zip(counts))
+        .map(|(s, &n)| s.map(|c| c / (n / k).max(1) as f64))
+        .collect();
+    let image_mean = means.iter().map(|&m| luminance_f64(m)).sum::<f64>() / means.len() as f64;
+    let floor = SPREAD_FLOOR * image_mean.max(0.0);
+    // Too few samples for a spread: infinite, sampled first.
+    let spreads: Vec<f64> = (means.iter().zip(squares).zip(counts))
+        .map(|((mean, squares), &n)| {
+            let m = (n / k) as f64;
+            if m < 2.0 {
+                return f64::INFINITY;
+            }
+            let deviation = std::array::from_fn(|c| {
+                ((squares[c] - m * mean[c] * mean[c]) / (m - 1.0))
+                    .max(0.0)
+                    .sqrt()
+            });
+            // NaN (overflowed sums) counts as most urgent; the run refuses such sums anyway.
+            let spread = luminance_f64(deviation).max(floor);
+            if spread.is_nan() {
+                f64::INFINITY
+            } else {
+                spread
+            }
+        })
+        .collect();
+    let (width, height) = (accumulation.width as usize, accumulation.height as usize);
+    (0..spreads.len())
+        .map(|p| {
+            let (x, y) = (p % width, p / width);
+            let mut spread = 0.0f64;
+            for ny in y.saturating_sub(1)..(y + 2).min(height) {
+                for nx in x.saturating_sub(1)..(x + 2).min(width) {
+                    spread = spread.max(spreads[ny * width + nx]);
+                }
+            }
+            let n = counts[p] as f64;
+            spread * spread / (n * n)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stats::Replicates;
+
+    /// Sums for pixels of `counts` samples each, whose samples in replicate 0 (a
+    /// quarter) are `mean ± deviation` alternately (grey), so its sample standard
+    /// deviation is about `deviation`. The other replicates are far off: they must
+    /// not matter.
+    fn accumulation(pixels: &[(u32, f64, f64)]) -> (Accumulation, Vec<u32>) {
+        let counts: Vec<u32> = pixels.iter().map(|p| p.0).collect();
+        let quarter = |n: u32| (n / REPLICATES) as f64;
+        let deciding: Vec<[f64; 3]> = (pixels.iter())
+            .map(|&(n, m, _)| [m * quarter(n); 3])
+            .collect();
+        let others = vec![vec![[1e6; 3]; pixels.len()]; REPLICATES as usize - 1];
+        let sum: Vec<[f64; 3]> = deciding.iter().map(|d| d.map(|c| c + 3e6)).collect();
+        let sum_sq = (pixels.iter())
+            .map(|&(n, m, d)| [quarter(n) * (m * m + d * d); 3])
+            .collect();
+        let accumulation = Accumulation {
+            width: pixels.len() as u32,
+            height: 1,
+            samples: 0,
+            counts: Some(counts.clone()),
+            replicates: Some(Replicates::from_others(0..0, &sum, others)),
+            sum,
+            sum_sq: Some(sum_sq),
+        };
+        (accumulation, counts)
+    }
+
+    #[test]
+    fn the_pilot_samples_every_pixel_alike() {
+        let (acc, counts) = accumulation(&[(0, 0.0, 0.0); 3]);
+        let round = next_round(&acc, &counts, 64, u64::MAX).unwrap();
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![0, 1, 2],
+                samples: PILOT_SAMPLES
+            }
+        );
+        // A budget of 2 samples per pixel: one replicate set each.
+        let round = next_round(&acc, &counts, 64, 6).unwrap();
+        assert_eq!(round.samples, REPLICATES);
+        assert_eq!(next_round(&acc, &counts, 64, 0), None);
+    }
+
+    #[test]
+    fn noisy_pixels_and_their_neighbours_get_the_round() {
+        // One row; pixel 3 is 10x noisier than the others (means 1), and its
+        // neighbours 2 and 4 share its spread.
+        let quiet = (16, 1.0, 0.1);
+        let (acc, counts) = accumulation(&[quiet, quiet, quiet, (16, 1.0, 1.0), quiet]);
+        let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+        // Half the least count: 8 (a quarter of the 80 traced is 7 each).
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![2, 3, 4],
+                samples: 8
+            }
+        );
+        // At the cap, nothing: the run ends.
+        let (acc, counts) = accumulation(&[(64, 1.0, 0.1), (64, 1.0, 1.0)]);
+        assert_eq!(next_round(&acc, &counts, 64, u64::MAX), None);
+        // A capped pixel, however noisy, leaves the round to the others (here its
+        // neighbour, which shares its spread, is above the others' mean).
+        let far = (16, 1.0, 0.1);
+        let (acc, counts) = accumulation(&[(64, 1.0, 100.0), far, far, far, (16, 1.0, 1.0)]);
+        assert_eq!(next_round(&acc, &counts, 64, u64::MAX).unwrap().pixels, [1]);
+    }
+
+    #[test]
+    fn equal_priorities_sample_every_pixel() {
+        // n ∝ σ already holds (here: all alike), as under uniform sampling; also
+        // where the mean of the equal priorities rounds above them.
+        for pixels in [4, 3, 7, 1000] {
+            let (acc, counts) = accumulation(&vec![(16, 0.3, 0.1); pixels]);
+            let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+            assert_eq!(round.pixels.len(), pixels);
+            assert_eq!(round.samples, 8);
+        }
+    }
+
+    #[test]
+    fn zero_spread_pixels_keep_a_floor() {
+        // Pixels 0 to 2 have no spread; 0 and 1 (no noisy neighbour) keep the floor's
+        // priority, (0.1 · mean)² / n².
+        let flat = (16, 1.0, 0.0);
+        let (acc, counts) = accumulation(&[flat, flat, flat, (256, 1.0, 0.5)]);
+        assert_eq!(
+            acc.replicates.as_ref().unwrap().sums[0][..2],
+            [[4.0; 3], [4.0; 3]]
+        );
+        let q = priorities(&acc, &counts);
+        for p in [0, 1] {
+            assert!((q[p] - 0.01 / 256.0).abs() < 1e-12, "{q:?}");
+        }
+        // Pixel 2 takes its neighbour's spread at its own count.
+        let spread = 0.5 * (64.0f64 / 63.0).sqrt();
+        assert!((q[2] - spread * spread / 256.0).abs() < 1e-12, "{q:?}");
+        let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+        assert_eq!(round.pixels, [2]);
+    }
+
+    #[test]
+    fn the_last_round_keeps_to_the_budget() {
+        // Pixels 2 to 4 share pixel 3's spread and would take 8 samples each.
+        let quiet = (16, 1.0, 1.0);
+        let (acc, counts) = accumulation(&[quiet, quiet, quiet, (16, 1.0, 3.0), quiet]);
+        assert_eq!(
+            next_round(&acc, &counts, 1024, u64::MAX).unwrap().pixels,
+            [2, 3, 4]
+        );
+        // Room for 8 samples: two of them, one set each (equal priorities: by index).
+        let round = next_round(&acc, &counts, 1024, 8).unwrap();
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![2, 3],
+                samples: REPLICATES
+            }
+        );
+        // Room for 1: one set (over by 3).
+        let round = next_round(&acc, &counts, 1024, 1).unwrap();
+        assert_eq!(
+            round,
+            Round {
+                pixels: vec![2],
+                samples: REPLICATES
+            }
+        );
+    }
+
+    #[test]
+    fn caps_are_whole_replicate_sets() {
+        assert_eq!(pixel_cap(1), 16);
+        assert_eq!(pixel_cap(0), REPLICATES);
+        assert_eq!(pixel_cap(u32::MAX), u32::MAX - u32::MAX % REPLICATES);
+    }
+}
