@@ -355,6 +355,68 @@ fn gaussian_filter_matches_its_analytic_values() {
 }
 
 /// `convert` writes TOML that reads back as the very scene the XML is.
+/// A checkpoint records a Mitsuba scene's `-D` parameters: `--resume` without
+/// them reads the scene as it was rendered (here at 16x16, not the file's default
+/// 64) and ends with the uninterrupted run's image, bit for bit.
+#[test]
+fn resume_keeps_the_mitsuba_parameters() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = temp_dir("resume-defines");
+    let xml = repo("tests/data/roughplastic-spheres.xml");
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let xml = xml.to_string_lossy().into_owned();
+    let run = |args: &[&str]| {
+        let output = pathmix(args);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    };
+    run(&[
+        "render",
+        &xml,
+        "-D",
+        "res=16",
+        "--spp",
+        "8",
+        "--exr",
+        &p("whole.exr"),
+        "-o",
+        &p("whole.png"),
+        "--quiet",
+    ]);
+    run(&[
+        "render",
+        &xml,
+        "-D",
+        "res=16",
+        "--spp",
+        "4",
+        "--checkpoint",
+        &p("run.ckpt"),
+        "--exr",
+        &p("resumed.exr"),
+        "-o",
+        &p("resumed.png"),
+        "--quiet",
+    ]);
+    run(&[
+        "render",
+        "--resume",
+        &p("run.ckpt"),
+        "--spp",
+        "8",
+        "--quiet",
+    ]);
+    let whole = read_exr(&dir.join("whole.exr")).unwrap();
+    let resumed = read_exr(&dir.join("resumed.exr")).unwrap();
+    assert_eq!((resumed.width, resumed.height), (16, 16));
+    assert!(whole.pixels == resumed.pixels, "the resumed image differs");
+}
+
 #[test]
 fn convert_round_trips_to_the_same_scene() {
     let Some(xml) = cbox_xml() else { return };

@@ -13,6 +13,7 @@ use pathmix::output::{self, ImageFormat};
 use pathmix::paths::{self, PathUse};
 use pathmix::pilot::{self, Pilot};
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopReason, StopRule};
+use pathmix::scene::mitsuba::Define;
 use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::shard::{self, Partial};
 use std::ops::Range;
@@ -28,8 +29,8 @@ pub struct RenderArgs {
     /// out: the checkpoint's recorded scene file is read (give it when the file moved).
     #[arg(required_unless_present = "resume")]
     pub scene: Option<PathBuf>,
-    /// Set the Mitsuba scene's `$NAME` parameter, as `mitsuba -D` (repeatable; give
-    /// the same ones again with --resume).
+    /// Set the Mitsuba scene's `$NAME` parameter, as `mitsuba -D` (repeatable; a
+    /// checkpoint records them, and --resume without -D uses those).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub define: Vec<pathmix::scene::mitsuba::Define>,
     /// Output image: 8-bit sRGB PNG (linear radiance clamped to [0, 1], then the sRGB
@@ -257,6 +258,8 @@ struct Outputs {
 struct Plan {
     scene: Scene,
     scene_path: PathBuf,
+    /// The Mitsuba scene's `-D` parameters.
+    defines: Vec<Define>,
     /// Command-line settings over the scene file (without spp).
     overrides: SceneOverrides,
     identity: SceneIdentity,
@@ -338,7 +341,12 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
         ));
     }
     check_collisions(args, &scene_path, &outputs, checkpoint.as_deref())?;
-    let mut scene = super::load_scene(&scene_path, &args.define)?;
+    // A resume without -D reads the scene with the parameters it was rendered with.
+    let defines = match (&resume, args.define.is_empty()) {
+        (Some(c), true) => recorded_defines(c)?,
+        _ => args.define.clone(),
+    };
+    let mut scene = super::load_scene(&scene_path, &defines)?;
     scene
         .apply_overrides(&SceneOverrides {
             spp: args.spp,
@@ -510,6 +518,7 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
     Ok(Plan {
         scene,
         scene_path,
+        defines,
         overrides,
         identity,
         outputs,
@@ -684,7 +693,30 @@ fn run_table(plan: &Plan, elapsed: Duration) -> toml::Table {
     if let Some(every) = plan.preview_every {
         run.insert("preview_every_s".into(), every.as_secs_f64().into());
     }
+    if !plan.defines.is_empty() {
+        let defines = plan
+            .defines
+            .iter()
+            .map(|d| format!("{}={}", d.name, d.value));
+        run.insert("define".into(), defines.collect::<Vec<_>>().into());
+    }
     run
+}
+
+/// The `-D` parameters a checkpoint's run was given.
+fn recorded_defines(c: &Checkpoint) -> Result<Vec<Define>, Failure> {
+    let Some(recorded) = c.run.get("define") else {
+        return Ok(Vec::new());
+    };
+    let bad = || {
+        Failure::input("cannot resume: the checkpoint's `run.define` is not a list of NAME=VALUE")
+    };
+    recorded
+        .as_array()
+        .ok_or_else(bad)?
+        .iter()
+        .map(|v| v.as_str().and_then(|s| s.parse().ok()).ok_or_else(bad))
+        .collect()
 }
 
 fn save_checkpoint(
