@@ -562,47 +562,9 @@ fn disk_light_gives_the_analytic_irradiance() {
     let ctx = gpu_or_skip!();
     let (r, h, emit, albedo) = (0.5f64, 2.0f64, 4.0f64, 0.6f64);
     let expected = albedo * emit * r * r / (r * r + h * h);
-    for strategy in ["bsdf", "light", "mixture", "nee-mis"] {
-        let scene = common::scene_text(&format!(
-            r#"
-            [camera]
-            lookfrom = [0, 1, 0]
-            lookat = [0, 0, 0]
-            vup = [0, 0, -1]
-            vfov = 0.2
-            width = 4
-            height = 4
-            [render]
-            spp = 4096
-            max_depth = 1
-            strategy = "{strategy}"
-            sampler = "independent"
-            [materials.floor]
-            type = "lambertian"
-            albedo = [{albedo}, {albedo}, {albedo}]
-            [materials.lamp]
-            type = "light"
-            emit = [{emit}, {emit}, {emit}]
-            [[objects]]
-            type = "quad"
-            q = [-10, 0, -10]
-            u = [0, 0, 20]
-            v = [20, 0, 0]
-            material = "floor"
-            [[objects]]
-            type = "disk"
-            center = [0, {h}, 0]
-            u = [{r}, 0, 0]
-            v = [0, 0, {r}]
-            material = "lamp"
-            "#
-        ));
-        let acc = common::render(ctx, &scene, &common::with_variance());
-        let (mean, error) = common::image_mean_and_error(&acc);
-        println!("{strategy}: {mean:.5} ± {error:.5}, expected {expected:.5}");
-        assert!(
-            (mean - expected).abs() < 4.0 * error + 1e-4 * expected,
-            "{strategy}: {mean} ± {error} against {expected}"
-        );
-    }
+    let disk = format!(
+        "[[objects]]\ntype = \"disk\"\ncenter = [0, {h}, 0]\nu = [{r}, 0, 0]\nv = [0, 0, {r}]\n\
+         material = \"lamp\"\n"
+    );
+    common::assert_lit_floor(ctx, (albedo, emit, 1.0), &disk, expected, "disk");
 }

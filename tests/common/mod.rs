@@ -106,6 +106,59 @@ pub fn scene_text(text: &str) -> Scene {
     Scene::parse(text, "test.toml").unwrap()
 }
 
+/// Under each strategy, renders a tiny patch at the origin of a Lambertian floor
+/// (the y = 0 plane, albedo `albedo`) seen straight down from `camera_height` (a
+/// 4x4 image of a 0.2 degree field, direct light only, 4096 independent samples
+/// per pixel), lit by `lights` (objects of the `lamp` material, which emits
+/// `emit`, and `[[lights]]`), and asserts the patch's mean radiance is `expected`
+/// within 4 standard errors (plus 1e-4 relative).
+pub fn assert_lit_floor(
+    ctx: &GpuContext,
+    (albedo, emit, camera_height): (f64, f64, f64),
+    lights: &str,
+    expected: f64,
+    what: &str,
+) {
+    for strategy in ["bsdf", "light", "mixture", "nee-mis"] {
+        let scene = scene_text(&format!(
+            r#"
+            [camera]
+            lookfrom = [0, {camera_height}, 0]
+            lookat = [0, 0, 0]
+            vup = [0, 0, -1]
+            vfov = 0.2
+            width = 4
+            height = 4
+            [render]
+            spp = 4096
+            max_depth = 1
+            strategy = "{strategy}"
+            sampler = "independent"
+            [materials.floor]
+            type = "lambertian"
+            albedo = [{albedo}, {albedo}, {albedo}]
+            [materials.lamp]
+            type = "light"
+            emit = [{emit}, {emit}, {emit}]
+            [[objects]]
+            type = "quad"
+            q = [-10, 0, -10]
+            u = [0, 0, 20]
+            v = [20, 0, 0]
+            material = "floor"
+            {lights}
+            "#
+        ));
+        let acc = render(ctx, &scene, &with_variance());
+        let (mean, error) = image_mean_and_error(&acc);
+        println!("{what} {strategy}: {mean:.6} ± {error:.6}, expected {expected:.6}");
+        assert!(
+            (mean - expected).abs() < 4.0 * error + 1e-4 * expected,
+            "{what} {strategy}: {mean} ± {error} against {expected}"
+        );
+    }
+}
+
 /// Renders `scene.render.spp` samples and returns the sums.
 pub fn render(ctx: &GpuContext, scene: &Scene, options: &RenderOptions) -> Accumulation {
     let mut renderer = Renderer::new(ctx, scene, options).unwrap();
