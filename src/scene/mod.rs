@@ -57,7 +57,7 @@ impl Strategy {
     }
 
     /// Russian roulette's start where the scene and the command line leave it
-    /// unset, chosen by measured efficiency (README, "Default settings"): from
+    /// unset, chosen by measured efficiency (README, "Russian roulette"): from
     /// bounce 5 for `nee-mis` and `bsdf`, whose paths otherwise run to `max_depth`
     /// in a closed scene; off for the mixture and `light`, whose paths are short
     /// (half their directions aim at a light) and lose more to the roulette's
