@@ -1342,23 +1342,31 @@ fn check_cutoff(x: f32) -> std::result::Result<(), String> {
     }
 }
 
-/// The `[[lights]]`: point and spot lights.
-fn parse_lights(top: &Tab) -> Result<Vec<PointLight>> {
-    let Some(value) = top.table.get("lights") else {
-        return Ok(Vec::new());
+/// The tables of the top-level array `key` (`[[key]]`, none when absent), each
+/// with its `type`, read one at a time as the caller walks them (so errors come
+/// in file order); a table without a `type` is refused, its keys checked against
+/// `all_keys` first, naming the `types` it may take.
+fn typed_tables<'a, 'b>(
+    top: &'b Tab<'a>,
+    key: &'b str,
+    all_keys: &'b [&'b str],
+    types: &'b [&'b str],
+) -> Result<impl ExactSizeIterator<Item = Result<(Tab<'a>, &'a str)>> + 'b> {
+    let items: &'a [Value] = match top.table.get(key) {
+        None => &[],
+        Some(Value::Array(items)) => items,
+        Some(value) => {
+            return Err(top.err(
+                key,
+                format!(
+                    "expected an array of tables (`[[{key}]]`), got {}",
+                    type_name(value)
+                ),
+            ));
+        }
     };
-    let Value::Array(items) = value else {
-        return Err(top.err(
-            "lights",
-            format!(
-                "expected an array of tables (`[[lights]]`), got {}",
-                type_name(value)
-            ),
-        ));
-    };
-    let mut lights = Vec::with_capacity(items.len());
-    for (i, item) in items.iter().enumerate() {
-        let path = format!("lights[{i}]");
+    Ok(items.iter().enumerate().map(move |(i, item)| {
+        let path = format!("{key}[{i}]");
         let Value::Table(table) = item else {
             return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
         };
@@ -1368,15 +1376,25 @@ fn parse_lights(top: &Tab) -> Result<Vec<PointLight>> {
             path,
         };
         let Some(ty) = t.string("type")? else {
-            t.check_keys(ALL_LIGHT_KEYS, None)?;
+            t.check_keys(all_keys, None)?;
             return Err(t.err(
                 t.here(),
                 format!(
                     "missing required key `type` (expected one of {})",
-                    list(LIGHT_TYPES)
+                    list(types)
                 ),
             ));
         };
+        Ok((t, ty))
+    }))
+}
+
+/// The `[[lights]]`: point and spot lights.
+fn parse_lights(top: &Tab) -> Result<Vec<PointLight>> {
+    let tables = typed_tables(top, "lights", ALL_LIGHT_KEYS, LIGHT_TYPES)?;
+    let mut lights = Vec::with_capacity(tables.len());
+    for table in tables {
+        let (t, ty) = table?;
         match ty {
             "point" => t.check_keys(&["type", "position", "intensity"], Some("a point light"))?,
             "spot" => t.check_keys(ALL_LIGHT_KEYS, Some("a spot light"))?,
@@ -1448,38 +1466,8 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
         extra_materials,
         warnings,
     } = &mut objects;
-    let Some(value) = top.table.get("objects") else {
-        return Ok(objects);
-    };
-    let Value::Array(items) = value else {
-        return Err(top.err(
-            "objects",
-            format!(
-                "expected an array of tables (`[[objects]]`), got {}",
-                type_name(value)
-            ),
-        ));
-    };
-    for (i, item) in items.iter().enumerate() {
-        let path = format!("objects[{i}]");
-        let Value::Table(table) = item else {
-            return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
-        };
-        let t = Tab {
-            file: top.file,
-            table,
-            path,
-        };
-        let Some(ty) = t.string("type")? else {
-            t.check_keys(ALL_OBJECT_KEYS, None)?;
-            return Err(t.err(
-                t.here(),
-                format!(
-                    "missing required key `type` (expected one of {})",
-                    list(OBJECT_TYPES)
-                ),
-            ));
-        };
+    for (i, table) in typed_tables(top, "objects", ALL_OBJECT_KEYS, OBJECT_TYPES)?.enumerate() {
+        let (t, ty) = table?;
         let (keys, what): (&[&str], &str) = match ty {
             "sphere" => (&["center", "radius"], "a sphere"),
             "quad" => (&["q", "u", "v"], "a quad"),
