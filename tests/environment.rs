@@ -6,38 +6,7 @@ mod common;
 
 use pathmix::render::RenderOptions;
 use pathmix::scene::{Scene, Strategy};
-use std::path::{Path, PathBuf};
-
-/// A temporary directory removed when dropped.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        let dir = std::env::temp_dir().join(format!("pathmix-env-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-/// Writes a `width` x `height` RGB EXR whose texel (x, y) is `texel(x, y)`.
-fn write_exr(
-    path: &Path,
-    width: usize,
-    height: usize,
-    texel: impl Fn(usize, usize) -> [f32; 3] + Sync,
-) {
-    exr::prelude::write_rgb_file(path, width, height, |x, y| {
-        let [r, g, b] = texel(x, y);
-        (r, g, b)
-    })
-    .unwrap();
-}
+use std::path::Path;
 
 /// A scene of `body` (materials and objects) under `[environment]` `environment`,
 /// written next to the map in `dir`, seen by a `size`² camera from `lookfrom` toward the origin.
@@ -80,10 +49,10 @@ fn options() -> RenderOptions {
 #[test]
 fn constant_map_furnace() {
     let ctx = gpu_or_skip!();
-    let dir = TempDir::new("furnace");
-    write_exr(&dir.0.join("one.exr"), 8, 4, |_, _| [1.0, 1.0, 1.0]);
+    let dir = common::TempDir::new("env", "furnace");
+    common::write_exr(&dir.0.join("one.exr"), 8, 4, |_, _| [1.0, 1.0, 1.0]);
     // One texel: one cell over the whole sphere.
-    write_exr(&dir.0.join("texel.exr"), 1, 1, |_, _| [1.0, 1.0, 1.0]);
+    common::write_exr(&dir.0.join("texel.exr"), 1, 1, |_, _| [1.0, 1.0, 1.0]);
     let strategies = [
         Strategy::Bsdf,
         Strategy::Mixture,
@@ -227,17 +196,17 @@ fn render_settings(strategy: Strategy, spp: u32) -> String {
 #[test]
 fn planes_under_banded_maps_match_the_analytic_irradiance() {
     let ctx = gpu_or_skip!();
-    let dir = TempDir::new("bands");
+    let dir = common::TempDir::new("env", "bands");
     // Two bands of the upper hemisphere: the polar cap (v < 1/6) and the rest.
     let bands = |_: usize, y: usize| match y {
         0 => [3.0, 3.0, 3.0],
         1 => [1.0, 1.0, 1.0],
         _ => [0.0, 0.0, 0.0],
     };
-    write_exr(&dir.0.join("bands.exr"), 8, 4, bands);
+    common::write_exr(&dir.0.join("bands.exr"), 8, 4, bands);
     // Columns 0..4 of 8: u in [0, 1/2), azimuths from -z through +x to +z.
     let half = |x: usize, _: usize| if x < 4 { [1.0; 3] } else { [0.0; 3] };
-    write_exr(&dir.0.join("half.exr"), 8, 4, half);
+    common::write_exr(&dir.0.join("half.exr"), 8, 4, half);
     let identity = glam::DMat3::IDENTITY;
     let about_x = glam::DMat3::from_axis_angle(glam::DVec3::X, std::f64::consts::FRAC_PI_2);
     // The book's rotate_y 90: map +x to world -z.
@@ -645,7 +614,7 @@ fn sampler_matches_its_density() {
 #[test]
 fn a_sun_is_sampled_without_bias() {
     let ctx = gpu_or_skip!();
-    let dir = TempDir::new("sun");
+    let dir = common::TempDir::new("env", "sun");
     let sky = |x: usize, y: usize| {
         if (x, y) == (5, 6) {
             [1e6, 1e6, 1e6]
@@ -653,7 +622,7 @@ fn a_sun_is_sampled_without_bias() {
             [1.0, 1.0, 1.0]
         }
     };
-    write_exr(&dir.0.join("sun.exr"), 64, 32, sky);
+    common::write_exr(&dir.0.join("sun.exr"), 64, 32, sky);
     let expected = plane_radiance(64, 32, &sky, glam::DMat3::IDENTITY, [0.0, 1.0, 0.0]);
     assert!(expected > 100.0, "the sun dominates: {expected}");
     let (body, n) = plane([0.0, 1.0, 0.0]);
@@ -676,8 +645,8 @@ fn a_sun_is_sampled_without_bias() {
 #[test]
 fn large_maps_render_or_are_refused_by_the_binding_limit() {
     let ctx = gpu_or_skip!();
-    let dir = TempDir::new("large");
-    write_exr(&dir.0.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
+    let dir = common::TempDir::new("env", "large");
+    common::write_exr(&dir.0.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
     let limit = ctx.limits().max_storage_buffer_binding_size;
     for (width, height) in [(4096u32, 2048u32), (8192, 4096)] {
         let mut s = scene(
@@ -721,23 +690,23 @@ fn large_maps_render_or_are_refused_by_the_binding_limit() {
 /// nothing; so does `background` next to `[environment]`.
 #[test]
 fn bad_maps_exit_2_naming_scene_field_and_image() {
-    let dir = TempDir::new("bad");
+    let dir = common::TempDir::new("env", "bad");
     let d = &dir.0;
-    write_exr(&d.join("nan.exr"), 4, 2, |x, _| {
+    common::write_exr(&d.join("nan.exr"), 4, 2, |x, _| {
         if x == 3 {
             [1.0, f32::NAN, 1.0]
         } else {
             [1.0; 3]
         }
     });
-    write_exr(&d.join("inf.exr"), 4, 2, |x, y| {
+    common::write_exr(&d.join("inf.exr"), 4, 2, |x, y| {
         if (x, y) == (1, 1) {
             [f32::INFINITY, 1.0, 1.0]
         } else {
             [1.0; 3]
         }
     });
-    write_exr(&d.join("negative.exr"), 4, 2, |_, y| {
+    common::write_exr(&d.join("negative.exr"), 4, 2, |_, y| {
         if y == 1 { [1.0, 1.0, -0.5] } else { [1.0; 3] }
     });
     std::fs::write(d.join("text.exr"), "not an image\n").unwrap();
@@ -791,7 +760,7 @@ fn bad_maps_exit_2_naming_scene_field_and_image() {
             assert!(message.contains(part), "{file}: no {part:?} in {message}");
         }
     }
-    write_exr(&d.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
+    common::write_exr(&d.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
     let message = run(
         "both.toml",
         format!("{body}[render]\nbackground = [1, 1, 1]\n[environment]\nfile = \"one.exr\"\n"),
@@ -805,8 +774,8 @@ fn bad_maps_exit_2_naming_scene_field_and_image() {
 /// matrix (translation ignored), and refusals naming the field.
 #[test]
 fn environment_keys_parse_and_refuse() {
-    let dir = TempDir::new("keys");
-    write_exr(&dir.0.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
+    let dir = common::TempDir::new("env", "keys");
+    common::write_exr(&dir.0.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
     let load = |environment: &str| {
         let path = dir.0.join("keys.toml");
         std::fs::write(&path, format!("[camera]\nlookfrom = [0, 0, -5]\nlookat = [0, 0, 0]\n[environment]\nfile = \"one.exr\"\n{environment}")).unwrap();
@@ -882,7 +851,7 @@ fn procedural_sky(x: usize, y: usize) -> [f32; 3] {
 fn the_shipped_sky_is_the_procedural_one() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sky.exr");
     if std::env::var("PATHMIX_WRITE_SKY").as_deref() == Ok("1") {
-        write_exr(&path, 128, 64, procedural_sky);
+        common::write_exr(&path, 128, 64, procedural_sky);
     }
     let (width, height, texels) = pathmix::scene::envmap::load_image(&path).unwrap();
     assert_eq!((width, height), (128, 64));

@@ -15,38 +15,7 @@ use pathmix::gpu::layout::CameraFrame;
 use pathmix::kernel::SceneStorage;
 use pathmix::render::RenderOptions;
 use pathmix::scene::Scene;
-use std::path::{Path, PathBuf};
-
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        let dir =
-            std::env::temp_dir().join(format!("pathmix-textures-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn write_exr(
-    path: &Path,
-    width: usize,
-    height: usize,
-    texel: impl Fn(usize, usize) -> [f32; 3] + Sync,
-) {
-    exr::prelude::write_rgb_file(path, width, height, |x, y| {
-        let [r, g, b] = texel(x, y);
-        (r, g, b)
-    })
-    .unwrap();
-}
+use std::path::Path;
 
 /// A 4 x 4 map whose texels all differ: a texel in the wrong place shows.
 fn distinct(x: usize, y: usize) -> [f32; 3] {
@@ -239,8 +208,8 @@ fn texels_land_where_each_shapes_uvs_say() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = TempDir::new("shapes");
-    write_exr(&dir.0.join("map.exr"), 4, 4, distinct);
+    let dir = common::TempDir::new("textures", "shapes");
+    common::write_exr(&dir.0.join("map.exr"), 4, 4, distinct);
     let material = |wrap: &str, to_uv: &str| {
         format!(
             "[materials.m]\ntype = \"lambertian\"\nalbedo = {{ type = \"bitmap\", file = \"map.exr\", filter_type = \"nearest\", wrap_mode = \"{wrap}\"{to_uv} }}\n"
@@ -342,8 +311,8 @@ fn bilinear_lookups_weigh_the_four_nearest_texels() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    let dir = TempDir::new("bilinear");
-    write_exr(&dir.0.join("map.exr"), 3, 2, distinct);
+    let dir = common::TempDir::new("textures", "bilinear");
+    common::write_exr(&dir.0.join("map.exr"), 3, 2, distinct);
     let (q, u, v) = ([-1.0, -1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
     let shape = quad_uv(DVec3::from(q), DVec3::from(u), DVec3::from(v));
     let mut worst: f32 = 0.0;
@@ -398,7 +367,7 @@ fn eight_bit_images_decode_from_srgb() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    let dir = TempDir::new("srgb");
+    let dir = common::TempDir::new("textures", "srgb");
     let codes: [[u8; 3]; 2] = [[128, 10, 255], [0, 64, 200]];
     let image = image::RgbImage::from_fn(2, 1, |x, _| image::Rgb(codes[x as usize]));
     image.save(dir.0.join("codes.png")).unwrap();
@@ -484,7 +453,7 @@ fn checkerboard_pixels_equal_constant_colour_renders() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    let dir = TempDir::new("checker");
+    let dir = common::TempDir::new("textures", "checker");
     let (c0, c1) = ("[0.9, 0.6, 0.2]", "[0.15, 0.3, 0.7]");
     let checker = format!(
         "{{ type = \"checkerboard\", color0 = {c0}, color1 = {c1}, to_uv = {{ scale = 2 }} }}"
@@ -536,19 +505,19 @@ fn checkerboard_pixels_equal_constant_colour_renders() {
 /// file, the field and the image file, and writes nothing.
 #[test]
 fn bad_texture_inputs_exit_2_naming_file_and_field() {
-    let dir = TempDir::new("bad");
+    let dir = common::TempDir::new("textures", "bad");
     let d = &dir.0;
-    write_exr(&d.join("nan.exr"), 4, 2, |x, _| {
+    common::write_exr(&d.join("nan.exr"), 4, 2, |x, _| {
         if x == 3 {
             [f32::NAN, 0.5, 0.5]
         } else {
             [0.5; 3]
         }
     });
-    write_exr(&d.join("negative.exr"), 4, 2, |_, y| {
+    common::write_exr(&d.join("negative.exr"), 4, 2, |_, y| {
         if y == 1 { [0.5, 0.5, -0.5] } else { [0.5; 3] }
     });
-    write_exr(&d.join("good.exr"), 2, 2, |_, _| [0.5; 3]);
+    common::write_exr(&d.join("good.exr"), 2, 2, |_, _| [0.5; 3]);
     std::fs::write(d.join("text.png"), "not an image\n").unwrap();
     std::fs::write(d.join("map.bmp"), "BM").unwrap();
     std::fs::create_dir_all(d.join("folder.png")).unwrap();

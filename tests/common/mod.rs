@@ -5,6 +5,7 @@ use pathmix::gpu::GpuContext;
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Sampler, Scene, SceneOverrides};
 use pathmix::stats::Accumulation;
+use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// The device shared by every test of this process, or `None` (test skipped)
@@ -219,4 +220,38 @@ pub fn assert_every_pixel_is(acc: &Accumulation, expected: f32, tolerance: f32, 
             );
         }
     }
+}
+
+/// A fresh folder under the system's temporary one, `pathmix-{prefix}-{name}-{pid}`,
+/// removed with everything in it when dropped.
+pub struct TempDir(pub PathBuf);
+
+impl TempDir {
+    pub fn new(prefix: &str, name: &str) -> TempDir {
+        let dir =
+            std::env::temp_dir().join(format!("pathmix-{prefix}-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Writes a `width` x `height` RGB EXR whose texel (x, y) is `texel(x, y)`.
+pub fn write_exr(
+    path: &Path,
+    width: usize,
+    height: usize,
+    texel: impl Fn(usize, usize) -> [f32; 3] + Sync,
+) {
+    exr::prelude::write_rgb_file(path, width, height, |x, y| {
+        let [r, g, b] = texel(x, y);
+        (r, g, b)
+    })
+    .unwrap();
 }
