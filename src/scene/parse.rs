@@ -1516,6 +1516,17 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
         let xf = Transform::parse(&t)?;
         // Only a mesh has no `material`; it resolves its faces' below.
         let material = chosen.unwrap_or_default() as u32;
+        // A quad's or disk's anchor point and edge vectors, in world space.
+        let planar = |anchor: &str| -> Result<(Vec3, Vec3, Vec3)> {
+            let point = t.require(anchor, t.vec3(anchor, ok)?)?;
+            let u = t.require("u", t.vec3("u", ok)?)?;
+            let v = t.require("v", t.vec3("v", ok)?)?;
+            Ok((
+                xf.point(point.as_dvec3()),
+                xf.vector(u.as_dvec3()),
+                xf.vector(v.as_dvec3()),
+            ))
+        };
 
         match ty {
             "sphere" => {
@@ -1539,13 +1550,11 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                 spheres.push(sphere);
             }
             "quad" => {
-                let q = t.require("q", t.vec3("q", ok)?)?;
-                let u = t.require("u", t.vec3("u", ok)?)?;
-                let v = t.require("v", t.vec3("v", ok)?)?;
+                let (q, u, v) = planar("q")?;
                 let quad = Quad {
-                    q: xf.point(q.as_dvec3()),
-                    u: xf.vector(u.as_dvec3()),
-                    v: xf.vector(v.as_dvec3()),
+                    q,
+                    u,
+                    v,
                     material,
                     importance,
                 };
@@ -1555,13 +1564,11 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                 quads.push(quad);
             }
             "disk" => {
-                let center = t.require("center", t.vec3("center", ok)?)?;
-                let u = t.require("u", t.vec3("u", ok)?)?;
-                let v = t.require("v", t.vec3("v", ok)?)?;
+                let (center, u, v) = planar("center")?;
                 let disk = Disk {
-                    center: xf.point(center.as_dvec3()),
-                    u: xf.vector(u.as_dvec3()),
-                    v: xf.vector(v.as_dvec3()),
+                    center,
+                    u,
+                    v,
                     material,
                     importance,
                 };
