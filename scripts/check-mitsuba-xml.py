@@ -16,10 +16,11 @@ rendered once, or read with --reference. Checks, against the reference:
   * each image's mean within 0.3% (per channel),
   * no 16x16 block of pathmix's image off by more than 5% (mean luminance),
   * pathmix's RMSE explained by noise: within 0.7-1.4x of what pathmix's per-pixel
-    standard error (`--variance`) and the reference's noise predict (independent
-    sampler only; Sobol's estimate is an upper bound).
+    standard error (`--variance`: the sample variance under the independent sampler,
+    the spread of the 4 replicates under Sobol) and the reference's noise predict.
 Reports each renderer's time, paths/s and RMSE. --write-reference FILE stores
-the reference (linear RGB EXR) for tests/.
+the reference (linear RGB EXR) for tests/, and beside it FILE-variance.exr, its
+own noise, which --reference reads where present.
 """
 
 import argparse
@@ -54,13 +55,14 @@ def mitsuba_render(path, params, spp, seed, passes=1):
     return total / passes, time.perf_counter() - start
 
 
-def pathmix_render(binary, path, params, spp, seed, out_dir):
+def pathmix_render(binary, path, params, spp, seed, out_dir, extra):
     exr = os.path.join(out_dir, "pathmix.exr")
     se = os.path.join(out_dir, "pathmix-se.exr")
     cmd = [binary, "render", path, "--spp", str(spp), "--seed", str(seed), "--exr", exr,
            "--variance", se, "-o", os.path.join(out_dir, "pathmix.png"), "--quiet"]
     for k, v in params.items():
         cmd += ["-D", f"{k}={v}"]
+    cmd += extra
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
         sys.exit(f"pathmix failed ({run.returncode}):\n{run.stderr}")
@@ -69,6 +71,11 @@ def pathmix_render(binary, path, params, spp, seed, out_dir):
     img = np.array(mi.Bitmap(exr), dtype=np.float64)[..., :3]
     std_error = np.array(mi.Bitmap(se), dtype=np.float64)[..., :3]
     return img, std_error, seconds, run.stderr
+
+
+def noise_path(reference):
+    """Where a stored reference keeps its own noise (the variance its two halves show)."""
+    return os.path.splitext(reference)[0] + "-variance.exr"
 
 
 def blocks(img, size=16):
@@ -88,6 +95,9 @@ def main():
     ap.add_argument("--write-reference", help="store the rendered reference here")
     ap.add_argument("-D", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--pathmix", default=os.path.join(REPO, "target/release/pathmix"))
+    ap.add_argument("--pathmix-arg", action="append", default=[], metavar="ARG",
+                    help="one more argument for pathmix's render (repeatable), e.g. "
+                    "--pathmix-arg=--sampler --pathmix-arg=sobol")
     args = ap.parse_args()
 
     params = dict(d.split("=", 1) for d in args.D)
@@ -96,7 +106,9 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         if args.reference:
             ref = np.array(mi.Bitmap(args.reference), dtype=np.float64)[..., :3]
-            ref_var = np.zeros_like(ref)
+            var_path = noise_path(args.reference)
+            ref_var = (np.array(mi.Bitmap(var_path), dtype=np.float64)[..., :3]
+                       if os.path.exists(var_path) else np.zeros_like(ref))
         else:
             half = args.reference_spp // 2
             passes = max(1, half // 256)
@@ -106,9 +118,11 @@ def main():
             ref_var = (a - b) ** 2 / 4
             if args.write_reference:
                 mi.Bitmap(ref.astype(np.float32)).write(args.write_reference)
-                print(f"wrote {args.write_reference}")
+                mi.Bitmap(ref_var.astype(np.float32)).write(noise_path(args.write_reference))
+                print(f"wrote {args.write_reference} and {noise_path(args.write_reference)}")
         mts, mts_seconds = mitsuba_render(args.scene, params, args.spp, 7, max(1, args.spp // 256))
-        pm, pm_se, pm_seconds, pm_log = pathmix_render(args.pathmix, args.scene, params, args.spp, 7, tmp)
+        pm, pm_se, pm_seconds, pm_log = pathmix_render(args.pathmix, args.scene, params, args.spp, 7, tmp,
+                                                   args.pathmix_arg)
     if pm_log.strip():
         print(pm_log.strip())
 
