@@ -20,3 +20,66 @@ fn bvh_box_t(node: BvhNode, origin: vec3<f32>, inv_dir: vec3<f32>, t_max: f32) -
     let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), t_max));
     return select(F32_MAX, near, near <= far * 1.0000004);
 }
+
+// Mirrors `accel::WideBvhNode`: component i of each field is child i's. An
+// interior child is node `first` (`count` 0), a leaf as in `BvhNode`; an empty
+// slot's box is inverted.
+struct WideBvhNode {
+    min_x: vec4<f32>,
+    min_y: vec4<f32>,
+    min_z: vec4<f32>,
+    max_x: vec4<f32>,
+    max_y: vec4<f32>,
+    max_z: vec4<f32>,
+    first: vec4<u32>,
+    count: vec4<u32>,
+}
+
+// `bvh_box_t` for the four children at once. Each axis's near plane is chosen
+// by the ray's sign, so an inverted box (an empty slot) is entered at +inf:
+// never a hit (a distance not below F32_MAX is a miss).
+fn wide_bvh_children_t(node: WideBvhNode, origin: vec3<f32>, inv_dir: vec3<f32>, t_max: f32) -> vec4<f32> {
+    let negative = inv_dir < vec3<f32>(0.0);
+    let near_x = (select(node.min_x, node.max_x, negative.x) - origin.x) * inv_dir.x;
+    let near_y = (select(node.min_y, node.max_y, negative.y) - origin.y) * inv_dir.y;
+    let near_z = (select(node.min_z, node.max_z, negative.z) - origin.z) * inv_dir.z;
+    let far_x = (select(node.max_x, node.min_x, negative.x) - origin.x) * inv_dir.x;
+    let far_y = (select(node.max_y, node.min_y, negative.y) - origin.y) * inv_dir.y;
+    let far_z = (select(node.max_z, node.min_z, negative.z) - origin.z) * inv_dir.z;
+    let near = max(max(near_x, near_y), max(near_z, vec4<f32>(0.0)));
+    let far = min(min(far_x, far_y), min(far_z, vec4<f32>(t_max)));
+    return select(vec4<f32>(F32_MAX), near, near <= far * 1.0000004);
+}
+
+// Keys at or above this are misses: F32_MAX's bits with the slot bits cleared.
+const WIDE_BVH_MISS: u32 = 0x7f7ffffcu;
+
+// The children in order of distance, as keys: the distance's bits (ordered as
+// the distance is, since it is not negative; abs clears the sign of -0) with
+// the child's slot in the two lowest. A sorting network of min and max.
+fn wide_bvh_order(t: vec4<f32>) -> vec4<u32> {
+    let keys = (bitcast<vec4<u32>>(abs(t)) & vec4<u32>(~3u)) | vec4<u32>(0u, 1u, 2u, 3u);
+    let a = vec4<u32>(min(keys.xz, keys.yw), max(keys.xz, keys.yw));
+    let b = vec4<u32>(min(a.xz, a.yw), max(a.xz, a.yw));
+    return vec4<u32>(b.x, min(b.y, b.z), max(b.y, b.z), b.w);
+}
+
+// The child of `node` whose key is `key`: (first, count) as in the node.
+fn wide_bvh_link(node: WideBvhNode, key: u32) -> vec2<u32> {
+    let slot = key & 3u;
+    return vec2<u32>(node.first[slot], node.count[slot]);
+}
+
+// A node's farther hit children, still to walk, as one stack entry: the node's
+// index (bits 8 on), how many (bits 6-7) and their slots, nearest first (two
+// bits each from bit 0), from the sorted keys.
+fn wide_bvh_entry(node_index: u32, keys: vec4<u32>, pending: u32) -> u32 {
+    let slots = keys & vec4<u32>(3u);
+    return (node_index << 8u) | (pending << 6u) | slots.y | (slots.z << 2u) | (slots.w << 4u);
+}
+
+// The entry once its nearest child is taken: one fewer pending, the next nearest
+// first (no pending left: the entry is done).
+fn wide_bvh_entry_rest(entry: u32) -> u32 {
+    return ((entry & ~0x3fu) - 0x40u) | ((entry & 0x3fu) >> 2u);
+}
