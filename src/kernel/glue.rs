@@ -328,14 +328,15 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
             if link.y != 0u {{
                 break;
             }}
-            let node = bvh_nodes_at(link.x);
-            let keys = wide_bvh_order(wide_bvh_children_t(node, ray.origin, inv_dir, hit.t));
+            let node = &bvh_nodes[link.x];
+            let keys = wide_bvh_order(wide_bvh_children_t((*node).planes_a, (*node).planes_b, (*node).origin, ray.origin, inv_dir, hit.t));
             let hits = select(vec4<u32>(0u), vec4<u32>(1u), keys < vec4<u32>(WIDE_BVH_MISS));
             let pending = hits.y + hits.z + hits.w;
             stack[depth] = wide_bvh_entry(link.x, keys, pending);
             depth += min(pending, 1u);
             if hits.x != 0u {{
-                link = wide_bvh_link(node, keys.x);
+                let slot = keys.x & 3u;
+                link = vec2<u32>((*node).first[slot], (*node).count[slot]);
             }} else if depth == 0u {{
                 missed = true;
                 break;
