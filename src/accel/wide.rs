@@ -99,7 +99,9 @@ impl WideBvhNode {
 /// The smallest biased exponent whose grid of 255 steps from `origin` reaches
 /// `top` in f32 arithmetic as the kernel does it (the product is exact).
 fn grid_exponent(origin: f32, top: f32) -> u32 {
-    (1..255)
+    // The exponent of the step the extent needs, less one for rounding.
+    let guess = (((top - origin) / 255.0).to_bits() >> 23).clamp(2, 254) - 1;
+    (guess..255)
         .find(|&e| origin + 255.0 * f32::from_bits(e << 23) >= top)
         .expect("a finite box fits a grid of 255 steps")
 }
@@ -171,9 +173,11 @@ impl WideBvh {
         let index = self.nodes.len();
         self.nodes.push(WideBvhNode::default());
         let children_of = |i: usize| [i + 1, binary.nodes[i].first as usize];
-        let mut children = children_of(interior).to_vec();
-        while children.len() < WIDTH {
-            let largest = children
+        let mut children = [0; WIDTH];
+        [children[0], children[1]] = children_of(interior);
+        let mut len = 2;
+        while len < WIDTH {
+            let largest = children[..len]
                 .iter()
                 .enumerate()
                 .filter(|&(_, &c)| binary.nodes[c].count == 0)
@@ -181,24 +185,23 @@ impl WideBvh {
                     half_area(&binary.nodes[*a.1]).total_cmp(&half_area(&binary.nodes[*b.1]))
                 });
             let Some((slot, &open)) = largest else { break };
-            children.splice(slot..=slot, children_of(open));
+            [children[slot], children[len]] = children_of(open);
+            len += 1;
         }
-        let links: Vec<_> = children
-            .iter()
-            .map(|&child| {
-                let node = &binary.nodes[child];
-                let first = match node.count {
-                    0 => self.node(binary, child, depth + 1),
-                    _ => node.first,
-                };
-                (
-                    (Vec3::from(node.min), Vec3::from(node.max)),
-                    first,
-                    node.count,
-                )
-            })
-            .collect();
-        self.nodes[index] = WideBvhNode::quantised(&links);
+        let mut links = [((Vec3::ZERO, Vec3::ZERO), 0, 0); WIDTH];
+        for (link, &child) in links.iter_mut().zip(&children[..len]) {
+            let node = &binary.nodes[child];
+            let first = match node.count {
+                0 => self.node(binary, child, depth + 1),
+                _ => node.first,
+            };
+            *link = (
+                (Vec3::from(node.min), Vec3::from(node.max)),
+                first,
+                node.count,
+            );
+        }
+        self.nodes[index] = WideBvhNode::quantised(&links[..len]);
         index as u32
     }
 }
