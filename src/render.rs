@@ -1,7 +1,7 @@
 //! Progressive accumulation: dispatching samples in short submissions, reading
 //! the running sums back, and the rules that stop a run.
 
-use crate::accel::Bvh;
+use crate::accel::WideBvh;
 use crate::adaptive;
 use crate::gpu::accumulator::{
     Accumulator, LAYER_SQUARES, LAYER_SUM, REPLICATES, compensated_sums, map_read, replicate_layer,
@@ -816,7 +816,7 @@ pub fn plan_kernel(
     };
     let mut data = data;
     let scene_storage = match scene_storage {
-        SceneStorage::Bvh => match Bvh::build(&mut data) {
+        SceneStorage::Bvh => match WideBvh::build(&mut data) {
             Some(bvh) => {
                 data.bvh = Some(bvh);
                 SceneStorage::Bvh

@@ -10,6 +10,9 @@ use crate::kinds::PRIMITIVE_KINDS;
 use glam::Vec3;
 use std::time::Instant;
 
+pub mod wide;
+pub use wide::{WideBvh, WideBvhNode};
+
 gpu_struct! {
     /// Interior (`count` 0): the left child is the next node, the right one is
     /// node `first`. Leaf: primitives `first` to `first + (count & LEAF_COUNT_MASK)`
@@ -270,17 +273,17 @@ fn median_split(items: &mut [Item], axis: usize) -> usize {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::kinds::{Quad, Sphere};
 
-    fn kind_index(name: &str) -> usize {
+    pub(crate) fn kind_index(name: &str) -> usize {
         PRIMITIVE_KINDS.iter().position(|k| k.name == name).unwrap()
     }
 
     /// Spheres of radius 0.5 at `centers`, material `i` for the i-th (so each is
     /// recognisable after reordering).
-    fn spheres(centers: &[[f32; 3]]) -> SceneData {
+    pub(crate) fn spheres(centers: &[[f32; 3]]) -> SceneData {
         let mut data = SceneData::default();
         let array = &mut data.primitives[kind_index("sphere")];
         for (i, &center) in centers.iter().enumerate() {
@@ -297,7 +300,7 @@ mod tests {
     }
 
     /// A small pseudo-random sequence in [0, 1) (xorshift), for test layouts.
-    fn uniforms(seed: u32) -> impl FnMut() -> f32 {
+    pub(crate) fn uniforms(seed: u32) -> impl FnMut() -> f32 {
         let mut state = seed;
         move || {
             state ^= state << 13;
@@ -305,6 +308,11 @@ mod tests {
             state ^= state << 5;
             (state >> 8) as f32 / (1u32 << 24) as f32
         }
+    }
+
+    /// Whether box `outer` holds box `inner`.
+    pub(crate) fn box_contains(outer: (Vec3, Vec3), inner: (Vec3, Vec3)) -> bool {
+        outer.0.cmple(inner.0).all() && inner.1.cmple(outer.1).all()
     }
 
     /// Builds the BVH over `data` and checks it: each kind's primitives are the
@@ -416,7 +424,7 @@ mod tests {
         }
     }
 
-    fn sphere_t(sphere: &Sphere, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
+    pub(crate) fn sphere_t(sphere: &Sphere, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
         let to_center = Vec3::from(sphere.center) - origin;
         let along = dir.dot(to_center);
         let disc = sphere.radius * sphere.radius - (to_center - along * dir).length_squared();

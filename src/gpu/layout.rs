@@ -1,7 +1,7 @@
 //! Host mirrors of the WGSL structs, and packing a scene into them. Every struct
 //! here is checked against naga's reading of the WGSL in `kernel::tests`.
 
-use crate::accel::Bvh;
+use crate::accel::WideBvh;
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
     KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive,
@@ -220,7 +220,7 @@ pub struct SceneData {
     /// and BVH (`lights`), from `lights` and `light_members`.
     pub light_tables: Vec<Option<LightTables>>,
     /// Over `primitives`, when the kernel traverses one.
-    pub bvh: Option<Bvh>,
+    pub bvh: Option<WideBvh>,
     /// The environment map's texels and sampling tables (shared: a map is large).
     pub environment: Option<Arc<EnvironmentTables>>,
     /// Point and spot lights.

@@ -293,59 +293,76 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
     out.push_str("    return hit;\n}\n");
 }
 
-/// Depth-first traversal with a stack: the nearer child first, the farther one
-/// pushed, boxes behind the closest hit so far skipped. While-while (Aila and
-/// Laine 2009): an inner loop descends to a leaf, so SIMD lanes walking interior
-/// nodes stay in step; the far child is stored whether or not it is kept (the
-/// stack pointer alone decides), so the store does not depend on the lane.
+/// Depth-first traversal of the wide BVH with a stack: the nearest hit child
+/// next, the others later, nearer first; boxes behind the closest hit so far
+/// skipped. While-while (Aila and Laine 2009): an inner loop descends to a
+/// leaf, so SIMD lanes walking interior nodes stay in step. A node's farther
+/// hit children are one stack entry (`wide_bvh_entry`), stored whether or not
+/// there are any (the stack pointer alone decides), so no store depends on the
+/// lane and the stack holds one entry per level; a pop takes the entry's
+/// nearest child and reads its link from the node.
 fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -> String) {
-    out.push_str(
+    let pop = |indent: &str| {
+        [
+            "let entry = stack[depth - 1u];",
+            "let entry_node = entry >> 8u;",
+            "let slot = entry & 3u;",
+            "link = vec2<u32>(bvh_nodes[entry_node].first[slot], bvh_nodes[entry_node].count[slot]);",
+            "let rest = wide_bvh_entry_rest(entry);",
+            "stack[depth - 1u] = rest;",
+            "depth -= select(0u, 1u, (rest & 0xc0u) == 0u);",
+        ]
+        .map(|line| format!("{indent}{line}\n"))
+        .concat()
+    };
+    write!(
+        out,
         "    let inv_dir = 1.0 / ray.dir;
     var stack: array<u32, BVH_STACK>;
     var depth = 0u;
-    var node_index = 0u;
-    loop {
-        var node = bvh_nodes_at(node_index);
+    // The child being walked to: (first, count) as in a node (count 0: interior).
+    var link = vec2<u32>(0u, 0u);
+    loop {{
         var missed = false;
-        loop {
-            if node.count != 0u {
+        loop {{
+            if link.y != 0u {{
                 break;
-            }
-            let left = node_index + 1u;
-            let t_left = bvh_box_t(bvh_nodes_at(left), ray.origin, inv_dir, hit.t);
-            let t_right = bvh_box_t(bvh_nodes_at(node.first), ray.origin, inv_dir, hit.t);
-            let right_first = t_right < t_left;
-            stack[depth] = select(node.first, left, right_first);
-            depth += select(0u, 1u, max(t_left, t_right) < F32_MAX);
-            if min(t_left, t_right) < F32_MAX {
-                node_index = select(left, node.first, right_first);
-            } else if depth == 0u {
+            }}
+            let node = &bvh_nodes[link.x];
+            let keys = wide_bvh_order(wide_bvh_children_t((*node).planes_a, (*node).planes_b, (*node).origin, ray.origin, inv_dir, hit.t));
+            let hits = select(vec4<u32>(0u), vec4<u32>(1u), keys < vec4<u32>(WIDE_BVH_MISS));
+            let pending = hits.y + hits.z + hits.w;
+            stack[depth] = wide_bvh_entry(link.x, keys, pending);
+            depth += min(pending, 1u);
+            if hits.x != 0u {{
+                let slot = keys.x & 3u;
+                link = vec2<u32>((*node).first[slot], (*node).count[slot]);
+            }} else if depth == 0u {{
                 missed = true;
                 break;
-            } else {
-                depth -= 1u;
-                node_index = stack[depth];
-            }
-            node = bvh_nodes_at(node_index);
-        }
-        if missed {
+            }} else {{
+{}            }}
+        }}
+        if missed {{
             break;
-        }
-        let end = node.first + (node.count & BVH_LEAF_COUNT_MASK);
+        }}
+        let end = link.x + (link.y & BVH_LEAF_COUNT_MASK);
 ",
-    );
+        pop("                ")
+    )
+    .unwrap();
     // A leaf is a range of one kind's array: one switch per leaf, none with one kind.
     let range = |k: usize, indent: &str| {
         let array = PRIMITIVE_KINDS[k].array;
         format!(
-            "{indent}for (var primitive_index = node.first; primitive_index < end; primitive_index += 1u) {{\n{indent}    let primitive = {array}_at(primitive_index);\n{}{indent}}}\n",
+            "{indent}for (var primitive_index = link.x; primitive_index < end; primitive_index += 1u) {{\n{indent}    let primitive = {array}_at(primitive_index);\n{}{indent}}}\n",
             test(k, &format!("{indent}    "))
         )
     };
     if let [only] = kinds {
         out.push_str(&range(*only, "        "));
     } else {
-        out.push_str("        switch node.count >> BVH_LEAF_KIND_SHIFT {\n");
+        out.push_str("        switch link.y >> BVH_LEAF_KIND_SHIFT {\n");
         for &k in kinds {
             write!(
                 out,
@@ -356,15 +373,16 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
         }
         out.push_str("            default: {}\n        }\n");
     }
-    out.push_str(
-        "        if depth == 0u {
+    write!(
+        out,
+        "        if depth == 0u {{
             break;
-        }
-        depth -= 1u;
-        node_index = stack[depth];
-    }
+        }}
+{}    }}
 ",
-    );
+        pop("        ")
+    )
+    .unwrap();
 }
 
 /// The light density p_light: the average of the solid-angle densities of every

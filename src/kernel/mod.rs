@@ -5,7 +5,7 @@
 
 mod glue;
 
-use crate::accel::BvhNode;
+use crate::accel::{BvhNode, WideBvhNode};
 use crate::environment::EnvironmentInfo;
 use crate::gpu::accumulator::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
@@ -685,8 +685,8 @@ impl KernelConfig {
         if self.bvh {
             arrays.push(SceneArray {
                 name: "bvh_nodes".into(),
-                wgsl_type: BvhNode::WGSL_NAME,
-                element_size: size_of::<BvhNode>(),
+                wgsl_type: WideBvhNode::WGSL_NAME,
+                element_size: size_of::<WideBvhNode>(),
                 binding: 1 + 2 * count,
                 indexed: true,
                 source: ArraySource::BvhNodes,
@@ -912,7 +912,7 @@ impl SceneData {
         }
     }
 
-    fn bvh_part(&self) -> &crate::accel::Bvh {
+    fn bvh_part(&self) -> &crate::accel::WideBvh {
         self.bvh
             .as_ref()
             .expect("a BVH kernel's scene has its BVH built")
@@ -1636,6 +1636,8 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
         check_layout(&module, ErasedLayout::of::<DeltaLight>());
         check_layout(&module, ErasedLayout::of::<TextureInfo>());
+        check_layout(&module, ErasedLayout::of::<BvhNode>());
+        check_layout(&module, ErasedLayout::of::<WideBvhNode>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {
