@@ -40,6 +40,9 @@ pub struct RenderOptions {
     /// Adaptive sampling (`crate::adaptive`): rounds over the pixels whose
     /// samples lower the error most. Accumulates the variance sums too.
     pub adaptive: bool,
+    /// Adaptive: the rounds whatever the pilot predicts (`adaptive::choose`), to
+    /// study or test them where the choice would go on uniformly.
+    pub adaptive_rounds_always: bool,
 }
 
 impl Default for RenderOptions {
@@ -51,6 +54,7 @@ impl Default for RenderOptions {
             submission_seconds: 1.0,
             general_kernel: false,
             adaptive: false,
+            adaptive_rounds_always: false,
         }
     }
 }
@@ -263,6 +267,8 @@ impl<'a> Renderer<'a> {
             round: Vec::new(),
             round_samples: 0,
             round_done: 0,
+            choice: None,
+            rounds_always: options.adaptive_rounds_always,
             list: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("active pixels"),
                 size: (pixels * size_of::<[u32; 2]>()) as u64,
@@ -411,12 +417,18 @@ impl<'a> Renderer<'a> {
             adaptive.round.clear();
             adaptive.round_samples = 0;
             adaptive.round_done = 0;
+            adaptive.choice = None;
         }
     }
 
     /// Adaptive sampling: each pixel's sample count so far.
     pub fn sample_counts(&self) -> Option<&[u32]> {
         self.adaptive.as_ref().map(|a| &a.counts[..])
+    }
+
+    /// Adaptive sampling: the pilot's choice, once made.
+    pub fn adaptive_choice(&self) -> Option<adaptive::Choice> {
+        self.adaptive.as_ref().and_then(|a| a.choice)
     }
 
     /// Traces up to `max_samples` more samples per pixel in about one submission's
@@ -507,10 +519,28 @@ impl<'a> Renderer<'a> {
             let run_samples = self.samples.saturating_add(max_samples);
             let budget = (run_samples as u64 * pixels).saturating_sub(total);
             let cap = adaptive::pixel_cap(run_samples);
-            let accumulation = self.accumulation();
+            // A uniform continuation needs no sums to decide its round.
+            let accumulation =
+                (!self.adaptive_choice().is_some_and(|c| c.uniform)).then(|| self.accumulation());
             let adaptive = self.adaptive.as_mut().expect("an adaptive renderer");
-            let Some(round) = adaptive::next_round(&accumulation, &adaptive.counts, cap, budget)
-            else {
+            // After the pilot (every pixel sampled, nothing chosen yet): the choice.
+            if let Some(accumulation) = &accumulation
+                && adaptive.choice.is_none()
+                && total > 0
+            {
+                let choice = adaptive::choose(accumulation, &adaptive.counts);
+                adaptive.choice = Some(adaptive::Choice {
+                    uniform: choice.uniform && !adaptive.rounds_always,
+                    ..choice
+                });
+            }
+            let round = match &accumulation {
+                Some(accumulation) if adaptive.choice.is_none_or(|c| !c.uniform) => {
+                    adaptive::next_round(accumulation, &adaptive.counts, cap, budget)
+                }
+                _ => adaptive::uniform_round(&adaptive.counts, cap, budget),
+            };
+            let Some(round) = round else {
                 return 0;
             };
             adaptive.round = (round.pixels.iter())
@@ -613,11 +643,17 @@ impl<'a> Renderer<'a> {
             let others = (1..REPLICATES).map(|r| layer(replicate_layer(r))).collect();
             Replicates::from_others(range, &sum, others)
         });
+        // A uniform continuation's pixels all have `samples`, and the image is the
+        // mean of all of them (`adaptive::choose`).
+        let counts = match self.adaptive_choice() {
+            Some(choice) if choice.uniform => None,
+            _ => self.sample_counts().map(<[u32]>::to_vec),
+        };
         Accumulation {
             width,
             height,
             samples: self.samples as u64,
-            counts: self.sample_counts().map(<[u32]>::to_vec),
+            counts,
             sum,
             sum_sq: config.variance.then(|| layer(LAYER_SQUARES)),
             replicates,
@@ -660,6 +696,7 @@ impl<'a> Renderer<'a> {
                 round: a.round.clone(),
                 round_samples: a.round_samples,
                 round_done: a.round_done,
+                choice: a.choice,
             }),
         }
     }
@@ -680,6 +717,7 @@ impl<'a> Renderer<'a> {
                 adaptive.round.clone_from(&saved.round);
                 adaptive.round_samples = saved.round_samples;
                 adaptive.round_done = saved.round_done;
+                adaptive.choice = saved.choice;
                 self.ctx.queue.write_buffer(
                     &adaptive.list,
                     0,
@@ -753,6 +791,8 @@ pub struct AdaptiveState {
     /// Samples the round gives each of its pixels, and how many it has given.
     pub round_samples: u32,
     pub round_done: u32,
+    /// The pilot's choice, once made (`adaptive::choose`).
+    pub choice: Option<adaptive::Choice>,
 }
 
 impl AdaptiveState {
@@ -774,6 +814,9 @@ struct AdaptiveRun {
     round: Vec<[u32; 2]>,
     round_samples: u32,
     round_done: u32,
+    choice: Option<adaptive::Choice>,
+    /// `RenderOptions::adaptive_rounds_always`.
+    rounds_always: bool,
     /// Room for every pixel, as `[pixel, count when the round began]`.
     list: wgpu::Buffer,
 }
