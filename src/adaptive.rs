@@ -70,15 +70,6 @@ pub fn next_round(
         return None;
     }
     let pixels = counts.len() as u64;
-    // The pilot: every pixel, the same count.
-    if counts.iter().all(|&n| n == 0) {
-        let samples =
-            whole_sets(PILOT_SAMPLES.min(cap) as u64).min(whole_sets(budget.div_ceil(pixels)));
-        return Some(Round {
-            pixels: (0..pixels as u32).collect(),
-            samples: samples as u32,
-        });
-    }
     let priorities = priorities(accumulation, counts);
     // The mean over the pixels that can take samples: one capped pixel of huge
     // priority (an emitter's edge) would otherwise leave every other one below it.
@@ -124,13 +115,15 @@ pub fn next_round(
     })
 }
 
-/// The round of a run that goes on uniformly (`Choice::uniform`; `counts` all
-/// equal): every pixel, to the budget in whole replicate sets (over by less than
-/// `REPLICATES` per pixel) or to the cap. `None` when neither leaves room.
+/// The round of a run that goes on uniformly (`Choice::uniform`), or of the pilot
+/// (`cap` at most `PILOT_SAMPLES`), `counts` all equal: every pixel, to the budget
+/// in whole replicate sets (over by less than `REPLICATES` per pixel) or to the
+/// cap. `None` when neither leaves room.
 pub fn uniform_round(counts: &[u32], cap: u32, budget: u64) -> Option<Round> {
     let pixels = counts.len() as u64;
     let headroom = cap.saturating_sub(counts.iter().copied().max()?) as u64;
-    let samples = whole_sets(budget.div_ceil(pixels.max(1))).min(headroom - headroom % REPLICATES as u64);
+    let samples =
+        whole_sets(budget.div_ceil(pixels.max(1))).min(headroom - headroom % REPLICATES as u64);
     (samples > 0).then(|| Round {
         pixels: (0..pixels as u32).collect(),
         samples: samples as u32,
@@ -203,7 +196,7 @@ fn spreads(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
 /// Below this predicted RMSE ratio (adaptive over uniform, at equal time,
 /// `choose`) the run goes on adaptively; at or above it, uniformly. Chosen by
 /// measurement (README, "Adaptive sampling").
-pub const ADAPTIVE_BELOW_RATIO: f64 = 0.8;
+pub const ADAPTIVE_BELOW_RATIO: f64 = 0.5;
 
 /// The rounds' paths/s relative to a uniform run's (readbacks, decisions, the
 /// list dispatch, rounds of few pixels), measured on small images (README).
@@ -254,9 +247,8 @@ pub fn choose(accumulation: &Accumulation, counts: &[u32]) -> Choice {
         total_error += error_sq;
     }
     let pixels = counts.len() as f64;
-    let ratio_sq = weighted * total_spread
-        / ((k - 1.0) / k * pixels * total_error)
-        / ROUNDS_THROUGHPUT;
+    let ratio_sq =
+        weighted * total_spread / ((k - 1.0) / k * pixels * total_error) / ROUNDS_THROUGHPUT;
     let predicted_ratio = match ratio_sq.is_finite() {
         true => ratio_sq.sqrt(),
         false => f64::INFINITY,
@@ -300,9 +292,9 @@ mod tests {
     }
 
     #[test]
-    fn the_pilot_samples_every_pixel_alike() {
-        let (acc, counts) = accumulation(&[(0, 0.0, 0.0); 3]);
-        let round = next_round(&acc, &counts, 64, u64::MAX).unwrap();
+    fn the_pilot_and_a_uniform_continuation_sample_every_pixel_alike() {
+        let counts = [0; 3];
+        let round = uniform_round(&counts, PILOT_SAMPLES, u64::MAX).unwrap();
         assert_eq!(
             round,
             Round {
@@ -311,9 +303,68 @@ mod tests {
             }
         );
         // A budget of 2 samples per pixel: one replicate set each.
-        let round = next_round(&acc, &counts, 64, 6).unwrap();
+        let round = uniform_round(&counts, PILOT_SAMPLES, 6).unwrap();
         assert_eq!(round.samples, REPLICATES);
-        assert_eq!(next_round(&acc, &counts, 64, 0), None);
+        assert_eq!(uniform_round(&counts, PILOT_SAMPLES, 0), None);
+        // On from the pilot: the budget's 30 samples per pixel in whole sets, or to the cap.
+        let counts = [16; 3];
+        assert_eq!(uniform_round(&counts, 1024, 90).unwrap().samples, 32);
+        assert_eq!(uniform_round(&counts, 40, 90).unwrap().samples, 24);
+        assert_eq!(uniform_round(&counts, 16, 90), None);
+    }
+
+    /// Pilot sums whose replicates 1..3 sit at `mean ± error` per pixel (replicate
+    /// 0's samples as in `accumulation`): the replicates' spread is then about
+    /// `error`.
+    fn pilot(pixels: &[(f64, f64)]) -> (Accumulation, Vec<u32>) {
+        let (mut acc, counts) = accumulation(
+            &pixels
+                .iter()
+                .map(|&(_, e)| (16, 1.0, e))
+                .collect::<Vec<_>>(),
+        );
+        let replicates = acc.replicates.as_mut().unwrap();
+        for (p, &(_, error)) in pixels.iter().enumerate() {
+            replicates.sums[0][p] = [4.0; 3];
+            for (r, sign) in [(1, 1.0), (2, -1.0), (3, 0.0)] {
+                replicates.sums[r][p] = [4.0 * (1.0 + sign * error); 3];
+            }
+        }
+        (acc, counts)
+    }
+
+    #[test]
+    fn the_pilot_goes_on_adaptively_only_where_the_error_is_uneven() {
+        // Even: every pixel's error alike: 2/sqrt(3)/sqrt(0.8) = 1.29, uniform.
+        let (acc, counts) = pilot(&[(1.0, 0.1); 16]);
+        let even = choose(&acc, &counts);
+        assert!(
+            (even.predicted_ratio - (1.0 / 0.75f64 / 0.8).sqrt()).abs() < 1e-9,
+            "{even:?}"
+        );
+        assert!(even.uniform, "{even:?}");
+        // One pixel of 256 holds the error, and the spreads follow it (its
+        // neighbours too, and the others keep the floor): adaptive.
+        let mut pixels = vec![(1.0, 0.001); 256];
+        pixels[5] = (1.0, 1.0);
+        let (mut acc, counts) = pilot(&pixels);
+        let squares = acc.sum_sq.as_mut().unwrap();
+        for p in 0..256 {
+            let deviation = if p == 5 { 1.0 } else { 0.001 };
+            squares[p] = [4.0 * (1.0 + deviation * deviation); 3];
+        }
+        let uneven = choose(&acc, &counts);
+        assert!(
+            uneven.predicted_ratio < 0.5 && !uneven.uniform,
+            "{uneven:?}"
+        );
+        // No error seen at all: nothing to gain.
+        let (acc, counts) = pilot(&[(1.0, 0.0); 4]);
+        let flat = choose(&acc, &counts);
+        assert!(
+            flat.uniform && flat.predicted_ratio == f64::INFINITY,
+            "{flat:?}"
+        );
     }
 
     #[test]

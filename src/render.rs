@@ -519,26 +519,33 @@ impl<'a> Renderer<'a> {
             let run_samples = self.samples.saturating_add(max_samples);
             let budget = (run_samples as u64 * pixels).saturating_sub(total);
             let cap = adaptive::pixel_cap(run_samples);
-            // A uniform continuation needs no sums to decide its round.
-            let accumulation =
-                (!self.adaptive_choice().is_some_and(|c| c.uniform)).then(|| self.accumulation());
+            // The pilot's rounds and a uniform continuation's need no sums.
+            let pilot_done = adaptive
+                .counts
+                .iter()
+                .all(|&n| n >= adaptive::PILOT_SAMPLES);
+            let rounds = adaptive.choice.map_or(pilot_done, |c| !c.uniform);
+            let accumulation = rounds.then(|| self.accumulation());
             let adaptive = self.adaptive.as_mut().expect("an adaptive renderer");
-            // After the pilot (every pixel sampled, nothing chosen yet): the choice.
-            if let Some(accumulation) = &accumulation
-                && adaptive.choice.is_none()
-                && total > 0
-            {
-                let choice = adaptive::choose(accumulation, &adaptive.counts);
-                adaptive.choice = Some(adaptive::Choice {
-                    uniform: choice.uniform && !adaptive.rounds_always,
-                    ..choice
-                });
-            }
             let round = match &accumulation {
-                Some(accumulation) if adaptive.choice.is_none_or(|c| !c.uniform) => {
-                    adaptive::next_round(accumulation, &adaptive.counts, cap, budget)
+                None if !pilot_done => {
+                    let pilot_cap = cap.min(adaptive::PILOT_SAMPLES);
+                    adaptive::uniform_round(&adaptive.counts, pilot_cap, budget)
                 }
-                _ => adaptive::uniform_round(&adaptive.counts, cap, budget),
+                None => adaptive::uniform_round(&adaptive.counts, cap, budget),
+                Some(accumulation) => {
+                    let choice = *adaptive.choice.get_or_insert_with(|| {
+                        let choice = adaptive::choose(accumulation, &adaptive.counts);
+                        adaptive::Choice {
+                            uniform: choice.uniform && !adaptive.rounds_always,
+                            ..choice
+                        }
+                    });
+                    match choice.uniform {
+                        true => adaptive::uniform_round(&adaptive.counts, cap, budget),
+                        false => adaptive::next_round(accumulation, &adaptive.counts, cap, budget),
+                    }
+                }
             };
             let Some(round) = round else {
                 return 0;
@@ -643,11 +650,11 @@ impl<'a> Renderer<'a> {
             let others = (1..REPLICATES).map(|r| layer(replicate_layer(r))).collect();
             Replicates::from_others(range, &sum, others)
         });
-        // A uniform continuation's pixels all have `samples`, and the image is the
-        // mean of all of them (`adaptive::choose`).
+        // Before the pilot's choice, and in a uniform continuation, the pixels all
+        // have `samples` and the image is the mean of all of them (`adaptive::choose`).
         let counts = match self.adaptive_choice() {
-            Some(choice) if choice.uniform => None,
-            _ => self.sample_counts().map(<[u32]>::to_vec),
+            Some(choice) if !choice.uniform => self.sample_counts().map(<[u32]>::to_vec),
+            _ => None,
         };
         Accumulation {
             width,
