@@ -255,7 +255,8 @@ pub fn choose(accumulation: &Accumulation, counts: &[u32]) -> Choice {
     };
     Choice {
         predicted_ratio,
-        uniform: !(predicted_ratio < ADAPTIVE_BELOW_RATIO),
+        // Never NaN: a failed prediction is infinite.
+        uniform: predicted_ratio >= ADAPTIVE_BELOW_RATIO,
     }
 }
 
@@ -349,9 +350,8 @@ mod tests {
         pixels[5] = (1.0, 1.0);
         let (mut acc, counts) = pilot(&pixels);
         let squares = acc.sum_sq.as_mut().unwrap();
-        for p in 0..256 {
-            let deviation = if p == 5 { 1.0 } else { 0.001 };
-            squares[p] = [4.0 * (1.0 + deviation * deviation); 3];
+        for (square, &(_, deviation)) in squares.iter_mut().zip(&pixels) {
+            *square = [4.0 * (1.0 + deviation * deviation); 3];
         }
         let uneven = choose(&acc, &counts);
         assert!(
