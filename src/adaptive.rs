@@ -235,13 +235,21 @@ pub fn choose(accumulation: &Accumulation, counts: &[u32]) -> Choice {
     let k = replicates.sums.len() as f64;
     let (mut weighted, mut total_spread, mut total_error) = (0.0, 0.0, 0.0);
     for (p, &spread) in spreads.iter().enumerate() {
-        // The pilot mean's squared standard error, up to a factor common to all pixels.
-        let error_sq = luminance_f64(std::array::from_fn(|c| {
-            let means = || replicates.sums.iter().map(|s| s[p][c]);
+        // The spread of the replicates' means: with `m` samples each, `sqrt(m)`
+        // times it is the pixel's per-sample spread as Monte Carlo would see it,
+        // at most the true one (stratification only lowers the replicates' spread).
+        let per_replicate = (counts[p] as f64 / k).max(1.0);
+        let replicate_spread = luminance_f64(std::array::from_fn(|c| {
+            let means = || replicates.sums.iter().map(|s| s[p][c] / per_replicate);
             let average = means().sum::<f64>() / k;
-            means().map(|m| (m - average).powi(2)).sum::<f64>().sqrt()
-        }))
-        .powi(2);
+            let variance = means().map(|m| (m - average).powi(2)).sum::<f64>() / (k - 1.0);
+            variance.sqrt()
+        }));
+        // The pilot mean's squared standard error, up to a factor common to all pixels.
+        let error_sq = replicate_spread.powi(2);
+        // The rounds re-estimate the spreads as samples come in: a bright path that
+        // replicate 0's pilot missed and the others found is found again.
+        let spread = spread.max(replicate_spread * per_replicate.sqrt());
         weighted += error_sq / spread;
         total_spread += spread;
         total_error += error_sq;

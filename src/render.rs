@@ -440,9 +440,19 @@ impl<'a> Renderer<'a> {
     /// (`adaptive::next_round`), and the return is the samples each of the round's
     /// pixels got, 0 when no pixel can take more.
     pub fn advance(&mut self, max_samples: u32) -> u32 {
+        self.advance_toward(max_samples, u32::MAX)
+    }
+
+    /// As `advance`, with the submission also held to about `submission_samples`
+    /// more samples per pixel on average (so a caller can look at the error soon).
+    /// Adaptive: the rounds are still decided from `max_samples` alone, so that a
+    /// resumed run makes the same rounds; a round cut short goes on in the next
+    /// submission, and the sums are the same however a round is cut.
+    pub fn advance_toward(&mut self, max_samples: u32, submission_samples: u32) -> u32 {
         if self.adaptive.is_some() {
-            return self.advance_adaptive(max_samples);
+            return self.advance_adaptive(max_samples, submission_samples);
         }
+        let max_samples = max_samples.min(submission_samples);
         let (width, height) = self.size();
         let (samples, rows) = submission_shape(
             self.paths_per_submission,
@@ -510,7 +520,7 @@ impl<'a> Renderer<'a> {
 
     /// The adaptive kernel's submission: `samples` samples from the round's
     /// `round_done`, for its list entries `origin_row * width..` in `rows` rows.
-    fn advance_adaptive(&mut self, max_samples: u32) -> u32 {
+    fn advance_adaptive(&mut self, max_samples: u32, submission_samples: u32) -> u32 {
         let (width, height) = self.size();
         let pixels = width as u64 * height as u64;
         let adaptive = self.adaptive.as_ref().expect("an adaptive renderer");
@@ -520,12 +530,8 @@ impl<'a> Renderer<'a> {
             let budget = (run_samples as u64 * pixels).saturating_sub(total);
             let cap = adaptive::pixel_cap(run_samples);
             // The pilot's rounds and a uniform continuation's need no sums.
-            let pilot_done = adaptive
-                .counts
-                .iter()
-                .all(|&n| n >= adaptive::PILOT_SAMPLES);
-            let rounds = adaptive.choice.map_or(pilot_done, |c| !c.uniform);
-            let accumulation = rounds.then(|| self.accumulation());
+            let pilot_done = adaptive.pilot_done();
+            let accumulation = adaptive.rounds_next().then(|| self.accumulation());
             let adaptive = self.adaptive.as_mut().expect("an adaptive renderer");
             let round = match &accumulation {
                 None if !pilot_done => {
@@ -568,7 +574,11 @@ impl<'a> Renderer<'a> {
         // pixel's count a multiple of them; dispatches within the loop budget.
         let (shape_samples, rows) =
             submission_shape(self.paths_per_submission, width, list_rows, left);
-        let samples = (shape_samples - shape_samples % REPLICATES)
+        // `submission_samples` per pixel on average, over the round's entries.
+        let by_limit = (submission_samples as u64 * pixels / entries.max(1) as u64)
+            .min(u32::MAX as u64) as u32;
+        let samples = (shape_samples.min(by_limit))
+            .saturating_sub(shape_samples.min(by_limit) % REPLICATES)
             .max(REPLICATES)
             .min(left);
         let started = Instant::now();
@@ -826,6 +836,18 @@ struct AdaptiveRun {
     rounds_always: bool,
     /// Room for every pixel, as `[pixel, count when the round began]`.
     list: wgpu::Buffer,
+}
+
+impl AdaptiveRun {
+    fn pilot_done(&self) -> bool {
+        self.counts.iter().all(|&n| n >= adaptive::PILOT_SAMPLES)
+    }
+
+    /// Whether the next round is decided by the sums (and the budget): the
+    /// pilot's choice, or the rounds it chose.
+    fn rounds_next(&self) -> bool {
+        self.choice.map_or(self.pilot_done(), |c| !c.uniform)
+    }
 }
 
 /// What a run's kernel is: the packed scene, the kernel configuration, and what
@@ -1373,12 +1395,10 @@ pub fn run_with<E: From<RenderError>>(
         let samples = renderer.samples();
         let next_check = MIN_SAMPLES_FOR_ERROR.max(checked_at.saturating_mul(2));
         let to_next_check = match stop.target_error {
-            // Adaptive rounds are decided from the samples left to the cap alone,
-            // so that a resumed run makes the same rounds.
-            Some(_) if next_check > samples && !renderer.config().adaptive => next_check - samples,
+            Some(_) if next_check > samples => next_check - samples,
             _ => u32::MAX,
         };
-        if renderer.advance((stop.max_samples - samples).min(to_next_check)) == 0 {
+        if renderer.advance_toward(stop.max_samples - samples, to_next_check) == 0 {
             // Adaptive: every pixel is at its cap.
             break StopReason::Samples;
         }
