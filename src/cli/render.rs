@@ -58,7 +58,8 @@ pub struct RenderArgs {
     pub variance: Option<PathBuf>,
     /// Adaptive sampling [scene: render.adaptive]: after a 16-spp pilot, rounds
     /// sample the pixels whose samples lower the image's error most (each pixel's
-    /// count in proportion to its noise). --spp is then the budget (the uniform
+    /// count in proportion to its noise), where the pilot predicts they beat uniform
+    /// sampling; elsewhere the run goes on uniformly. --spp is then the budget (the uniform
     /// run's total samples: N per pixel on average), a pixel takes at most 16 N;
     /// --time and --target-error stop as without it. Not with shards.
     #[arg(long)]
