@@ -10,14 +10,16 @@
 //! of a round continues from where it is and one dispatch covers them all. Uniform
 //! sampling (`n_p` equal) is the special case of equal `σ_p`.
 //!
-//! Unbiased by construction: the decisions read only replicate 0 (sample indices
-//! `0 mod 4`, an independently scrambled sequence: its sums and, in an adaptive
-//! kernel, the squares), and the image is the mean of replicates 1 to 3, which
-//! are independent of replicate 0. Each pixel's count is therefore independent of
-//! the samples averaged, and the mean of a fixed number of them is unbiased.
-//! (Deciding from all samples instead, the Cornell boxes' image came out 2.6% dark,
-//! 13 standard errors: pixels whose early samples missed the light stop early.)
-//! The price: a quarter of the samples only decides.
+//! The rounds read only replicate 0 (sample indices `0 mod 4`, an independently
+//! scrambled sequence: its sums and, in an adaptive kernel, the squares), and the
+//! image is the mean of replicates 1 to 3, which are independent of replicate 0:
+//! each pixel's count is independent of the samples averaged, and the mean of a
+//! fixed number of them is unbiased. (Deciding from all samples instead, the
+//! Cornell boxes' image came out 2.6% dark, 13 standard errors: pixels whose early
+//! samples missed the light stop early.) The price: a quarter of the samples only
+//! decides. So after the pilot, `choose` predicts whether the rounds gain that
+//! back; where not (evenly spread error), the run goes on uniformly and its image
+//! is the mean of every sample.
 
 use crate::gpu::accumulator::REPLICATES;
 use crate::stats::{Accumulation, luminance_f64};
@@ -68,15 +70,6 @@ pub fn next_round(
         return None;
     }
     let pixels = counts.len() as u64;
-    // The pilot: every pixel, the same count.
-    if counts.iter().all(|&n| n == 0) {
-        let samples =
-            whole_sets(PILOT_SAMPLES.min(cap) as u64).min(whole_sets(budget.div_ceil(pixels)));
-        return Some(Round {
-            pixels: (0..pixels as u32).collect(),
-            samples: samples as u32,
-        });
-    }
     let priorities = priorities(accumulation, counts);
     // The mean over the pixels that can take samples: one capped pixel of huge
     // priority (an emitter's edge) would otherwise leave every other one below it.
@@ -122,15 +115,38 @@ pub fn next_round(
     })
 }
 
-/// Each pixel's priority `σ_p² / n_p²`, with `σ_p` the largest spread of the
-/// pixel and its 8 neighbours, a spread being the luminance of the per-channel
-/// sample standard deviations, floored at `SPREAD_FLOOR` of the image's mean
-/// luminance, and `n_p` the pixel's count: all from replicate 0 alone (its sums and
-/// the squares). The neighbours' maximum guards against a pixel whose few
-/// replicate-0 samples all missed a rare bright path its neighbours found (a
-/// caustic, a small light's glossy reflection): starved, such pixels dominated the
-/// image's error.
+/// The round of a run that goes on uniformly (`Choice::uniform`), or of the pilot
+/// (`cap` at most `PILOT_SAMPLES`), `counts` all equal: every pixel, to the budget
+/// in whole replicate sets (over by less than `REPLICATES` per pixel) or to the
+/// cap. `None` when neither leaves room.
+pub fn uniform_round(counts: &[u32], cap: u32, budget: u64) -> Option<Round> {
+    let pixels = counts.len() as u64;
+    let headroom = cap.saturating_sub(counts.iter().copied().max()?) as u64;
+    let samples =
+        whole_sets(budget.div_ceil(pixels.max(1))).min(headroom - headroom % REPLICATES as u64);
+    (samples > 0).then(|| Round {
+        pixels: (0..pixels as u32).collect(),
+        samples: samples as u32,
+    })
+}
+
+/// Each pixel's priority `σ_p² / n_p²`, with `σ_p` its spread (`spreads`) and
+/// `n_p` its count.
 fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
+    (spreads(accumulation, counts).iter().zip(counts))
+        .map(|(&spread, &n)| spread * spread / (n as f64 * n as f64))
+        .collect()
+}
+
+/// What the rounds allocate by, per pixel: the largest spread of the pixel and its
+/// 8 neighbours, a spread being the luminance of the per-channel sample standard
+/// deviations, floored at `SPREAD_FLOOR` of the image's mean luminance; all from
+/// replicate 0 alone (its sums and the squares). Infinite (sampled first) with
+/// fewer than 2 samples in replicate 0. The neighbours' maximum guards against a
+/// pixel whose few replicate-0 samples all missed a rare bright path its
+/// neighbours found (a caustic, a small light's glossy reflection): starved, such
+/// pixels dominated the image's error.
+fn spreads(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
     let squares = (accumulation.sum_sq.as_ref()).expect("adaptive sampling sums squares");
     let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
     let k = replicates.sums.len() as u32;
@@ -140,8 +156,7 @@ fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
         .collect();
     let image_mean = means.iter().map(|&m| luminance_f64(m)).sum::<f64>() / means.len() as f64;
     let floor = SPREAD_FLOOR * image_mean.max(0.0);
-    // Too few samples for a spread: infinite, sampled first.
-    let spreads: Vec<f64> = (means.iter().zip(squares).zip(counts))
+    let own: Vec<f64> = (means.iter().zip(squares).zip(counts))
         .map(|((mean, squares), &n)| {
             let m = (n / k) as f64;
             if m < 2.0 {
@@ -162,19 +177,95 @@ fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
         })
         .collect();
     let (width, height) = (accumulation.width as usize, accumulation.height as usize);
-    (0..spreads.len())
+    (0..own.len())
         .map(|p| {
             let (x, y) = (p % width, p / width);
             let mut spread = 0.0f64;
             for ny in y.saturating_sub(1)..(y + 2).min(height) {
                 for nx in x.saturating_sub(1)..(x + 2).min(width) {
-                    spread = spread.max(spreads[ny * width + nx]);
+                    spread = spread.max(own[ny * width + nx]);
                 }
             }
-            let n = counts[p] as f64;
-            spread * spread / (n * n)
+            spread
         })
         .collect()
+}
+
+/// Adaptive sampling pays off only where the error is uneven: its image is the
+/// mean of 3 of the 4 replicates, and the rounds cost readbacks and dispatches.
+/// Below this predicted RMSE ratio (adaptive over uniform, at equal time,
+/// `choose`) the run goes on adaptively; at or above it, uniformly. Chosen by
+/// measurement (README, "Adaptive sampling").
+pub const ADAPTIVE_BELOW_RATIO: f64 = 0.5;
+
+/// The rounds' paths/s relative to a uniform run's (readbacks, decisions, the
+/// list dispatch, rounds of few pixels), measured on small images (README).
+pub const ROUNDS_THROUGHPUT: f64 = 0.8;
+
+/// The pilot's verdict: whether the rest of the run is adaptive, or uniform over
+/// every pixel with the image the mean of all replicates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Choice {
+    /// The predicted RMSE of the adaptive run over the uniform run's, at equal time.
+    pub predicted_ratio: f64,
+    pub uniform: bool,
+}
+
+/// The choice after the pilot (`counts` all equal). Each pixel's squared error
+/// is predicted as `e_p² · pilot / samples averaged`, with `e_p` the standard
+/// error of its pilot mean from the spread of all K replicates (the true error
+/// under Sobol: a pixel's sample variance overstates it, by far at edges, which
+/// stratification resolves) and the samples averaged: uniform `N` (all
+/// replicates), adaptive `3/4 · n_p` with `n_p ∝ s_p`, the deciding spread
+/// (`spreads`, as the rounds steer), `N` on average, in `1 / ROUNDS_THROUGHPUT`
+/// the time. `N` and the pilot cancel:
+///
+/// `ratio² = (Σ e_p² / s_p) (Σ s_p) / (3/4 · P · Σ e_p²) / ROUNDS_THROUGHPUT`.
+///
+/// Uniform where the prediction fails: no error seen, or a pilot of fewer than 2
+/// samples per replicate (no spreads).
+///
+/// One decision for the whole image, from the pilot of every replicate, so
+/// neither continuation's image is unbiased by construction any more; but it is
+/// one bit from sums over every pixel, in each of which a pixel's samples weigh
+/// about `1 / P`: README argues the bias negligible, tests/adaptive.rs measures it.
+pub fn choose(accumulation: &Accumulation, counts: &[u32]) -> Choice {
+    let spreads = spreads(accumulation, counts);
+    let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
+    let k = replicates.sums.len() as f64;
+    let (mut weighted, mut total_spread, mut total_error) = (0.0, 0.0, 0.0);
+    for (p, &spread) in spreads.iter().enumerate() {
+        // The spread of the replicates' means: with `m` samples each, `sqrt(m)`
+        // times it is the pixel's per-sample spread as Monte Carlo would see it,
+        // at most the true one (stratification only lowers the replicates' spread).
+        let per_replicate = (counts[p] as f64 / k).max(1.0);
+        let replicate_spread = luminance_f64(std::array::from_fn(|c| {
+            let means = || replicates.sums.iter().map(|s| s[p][c] / per_replicate);
+            let average = means().sum::<f64>() / k;
+            let variance = means().map(|m| (m - average).powi(2)).sum::<f64>() / (k - 1.0);
+            variance.sqrt()
+        }));
+        // The pilot mean's squared standard error, up to a factor common to all pixels.
+        let error_sq = replicate_spread.powi(2);
+        // The rounds re-estimate the spreads as samples come in: a bright path that
+        // replicate 0's pilot missed and the others found is found again.
+        let spread = spread.max(replicate_spread * per_replicate.sqrt());
+        weighted += error_sq / spread;
+        total_spread += spread;
+        total_error += error_sq;
+    }
+    let pixels = counts.len() as f64;
+    let ratio_sq =
+        weighted * total_spread / ((k - 1.0) / k * pixels * total_error) / ROUNDS_THROUGHPUT;
+    let predicted_ratio = match ratio_sq.is_finite() {
+        true => ratio_sq.sqrt(),
+        false => f64::INFINITY,
+    };
+    Choice {
+        predicted_ratio,
+        // Never NaN: a failed prediction is infinite.
+        uniform: predicted_ratio >= ADAPTIVE_BELOW_RATIO,
+    }
 }
 
 #[cfg(test)]
@@ -210,9 +301,9 @@ mod tests {
     }
 
     #[test]
-    fn the_pilot_samples_every_pixel_alike() {
-        let (acc, counts) = accumulation(&[(0, 0.0, 0.0); 3]);
-        let round = next_round(&acc, &counts, 64, u64::MAX).unwrap();
+    fn the_pilot_and_a_uniform_continuation_sample_every_pixel_alike() {
+        let counts = [0; 3];
+        let round = uniform_round(&counts, PILOT_SAMPLES, u64::MAX).unwrap();
         assert_eq!(
             round,
             Round {
@@ -221,9 +312,67 @@ mod tests {
             }
         );
         // A budget of 2 samples per pixel: one replicate set each.
-        let round = next_round(&acc, &counts, 64, 6).unwrap();
+        let round = uniform_round(&counts, PILOT_SAMPLES, 6).unwrap();
         assert_eq!(round.samples, REPLICATES);
-        assert_eq!(next_round(&acc, &counts, 64, 0), None);
+        assert_eq!(uniform_round(&counts, PILOT_SAMPLES, 0), None);
+        // On from the pilot: the budget's 30 samples per pixel in whole sets, or to the cap.
+        let counts = [16; 3];
+        assert_eq!(uniform_round(&counts, 1024, 90).unwrap().samples, 32);
+        assert_eq!(uniform_round(&counts, 40, 90).unwrap().samples, 24);
+        assert_eq!(uniform_round(&counts, 16, 90), None);
+    }
+
+    /// Pilot sums whose replicates 1..3 sit at `mean ± error` per pixel (replicate
+    /// 0's samples as in `accumulation`): the replicates' spread is then about
+    /// `error`.
+    fn pilot(pixels: &[(f64, f64)]) -> (Accumulation, Vec<u32>) {
+        let (mut acc, counts) = accumulation(
+            &pixels
+                .iter()
+                .map(|&(_, e)| (16, 1.0, e))
+                .collect::<Vec<_>>(),
+        );
+        let replicates = acc.replicates.as_mut().unwrap();
+        for (p, &(_, error)) in pixels.iter().enumerate() {
+            replicates.sums[0][p] = [4.0; 3];
+            for (r, sign) in [(1, 1.0), (2, -1.0), (3, 0.0)] {
+                replicates.sums[r][p] = [4.0 * (1.0 + sign * error); 3];
+            }
+        }
+        (acc, counts)
+    }
+
+    #[test]
+    fn the_pilot_goes_on_adaptively_only_where_the_error_is_uneven() {
+        // Even: every pixel's error alike: 2/sqrt(3)/sqrt(0.8) = 1.29, uniform.
+        let (acc, counts) = pilot(&[(1.0, 0.1); 16]);
+        let even = choose(&acc, &counts);
+        assert!(
+            (even.predicted_ratio - (1.0 / 0.75f64 / 0.8).sqrt()).abs() < 1e-9,
+            "{even:?}"
+        );
+        assert!(even.uniform, "{even:?}");
+        // One pixel of 256 holds the error, and the spreads follow it (its
+        // neighbours too, and the others keep the floor): adaptive.
+        let mut pixels = vec![(1.0, 0.001); 256];
+        pixels[5] = (1.0, 1.0);
+        let (mut acc, counts) = pilot(&pixels);
+        let squares = acc.sum_sq.as_mut().unwrap();
+        for (square, &(_, deviation)) in squares.iter_mut().zip(&pixels) {
+            *square = [4.0 * (1.0 + deviation * deviation); 3];
+        }
+        let uneven = choose(&acc, &counts);
+        assert!(
+            uneven.predicted_ratio < 0.5 && !uneven.uniform,
+            "{uneven:?}"
+        );
+        // No error seen at all: nothing to gain.
+        let (acc, counts) = pilot(&[(1.0, 0.0); 4]);
+        let flat = choose(&acc, &counts);
+        assert!(
+            flat.uniform && flat.predicted_ratio == f64::INFINITY,
+            "{flat:?}"
+        );
     }
 
     #[test]

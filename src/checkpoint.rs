@@ -16,6 +16,7 @@
 //! | 4·M | ...each pixel's sample count, then the round's `[pixel, count at its start]` pairs |
 //! | 4 | CRC-32 (IEEE) of every byte before it |
 
+use crate::adaptive::Choice;
 use crate::output::{self, OutputError};
 use crate::render::{AccumulatorState, AdaptiveState};
 use crate::scene::{Camera, Filter, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
@@ -28,7 +29,8 @@ pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
 /// 3: Sobol samples come from interleaved replicates (other images), whose sums
 /// variance adds as layers.
 /// 4: adaptive runs' per-pixel counts and round follow the texels.
-pub const VERSION: u32 = 4;
+/// 5: adaptive runs record the pilot's choice (adaptive, or uniform on).
+pub const VERSION: u32 = 5;
 
 /// FNV-1a, 64 bits: the scene identity's hash function (stable across platforms).
 #[derive(Clone, Copy, Debug)]
@@ -609,6 +611,13 @@ fn header(c: &Checkpoint) -> String {
         ] {
             state.insert(key.into(), Value::Integer(v.into()));
         }
+        if let Some(choice) = a.choice {
+            state.insert(
+                "adaptive_predicted_ratio".into(),
+                choice.predicted_ratio.into(),
+            );
+            state.insert("adaptive_uniform".into(), choice.uniform.into());
+        }
     }
     // TOML integers are i64; a count past that is not a real case.
     state.insert(
@@ -797,6 +806,16 @@ fn parse_header(
                 .collect(),
             round_samples: need("adaptive_round_samples")?,
             round_done: need("adaptive_round_done")?,
+            choice: match s.get("adaptive_uniform") {
+                None => None,
+                Some(uniform) => Some(Choice {
+                    predicted_ratio: (s.get("adaptive_predicted_ratio"))
+                        .and_then(|v| v.as_float())
+                        .ok_or_else(|| missing("state.adaptive_predicted_ratio".into()))?,
+                    uniform: (uniform.as_bool())
+                        .ok_or_else(|| missing("state.adaptive_uniform".into()))?,
+                }),
+            },
         });
     }
     let texel_count = state.width as u64 * state.height as u64 * state.layers as u64;
@@ -1059,9 +1078,20 @@ mod tests {
             round: vec![[1, 16], [3, 20]],
             round_samples: 8,
             round_done: 8,
+            choice: None,
         });
         let bytes = to_bytes(&c);
         assert_eq!(from_bytes(&bytes).unwrap(), c);
+        // The pilot's choice, either way (an infinite ratio too: no spread seen).
+        for (predicted_ratio, uniform) in [(0.3125, false), (f64::INFINITY, true)] {
+            let adaptive = c.state.adaptive.as_mut().unwrap();
+            adaptive.choice = Some(Choice {
+                predicted_ratio,
+                uniform,
+            });
+            let bytes = to_bytes(&c);
+            assert_eq!(from_bytes(&bytes).unwrap(), c);
+        }
     }
 
     #[test]

@@ -40,6 +40,9 @@ pub struct RenderOptions {
     /// Adaptive sampling (`crate::adaptive`): rounds over the pixels whose
     /// samples lower the error most. Accumulates the variance sums too.
     pub adaptive: bool,
+    /// Adaptive: the rounds whatever the pilot predicts (`adaptive::choose`), to
+    /// study or test them where the choice would go on uniformly.
+    pub adaptive_rounds_always: bool,
 }
 
 impl Default for RenderOptions {
@@ -51,6 +54,7 @@ impl Default for RenderOptions {
             submission_seconds: 1.0,
             general_kernel: false,
             adaptive: false,
+            adaptive_rounds_always: false,
         }
     }
 }
@@ -263,6 +267,8 @@ impl<'a> Renderer<'a> {
             round: Vec::new(),
             round_samples: 0,
             round_done: 0,
+            choice: None,
+            rounds_always: options.adaptive_rounds_always,
             list: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("active pixels"),
                 size: (pixels * size_of::<[u32; 2]>()) as u64,
@@ -411,12 +417,18 @@ impl<'a> Renderer<'a> {
             adaptive.round.clear();
             adaptive.round_samples = 0;
             adaptive.round_done = 0;
+            adaptive.choice = None;
         }
     }
 
     /// Adaptive sampling: each pixel's sample count so far.
     pub fn sample_counts(&self) -> Option<&[u32]> {
         self.adaptive.as_ref().map(|a| &a.counts[..])
+    }
+
+    /// Adaptive sampling: the pilot's choice, once made.
+    pub fn adaptive_choice(&self) -> Option<adaptive::Choice> {
+        self.adaptive.as_ref().and_then(|a| a.choice)
     }
 
     /// Traces up to `max_samples` more samples per pixel in about one submission's
@@ -428,9 +440,19 @@ impl<'a> Renderer<'a> {
     /// (`adaptive::next_round`), and the return is the samples each of the round's
     /// pixels got, 0 when no pixel can take more.
     pub fn advance(&mut self, max_samples: u32) -> u32 {
+        self.advance_toward(max_samples, u32::MAX)
+    }
+
+    /// As `advance`, with the submission also held to about `submission_samples`
+    /// more samples per pixel on average (so a caller can look at the error soon).
+    /// Adaptive: the rounds are still decided from `max_samples` alone, so that a
+    /// resumed run makes the same rounds; a round cut short goes on in the next
+    /// submission, and the sums are the same however a round is cut.
+    pub fn advance_toward(&mut self, max_samples: u32, submission_samples: u32) -> u32 {
         if self.adaptive.is_some() {
-            return self.advance_adaptive(max_samples);
+            return self.advance_adaptive(max_samples, submission_samples);
         }
+        let max_samples = max_samples.min(submission_samples);
         let (width, height) = self.size();
         let (samples, rows) = submission_shape(
             self.paths_per_submission,
@@ -498,7 +520,7 @@ impl<'a> Renderer<'a> {
 
     /// The adaptive kernel's submission: `samples` samples from the round's
     /// `round_done`, for its list entries `origin_row * width..` in `rows` rows.
-    fn advance_adaptive(&mut self, max_samples: u32) -> u32 {
+    fn advance_adaptive(&mut self, max_samples: u32, submission_samples: u32) -> u32 {
         let (width, height) = self.size();
         let pixels = width as u64 * height as u64;
         let adaptive = self.adaptive.as_ref().expect("an adaptive renderer");
@@ -507,10 +529,31 @@ impl<'a> Renderer<'a> {
             let run_samples = self.samples.saturating_add(max_samples);
             let budget = (run_samples as u64 * pixels).saturating_sub(total);
             let cap = adaptive::pixel_cap(run_samples);
-            let accumulation = self.accumulation();
+            // The pilot's rounds and a uniform continuation's need no sums.
+            let pilot_done = adaptive.pilot_done();
+            let accumulation = adaptive.rounds_next().then(|| self.accumulation());
             let adaptive = self.adaptive.as_mut().expect("an adaptive renderer");
-            let Some(round) = adaptive::next_round(&accumulation, &adaptive.counts, cap, budget)
-            else {
+            let round = match &accumulation {
+                None if !pilot_done => {
+                    let pilot_cap = cap.min(adaptive::PILOT_SAMPLES);
+                    adaptive::uniform_round(&adaptive.counts, pilot_cap, budget)
+                }
+                None => adaptive::uniform_round(&adaptive.counts, cap, budget),
+                Some(accumulation) => {
+                    let choice = *adaptive.choice.get_or_insert_with(|| {
+                        let choice = adaptive::choose(accumulation, &adaptive.counts);
+                        adaptive::Choice {
+                            uniform: choice.uniform && !adaptive.rounds_always,
+                            ..choice
+                        }
+                    });
+                    match choice.uniform {
+                        true => adaptive::uniform_round(&adaptive.counts, cap, budget),
+                        false => adaptive::next_round(accumulation, &adaptive.counts, cap, budget),
+                    }
+                }
+            };
+            let Some(round) = round else {
                 return 0;
             };
             adaptive.round = (round.pixels.iter())
@@ -531,7 +574,11 @@ impl<'a> Renderer<'a> {
         // pixel's count a multiple of them; dispatches within the loop budget.
         let (shape_samples, rows) =
             submission_shape(self.paths_per_submission, width, list_rows, left);
-        let samples = (shape_samples - shape_samples % REPLICATES)
+        // `submission_samples` per pixel on average, over the round's entries.
+        let by_limit = (submission_samples as u64 * pixels / entries.max(1) as u64)
+            .min(u32::MAX as u64) as u32;
+        let samples = (shape_samples.min(by_limit))
+            .saturating_sub(shape_samples.min(by_limit) % REPLICATES)
             .max(REPLICATES)
             .min(left);
         let started = Instant::now();
@@ -613,11 +660,17 @@ impl<'a> Renderer<'a> {
             let others = (1..REPLICATES).map(|r| layer(replicate_layer(r))).collect();
             Replicates::from_others(range, &sum, others)
         });
+        // Before the pilot's choice, and in a uniform continuation, the pixels all
+        // have `samples` and the image is the mean of all of them (`adaptive::choose`).
+        let counts = match self.adaptive_choice() {
+            Some(choice) if !choice.uniform => self.sample_counts().map(<[u32]>::to_vec),
+            _ => None,
+        };
         Accumulation {
             width,
             height,
             samples: self.samples as u64,
-            counts: self.sample_counts().map(<[u32]>::to_vec),
+            counts,
             sum,
             sum_sq: config.variance.then(|| layer(LAYER_SQUARES)),
             replicates,
@@ -660,6 +713,7 @@ impl<'a> Renderer<'a> {
                 round: a.round.clone(),
                 round_samples: a.round_samples,
                 round_done: a.round_done,
+                choice: a.choice,
             }),
         }
     }
@@ -680,6 +734,7 @@ impl<'a> Renderer<'a> {
                 adaptive.round.clone_from(&saved.round);
                 adaptive.round_samples = saved.round_samples;
                 adaptive.round_done = saved.round_done;
+                adaptive.choice = saved.choice;
                 self.ctx.queue.write_buffer(
                     &adaptive.list,
                     0,
@@ -753,6 +808,8 @@ pub struct AdaptiveState {
     /// Samples the round gives each of its pixels, and how many it has given.
     pub round_samples: u32,
     pub round_done: u32,
+    /// The pilot's choice, once made (`adaptive::choose`).
+    pub choice: Option<adaptive::Choice>,
 }
 
 impl AdaptiveState {
@@ -774,8 +831,23 @@ struct AdaptiveRun {
     round: Vec<[u32; 2]>,
     round_samples: u32,
     round_done: u32,
+    choice: Option<adaptive::Choice>,
+    /// `RenderOptions::adaptive_rounds_always`.
+    rounds_always: bool,
     /// Room for every pixel, as `[pixel, count when the round began]`.
     list: wgpu::Buffer,
+}
+
+impl AdaptiveRun {
+    fn pilot_done(&self) -> bool {
+        self.counts.iter().all(|&n| n >= adaptive::PILOT_SAMPLES)
+    }
+
+    /// Whether the next round is decided by the sums (and the budget): the
+    /// pilot's choice, or the rounds it chose.
+    fn rounds_next(&self) -> bool {
+        self.choice.map_or(self.pilot_done(), |c| !c.uniform)
+    }
 }
 
 /// What a run's kernel is: the packed scene, the kernel configuration, and what
@@ -1323,12 +1395,10 @@ pub fn run_with<E: From<RenderError>>(
         let samples = renderer.samples();
         let next_check = MIN_SAMPLES_FOR_ERROR.max(checked_at.saturating_mul(2));
         let to_next_check = match stop.target_error {
-            // Adaptive rounds are decided from the samples left to the cap alone,
-            // so that a resumed run makes the same rounds.
-            Some(_) if next_check > samples && !renderer.config().adaptive => next_check - samples,
+            Some(_) if next_check > samples => next_check - samples,
             _ => u32::MAX,
         };
-        if renderer.advance((stop.max_samples - samples).min(to_next_check)) == 0 {
+        if renderer.advance_toward(stop.max_samples - samples, to_next_check) == 0 {
             // Adaptive: every pixel is at its cap.
             break StopReason::Samples;
         }

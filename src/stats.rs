@@ -15,8 +15,10 @@ pub struct Accumulation {
     pub height: u32,
     /// Samples per pixel; with `counts`, the floor of their mean.
     pub samples: u64,
-    /// Adaptive sampling: each pixel's own sample count, a multiple of the replicate
-    /// count (each replicate holds a quarter), from sample index 0. Replicate 0
+    /// Adaptive sampling, once the pilot chose the rounds (before, and in a
+    /// uniform continuation, `None`: every pixel has `samples`): each pixel's own
+    /// sample count, a multiple of the replicate count (each replicate holds a
+    /// quarter), from sample index 0. Replicate 0
     /// decided the counts (`crate::adaptive`; `sum_sq` holds its squares alone), so
     /// the mean and its error come from the other replicates: unbiased.
     pub counts: Option<Vec<u32>>,

@@ -58,7 +58,8 @@ pub struct RenderArgs {
     pub variance: Option<PathBuf>,
     /// Adaptive sampling [scene: render.adaptive]: after a 16-spp pilot, rounds
     /// sample the pixels whose samples lower the image's error most (each pixel's
-    /// count in proportion to its noise). --spp is then the budget (the uniform
+    /// count in proportion to its noise), where the pilot predicts they beat uniform
+    /// sampling; elsewhere the run goes on uniformly. --spp is then the budget (the uniform
     /// run's total samples: N per pixel on average), a pixel takes at most 16 N;
     /// --time and --target-error stop as without it. Not with shards.
     #[arg(long)]
@@ -878,7 +879,8 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         })?;
         output::write_exr(path, &error, &[]).map_err(Failure::runtime)?;
     }
-    if let (Some(path), Some(counts)) = (&outputs.sample_counts, &accumulation.counts) {
+    // The renderer's counts: a uniform continuation's image has none of its own.
+    if let (Some(path), Some(counts)) = (&outputs.sample_counts, renderer.sample_counts()) {
         let image = output::Image {
             width,
             height,
@@ -904,6 +906,16 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         summary.elapsed.as_secs_f64(),
         summary.paths_per_second / 1e6
     );
+    if let Some(choice) = renderer.adaptive_choice() {
+        let went_on = match choice.uniform {
+            true => "went on uniformly, the image the mean of every sample",
+            false => "went on adaptively",
+        };
+        println!(
+            "adaptive: the pilot predicted {:.2}x uniform's RMSE at equal time; {went_on}",
+            choice.predicted_ratio
+        );
+    }
     if let Some(pilot) = &pilot {
         println!(
             "strategy auto: {} (pilot of {} candidate{} in {:.2} s)",
