@@ -408,7 +408,6 @@ fn gaussian_filter_matches_its_analytic_values() {
     }
 }
 
-/// `convert` writes TOML that reads back as the very scene the XML is.
 /// A checkpoint records a Mitsuba scene's `-D` parameters: `--resume` without
 /// them reads the scene as it was rendered (here at 16x16, not the file's default
 /// 64) and ends with the uninterrupted run's image, bit for bit.
@@ -471,6 +470,7 @@ fn resume_keeps_the_mitsuba_parameters() {
     assert!(whole.pixels == resumed.pixels, "the resumed image differs");
 }
 
+/// `convert` writes TOML that reads back as the very scene the XML is.
 #[test]
 fn convert_round_trips_to_the_same_scene() {
     let Some(xml) = cbox_xml() else { return };
