@@ -1,8 +1,8 @@
-//! `strategy = "auto"`: a short pilot renders the scene at low resolution with each
-//! candidate strategy, estimates each one's relative error from its own per-pixel
-//! error estimate (the Sobol replicates' spread, or the sample variance), and ranks
-//! them by efficiency `1 / (relative MSE × seconds)`, as `converge` ranks them
-//! against a reference.
+//! `strategy = "auto"`: a short pilot renders the scene with each candidate strategy,
+//! at the run's own resolution where its budget allows, estimates each one's
+//! relative error from its own per-pixel error estimate (the Sobol replicates'
+//! spread, or the sample variance), and ranks them by efficiency `1 / (relative MSE
+//! × seconds)`, as `converge` ranks them against a reference.
 //!
 //! Candidates: `bsdf`; `nee-mis` where something emits; the mixture at weight 0.5
 //! where anything is aimed at, and at 0.25 and 0.75 only when 0.5 beats the others
@@ -19,12 +19,17 @@ use crate::stats::{self, Accumulation};
 use std::fmt::Write as _;
 use std::time::Instant;
 
-/// Longest side of the pilot's image, in pixels (the scene's aspect ratio kept).
-pub const SIDE: u32 = 64;
 /// Most samples per pixel a candidate renders in the pilot.
 pub const MAX_SPP: u32 = 64;
 /// Fewest: two per Sobol replicate.
 pub const MIN_SPP: u32 = 2 * REPLICATES;
+/// Fewest pixels of a pilot's image (a smaller render's whole image).
+pub const MIN_PIXELS: u32 = 64 * 64;
+/// Candidates the pilot's samples are sized for: those measured first.
+const SIZED_FOR: u32 = 3;
+/// The run's samples per pixel the pilot is sized for when a time or error target
+/// ends the run (its length unknown).
+pub const OPEN_ENDED_SPP: u32 = 256;
 /// The pilot measures no further candidate once its wall time reaches this fraction
 /// of the run's estimated time (at the best candidate's speed so far): on a small
 /// image, building the candidates' kernels alone can take longer than the run.
@@ -33,23 +38,37 @@ pub const BUDGET: f64 = 0.1;
 pub const FIRST_WEIGHT: f32 = 0.5;
 pub const MORE_WEIGHTS: [f32; 2] = [0.25, 0.75];
 
-/// The pilot's image size for a `width` x `height` render.
-pub fn size(width: u32, height: u32) -> (u32, u32) {
-    let longest = width.max(height);
-    if longest <= SIDE {
-        return (width, height);
+/// Each candidate's image size and samples per pixel for a `width` x `height` render
+/// of `final_spp` (`u32::MAX` when a time or error target ends it: sized as for
+/// [`OPEN_ENDED_SPP`]). A candidate gets a [`SIZED_FOR`]th of the pilot's
+/// [`BUDGET`] of the run's paths: at the run's own resolution, with as many samples
+/// as that allows within [`MIN_SPP`]–[`MAX_SPP`] (a multiple of the replicates), or
+/// where even [`MIN_SPP`] would be over, at [`MIN_SPP`] on the image shrunk to fit
+/// (aspect ratio kept, at least [`MIN_PIXELS`] or the whole image).
+///
+/// The resolution matters more than the samples: a pixel's noise mixes what every
+/// strategy shares (the edges of directly seen lights, which weigh more in larger
+/// pixels) with what they differ in, and the speeds differ by resolution too. At
+/// 600×600 `nee-mis` is 2.4x the mixture's efficiency on the Cornell boxes; on a
+/// 64×64 image it measured 0.96–1.54x (its samples 1.8–2.9x the mixture's time, 2.0x
+/// at 600×600). Under `converge` at each scene's own size, the ranking at 16 spp
+/// already was the ranking at 256 on the Cornell boxes, Veach's scene and the sky.
+pub fn shape(width: u32, height: u32, final_spp: u32) -> ((u32, u32), u32) {
+    let run_spp = if final_spp == u32::MAX {
+        OPEN_ENDED_SPP
+    } else {
+        final_spp
+    };
+    let pixels = width as f64 * height as f64;
+    let paths = BUDGET * pixels * run_spp as f64 / SIZED_FOR as f64;
+    let spp = ((paths / pixels) as u32).clamp(MIN_SPP, MAX_SPP) / REPLICATES * REPLICATES;
+    let fitting = (paths / MIN_SPP as f64).max(MIN_PIXELS as f64);
+    if fitting >= pixels {
+        return ((width, height), spp);
     }
-    let side = |s: u32| ((s as f64 * SIDE as f64 / longest as f64).round() as u32).max(1);
-    (side(width), side(height))
-}
-
-/// Samples per pixel of each candidate for a run of `final_spp` (`u32::MAX` when a
-/// time or error target ends it): the run's own count within [`MIN_SPP`, `MAX_SPP`],
-/// a multiple of the replicates. Under the Sobol sampler the error falls faster than
-/// `1/sqrt(n)`, by how much depends on the strategy, so the ranking is measured near
-/// the run's sample count.
-pub fn spp(final_spp: u32) -> u32 {
-    final_spp.clamp(MIN_SPP, MAX_SPP) / REPLICATES * REPLICATES
+    let scale = (fitting / pixels).sqrt();
+    let side = |s: u32| ((s as f64 * scale).round() as u32).max(1);
+    ((side(width), side(height)), MIN_SPP)
 }
 
 /// The first candidates for `scene`, in the order measured: `mixture` at
@@ -73,8 +92,10 @@ pub fn first_candidates(scene: &Scene) -> Result<Vec<Variant>, RenderError> {
 pub struct Row {
     pub variant: Variant,
     pub spp: u32,
-    /// Time of the pilot's samples: the pipeline's compilation and first two
-    /// one-sample dispatches (where lavapipe compiles) are not counted.
+    /// Time of the pilot's samples, in one submission where the loop budget allows
+    /// (`Renderer::advance_in_one`): the pipeline's compilation and two one-sample
+    /// dispatches of a row (where lavapipe compiles; `Renderer::compile`) are not
+    /// counted.
     pub seconds: f64,
     /// Wall time before those samples: building the renderer and the two warm-up
     /// dispatches, mostly the kernel's compilation (little with a warm shader cache).
@@ -97,7 +118,8 @@ pub struct Pilot {
     /// Candidates left unmeasured: the pilot had spent its [`BUDGET`].
     pub skipped: Vec<Variant>,
     pub choice: Variant,
-    /// Wall time of the whole pilot: pipelines, warm-up, samples and readbacks.
+    /// Wall time of the pilot's candidates: pipelines, warm-up, samples and readbacks
+    /// (not the scene's first packing, which the run reuses).
     pub seconds: f64,
 }
 
@@ -153,12 +175,10 @@ pub fn measure(
         ..options.clone()
     };
     let mut renderer = Renderer::new(ctx, &scene, &options)?;
-    // lavapipe compiles at the first dispatch, sometimes again at the second.
-    renderer.advance(1);
-    renderer.advance(1);
-    renderer.reset();
+    renderer.compile();
     let build_seconds = built.elapsed().as_secs_f64();
     let started = Instant::now();
+    renderer.advance_in_one(spp);
     while renderer.samples() < spp {
         renderer.advance(spp - renderer.samples());
     }
@@ -189,10 +209,11 @@ pub fn run(
     final_spp: u32,
     mut on_row: impl FnMut(&Row),
 ) -> Result<Pilot, RenderError> {
-    let started = Instant::now();
-    let (width, height) = size(scene.camera.width, scene.camera.height);
-    let spp = spp(final_spp);
+    let ((width, height), spp) = shape(scene.camera.width, scene.camera.height, final_spp);
     let candidates = first_candidates(scene)?;
+    // Timed from here: packing the scene once (`first_candidates`; a rough coat's
+    // tables, about 1.4 s for Veach's scene) is work the run reuses.
+    let started = Instant::now();
     let mut rows: Vec<Row> = Vec::new();
     let mut skipped = Vec::new();
     // The run's time at the best candidate's speed (unknown for an open-ended run).
@@ -278,22 +299,22 @@ mod tests {
     }
 
     #[test]
-    fn the_pilot_image_keeps_the_aspect_ratio_within_the_side() {
-        assert_eq!(size(600, 600), (64, 64));
-        assert_eq!(size(768, 512), (64, 43));
-        assert_eq!(size(400, 225), (64, 36));
-        assert_eq!(size(225, 400), (36, 64));
-        assert_eq!(size(32, 32), (32, 32));
-        assert_eq!(size(4000, 10), (64, 1));
-    }
-
-    #[test]
-    fn pilot_samples_follow_the_run_within_bounds_in_whole_replicates() {
-        assert_eq!(spp(1000), MAX_SPP);
-        assert_eq!(spp(u32::MAX), MAX_SPP);
-        assert_eq!(spp(64), 64);
-        assert_eq!(spp(30), 28);
-        assert_eq!(spp(1), MIN_SPP);
+    fn the_pilot_renders_at_the_runs_resolution_where_its_budget_allows() {
+        // A third of 10% of a 256-spp run: 8.5 spp at the run's size, whole replicates.
+        assert_eq!(shape(768, 512, 256), ((768, 512), 8));
+        assert_eq!(shape(600, 600, 256), ((600, 600), 8));
+        assert_eq!(shape(600, 600, u32::MAX), ((600, 600), 8));
+        // Longer runs: more samples, up to the most.
+        assert_eq!(shape(600, 600, 1024), ((600, 600), 32));
+        assert_eq!(shape(600, 600, 1 << 20), ((600, 600), MAX_SPP));
+        // Shorter: the image shrunk to what 8 spp allows, its aspect ratio kept.
+        assert_eq!(shape(600, 600, 64), ((310, 310), MIN_SPP));
+        assert_eq!(shape(768, 512, 64), ((397, 264), MIN_SPP));
+        // At least 64×64 pixels, or the whole of a smaller image.
+        assert_eq!(shape(600, 600, 1), ((64, 64), MIN_SPP));
+        assert_eq!(shape(4000, 10, 1), ((1280, 3), MIN_SPP));
+        assert_eq!(shape(32, 32, 1), ((32, 32), MIN_SPP));
+        assert_eq!(shape(32, 32, 256), ((32, 32), 8));
         assert_eq!(MIN_SPP % REPLICATES, 0);
         assert_eq!(MAX_SPP % REPLICATES, 0);
     }

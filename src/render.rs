@@ -476,6 +476,19 @@ impl<'a> Renderer<'a> {
         samples
     }
 
+    /// As `advance`, in one submission of all `max_samples` where the loop budget
+    /// of a dispatch allows, however fast the last ones were: for a caller timing a
+    /// few short runs (`pilot::measure`). From the first size (2^18 paths) the size
+    /// takes several submissions to adapt, and each costs a pass over every
+    /// accumulator layer: 8 samples of the Cornell boxes at 600×600 with the variance
+    /// sums ran at 6 M paths/s that way, 14–16 M paths/s in one submission.
+    pub fn advance_in_one(&mut self, max_samples: u32) -> u32 {
+        let (width, height) = self.size();
+        let paths = width as u64 * height as u64 * max_samples as u64;
+        self.paths_per_submission = self.paths_per_submission.max(paths);
+        self.advance(max_samples)
+    }
+
     /// Renders until the pipeline is compiled and the submission size has adapted,
     /// then starts the accumulation over, so that timed samples pay for neither:
     /// lavapipe compiles the kernel at its first dispatch, sometimes again at the
@@ -502,6 +515,23 @@ impl<'a> Renderer<'a> {
             {
                 break;
             }
+        }
+        self.reset();
+    }
+
+    /// Compiles the pipeline at the cost of two samples of one row (lavapipe compiles
+    /// at the first dispatch, sometimes again at the second), then starts the
+    /// accumulation over: for a caller that times its first samples without the
+    /// size of its submissions settled (`pilot::measure`). A uniform renderer's.
+    pub fn compile(&mut self) {
+        assert!(
+            self.adaptive.is_none(),
+            "an adaptive renderer's rounds are its own"
+        );
+        let width = self.size().0;
+        for _ in 0..2 {
+            self.dispatch([0, 0], [width, 1], 1);
+            self.wait();
         }
         self.reset();
     }

@@ -159,7 +159,8 @@ pub enum StrategyArg {
     /// Next-event estimation (shadow rays to emitters) with multiple importance sampling.
     NeeMis,
     /// Chosen by a short pilot: bsdf, nee-mis and mixture (light weights 0.25, 0.5,
-    /// 0.75) rendered at low resolution, the most efficient kept.
+    /// 0.75) rendered with a few samples, at the run's resolution where its budget
+    /// allows, the most efficient kept.
     Auto,
 }
 
