@@ -2,7 +2,9 @@
 //! at the run's own resolution where its budget allows, estimates each one's
 //! relative error from its own per-pixel error estimate (the Sobol replicates'
 //! spread, or the sample variance), and ranks them by efficiency `1 / (relative MSE
-//! × seconds)`, as `converge` ranks them against a reference.
+//! × seconds)`, as `converge` ranks them against a reference. Where the pilot renders
+//! the run's own image and first sample indices, the chosen candidate's samples are
+//! the run's first ones ([`Pilot::samples`]): only the others cost time.
 //!
 //! Candidates: `bsdf`; `nee-mis` where something emits; the mixture at weight 0.5
 //! where anything is aimed at, and at 0.25 and 0.75 only when 0.5 beats the others
@@ -10,10 +12,11 @@
 //! pilot's samples). `light` is biased and never a candidate. Like the rest of the
 //! engine, this module prints nothing.
 
+use crate::adaptive;
 use crate::converge::{Variant, rms, short_number};
 use crate::gpu::GpuContext;
 use crate::gpu::accumulator::REPLICATES;
-use crate::render::{self, RenderError, RenderOptions, Renderer, prepare_scene};
+use crate::render::{self, AccumulatorState, RenderError, RenderOptions, Renderer, prepare_scene};
 use crate::scene::{Scene, Strategy};
 use crate::stats::{self, Accumulation};
 use std::fmt::Write as _;
@@ -106,6 +109,14 @@ pub struct Row {
     pub efficiency: Option<f64>,
 }
 
+/// A candidate's samples, for a run to start from (`Renderer::start_from`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Samples {
+    pub state: AccumulatorState,
+    /// Of them, the samples the kernel found NaN or infinite and counted as zero.
+    pub discarded: u64,
+}
+
 /// The pilot's result.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pilot {
@@ -118,6 +129,12 @@ pub struct Pilot {
     /// Candidates left unmeasured: the pilot had spent its [`BUDGET`].
     pub skipped: Vec<Variant>,
     pub choice: Variant,
+    /// The chosen candidate's sums, where the run can start from them
+    /// (`Renderer::start_from`): the pilot rendered the run's image at no more samples
+    /// than the run's, and, for an adaptive run, no more than its own pilot's
+    /// ([`adaptive::PILOT_SAMPLES`]). Its samples are those the run would trace first
+    /// (same sample indices, seed and strategy; the variance sums change no other sum).
+    pub samples: Option<Samples>,
     /// Wall time of the pilot's candidates: pipelines, warm-up, samples and readbacks
     /// (not the scene's first packing, which the run reuses).
     pub seconds: f64,
@@ -151,7 +168,8 @@ pub fn best(rows: &[Row]) -> Option<&Row> {
 }
 
 /// Renders `variant` of `scene` at `width` x `height` and `spp`, with `options`
-/// (variance on, for the error estimate): the row, and the sums it came from.
+/// (variance on, for the error estimate; uniform): the row, the sums it came from,
+/// and the samples as the device holds them.
 pub fn measure(
     ctx: &GpuContext,
     scene: &Scene,
@@ -159,7 +177,7 @@ pub fn measure(
     variant: Variant,
     (width, height): (u32, u32),
     spp: u32,
-) -> Result<(Row, Accumulation), RenderError> {
+) -> Result<(Row, Accumulation, Samples), RenderError> {
     let mut scene = scene.clone();
     scene.camera.width = width;
     scene.camera.height = height;
@@ -172,6 +190,7 @@ pub fn measure(
     let built = Instant::now();
     let options = RenderOptions {
         variance: true,
+        adaptive: false,
         ..options.clone()
     };
     let mut renderer = Renderer::new(ctx, &scene, &options)?;
@@ -183,8 +202,8 @@ pub fn measure(
         renderer.advance(spp - renderer.samples());
     }
     let seconds = started.elapsed().as_secs_f64();
-    renderer.check_counters()?;
-    let accumulation = renderer.accumulation();
+    let discarded = renderer.check_counters()?.discarded as u64;
+    let (state, accumulation) = renderer.state_and_accumulation();
     render::check_sums_finite(&accumulation)?;
     let relative_error = relative_noise(&accumulation);
     let row = Row {
@@ -195,7 +214,7 @@ pub fn measure(
         relative_error,
         efficiency: efficiency(relative_error, seconds),
     };
-    Ok((row, accumulation))
+    Ok((row, accumulation, Samples { state, discarded }))
 }
 
 /// Runs the pilot for a render of `scene` (its size) at `final_spp` samples per pixel
@@ -210,12 +229,17 @@ pub fn run(
     mut on_row: impl FnMut(&Row),
 ) -> Result<Pilot, RenderError> {
     let ((width, height), spp) = shape(scene.camera.width, scene.camera.height, final_spp);
+    let reusable = (width, height) == (scene.camera.width, scene.camera.height)
+        && spp <= final_spp
+        && (!options.adaptive || spp <= adaptive::PILOT_SAMPLES);
     let candidates = first_candidates(scene)?;
     // Timed from here: packing the scene once (`first_candidates`; a rough coat's
     // tables, about 1.4 s for Veach's scene) is work the run reuses.
     let started = Instant::now();
     let mut rows: Vec<Row> = Vec::new();
     let mut skipped = Vec::new();
+    // The best candidate's sums so far, where the run can start from them.
+    let mut samples = None;
     // The run's time at the best candidate's speed (unknown for an open-ended run).
     let pixels = |w: u32, h: u32| w as f64 * h as f64;
     let scale = pixels(scene.camera.width, scene.camera.height) * final_spp as f64
@@ -228,9 +252,12 @@ pub fn run(
                 skipped.push(variant);
                 continue;
             }
-            let (row, _) = measure(ctx, scene, options, variant, (width, height), spp)?;
+            let (row, _, measured) = measure(ctx, scene, options, variant, (width, height), spp)?;
             on_row(&row);
             rows.push(row);
+            if reusable && best(rows).map(|r| r.variant) == Some(variant) {
+                samples = Some(measured);
+            }
         }
         Ok(())
     };
@@ -249,6 +276,7 @@ pub fn run(
         rows,
         skipped,
         choice,
+        samples,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
@@ -355,6 +383,7 @@ mod tests {
             ],
             skipped: Vec::new(),
             choice: Variant::BSDF,
+            samples: None,
             seconds: 3.5,
         };
         let text = table(&pilot);

@@ -678,10 +678,21 @@ impl<'a> Renderer<'a> {
 
     /// The sums so far, in f64 (each running sum minus its compensation).
     pub fn accumulation(&self) -> Accumulation {
+        self.accumulation_of(&self.accumulator.read(self.ctx))
+    }
+
+    /// `export_state` and `accumulation` from one readback.
+    pub fn state_and_accumulation(&self) -> (AccumulatorState, Accumulation) {
+        let state = self.export_state();
+        let accumulation = self.accumulation_of(&state.texels);
+        (state, accumulation)
+    }
+
+    /// The sums in `texels`, this renderer's accumulator read back.
+    fn accumulation_of(&self, texels: &[[f32; 4]]) -> Accumulation {
         let (width, height) = self.size();
         let pixels = width as usize * height as usize;
-        let texels = self.accumulator.read(self.ctx);
-        let layer = |sum| compensated_sums(&texels, pixels, sum, sum + 1).collect::<Vec<_>>();
+        let layer = |sum| compensated_sums(texels, pixels, sum, sum + 1).collect::<Vec<_>>();
         let config = &self.kernel.config;
         let sum = layer(LAYER_SUM);
         // Adaptive: each pixel's own count decides its replicates' (`counts`).
@@ -781,6 +792,46 @@ impl<'a> Renderer<'a> {
         self.first_sample = state.first_sample;
         self.samples = state.samples;
         Ok(())
+    }
+
+    /// Starts the run from the first samples of another renderer of the same image,
+    /// sample indices and settings but maybe more accumulator layers (the pilot's
+    /// with the variance sums, `pilot::Pilot::samples`): the layers come in one
+    /// order whatever follows them, so this renderer's are a prefix of those. An
+    /// adaptive renderer takes them as the start of its pilot, every pixel at
+    /// `state.samples` and no round begun. Only before the first sample, from a
+    /// uniform renderer's state from sample index 0.
+    pub fn start_from(&mut self, state: &AccumulatorState) -> Result<(), RenderError> {
+        assert!(
+            state.adaptive.is_none() && state.first_sample == 0,
+            "a uniform run's first samples"
+        );
+        if self.samples > 0 {
+            return Err(RenderError::FirstSampleAfterRendering);
+        }
+        let layers = self.accumulator.layers.min(state.layers);
+        let pixels = state.width as usize * state.height as usize;
+        let start = AccumulatorState {
+            width: state.width,
+            height: state.height,
+            layers,
+            first_sample: 0,
+            samples: state.samples,
+            texels: state
+                .texels
+                .iter()
+                .take(layers as usize * pixels)
+                .copied()
+                .collect(),
+            adaptive: self.adaptive.as_ref().map(|_| AdaptiveState {
+                counts: vec![state.samples; pixels],
+                round: Vec::new(),
+                round_samples: 0,
+                round_done: 0,
+                choice: None,
+            }),
+        };
+        self.import_state(&start)
     }
 
     /// The counters, refused when the driver cut invocations short: the sums are

@@ -142,7 +142,7 @@ fn estimated_efficiencies_agree_with_ones_measured_against_a_reference() {
                 let mut scene = common::small_cornell_boxes(64, sampler);
                 scene.render.seed = seed;
                 let options = RenderOptions::default();
-                let (row, accumulation) =
+                let (row, accumulation, _) =
                     pilot::measure(ctx, &scene, &options, variant, (64, 64), 64).unwrap();
                 let error = stats::relative_rmse(&accumulation.mean(), &reference).unwrap();
                 let estimate = row.relative_error.unwrap();
@@ -300,5 +300,70 @@ fn auto_with_shards_or_a_light_weight_is_refused() {
         assert_eq!(output.status.code(), Some(2), "{flag}: {stderr}");
         assert!(stderr.contains(flag) && stderr.contains("auto"), "{stderr}");
         assert!(!out.exists());
+    }
+}
+
+/// Where the pilot renders the run's own image, the chosen candidate's samples are
+/// the run's first ones: the run traces only the rest, and its image is the image of
+/// a run given the chosen strategy, bit for bit, uniform or adaptive (the adaptive
+/// run's own pilot goes on from them). The variance sums the pilot adds are dropped
+/// where the run has none.
+#[test]
+fn the_chosen_candidates_pilot_samples_start_the_run() {
+    let _ctx = gpu_or_skip!();
+    let dir = temp_dir("reuse");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml");
+    // 24×24 at 256 spp: the pilot's 8 spp per candidate fit at the run's size.
+    assert_eq!(pilot::shape(24, 24, 256), ((24, 24), 8));
+    let small = [
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--max-depth",
+        "6",
+        "--spp",
+        "256",
+    ];
+    let png = dir.join("x.png");
+    for adaptive in [false, true] {
+        let extra: &[&str] = if adaptive { &["--adaptive"] } else { &[] };
+        let auto_exr = dir.join(format!("auto-{adaptive}.exr"));
+        let mut args = vec!["render", p(&scene), "--strategy", "auto"];
+        args.extend(["-o", p(&png), "--exr", p(&auto_exr)]);
+        args.extend(small);
+        args.extend(extra);
+        let output = pathmix(&args);
+        let stderr = text(&output.stderr);
+        assert!(output.status.success(), "{stderr}");
+        let chosen = stderr
+            .lines()
+            .find_map(|l| l.strip_prefix("chose "))
+            .unwrap_or_else(|| panic!("{stderr}"))
+            .to_string();
+        assert!(
+            stderr.contains(&format!(
+                "the pilot's 8 spp of {chosen} are the run's first samples"
+            )),
+            "{stderr}"
+        );
+        let variant = Variant::parse(&chosen).unwrap();
+        let direct_exr = dir.join(format!("direct-{adaptive}.exr"));
+        let mut direct = vec!["render", p(&scene), "--strategy", variant.strategy.name()];
+        let weight = variant.light_weight.map(|w| w.to_string());
+        if let Some(w) = &weight {
+            direct.extend(["--light-weight", w]);
+        }
+        direct.extend(["-o", p(&png), "--exr", p(&direct_exr)]);
+        direct.extend(small);
+        direct.extend(extra);
+        let output = pathmix(&direct);
+        assert!(output.status.success(), "{}", text(&output.stderr));
+        let auto = pathmix::output::read_exr(&auto_exr).unwrap();
+        let direct = pathmix::output::read_exr(&direct_exr).unwrap();
+        assert!(
+            auto.pixels == direct.pixels,
+            "adaptive {adaptive}: an auto run differs from a run given its choice ({chosen})"
+        );
     }
 }

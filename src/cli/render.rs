@@ -784,7 +784,12 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
                 args.resume.as_ref().unwrap().display()
             ))
         })?,
-        None => renderer.set_first_sample(plan.first_sample)?,
+        None => match pilot.as_ref().and_then(|p| p.samples.as_ref()) {
+            Some(samples) => renderer
+                .start_from(&samples.state)
+                .map_err(Failure::runtime)?,
+            None => renderer.set_first_sample(plan.first_sample)?,
+        },
     }
     for warning in &renderer.warnings {
         eprintln!("pathmix: warning: {warning}");
@@ -815,7 +820,15 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             checkpoint::hex(plan.identity.hash())
         );
     }
-    let saved_discarded = plan.resume.as_ref().map_or(0, |c| c.discarded);
+    // Samples already in the sums (a resumed run's, or the pilot's) and discarded there.
+    let saved_discarded = match (
+        &plan.resume,
+        pilot.as_ref().and_then(|p| p.samples.as_ref()),
+    ) {
+        (Some(c), _) => c.discarded,
+        (None, Some(samples)) => samples.discarded,
+        (None, None) => 0,
+    };
     let mut display = ProgressDisplay::new(args.quiet);
     let mut first_sample = None;
     let (mut last_checkpoint, mut last_preview) = (Instant::now(), Instant::now());
@@ -987,6 +1000,12 @@ fn choose_strategy(
                 pilot::table(&pilot),
                 pilot.choice
             ),
+        }
+        if pilot.samples.is_some() {
+            eprintln!(
+                "the pilot's {} spp of {} are the run's first samples",
+                pilot.spp, pilot.choice
+            );
         }
         if !pilot.skipped.is_empty() {
             let names: Vec<String> = pilot.skipped.iter().map(|v| v.name()).collect();
