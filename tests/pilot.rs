@@ -10,6 +10,14 @@ use pathmix::scene::{Sampler, Scene, Strategy};
 use pathmix::stats;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::{Mutex, MutexGuard};
+
+/// The pilot's choices rest on timings of a few milliseconds, which another test's
+/// renders beside them would distort: this file's GPU tests run one at a time.
+fn one_at_a_time() -> MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
 
 /// A diffuse floor and a diffuse ball seen from above, lit by `light` (objects and
 /// their materials, TOML), which the camera does not see: every pixel's noise is
@@ -60,6 +68,7 @@ fn efficiency(pilot: &Pilot, variant: Variant) -> f64 {
 #[test]
 fn a_tiny_bright_light_is_won_by_aiming_at_it() {
     let _ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     for sampler in [Sampler::Sobol, Sampler::Independent] {
         let mut scene = lit_floor(TINY_BRIGHT_LIGHT);
         scene.render.sampler = sampler;
@@ -82,6 +91,7 @@ fn a_tiny_bright_light_is_won_by_aiming_at_it() {
 #[test]
 fn a_large_dim_emitter_is_won_by_bsdf_sampling() {
     let _ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     for sampler in [Sampler::Sobol, Sampler::Independent] {
         let mut scene = lit_floor(LARGE_DIM_EMITTER);
         scene.render.sampler = sampler;
@@ -100,6 +110,7 @@ fn a_large_dim_emitter_is_won_by_bsdf_sampling() {
 #[test]
 fn without_lights_bsdf_is_chosen_without_a_pilot() {
     let _ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     let mut scene = lit_floor("");
     scene.render.background = glam::Vec3::ONE;
     let pilot = run_pilot(&scene);
@@ -107,10 +118,11 @@ fn without_lights_bsdf_is_chosen_without_a_pilot() {
 }
 
 /// On a run far shorter than building a kernel (8×8 pixels, 1 spp), the pilot stops
-/// after its first candidate, the default mixture, and keeps it.
+/// after its first candidate, the mixture at the first weight, and keeps it.
 #[test]
 fn the_pilot_of_a_tiny_run_stops_at_its_budget() {
     let ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     let mut scene = lit_floor(TINY_BRIGHT_LIGHT);
     (scene.camera.width, scene.camera.height) = (8, 8);
     let pilot = pilot::run(ctx, &scene, &RenderOptions::default(), 1, |_| {}).unwrap();
@@ -129,6 +141,7 @@ fn the_pilot_of_a_tiny_run_stops_at_its_budget() {
 #[test]
 fn estimated_efficiencies_agree_with_ones_measured_against_a_reference() {
     let ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     let mut reference_scene = common::small_cornell_boxes(64, Sampler::Sobol);
     reference_scene.render.seed = 12;
     reference_scene.render.strategy = Strategy::NeeMis;
@@ -165,6 +178,7 @@ fn estimated_efficiencies_agree_with_ones_measured_against_a_reference() {
 #[test]
 fn an_unresolved_auto_strategy_is_refused() {
     let ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     let mut scene = lit_floor(TINY_BRIGHT_LIGHT);
     scene.render.auto_strategy = true;
     let error = Renderer::new(ctx, &scene, &Default::default())
@@ -206,6 +220,7 @@ fn text(bytes: &[u8]) -> String {
 #[test]
 fn auto_in_the_scene_file_prints_its_choice_and_resumes_without_a_pilot() {
     let _ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     let dir = temp_dir("resume");
     let cornell = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml");
     let source = std::fs::read_to_string(&cornell).unwrap();
@@ -311,6 +326,7 @@ fn auto_with_shards_or_a_light_weight_is_refused() {
 #[test]
 fn the_chosen_candidates_pilot_samples_start_the_run() {
     let _ctx = gpu_or_skip!();
+    let _alone = one_at_a_time();
     let dir = temp_dir("reuse");
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml");
     // 24×24 at 256 spp: the pilot's 8 spp per candidate fit at the run's size.
