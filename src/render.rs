@@ -801,7 +801,7 @@ impl<'a> Renderer<'a> {
     /// adaptive renderer takes them as the start of its pilot, every pixel at
     /// `state.samples` and no round begun. Only before the first sample, from a
     /// uniform renderer's state from sample index 0.
-    pub fn start_from(&mut self, state: &AccumulatorState) -> Result<(), RenderError> {
+    pub fn start_from(&mut self, mut state: AccumulatorState) -> Result<(), RenderError> {
         assert!(
             state.adaptive.is_none() && state.first_sample == 0,
             "a uniform run's first samples"
@@ -809,29 +809,17 @@ impl<'a> Renderer<'a> {
         if self.samples > 0 {
             return Err(RenderError::FirstSampleAfterRendering);
         }
-        let layers = self.accumulator.layers.min(state.layers);
         let pixels = state.width as usize * state.height as usize;
-        let start = AccumulatorState {
-            width: state.width,
-            height: state.height,
-            layers,
-            first_sample: 0,
-            samples: state.samples,
-            texels: state
-                .texels
-                .iter()
-                .take(layers as usize * pixels)
-                .copied()
-                .collect(),
-            adaptive: self.adaptive.as_ref().map(|_| AdaptiveState {
-                counts: vec![state.samples; pixels],
-                round: Vec::new(),
-                round_samples: 0,
-                round_done: 0,
-                choice: None,
-            }),
-        };
-        self.import_state(&start)
+        state.layers = self.accumulator.layers.min(state.layers);
+        state.texels.truncate(state.layers as usize * pixels);
+        state.adaptive = self.adaptive.as_ref().map(|_| AdaptiveState {
+            counts: vec![state.samples; pixels],
+            round: Vec::new(),
+            round_samples: 0,
+            round_done: 0,
+            choice: None,
+        });
+        self.import_state(&state)
     }
 
     /// The counters, refused when the driver cut invocations short: the sums are

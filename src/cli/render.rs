@@ -768,10 +768,13 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         adaptive: plan.adaptive,
         ..Default::default()
     };
-    let pilot = match plan.scene.render.auto_strategy {
+    let mut pilot = match plan.scene.render.auto_strategy {
         true => Some(choose_strategy(&ctx, &mut plan, &options, quiet)?),
         false => None,
     };
+    // The chosen candidate's samples, moved into the run's sums.
+    let pilot_samples = pilot.as_mut().and_then(|p| p.samples.take());
+    let pilot_discarded = pilot_samples.as_ref().map(|s| s.discarded);
     let plan = plan;
     let scene = &plan.scene;
     let stop = plan.stop;
@@ -784,9 +787,9 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
                 args.resume.as_ref().unwrap().display()
             ))
         })?,
-        None => match pilot.as_ref().and_then(|p| p.samples.as_ref()) {
+        None => match pilot_samples {
             Some(samples) => renderer
-                .start_from(&samples.state)
+                .start_from(samples.state)
                 .map_err(Failure::runtime)?,
             None => renderer.set_first_sample(plan.first_sample)?,
         },
@@ -821,12 +824,9 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         );
     }
     // Samples already in the sums (a resumed run's, or the pilot's) and discarded there.
-    let saved_discarded = match (
-        &plan.resume,
-        pilot.as_ref().and_then(|p| p.samples.as_ref()),
-    ) {
+    let saved_discarded = match (&plan.resume, pilot_discarded) {
         (Some(c), _) => c.discarded,
-        (None, Some(samples)) => samples.discarded,
+        (None, Some(discarded)) => discarded,
         (None, None) => 0,
     };
     let mut display = ProgressDisplay::new(args.quiet);
