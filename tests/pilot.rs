@@ -210,6 +210,27 @@ fn p(path: &Path) -> &str {
     path.to_str().unwrap()
 }
 
+/// The variant on the pilot's `chose VARIANT` line of `stderr`.
+fn chosen(stderr: &str) -> Variant {
+    let name = stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("chose "))
+        .unwrap_or_else(|| panic!("{stderr}"));
+    Variant::parse(name).unwrap()
+}
+
+/// The flags that give `variant` to a render.
+fn strategy_flags(variant: Variant) -> Vec<String> {
+    let mut flags = vec![
+        "--strategy".to_string(),
+        variant.strategy.name().to_string(),
+    ];
+    if let Some(w) = variant.light_weight {
+        flags.extend(["--light-weight".to_string(), w.to_string()]);
+    }
+    flags
+}
+
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
@@ -242,12 +263,8 @@ fn auto_in_the_scene_file_prints_its_choice_and_resumes_without_a_pilot() {
     assert!(output.status.success(), "{stderr}");
     assert!(stderr.contains("strategy auto: pilot of "), "{stderr}");
     assert!(stderr.contains("candidate"), "{stderr}");
-    let chosen = stderr
-        .lines()
-        .find_map(|l| l.strip_prefix("chose "))
-        .unwrap_or_else(|| panic!("{stderr}"))
-        .to_string();
-    let variant = Variant::parse(&chosen).unwrap();
+    let variant = chosen(&stderr);
+    let chosen = variant.name();
     assert!(
         stdout.contains(&format!("strategy auto: {chosen} (pilot of ")),
         "{stdout}"
@@ -277,12 +294,9 @@ fn auto_in_the_scene_file_prints_its_choice_and_resumes_without_a_pilot() {
     );
 
     let (direct_exr, direct_png) = (dir.join("direct.exr"), dir.join("direct.png"));
-    let mut direct = vec!["render", p(&scene), "--spp", "12", "--strategy"];
-    direct.push(variant.strategy.name());
-    let weight = variant.light_weight.map(|w| w.to_string());
-    if let Some(w) = &weight {
-        direct.extend(["--light-weight", w]);
-    }
+    let flags = strategy_flags(variant);
+    let mut direct = vec!["render", p(&scene), "--spp", "12"];
+    direct.extend(flags.iter().map(String::as_str));
     direct.extend(small);
     direct.extend(["--exr", p(&direct_exr), "-o", p(&direct_png)]);
     let output = pathmix(&direct);
@@ -352,24 +366,18 @@ fn the_chosen_candidates_pilot_samples_start_the_run() {
         let output = pathmix(&args);
         let stderr = text(&output.stderr);
         assert!(output.status.success(), "{stderr}");
-        let chosen = stderr
-            .lines()
-            .find_map(|l| l.strip_prefix("chose "))
-            .unwrap_or_else(|| panic!("{stderr}"))
-            .to_string();
+        let variant = chosen(&stderr);
+        let chosen = variant.name();
         assert!(
             stderr.contains(&format!(
                 "the pilot's 8 spp of {chosen} are the run's first samples"
             )),
             "{stderr}"
         );
-        let variant = Variant::parse(&chosen).unwrap();
         let direct_exr = dir.join(format!("direct-{adaptive}.exr"));
-        let mut direct = vec!["render", p(&scene), "--strategy", variant.strategy.name()];
-        let weight = variant.light_weight.map(|w| w.to_string());
-        if let Some(w) = &weight {
-            direct.extend(["--light-weight", w]);
-        }
+        let flags = strategy_flags(variant);
+        let mut direct = vec!["render", p(&scene)];
+        direct.extend(flags.iter().map(String::as_str));
         direct.extend(["-o", p(&png), "--exr", p(&direct_exr)]);
         direct.extend(small);
         direct.extend(extra);
