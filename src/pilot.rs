@@ -13,12 +13,13 @@
 //! engine, this module prints nothing.
 
 use crate::adaptive;
-use crate::converge::{Variant, rms, short_number};
+use crate::converge::{Variant, short_number};
 use crate::gpu::GpuContext;
 use crate::gpu::accumulator::REPLICATES;
-use crate::render::{self, AccumulatorState, RenderError, RenderOptions, Renderer, prepare_scene};
+use crate::gpu::error_estimate::ErrorSums;
+use crate::render::{self, RenderError, RenderOptions, Renderer, prepare_scene};
 use crate::scene::{Scene, Strategy};
-use crate::stats::{self, Accumulation};
+
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -113,16 +114,14 @@ pub struct Row {
 }
 
 /// A candidate's samples, for a run to start from (`Renderer::start_from`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Samples {
-    pub state: AccumulatorState,
+pub struct Samples<'a> {
+    pub renderer: Renderer<'a>,
     /// Of them, the samples the kernel found NaN or infinite and counted as zero.
     pub discarded: u64,
 }
 
 /// The pilot's result.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Pilot {
+pub struct Pilot<'a> {
     pub width: u32,
     pub height: u32,
     /// Samples per pixel of each candidate.
@@ -137,21 +136,20 @@ pub struct Pilot {
     /// than the run's, and, for an adaptive run, no more than its own pilot's
     /// ([`adaptive::PILOT_SAMPLES`]). Its samples are those the run would trace first
     /// (same sample indices, seed and strategy; the variance sums change no other sum).
-    pub samples: Option<Samples>,
+    pub samples: Option<Samples<'a>>,
     /// Wall time of the pilot's candidates: pipelines, warm-up, samples and readbacks
     /// (not the scene's first packing, which the run reuses).
     pub seconds: f64,
 }
 
 /// The relative RMSE the noise explains: the RMS over pixels and channels of the
-/// per-pixel standard error of the mean ([`Accumulation::standard_error`]), over the
-/// mean over pixels and channels of the image. It estimates what `converge` measures
-/// against a reference ([`stats::relative_rmse`]). `None` without an error estimate
-/// or for a black image.
-pub fn relative_noise(accumulation: &Accumulation) -> Option<f64> {
-    let error = accumulation.standard_error()?;
-    let mean = stats::mean_value(&accumulation.mean());
-    (mean > 0.0).then(|| rms(&error) / mean)
+/// per-pixel standard error of the mean ([`crate::stats::Accumulation::standard_error`]),
+/// over the mean over pixels and channels of the image, from their sums
+/// ([`Renderer::error_sums`]). It estimates what `converge` measures against a
+/// reference ([`crate::stats::relative_rmse`]). `None` for a black image.
+pub fn relative_noise(sums: &ErrorSums) -> Option<f64> {
+    let values = sums.values as f64;
+    (sums.mean > 0.0).then(|| (sums.squared_error / values).sqrt() / (sums.mean / values))
 }
 
 /// `1 / (relative_error² × seconds)`.
@@ -171,16 +169,16 @@ pub fn best(rows: &[Row]) -> Option<&Row> {
 }
 
 /// Renders `variant` of `scene` at `width` x `height` and `spp`, with `options`
-/// (variance on, for the error estimate; uniform): the row, the sums it came from,
-/// and the samples as the device holds them.
-pub fn measure(
-    ctx: &GpuContext,
+/// (variance on, for the error estimate; uniform): the row and the samples, on the
+/// device.
+pub fn measure<'a>(
+    ctx: &'a GpuContext,
     scene: &Scene,
     options: &RenderOptions,
     variant: Variant,
     (width, height): (u32, u32),
     spp: u32,
-) -> Result<(Row, Accumulation, Samples), RenderError> {
+) -> Result<(Row, Samples<'a>), RenderError> {
     let mut scene = scene.clone();
     scene.camera.width = width;
     scene.camera.height = height;
@@ -206,9 +204,13 @@ pub fn measure(
     }
     let seconds = started.elapsed().as_secs_f64();
     let discarded = renderer.check_counters()?.discarded as u64;
-    let (state, accumulation) = renderer.state_and_accumulation();
-    render::check_sums_finite(&accumulation)?;
-    let relative_error = relative_noise(&accumulation);
+    let sums = renderer.error_sums()?.expect("variance sums");
+    if sums.non_finite > 0 {
+        return Err(RenderError::SumsOverflowed {
+            count: sums.non_finite as usize,
+        });
+    }
+    let relative_error = relative_noise(&sums);
     let row = Row {
         variant,
         spp,
@@ -217,20 +219,26 @@ pub fn measure(
         relative_error,
         efficiency: efficiency(relative_error, seconds),
     };
-    Ok((row, accumulation, Samples { state, discarded }))
+    Ok((
+        row,
+        Samples {
+            renderer,
+            discarded,
+        },
+    ))
 }
 
 /// Runs the pilot for a render of `scene` (its size) at `final_spp` samples per pixel
 /// (`u32::MAX`: a time or error target decides) with `options`, and chooses the
 /// candidate of highest efficiency among those measured within the [`BUDGET`].
 /// `on_row` sees each row as it is measured.
-pub fn run(
-    ctx: &GpuContext,
+pub fn run<'a>(
+    ctx: &'a GpuContext,
     scene: &Scene,
     options: &RenderOptions,
     final_spp: u32,
     mut on_row: impl FnMut(&Row),
-) -> Result<Pilot, RenderError> {
+) -> Result<Pilot<'a>, RenderError> {
     let ((width, height), spp) = shape(scene.camera.width, scene.camera.height, final_spp);
     let reusable = (width, height) == (scene.camera.width, scene.camera.height)
         && spp <= final_spp
@@ -255,7 +263,7 @@ pub fn run(
                 skipped.push(variant);
                 continue;
             }
-            let (row, _, measured) = measure(ctx, scene, options, variant, (width, height), spp)?;
+            let (row, measured) = measure(ctx, scene, options, variant, (width, height), spp)?;
             on_row(&row);
             rows.push(row);
             if reusable && best(rows).map(|r| r.variant) == Some(variant) {

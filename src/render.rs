@@ -6,6 +6,7 @@ use crate::adaptive;
 use crate::gpu::accumulator::{
     Accumulator, LAYER_SQUARES, LAYER_SUM, REPLICATES, compensated_sums, map_read, replicate_layer,
 };
+use crate::gpu::error_estimate::{ErrorEstimator, ErrorSums};
 use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
 use crate::gpu::pipeline::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, Kernel,
@@ -678,21 +679,10 @@ impl<'a> Renderer<'a> {
 
     /// The sums so far, in f64 (each running sum minus its compensation).
     pub fn accumulation(&self) -> Accumulation {
-        self.accumulation_of(&self.accumulator.read(self.ctx))
-    }
-
-    /// `export_state` and `accumulation` from one readback.
-    pub fn state_and_accumulation(&self) -> (AccumulatorState, Accumulation) {
-        let state = self.export_state();
-        let accumulation = self.accumulation_of(&state.texels);
-        (state, accumulation)
-    }
-
-    /// The sums in `texels`, this renderer's accumulator read back.
-    fn accumulation_of(&self, texels: &[[f32; 4]]) -> Accumulation {
+        let texels = self.accumulator.read(self.ctx);
         let (width, height) = self.size();
         let pixels = width as usize * height as usize;
-        let layer = |sum| compensated_sums(texels, pixels, sum, sum + 1).collect::<Vec<_>>();
+        let layer = |sum| compensated_sums(&texels, pixels, sum, sum + 1).collect::<Vec<_>>();
         let config = &self.kernel.config;
         let sum = layer(LAYER_SUM);
         // Adaptive: each pixel's own count decides its replicates' (`counts`).
@@ -794,32 +784,49 @@ impl<'a> Renderer<'a> {
         Ok(())
     }
 
-    /// Starts the run from the first samples of another renderer of the same image,
-    /// sample indices and settings but maybe more accumulator layers (the pilot's
-    /// with the variance sums, `pilot::Pilot::samples`): the layers come in one
-    /// order whatever follows them, so this renderer's are a prefix of those. An
-    /// adaptive renderer takes them as the start of its pilot, every pixel at
-    /// `state.samples` and no round begun. Only before the first sample, from a
-    /// uniform renderer's state from sample index 0.
-    pub fn start_from(&mut self, mut state: AccumulatorState) -> Result<(), RenderError> {
+    /// Starts the run from the samples of `pilot`, a renderer of the same image,
+    /// sample indices, settings and accumulator kind but maybe more accumulator
+    /// layers (the pilot's with the variance sums, `pilot::Pilot::samples`): the
+    /// layers come in one order whatever follows them, so this renderer's are a
+    /// prefix of those, copied on the device. An adaptive renderer takes them as
+    /// the start of its pilot, every pixel at `pilot.samples()` and no round
+    /// begun. Only before the first sample, from a uniform renderer's samples
+    /// from sample index 0.
+    pub fn start_from(&mut self, pilot: &Renderer) -> Result<(), RenderError> {
         assert!(
-            state.adaptive.is_none() && state.first_sample == 0,
+            pilot.adaptive.is_none() && pilot.first_sample == 0,
             "a uniform run's first samples"
+        );
+        assert_eq!(pilot.size(), self.size(), "a pilot of the run's own image");
+        assert!(
+            self.accumulator.layers <= pilot.accumulator.layers,
+            "the pilot's layers hold the run's"
         );
         if self.samples > 0 {
             return Err(RenderError::FirstSampleAfterRendering);
         }
-        let pixels = state.width as usize * state.height as usize;
-        state.layers = self.accumulator.layers.min(state.layers);
-        state.texels.truncate(state.layers as usize * pixels);
-        state.adaptive = self.adaptive.as_ref().map(|_| AdaptiveState {
-            counts: vec![state.samples; pixels],
-            round: Vec::new(),
-            round_samples: 0,
-            round_done: 0,
-            choice: None,
-        });
-        self.import_state(&state)
+        let layers = self.accumulator.layers;
+        self.accumulator
+            .copy_layers_from(self.ctx, &pilot.accumulator, layers);
+        if let Some(adaptive) = &mut self.adaptive {
+            let (width, height) = pilot.size();
+            adaptive.counts = vec![pilot.samples; width as usize * height as usize];
+        }
+        self.samples = pilot.samples;
+        Ok(())
+    }
+
+    /// The error estimate's sums over the image (`gpu::error_estimate`), reduced
+    /// on the device: None without variance sums. A uniform renderer's.
+    pub fn error_sums(&self) -> Result<Option<ErrorSums>, RenderError> {
+        let config = &self.kernel.config;
+        assert!(self.adaptive.is_none(), "a uniform renderer's error");
+        if !config.variance {
+            return Ok(None);
+        }
+        let estimator = ErrorEstimator::new(self.ctx, config)?;
+        let sums = estimator.sums(self.ctx, &self.accumulator, self.first_sample, self.samples);
+        Ok(Some(sums))
     }
 
     /// The counters, refused when the driver cut invocations short: the sums are

@@ -789,7 +789,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         })?,
         None => match pilot_samples {
             Some(samples) => renderer
-                .start_from(samples.state)
+                .start_from(&samples.renderer)
                 .map_err(Failure::runtime)?,
             None => renderer.set_first_sample(plan.first_sample)?,
         },
@@ -974,12 +974,12 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
 /// Runs the pilot (`strategy = "auto"`) and makes its choice the run's: the scene's
 /// strategy and light weight, the overrides a checkpoint records (so that a resume
 /// renders with it, without a pilot) and the scene identity.
-fn choose_strategy(
-    ctx: &GpuContext,
+fn choose_strategy<'a>(
+    ctx: &'a GpuContext,
     plan: &mut Plan,
     options: &RenderOptions,
     quiet: bool,
-) -> Result<Pilot, Failure> {
+) -> Result<Pilot<'a>, Failure> {
     let input = |e: RenderError| Failure::input(with_flag(&e));
     let pilot =
         pilot::run(ctx, &plan.scene, options, plan.stop.max_samples, |_| {}).map_err(input)?;

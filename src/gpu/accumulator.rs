@@ -201,6 +201,40 @@ impl Accumulator {
     }
 }
 
+impl Accumulator {
+    /// Replaces this accumulator's first `layers` layers with `source`'s, on the
+    /// device: `source` is of the same size and kind. The queue orders this
+    /// before any later dispatch.
+    pub fn copy_layers_from(&self, ctx: &GpuContext, source: &Accumulator, layers: u32) {
+        assert_eq!(
+            (self.width, self.height),
+            (source.width, source.height),
+            "accumulators of different sizes"
+        );
+        assert!(layers <= self.layers.min(source.layers), "too many layers");
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        match (&source.storage, &self.storage) {
+            (Storage::Texture { texture: from, .. }, Storage::Texture { texture: to, .. }) => {
+                encoder.copy_texture_to_texture(
+                    from.as_image_copy(),
+                    to.as_image_copy(),
+                    wgpu::Extent3d {
+                        width: self.width,
+                        height: self.height,
+                        depth_or_array_layers: layers,
+                    },
+                )
+            }
+            (Storage::Buffer(from), Storage::Buffer(to)) => {
+                let bytes = Self::layer_bytes(self.width, self.height) * layers as u64;
+                encoder.copy_buffer_to_buffer(from, 0, to, 0, bytes)
+            }
+            _ => panic!("accumulators of different kinds"),
+        }
+        ctx.queue.submit([encoder.finish()]);
+    }
+}
+
 /// Maps `buffer` for reading, waits, and hands its bytes to `read`.
 pub fn map_read<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> T) -> T {
     let (sender, receiver) = std::sync::mpsc::channel();

@@ -2,6 +2,7 @@
 
 pub mod accumulator;
 pub mod context;
+pub mod error_estimate;
 pub mod layout;
 pub mod pipeline;
 

@@ -19,7 +19,7 @@ pub struct Kernel {
     pub scene_layout: wgpu::BindGroupLayout,
 }
 
-fn compute_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+pub(crate) fn compute_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -28,11 +28,23 @@ fn compute_entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEn
     }
 }
 
-fn storage_buffer(read_only: bool) -> wgpu::BindingType {
+pub(crate) fn storage_buffer(read_only: bool) -> wgpu::BindingType {
     wgpu::BindingType::Buffer {
         ty: wgpu::BufferBindingType::Storage { read_only },
         has_dynamic_offset: false,
         min_binding_size: None,
+    }
+}
+
+/// How the accumulator of `kind` is bound (`shaders/accumulate_*.wgsl`).
+pub(crate) fn accumulator_binding(kind: AccumulatorKind) -> wgpu::BindingType {
+    match kind {
+        AccumulatorKind::Texture => wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::ReadWrite,
+            format: wgpu::TextureFormat::Rgba32Float,
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+        },
+        AccumulatorKind::Buffer => storage_buffer(false),
     }
 }
 
@@ -45,14 +57,7 @@ impl Kernel {
                 label: Some("pathmix kernel"),
                 source: wgpu::ShaderSource::Wgsl(source.into()),
             });
-        let accumulator = match config.accumulator {
-            AccumulatorKind::Texture => wgpu::BindingType::StorageTexture {
-                access: wgpu::StorageTextureAccess::ReadWrite,
-                format: wgpu::TextureFormat::Rgba32Float,
-                view_dimension: wgpu::TextureViewDimension::D2Array,
-            },
-            AccumulatorKind::Buffer => storage_buffer(false),
-        };
+        let accumulator = accumulator_binding(config.accumulator);
         let mut frame_entries = vec![
             compute_entry(BINDING_PARAMS, storage_buffer(true)),
             compute_entry(BINDING_ACCUMULATOR, accumulator),

@@ -32,6 +32,7 @@ pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
 pub const DELTA_LIGHTS: ShaderModule = shader_module!("delta_lights");
 pub const TEXTURES: ShaderModule = shader_module!("textures");
+pub const ERROR_ESTIMATE: ShaderModule = shader_module!("error_estimate");
 
 /// Flags that are not a kind's presence flag.
 const FEATURE_FLAGS: &[&str] = &[
@@ -484,12 +485,30 @@ impl KernelConfig {
             modules.push(DELTA_LIGHTS);
         }
         modules.push(STRATEGY);
-        modules.push(match self.accumulator {
-            AccumulatorKind::Texture => ACCUMULATE_TEXTURE,
-            AccumulatorKind::Buffer => ACCUMULATE_BUFFER,
-        });
+        modules.push(self.accumulate_module());
         modules.push(KERNEL);
         modules
+    }
+
+    /// The error estimate's shader over this kernel's accumulator
+    /// (`gpu::error_estimate`).
+    pub fn error_estimate_source(&self) -> Result<String, ComposeError> {
+        let modules = [
+            ShaderModule {
+                name: "constants",
+                source: glue::shared_constants().into(),
+            },
+            self.accumulate_module(),
+            ERROR_ESTIMATE,
+        ];
+        self.compose(&modules)
+    }
+
+    fn accumulate_module(&self) -> ShaderModule {
+        match self.accumulator {
+            AccumulatorKind::Texture => ACCUMULATE_TEXTURE,
+            AccumulatorKind::Buffer => ACCUMULATE_BUFFER,
+        }
     }
 
     /// The BSDF interface, the helpers the material kinds share (each once),
@@ -1620,6 +1639,39 @@ mod tests {
             layout.wgsl_name
         );
         assert_eq!(span as usize, layout.size, "size of {}", layout.wgsl_name);
+    }
+
+    /// The error estimate's shader validates over both accumulators, with and
+    /// without replicates, and its structs are the host's.
+    #[test]
+    fn the_error_estimate_validates_and_matches_the_host() {
+        use crate::gpu::error_estimate::{ERROR_ENTRY_POINT, ErrorStrip, EstimateParams};
+        for sampler in [Sampler::Sobol, Sampler::Independent] {
+            for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
+                let config = KernelConfig {
+                    variance: true,
+                    sampler,
+                    ..KernelConfig::general(Strategy::Mixture, accumulator)
+                };
+                let source = config.error_estimate_source().unwrap();
+                let module = naga::front::wgsl::parse_str(&source)
+                    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+                naga::valid::Validator::new(
+                    naga::valid::ValidationFlags::all(),
+                    naga::valid::Capabilities::all(),
+                )
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{config:?}\n{}", e.emit_to_string(&source)));
+                assert!(
+                    module
+                        .entry_points
+                        .iter()
+                        .any(|e| e.name == ERROR_ENTRY_POINT)
+                );
+                check_layout(&module, ErasedLayout::of::<EstimateParams>());
+                check_layout(&module, ErasedLayout::of::<ErrorStrip>());
+            }
+        }
     }
 
     #[test]
