@@ -39,8 +39,8 @@ def render(scene, seed, out):
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"{' '.join(command)} failed:\n{done.stderr}")
-    text = done.stderr
-    pilot = re.search(r"pilot of \d+ candidates? at \S+, \d+ spp each, ([\d.]+) s in all", text)
+    text = done.stderr + done.stdout
+    pilot = re.search(r"pilot of \d+ candidates? at \S+, .* ([\d.]+) s in all", text)
     choice = re.search(r"^chose (\S+)", text, re.M)
     run = re.search(r"rendered \S+ at \d+ spp in ([\d.]+) s", text)
     kept = re.search(r"the pilot's (\d+) spp of \S+ are the run's first samples", text)

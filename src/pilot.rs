@@ -4,7 +4,8 @@
 //! spread, or the sample variance), and ranks them by efficiency `1 / (relative MSE
 //! × seconds)`, as `converge` ranks them against a reference. Where the pilot renders
 //! the run's own image and first sample indices, the chosen candidate's samples are
-//! the run's first ones ([`Pilot::samples`]): only the others cost time.
+//! the run's first ones ([`Pilot::samples`]): only the others cost time, and those
+//! far behind the best stop at half their samples ([`RACE`]).
 //!
 //! Candidates: `bsdf`; `nee-mis` where something emits; the mixture at weight 0.25
 //! where anything is aimed at, and at 0.5 and 0.75 only when 0.25 beats the others
@@ -35,9 +36,17 @@ const SIZED_FOR: u32 = 3;
 /// ends the run (its length unknown).
 pub const OPEN_ENDED_SPP: u32 = 256;
 /// The pilot measures no further candidate once its wall time reaches this fraction
-/// of the run's estimated time (at the best candidate's speed so far): on a small
-/// image, building the candidates' kernels alone can take longer than the run.
+/// of the run's estimated time (at the best candidate's speed so far), and no
+/// further mixture weight once one more candidate at the mean cost so far would: on
+/// a small image, building the candidates' kernels alone can take longer than the run.
 pub const BUDGET: f64 = 0.1;
+/// A candidate whose first half is less efficient than this fraction of the best
+/// first half stops there. Where one strategy is far ahead (the Cornell boxes:
+/// the mixture 0.35–0.43 of `nee-mis`, `bsdf` 0.02), the losers cost half their
+/// samples; within the factor the estimates at half the samples are too noisy to
+/// decide (the sky's candidates, within 1.25x of each other, scatter 2x from seed
+/// to seed at 4–16 spp).
+pub const RACE: f64 = 0.75;
 /// The mixture's light weight tried first, and those tried when it wins. 0.25 first:
 /// under `converge` at each scene's own size it is 0.82–1.23x the efficiency of 0.5
 /// on the shipped scenes, Veach's and the glossy teapot's (1.01x in geometric mean),
@@ -124,7 +133,8 @@ pub struct Samples<'a> {
 pub struct Pilot<'a> {
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel of each candidate.
+    /// Samples per pixel of a candidate that runs the race to the end; those out of
+    /// it have [`first_half`] of them.
     pub spp: u32,
     /// In the order measured; empty when `bsdf` was the only candidate.
     pub rows: Vec<Row>,
@@ -159,8 +169,8 @@ fn efficiency(relative_error: Option<f64>, seconds: f64) -> Option<f64> {
 
 /// The best row: the highest efficiency, then the fastest (a black or noiseless
 /// pilot ranks by time alone).
-pub fn best(rows: &[Row]) -> Option<&Row> {
-    rows.iter().max_by(|a, b| {
+pub fn best<'r>(rows: impl IntoIterator<Item = &'r Row>) -> Option<&'r Row> {
+    rows.into_iter().max_by(|a, b| {
         let rank = |r: &Row| r.efficiency.unwrap_or(-1.0);
         rank(a)
             .total_cmp(&rank(b))
@@ -168,76 +178,144 @@ pub fn best(rows: &[Row]) -> Option<&Row> {
     })
 }
 
-/// Renders `variant` of `scene` at `width` x `height` and `spp`, with `options`
-/// (variance on, for the error estimate; uniform): the row and the samples, on the
-/// device.
+/// The best of the rows that ran the race to the end (`spp` samples per pixel),
+/// which the choice is made from: under Sobol the error falls faster than
+/// 1/sqrt(spp), so efficiencies at different sample counts do not compare.
+pub fn best_finished(rows: &[Row], spp: u32) -> Option<&Row> {
+    best(rows.iter().filter(|r| r.spp == spp))
+}
+
+/// A candidate being measured: its renderer (variance on, for the error estimate;
+/// uniform) and the time of its samples so far.
+pub struct Candidate<'a> {
+    pub variant: Variant,
+    renderer: Renderer<'a>,
+    build_seconds: f64,
+    seconds: f64,
+}
+
+impl<'a> Candidate<'a> {
+    /// Builds `variant` of `scene` at `width` x `height` with `options`, for up to
+    /// `spp` samples per pixel, and compiles its kernel.
+    pub fn new(
+        ctx: &'a GpuContext,
+        scene: &Scene,
+        options: &RenderOptions,
+        variant: Variant,
+        (width, height): (u32, u32),
+        spp: u32,
+    ) -> Result<Candidate<'a>, RenderError> {
+        let mut scene = scene.clone();
+        scene.camera.width = width;
+        scene.camera.height = height;
+        scene.render.strategy = variant.strategy;
+        scene.render.auto_strategy = false;
+        if let Some(weight) = variant.light_weight {
+            scene.render.light_weight = weight;
+        }
+        render::check_emission(&scene, spp, true)?;
+        let built = Instant::now();
+        let options = RenderOptions {
+            variance: true,
+            adaptive: false,
+            ..options.clone()
+        };
+        let mut renderer = Renderer::new(ctx, &scene, &options)?;
+        renderer.compile();
+        Ok(Candidate {
+            variant,
+            renderer,
+            build_seconds: built.elapsed().as_secs_f64(),
+            seconds: 0.0,
+        })
+    }
+
+    /// Traces samples up to `spp` per pixel, timed, in one submission where the
+    /// loop budget allows (`Renderer::advance_in_one`).
+    pub fn render_to(&mut self, spp: u32) {
+        let started = Instant::now();
+        self.renderer
+            .advance_in_one(spp.saturating_sub(self.renderer.samples()));
+        while self.renderer.samples() < spp {
+            self.renderer.advance(spp - self.renderer.samples());
+        }
+        self.seconds += started.elapsed().as_secs_f64();
+    }
+
+    /// The row of its samples so far; refused where the driver cut invocations
+    /// short or a sum overflowed.
+    pub fn row(&self) -> Result<Row, RenderError> {
+        self.renderer.check_counters()?;
+        let sums = self.renderer.error_sums()?.expect("variance sums");
+        if sums.non_finite > 0 {
+            return Err(RenderError::SumsOverflowed {
+                count: sums.non_finite as usize,
+            });
+        }
+        let relative_error = relative_noise(&sums);
+        Ok(Row {
+            variant: self.variant,
+            spp: self.renderer.samples(),
+            seconds: self.seconds,
+            build_seconds: self.build_seconds,
+            relative_error,
+            efficiency: efficiency(relative_error, self.seconds),
+        })
+    }
+
+    /// Its samples, for a run to start from.
+    pub fn into_samples(self) -> Result<Samples<'a>, RenderError> {
+        let discarded = self.renderer.check_counters()?.discarded as u64;
+        Ok(Samples {
+            renderer: self.renderer,
+            discarded,
+        })
+    }
+}
+
+/// Renders `variant` of `scene` at `width` x `height` and `spp`, with `options`:
+/// the row and the samples, on the device.
 pub fn measure<'a>(
     ctx: &'a GpuContext,
     scene: &Scene,
     options: &RenderOptions,
     variant: Variant,
-    (width, height): (u32, u32),
+    size: (u32, u32),
     spp: u32,
 ) -> Result<(Row, Samples<'a>), RenderError> {
-    let mut scene = scene.clone();
-    scene.camera.width = width;
-    scene.camera.height = height;
-    scene.render.strategy = variant.strategy;
-    scene.render.auto_strategy = false;
-    if let Some(weight) = variant.light_weight {
-        scene.render.light_weight = weight;
+    let mut candidate = Candidate::new(ctx, scene, options, variant, size, spp)?;
+    candidate.render_to(spp);
+    Ok((candidate.row()?, candidate.into_samples()?))
+}
+
+/// Samples per pixel of a candidate's first half: at least one per replicate.
+pub fn first_half(spp: u32) -> u32 {
+    (spp / 2 / REPLICATES * REPLICATES).max(REPLICATES)
+}
+
+/// Whether `row` goes on to the second half against the best first half so far:
+/// an efficiency at least [`RACE`] times the best's (the best itself, where no
+/// efficiency is known).
+fn contends(row: &Row, best: &Row) -> bool {
+    match (row.efficiency, best.efficiency) {
+        (Some(e), Some(b)) => e >= RACE * b,
+        _ => row.variant == best.variant,
     }
-    render::check_emission(&scene, spp, true)?;
-    let built = Instant::now();
-    let options = RenderOptions {
-        variance: true,
-        adaptive: false,
-        ..options.clone()
-    };
-    let mut renderer = Renderer::new(ctx, &scene, &options)?;
-    renderer.compile();
-    let build_seconds = built.elapsed().as_secs_f64();
-    let started = Instant::now();
-    renderer.advance_in_one(spp);
-    while renderer.samples() < spp {
-        renderer.advance(spp - renderer.samples());
-    }
-    let seconds = started.elapsed().as_secs_f64();
-    let discarded = renderer.check_counters()?.discarded as u64;
-    let sums = renderer.error_sums()?.expect("variance sums");
-    if sums.non_finite > 0 {
-        return Err(RenderError::SumsOverflowed {
-            count: sums.non_finite as usize,
-        });
-    }
-    let relative_error = relative_noise(&sums);
-    let row = Row {
-        variant,
-        spp,
-        seconds,
-        build_seconds,
-        relative_error,
-        efficiency: efficiency(relative_error, seconds),
-    };
-    Ok((
-        row,
-        Samples {
-            renderer,
-            discarded,
-        },
-    ))
 }
 
 /// Runs the pilot for a render of `scene` (its size) at `final_spp` samples per pixel
 /// (`u32::MAX`: a time or error target decides) with `options`, and chooses the
 /// candidate of highest efficiency among those measured within the [`BUDGET`].
-/// `on_row` sees each row as it is measured.
+///
+/// A race in two halves: each candidate renders [`first_half`] of its samples,
+/// and those within [`RACE`] of the best efficiency go on to all of them, then
+/// are measured again. Efficiency does not depend on the samples in expectation,
+/// so rows of either length compare.
 pub fn run<'a>(
     ctx: &'a GpuContext,
     scene: &Scene,
     options: &RenderOptions,
     final_spp: u32,
-    mut on_row: impl FnMut(&Row),
 ) -> Result<Pilot<'a>, RenderError> {
     let ((width, height), spp) = shape(scene.camera.width, scene.camera.height, final_spp);
     let reusable = (width, height) == (scene.camera.width, scene.camera.height)
@@ -249,37 +327,84 @@ pub fn run<'a>(
     let started = Instant::now();
     let mut rows: Vec<Row> = Vec::new();
     let mut skipped = Vec::new();
-    // The best candidate's sums so far, where the run can start from them.
-    let mut samples = None;
-    // The run's time at the best candidate's speed (unknown for an open-ended run).
-    let pixels = |w: u32, h: u32| w as f64 * h as f64;
-    let scale = pixels(scene.camera.width, scene.camera.height) * final_spp as f64
-        / (pixels(width, height) * spp as f64);
-    let mut try_each = |variants: &[Variant], rows: &mut Vec<Row>| -> Result<(), RenderError> {
+    // The best candidate so far, whose samples the run may start from.
+    let mut kept: Option<Candidate> = None;
+    // Seconds per path of the best candidate so far, and the run's paths.
+    let seconds_per_path = |r: &Row| r.seconds / (width as f64 * height as f64 * r.spp as f64);
+    let run_paths = scene.camera.width as f64 * scene.camera.height as f64 * final_spp as f64;
+    // Whether the pilot's time, with `reserve` more, reaches its budget.
+    let over_budget = |rows: &[Row], reserve: f64| {
+        let run_seconds = best(rows).map(|r| seconds_per_path(r) * run_paths);
+        let spent = started.elapsed().as_secs_f64();
+        final_spp != u32::MAX && run_seconds.is_some_and(|run| spent + reserve >= BUDGET * run)
+    };
+    // Every candidate's first half, which the race compares.
+    let mut halves: Vec<Row> = Vec::new();
+    // `predicted`: a candidate starts only where one more at the mean cost so far
+    // fits in the budget (the further weights, a refinement), not merely where the
+    // budget is not spent yet (the first candidates, which the choice needs).
+    let mut race = |variants: &[Variant],
+                    rows: &mut Vec<Row>,
+                    kept: &mut Option<Candidate<'a>>,
+                    predicted: bool|
+     -> Result<(), RenderError> {
+        let mut racing = Vec::new();
         for &variant in variants {
-            let run_seconds = best(rows).map(|r| r.seconds * scale);
-            let spent = started.elapsed().as_secs_f64();
-            if final_spp != u32::MAX && run_seconds.is_some_and(|run| spent >= BUDGET * run) {
+            let reserve = match predicted && !rows.is_empty() {
+                true => started.elapsed().as_secs_f64() / rows.len() as f64,
+                false => 0.0,
+            };
+            if over_budget(rows, reserve) {
                 skipped.push(variant);
                 continue;
             }
-            let (row, measured) = measure(ctx, scene, options, variant, (width, height), spp)?;
-            on_row(&row);
-            rows.push(row);
-            if reusable && best(rows).map(|r| r.variant) == Some(variant) {
-                samples = Some(measured);
+            let mut candidate = Candidate::new(ctx, scene, options, variant, (width, height), spp)?;
+            candidate.render_to(first_half(spp));
+            let half = candidate.row()?;
+            halves.push(half.clone());
+            rows.push(half);
+            racing.push((rows.len() - 1, candidate));
+        }
+        // The leader goes on whatever the budget: where the run starts from its
+        // samples, they cost nothing.
+        let Some(leader) = best(&halves).cloned() else {
+            return Ok(());
+        };
+        for (index, candidate) in &mut racing {
+            let half = &rows[*index];
+            if half.variant == leader.variant
+                || (contends(half, &leader) && !over_budget(rows, 0.0))
+            {
+                candidate.render_to(spp);
+                rows[*index] = candidate.row()?;
             }
+        }
+        let leader = best_finished(rows, spp).map(|r| r.variant);
+        if let Some((_, candidate)) = racing.into_iter().find(|(_, c)| Some(c.variant) == leader) {
+            *kept = Some(candidate);
         }
         Ok(())
     };
     if candidates.len() > 1 {
-        try_each(&candidates, &mut rows)?;
+        race(&candidates, &mut rows, &mut kept, false)?;
         let all_measured = rows.len() == candidates.len();
-        if all_measured && best(&rows).map(|r| r.variant) == Some(Variant::mixture(FIRST_WEIGHT)) {
-            try_each(&MORE_WEIGHTS.map(Variant::mixture), &mut rows)?;
+        let leader = best_finished(&rows, spp).map(|r| r.variant);
+        if all_measured && leader == Some(Variant::mixture(FIRST_WEIGHT)) {
+            race(
+                &MORE_WEIGHTS.map(Variant::mixture),
+                &mut rows,
+                &mut kept,
+                true,
+            )?;
         }
     }
-    let choice = best(&rows).map_or(candidates[0], |r| r.variant);
+    let choice = best_finished(&rows, spp).map_or(candidates[0], |r| r.variant);
+    let samples = match kept {
+        Some(candidate) if reusable && candidate.variant == choice => {
+            Some(candidate.into_samples()?)
+        }
+        _ => None,
+    };
     Ok(Pilot {
         width,
         height,
@@ -296,7 +421,7 @@ pub fn run<'a>(
 /// the build before them, estimated relative error, efficiency, and efficiency
 /// relative to the best.
 pub fn table(pilot: &Pilot) -> String {
-    let best = best(&pilot.rows).and_then(|r| r.efficiency);
+    let best = best_finished(&pilot.rows, pilot.spp).and_then(|r| r.efficiency);
     let mut out = format!(
         "{:<14} {:>5} {:>9} {:>9} {:>11} {:>11} {:>8}\n",
         "candidate", "spp", "seconds", "build s", "rel. error", "efficiency", "vs best"
@@ -380,6 +505,35 @@ mod tests {
         ];
         assert_eq!(best(&noiseless).unwrap().variant, Variant::BSDF);
         assert_eq!(best(&[]), None);
+    }
+
+    #[test]
+    fn the_race_decides_at_half_the_samples_and_chooses_among_those_that_finish() {
+        // Halves are whole replicates, at least one sample in each.
+        assert_eq!(first_half(8), 4);
+        assert_eq!(first_half(32), 16);
+        assert_eq!(first_half(MAX_SPP), 32);
+        assert_eq!(first_half(MIN_SPP), REPLICATES);
+        // 1/(0.2² × 1) = 25 against the leader's 1/(0.1² × 1) = 100: out at 0.25;
+        // 1/(0.1125² × 1) = 79 is 0.79 of it: in.
+        let leader = row(Variant::NEE_MIS, 1.0, Some(0.1));
+        assert!(contends(&leader, &leader));
+        assert!(!contends(&row(Variant::BSDF, 1.0, Some(0.2)), &leader));
+        assert!(contends(
+            &row(Variant::mixture(0.25), 1.0, Some(0.1125)),
+            &leader
+        ));
+        // A black image has no efficiency: only the leader goes on.
+        let black = row(Variant::BSDF, 1.0, None);
+        assert!(!contends(&row(Variant::NEE_MIS, 1.0, None), &black));
+        assert!(contends(&black, &black));
+        // A half (here 32 of 64 spp) does not compete with the finished rows,
+        // however efficient it looks.
+        let mut half = row(Variant::BSDF, 0.1, Some(0.1));
+        half.spp = 32;
+        let rows = [half, leader.clone()];
+        assert_eq!(best(&rows).unwrap().variant, Variant::BSDF);
+        assert_eq!(best_finished(&rows, 64).unwrap().variant, Variant::NEE_MIS);
     }
 
     #[test]

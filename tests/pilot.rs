@@ -50,7 +50,7 @@ const LARGE_DIM_EMITTER: &str = "[materials.sky]\ntype = \"light\"\nemit = [0.5,
 /// The pilot of an open-ended run (no budget: every candidate is measured).
 fn run_pilot(scene: &Scene) -> Pilot<'static> {
     let ctx = common::gpu().unwrap();
-    let pilot = pilot::run(ctx, scene, &RenderOptions::default(), u32::MAX, |_| {}).unwrap();
+    let pilot = pilot::run(ctx, scene, &RenderOptions::default(), u32::MAX).unwrap();
     eprintln!("{}chose {}", pilot::table(&pilot), pilot.choice);
     pilot
 }
@@ -126,7 +126,7 @@ fn the_pilot_of_a_tiny_run_stops_at_its_budget() {
     let _alone = one_at_a_time();
     let mut scene = lit_floor(TINY_BRIGHT_LIGHT);
     (scene.camera.width, scene.camera.height) = (8, 8);
-    let pilot = pilot::run(ctx, &scene, &RenderOptions::default(), 1, |_| {}).unwrap();
+    let pilot = pilot::run(ctx, &scene, &RenderOptions::default(), 1).unwrap();
     assert_eq!(pilot.rows.len(), 1, "{}", pilot::table(&pilot));
     assert_eq!(pilot.choice, Variant::mixture(pilot::FIRST_WEIGHT));
     assert_eq!(pilot.skipped, [Variant::NEE_MIS, Variant::BSDF]);

@@ -981,8 +981,7 @@ fn choose_strategy<'a>(
     quiet: bool,
 ) -> Result<Pilot<'a>, Failure> {
     let input = |e: RenderError| Failure::input(with_flag(&e));
-    let pilot =
-        pilot::run(ctx, &plan.scene, options, plan.stop.max_samples, |_| {}).map_err(input)?;
+    let pilot = pilot::run(ctx, &plan.scene, options, plan.stop.max_samples).map_err(input)?;
     if !quiet {
         match pilot.rows.len() {
             0 => eprintln!(
@@ -990,21 +989,25 @@ fn choose_strategy<'a>(
                 pilot.choice
             ),
             n => eprintln!(
-                "strategy auto: pilot of {n} candidate{} at {}x{}, {} spp each, {:.2} s in all \
+                "strategy auto: pilot of {n} candidate{} at {}x{}, {} spp each, {} for those \
+                 within {} of the best, {:.2} s in all \
                  (efficiency = 1 / (estimated relative MSE x seconds)):\n{}chose {}",
                 plural(n),
                 pilot.width,
                 pilot.height,
+                pilot::first_half(pilot.spp),
                 pilot.spp,
+                pilot::RACE,
                 pilot.seconds,
                 pilot::table(&pilot),
                 pilot.choice
             ),
         }
-        if pilot.samples.is_some() {
+        if let Some(samples) = &pilot.samples {
             eprintln!(
                 "the pilot's {} spp of {} are the run's first samples",
-                pilot.spp, pilot.choice
+                samples.renderer.samples(),
+                pilot.choice
             );
         }
         if !pilot.skipped.is_empty() {
