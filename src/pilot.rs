@@ -20,7 +20,6 @@ use crate::gpu::accumulator::REPLICATES;
 use crate::gpu::error_estimate::ErrorSums;
 use crate::render::{self, RenderError, RenderOptions, Renderer, prepare_scene};
 use crate::scene::{Scene, Strategy};
-
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -108,10 +107,10 @@ pub fn first_candidates(scene: &Scene) -> Result<Vec<Variant>, RenderError> {
 pub struct Row {
     pub variant: Variant,
     pub spp: u32,
-    /// Time of the pilot's samples, in one submission where the loop budget allows
-    /// (`Renderer::advance_in_one`): the pipeline's compilation and two one-sample
-    /// dispatches of a row (where lavapipe compiles; `Renderer::compile`) are not
-    /// counted.
+    /// Time of the pilot's samples, in one submission per half of the race where the
+    /// loop budget allows (`Renderer::advance_in_one`): the pipeline's compilation
+    /// and two one-sample dispatches of a row (where lavapipe compiles;
+    /// `Renderer::compile`) are not counted.
     pub seconds: f64,
     /// Wall time before those samples: building the renderer and the two warm-up
     /// dispatches, mostly the kernel's compilation (little with a warm shader cache).
@@ -147,7 +146,7 @@ pub struct Pilot<'a> {
     /// ([`adaptive::PILOT_SAMPLES`]). Its samples are those the run would trace first
     /// (same sample indices, seed and strategy; the variance sums change no other sum).
     pub samples: Option<Samples<'a>>,
-    /// Wall time of the pilot's candidates: pipelines, warm-up, samples and readbacks
+    /// Wall time of the pilot's candidates: pipelines, warm-up, samples and error estimates
     /// (not the scene's first packing, which the run reuses).
     pub seconds: f64,
 }
@@ -308,9 +307,8 @@ fn contends(row: &Row, best: &Row) -> bool {
 /// candidate of highest efficiency among those measured within the [`BUDGET`].
 ///
 /// A race in two halves: each candidate renders [`first_half`] of its samples,
-/// and those within [`RACE`] of the best efficiency go on to all of them, then
-/// are measured again. Efficiency does not depend on the samples in expectation,
-/// so rows of either length compare.
+/// and those within [`RACE`] of the best first half go on to all of them and are
+/// measured again; the choice is the best of those ([`best_finished`]).
 pub fn run<'a>(
     ctx: &'a GpuContext,
     scene: &Scene,

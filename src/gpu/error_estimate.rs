@@ -4,13 +4,12 @@
 //! conversion took 0.2–0.4 s per candidate on lavapipe; the strips are 12 bytes
 //! per 64 pixels.
 
-use super::accumulator::{Accumulator, map_read};
+use super::accumulator::{Accumulator, REPLICATES, map_read};
 use super::context::GpuContext;
 use super::layout::gpu_struct;
 use super::pipeline::{
     BINDING_ACCUMULATOR, BINDING_PARAMS, accumulator_binding, compute_entry, storage_buffer,
 };
-use crate::gpu::accumulator::REPLICATES;
 use crate::kernel::KernelConfig;
 use crate::shader::ComposeError;
 use crate::stats::Replicates;
