@@ -944,22 +944,21 @@ mod tests {
     use crate::gpu::layout::{Counters, PackedArray, Params};
     use crate::kinds::{ErasedLayout, Lobe, Quad};
 
-    fn parse(config: &KernelConfig) -> naga::Module {
-        let source = config.source().unwrap();
-        naga::front::wgsl::parse_str(&source)
-            .unwrap_or_else(|e| panic!("{config:?}\n{}", e.emit_to_string(&source)))
-    }
-
-    pub(crate) fn validate(config: &KernelConfig) -> naga::Module {
-        let module = parse(config);
-        let source = config.source().unwrap();
+    /// Parses and validates `source`, failing with `what` and naga's report.
+    fn validate_source(source: &str, what: &dyn std::fmt::Debug) -> naga::Module {
+        let module = naga::front::wgsl::parse_str(source)
+            .unwrap_or_else(|e| panic!("{what:?}\n{}", e.emit_to_string(source)));
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::all(),
         )
         .validate(&module)
-        .unwrap_or_else(|e| panic!("{config:?}\n{}", e.emit_to_string(&source)));
+        .unwrap_or_else(|e| panic!("{what:?}\n{}", e.emit_to_string(source)));
         module
+    }
+
+    pub(crate) fn validate(config: &KernelConfig) -> naga::Module {
+        validate_source(&config.source().unwrap(), config)
     }
 
     /// Every subset of primitive kinds with every set of at most two material
@@ -1207,28 +1206,14 @@ mod tests {
     #[test]
     fn environment_probe_validates() {
         let source = KernelConfig::environment_probe_source().unwrap();
-        let module = naga::front::wgsl::parse_str(&source)
-            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+        validate_source(&source, &"the environment probe");
     }
 
     /// The BSDF probe of tests/bsdf.rs, with every material kind.
     #[test]
     fn bsdf_probe_validates() {
         let source = KernelConfig::bsdf_probe_source(KindSet::all(MATERIAL_KINDS.len())).unwrap();
-        let module = naga::front::wgsl::parse_str(&source)
-            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::all(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
+        validate_source(&source, &"the BSDF probe");
     }
 
     #[test]
@@ -1653,15 +1638,7 @@ mod tests {
                     sampler,
                     ..KernelConfig::general(Strategy::Mixture, accumulator)
                 };
-                let source = config.error_estimate_source().unwrap();
-                let module = naga::front::wgsl::parse_str(&source)
-                    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&source)));
-                naga::valid::Validator::new(
-                    naga::valid::ValidationFlags::all(),
-                    naga::valid::Capabilities::all(),
-                )
-                .validate(&module)
-                .unwrap_or_else(|e| panic!("{config:?}\n{}", e.emit_to_string(&source)));
+                let module = validate_source(&config.error_estimate_source().unwrap(), &config);
                 assert!(
                     module
                         .entry_points
