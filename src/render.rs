@@ -17,6 +17,7 @@ use crate::kinds::PRIMITIVE_KINDS;
 use crate::scene::{Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
 use crate::stats::{Accumulation, Replicates};
+use std::cell::OnceCell;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
@@ -202,6 +203,8 @@ pub struct Renderer<'a> {
     /// Most samples one dispatch may trace per pixel (see `LOOP_ITERATION_BUDGET`).
     max_samples_per_dispatch: u32,
     submission_seconds: f64,
+    /// The error estimate's pipeline, built at the first `error_sums`.
+    error_estimator: OnceCell<ErrorEstimator>,
     /// Things the user should know about this run (strategy fallbacks and the like).
     pub warnings: Vec<String>,
 }
@@ -391,6 +394,7 @@ impl<'a> Renderer<'a> {
             paths_per_submission: 1 << 18,
             max_samples_per_dispatch,
             submission_seconds: options.submission_seconds,
+            error_estimator: OnceCell::new(),
             warnings,
         })
     }
@@ -824,7 +828,13 @@ impl<'a> Renderer<'a> {
         if !config.variance {
             return Ok(None);
         }
-        let estimator = ErrorEstimator::new(self.ctx, config)?;
+        let estimator = match self.error_estimator.get() {
+            Some(estimator) => estimator,
+            None => {
+                let estimator = ErrorEstimator::new(self.ctx, config)?;
+                self.error_estimator.get_or_init(|| estimator)
+            }
+        };
         let sums = estimator.sums(self.ctx, &self.accumulator, self.first_sample, self.samples);
         Ok(Some(sums))
     }
