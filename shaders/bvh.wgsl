@@ -31,8 +31,7 @@ struct WideBvhNode {
     // occupied slots' bits.
     planes_b: vec4<u32>,
     origin: vec4<f32>,
-    first: vec4<u32>,
-    count: vec4<u32>,
+    links: array<vec2<u32>, 4>,
 }
 
 // `bvh_box_t` for the four children of node `i` of `nodes` at once. Each axis's

@@ -21,7 +21,7 @@ pub const WIDTH: usize = 4;
 pub const MAX_NODES: usize = 1 << 24;
 
 gpu_struct! {
-    /// Four children (child i in component or byte i of each field), 80 bytes:
+    /// Four children (child i in component, byte or link i of each field), 80 bytes:
     /// their boxes quantised to a grid over the node's box (Ylitie et al.
     /// 2017): plane = `origin + q * 2^(e - 127)` for a byte `q` and the axis's
     /// biased exponent `e`, rounded outward. An interior child is node `first`
@@ -36,8 +36,10 @@ gpu_struct! {
         pub planes_b: [u32; 4],
         /// The node's box's minimum corner (`w` unused, 0).
         pub origin: [f32; 4],
-        pub first: [u32; 4],
-        pub count: [u32; 4],
+        /// Child i's `[first, count]`, together so the kernel reads a link in
+        /// one load (separate `first` and `count` vectors took two: 6% more
+        /// CPU time on the bunny, 11% on 4 000 spheres).
+        pub links: [[u32; 2]; 4],
     }
 }
 
@@ -89,8 +91,7 @@ impl WideBvhNode {
             node.planes_b[0] |= quantise_up(origin.y, scale[1], max.y) << shift;
             node.planes_b[1] |= quantise_up(origin.z, scale[2], max.z) << shift;
             node.planes_b[OCCUPIED] |= 1 << slot;
-            node.first[slot] = first;
-            node.count[slot] = count;
+            node.links[slot] = [first, count];
         }
         node
     }
@@ -258,20 +259,21 @@ mod tests {
             assert_eq!(node.origin[3], 0.0);
             for slot in 0..WIDTH {
                 if !node.occupied(slot) {
-                    assert_eq!((node.first[slot], node.count[slot]), (0, 0), "empty slot");
+                    assert_eq!(node.links[slot], [0, 0], "empty slot");
                     continue;
                 }
                 let mut boxes = above.clone();
                 boxes.push(node.child_bounds(slot));
-                if node.count[slot] == 0 {
-                    stack.push((node.first[slot] as usize, depth + 1, boxes));
+                let [first, count] = node.links[slot];
+                if count == 0 {
+                    stack.push((first as usize, depth + 1, boxes));
                     continue;
                 }
-                let kind = (node.count[slot] >> LEAF_KIND_SHIFT) as usize;
-                let count = (node.count[slot] & LEAF_COUNT_MASK) as usize;
+                let kind = (count >> LEAF_KIND_SHIFT) as usize;
+                let count = (count & LEAF_COUNT_MASK) as usize;
                 assert!((1..=MAX_LEAF).contains(&count));
                 let layout = PRIMITIVE_KINDS[kind].layout;
-                let range = node.first[slot] as usize..node.first[slot] as usize + count;
+                let range = first as usize..first as usize + count;
                 for (covered, p) in covered[kind][range.clone()].iter_mut().zip(range) {
                     assert!(!*covered, "primitive {p} in two leaves");
                     *covered = true;
@@ -403,8 +405,8 @@ mod tests {
             let mut closest: Option<(f32, usize)> = None;
             // Entries: a node and its pending slots, the nearest last.
             let mut stack: Vec<(usize, Vec<usize>)> = Vec::new();
-            let mut link = Some((0u32, 0u32));
-            while let Some((first, count)) = link {
+            let mut link = Some([0u32, 0u32]);
+            while let Some([first, count]) = link {
                 if count == 0 {
                     let node = &wide.nodes[first as usize];
                     let t_max = closest.map_or(f32::MAX, |c| c.0);
@@ -417,7 +419,7 @@ mod tests {
                         assert!(stack.len() <= wide.depth as usize + 1);
                     }
                     if let Some(slot) = nearest {
-                        link = Some((node.first[slot], node.count[slot]));
+                        link = Some(node.links[slot]);
                         continue;
                     }
                 } else {
@@ -428,11 +430,9 @@ mod tests {
                         }
                     }
                 }
-                link = stack.last_mut().map(|(index, pending)| {
-                    let slot = pending.pop().unwrap();
-                    let node = &wide.nodes[*index];
-                    (node.first[slot], node.count[slot])
-                });
+                link = stack
+                    .last_mut()
+                    .map(|(index, pending)| wide.nodes[*index].links[pending.pop().unwrap()]);
                 if stack.last().is_some_and(|(_, pending)| pending.is_empty()) {
                     stack.pop();
                 }

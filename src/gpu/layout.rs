@@ -30,11 +30,19 @@ pub trait GpuLayout: Pod {
 /// round-trip form with the `f` suffix (parsed as f32 directly, not rounded
 /// twice through an abstract float); they must be finite.
 pub trait WgslValue {
+    /// The WGSL type: a scalar's name; an array of two to four scalars is a
+    /// vector, any other array a WGSL array.
+    fn wgsl_type() -> String;
+    const SCALAR: bool;
     fn wgsl_value(&self) -> String;
     fn is_finite(&self) -> bool;
 }
 
 impl WgslValue for u32 {
+    fn wgsl_type() -> String {
+        "u32".into()
+    }
+    const SCALAR: bool = true;
     fn wgsl_value(&self) -> String {
         format!("{self}u")
     }
@@ -44,6 +52,10 @@ impl WgslValue for u32 {
 }
 
 impl WgslValue for f32 {
+    fn wgsl_type() -> String {
+        "f32".into()
+    }
+    const SCALAR: bool = true;
     fn wgsl_value(&self) -> String {
         assert!(self.is_finite(), "{self} has no WGSL literal");
         format!("{self:?}f")
@@ -54,10 +66,16 @@ impl WgslValue for f32 {
 }
 
 impl<T: WgslValue, const N: usize> WgslValue for [T; N] {
+    fn wgsl_type() -> String {
+        match T::SCALAR && (2..=4).contains(&N) {
+            true => format!("vec{N}<{}>", T::wgsl_type()),
+            false => format!("array<{}, {N}>", T::wgsl_type()),
+        }
+    }
+    const SCALAR: bool = false;
     fn wgsl_value(&self) -> String {
         let components: Vec<String> = self.iter().map(WgslValue::wgsl_value).collect();
-        let scalar = std::any::type_name::<T>();
-        format!("vec{N}<{scalar}>({})", components.join(", "))
+        format!("{}({})", Self::wgsl_type(), components.join(", "))
     }
     fn is_finite(&self) -> bool {
         self.iter().all(WgslValue::is_finite)
@@ -454,5 +472,23 @@ impl CameraFrame {
             delta_u,
             delta_v,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arrays_are_wgsl_vectors_or_arrays() {
+        assert_eq!(
+            [1.5f32, 2.0, 0.25].wgsl_value(),
+            "vec3<f32>(1.5f, 2.0f, 0.25f)"
+        );
+        assert_eq!(
+            [[1u32, 2], [3, 4]].wgsl_value(),
+            "array<vec2<u32>, 2>(vec2<u32>(1u, 2u), vec2<u32>(3u, 4u))"
+        );
+        assert_eq!(<[f32; 5]>::wgsl_type(), "array<f32, 5>");
     }
 }

@@ -311,7 +311,7 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
             "let entry = stack[depth - 1u];",
             "let entry_node = entry >> 8u;",
             "let slot = entry & 3u;",
-            "link = vec2<u32>(bvh_nodes[entry_node].first[slot], bvh_nodes[entry_node].count[slot]);",
+            "link = bvh_nodes[entry_node].links[slot];",
             "let rest = wide_bvh_entry_rest(entry);",
             "stack[depth - 1u] = rest;",
             "depth -= select(0u, 1u, (rest & 0xc0u) == 0u);",
@@ -340,7 +340,7 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
             depth += min(pending, 1u);
             if hits.x != 0u {{
                 let slot = keys.x & 3u;
-                link = vec2<u32>((*node).first[slot], (*node).count[slot]);
+                link = (*node).links[slot];
             }} else if depth == 0u {{
                 missed = true;
                 break;
