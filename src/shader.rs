@@ -220,8 +220,8 @@ fn expand(block: &ForEach, form: ArrayForm) -> String {
     } = block;
     match form {
         ArrayForm::Buffer => format!(
-            "for (var {item}_index = 0u; {item}_index < arrayLength(&{array}); {item}_index++) {{\n\
-             let {item} = {array}[{item}_index];\n{body}}}\n"
+            "for (var {item}_index = 0u; {item}_index < {array}_count(); {item}_index++) {{\n\
+             let {item} = {array}_at({item}_index);\n{body}}}\n"
         ),
         ArrayForm::Constants(count) => (0..count)
             .map(|i| {
@@ -333,8 +333,8 @@ mod tests {
     fn for_each_over_a_buffer_is_a_loop() {
         assert_eq!(
             run_with(WALK, &[], &[("quads", ArrayForm::Buffer)]).unwrap(),
-            "a\nfor (var q_index = 0u; q_index < arrayLength(&quads); q_index++) {\n\
-             let q = quads[q_index];\nuse(q);\n}\nb\n"
+            "a\nfor (var q_index = 0u; q_index < quads_count(); q_index++) {\n\
+             let q = quads_at(q_index);\nuse(q);\n}\nb\n"
         );
     }
 

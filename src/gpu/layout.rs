@@ -16,8 +16,9 @@ use std::sync::Arc;
 /// A host struct with a WGSL twin of the same name and field order.
 pub trait GpuLayout: Pod {
     const WGSL_NAME: &'static str;
-    /// Field names and byte offsets, for the layout test.
-    fn fields() -> Vec<(&'static str, usize)>;
+    /// Field names, byte offsets and WGSL types, for the layout test and the
+    /// kernel's accessors (`kernel::glue`).
+    fn fields() -> Vec<(&'static str, usize, String)>;
     /// This value as a WGSL constant expression: the struct's constructor with
     /// every field in declaration order, bit-exact (see `WgslValue`).
     fn wgsl_value(&self) -> String;
@@ -91,8 +92,12 @@ macro_rules! gpu_struct {
 
         impl $crate::gpu::layout::GpuLayout for $name {
             const WGSL_NAME: &'static str = stringify!($name);
-            fn fields() -> Vec<(&'static str, usize)> {
-                vec![$((stringify!($field), std::mem::offset_of!($name, $field)),)*]
+            fn fields() -> Vec<(&'static str, usize, String)> {
+                vec![$((
+                    stringify!($field),
+                    std::mem::offset_of!($name, $field),
+                    <$ty as $crate::gpu::layout::WgslValue>::wgsl_type(),
+                ),)*]
             }
             fn wgsl_value(&self) -> String {
                 let fields: Vec<String> = vec![$($crate::gpu::layout::WgslValue::wgsl_value(&self.$field),)*];

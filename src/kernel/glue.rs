@@ -14,6 +14,7 @@ use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
 use crate::gpu::pipeline::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
 };
+use crate::kinds::ErasedLayout;
 use crate::kinds::{
     Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, PRIMITIVE_KINDS, PrimitiveKind,
     ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
@@ -92,28 +93,79 @@ pub fn buffer_arrays(arrays: Vec<SceneArray>) -> String {
     out
 }
 
+/// A buffer array is read through `NAME_count` and `NAME_at`. Where its
+/// elements are structs of whole 16-byte vectors of 4-byte fields, the buffer
+/// is declared as `vec4<u32>` words and `NAME_at` rebuilds the struct from
+/// them: lavapipe (Mesa 22.3) loads a storage buffer in a loop over the SIMD
+/// lanes per load instruction, and a struct's load is one instruction per
+/// field (a `Triangle`'s four, a `Material`'s eight), its words' one per 16 bytes.
 fn buffer_array(out: &mut String, array: &SceneArray) {
     let SceneArray {
-        name, wgsl_type, ..
+        name,
+        wgsl_type,
+        binding,
+        ..
     } = array;
-    writeln!(
-        out,
-        "@group(1) @binding({}) var<storage, read> {name}: array<{wgsl_type}>;",
-        array.binding
-    )
-    .unwrap();
-    writeln!(
-        out,
-        "fn {name}_count() -> u32 {{ return arrayLength(&{name}); }}"
-    )
-    .unwrap();
-    if array.indexed {
+    let words = array.source.element_layout().and_then(vector_words);
+    let Some(fields) = words else {
         writeln!(
             out,
-            "fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
+            "@group(1) @binding({binding}) var<storage, read> {name}: array<{wgsl_type}>;
+fn {name}_count() -> u32 {{ return arrayLength(&{name}); }}
+fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
         )
         .unwrap();
+        return;
+    };
+    let per_element = array.element_size / 16;
+    let loads: String = (0..per_element)
+        .map(|w| {
+            format!(
+                "    let w{w} = {name}[{per_element}u * i + {w}u];
+"
+            )
+        })
+        .collect();
+    writeln!(
+        out,
+        "@group(1) @binding({binding}) var<storage, read> {name}: array<vec4<u32>>;
+fn {name}_count() -> u32 {{ return arrayLength(&{name}) / {per_element}u; }}
+fn {name}_at(i: u32) -> {wgsl_type} {{
+{loads}    return {wgsl_type}({});
+}}",
+        fields.join(", ")
+    )
+    .unwrap();
+}
+
+/// Each field of `layout` read from the words `w0`, `w1`, ... of its
+/// element, or `None` where the element is not whole 16-byte words or a field
+/// is not a 4-byte scalar or a vector of them within one word.
+fn vector_words(layout: ErasedLayout) -> Option<Vec<String>> {
+    if layout.size % 16 != 0 {
+        return None;
     }
+    (layout.fields)()
+        .into_iter()
+        .map(|(_, offset, wgsl_type)| {
+            let components = match wgsl_type.as_str() {
+                "u32" | "f32" => 1,
+                "vec2<u32>" | "vec2<f32>" => 2,
+                "vec3<u32>" | "vec3<f32>" => 3,
+                "vec4<u32>" | "vec4<f32>" => 4,
+                _ => return None,
+            };
+            let first = offset % 16 / 4;
+            if offset % 4 != 0 || first + components > 4 {
+                return None;
+            }
+            let bits = format!("w{}.{}", offset / 16, &"xyzw"[first..first + components]);
+            Some(match wgsl_type.ends_with("f32>") || wgsl_type == "f32" {
+                true => format!("bitcast<{wgsl_type}>({bits})"),
+                false => bits,
+            })
+        })
+        .collect()
 }
 
 fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
@@ -686,4 +738,29 @@ fn dispatch(
         }
     }
     out.push_str("}\n");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::WideBvhNode;
+    use crate::kinds::{Triangle, TriangleNormals};
+
+    #[test]
+    fn structs_of_whole_words_are_read_as_words() {
+        assert_eq!(
+            vector_words(ErasedLayout::of::<Triangle>()).unwrap(),
+            [
+                "bitcast<vec3<f32>>(w0.xyz)",
+                "w0.w",
+                "bitcast<vec3<f32>>(w1.xyz)",
+                "w1.w",
+                "bitcast<vec3<f32>>(w2.xyz)",
+                "w2.w",
+            ]
+        );
+        // 12 bytes an element, and an array field: read as structs.
+        assert_eq!(vector_words(ErasedLayout::of::<TriangleNormals>()), None);
+        assert_eq!(vector_words(ErasedLayout::of::<WideBvhNode>()), None);
+    }
 }

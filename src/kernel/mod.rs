@@ -11,7 +11,7 @@ use crate::gpu::accumulator::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
 };
 use crate::gpu::layout::{GpuLayout, Material, SceneData};
-use crate::kinds::{KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, TextureInfo};
+use crate::kinds::{ErasedLayout, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, TextureInfo};
 use crate::lights::{DeltaLight, LightGroup, LightPick};
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
@@ -162,6 +162,37 @@ impl ArraySource {
     }
 }
 
+impl ArraySource {
+    /// The host struct of this array's elements, where they are one.
+    pub fn element_layout(self) -> Option<ErasedLayout> {
+        match self {
+            ArraySource::Materials => Some(ErasedLayout::of::<Material>()),
+            ArraySource::Primitives(k) | ArraySource::Lights(k) => Some(PRIMITIVE_KINDS[k].layout),
+            ArraySource::Normals(k) => PRIMITIVE_KINDS[k].shading_normals,
+            ArraySource::Uvs(k) => PRIMITIVE_KINDS[k].texture_uvs,
+            ArraySource::LightTable(_, LightTablePart::Groups) => {
+                Some(ErasedLayout::of::<LightGroup>())
+            }
+            ArraySource::LightTable(_, LightTablePart::Picks) => {
+                Some(ErasedLayout::of::<LightPick>())
+            }
+            ArraySource::LightTable(_, LightTablePart::BvhNodes) => {
+                Some(ErasedLayout::of::<BvhNode>())
+            }
+            ArraySource::BvhNodes => Some(ErasedLayout::of::<WideBvhNode>()),
+            ArraySource::Textures => Some(ErasedLayout::of::<TextureInfo>()),
+            ArraySource::Environment(EnvironmentPart::Info) => {
+                Some(ErasedLayout::of::<EnvironmentInfo>())
+            }
+            ArraySource::DeltaLights => Some(ErasedLayout::of::<DeltaLight>()),
+            ArraySource::LightTable(_, LightTablePart::BvhRefs)
+            | ArraySource::MaterialTables
+            | ArraySource::TextureTexels
+            | ArraySource::Environment(_) => None,
+        }
+    }
+}
+
 /// One of the arrays of `environment::EnvironmentTables`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum EnvironmentPart {
@@ -222,7 +253,9 @@ pub struct SceneArray {
     /// material tables, the textures and the texture coordinates (fixed per
     /// array, whichever arrays a kernel declares).
     pub binding: u32,
-    /// Read by a dynamic index (`NAME_at`), not only walked by `#for_each`.
+    /// Read by a dynamic index (`NAME_at`), not only walked by `#for_each`:
+    /// baked, such an array needs its `switch` (a buffer array has `NAME_at`
+    /// whatever this says).
     pub indexed: bool,
     pub source: ArraySource,
 }
@@ -1600,6 +1633,36 @@ mod tests {
         }
     }
 
+    /// A scalar, vector or array member's type as WGSL spells it.
+    fn wgsl_type_name(module: &naga::Module, ty: &naga::TypeInner) -> String {
+        match ty {
+            // The host's counters are plain integers.
+            naga::TypeInner::Scalar(scalar) | naga::TypeInner::Atomic(scalar) => {
+                scalar_name(*scalar)
+            }
+            naga::TypeInner::Vector { size, scalar } => {
+                format!("vec{}<{}>", *size as u32, scalar_name(*scalar))
+            }
+            naga::TypeInner::Array {
+                base,
+                size: naga::ArraySize::Constant(n),
+                ..
+            } => format!(
+                "array<{}, {n}>",
+                wgsl_type_name(module, &module.types[*base].inner)
+            ),
+            other => panic!("no host field type for {other:?}"),
+        }
+    }
+
+    fn scalar_name(scalar: naga::Scalar) -> String {
+        match (scalar.kind, scalar.width) {
+            (naga::ScalarKind::Uint, 4) => "u32".into(),
+            (naga::ScalarKind::Float, 4) => "f32".into(),
+            other => panic!("no host field type for {other:?}"),
+        }
+    }
+
     fn check_layout(module: &naga::Module, layout: ErasedLayout) {
         let (members, span) = module
             .types
@@ -1613,14 +1676,21 @@ mod tests {
                 _ => None,
             })
             .unwrap_or_else(|| panic!("struct {} not in the WGSL", layout.wgsl_name));
-        let wgsl: Vec<(&str, usize)> = members
+        let wgsl: Vec<(&str, usize, String)> = members
             .iter()
-            .map(|m| (m.name.as_deref().unwrap(), m.offset as usize))
+            .map(|m| {
+                let ty = &module.types[m.ty].inner;
+                (
+                    m.name.as_deref().unwrap(),
+                    m.offset as usize,
+                    wgsl_type_name(module, ty),
+                )
+            })
             .collect();
         assert_eq!(
             wgsl,
             (layout.fields)(),
-            "field offsets of {}",
+            "fields (names, offsets, types) of {}",
             layout.wgsl_name
         );
         assert_eq!(span as usize, layout.size, "size of {}", layout.wgsl_name);

@@ -167,8 +167,8 @@ pub struct ErasedLayout {
     pub wgsl_name: &'static str,
     /// Bytes per element.
     pub size: usize,
-    /// Field names and offsets (for the layout test against naga).
-    pub fields: fn() -> Vec<(&'static str, usize)>,
+    /// Field names, offsets and WGSL types (`GpuLayout::fields`).
+    pub fields: fn() -> Vec<(&'static str, usize, String)>,
     /// One element's bytes as an exact WGSL constant expression.
     pub wgsl_value: fn(&[u8]) -> String,
     /// Whether every float of one element is finite (has a WGSL literal).
