@@ -44,7 +44,8 @@ pub(crate) use shader_module;
 /// Where the elements of an array that `#for_each` walks come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ArrayForm {
-    /// A runtime-sized storage buffer of that name: a loop to `arrayLength`.
+    /// A runtime-sized storage buffer of that name: a loop over its
+    /// `NAME_count()` elements, each read by `NAME_at` (`kernel::glue`).
     Buffer,
     /// This many module constants named by [`element_constant`].
     Constants(usize),

@@ -14,9 +14,8 @@ use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
 use crate::gpu::pipeline::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
 };
-use crate::kinds::ErasedLayout;
 use crate::kinds::{
-    Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, PRIMITIVE_KINDS, PrimitiveKind,
+    ErasedLayout, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, PRIMITIVE_KINDS, PrimitiveKind,
     ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
 };
 use crate::shader::element_constant;
@@ -118,14 +117,10 @@ fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
         return;
     };
     let per_element = array.element_size / 16;
-    let loads: String = (0..per_element)
-        .map(|w| {
-            format!(
-                "    let w{w} = {name}[{per_element}u * i + {w}u];
-"
-            )
-        })
-        .collect();
+    let mut loads = String::new();
+    for w in 0..per_element {
+        writeln!(loads, "    let w{w} = {name}[{per_element}u * i + {w}u];").unwrap();
+    }
     writeln!(
         out,
         "@group(1) @binding({binding}) var<storage, read> {name}: array<vec4<u32>>;

@@ -160,9 +160,7 @@ impl ArraySource {
                 | ArraySource::Uvs(_)
         )
     }
-}
 
-impl ArraySource {
     /// The host struct of this array's elements, where they are one.
     pub fn element_layout(self) -> Option<ErasedLayout> {
         match self {
