@@ -31,19 +31,20 @@ pub trait GpuLayout: Pod {
 /// round-trip form with the `f` suffix (parsed as f32 directly, not rounded
 /// twice through an abstract float); they must be finite.
 pub trait WgslValue {
+    /// Whether this is a scalar, so that an array of two to four is a vector.
+    const SCALAR: bool;
     /// The WGSL type: a scalar's name; an array of two to four scalars is a
     /// vector, any other array a WGSL array.
     fn wgsl_type() -> String;
-    const SCALAR: bool;
     fn wgsl_value(&self) -> String;
     fn is_finite(&self) -> bool;
 }
 
 impl WgslValue for u32 {
+    const SCALAR: bool = true;
     fn wgsl_type() -> String {
         "u32".into()
     }
-    const SCALAR: bool = true;
     fn wgsl_value(&self) -> String {
         format!("{self}u")
     }
@@ -53,10 +54,10 @@ impl WgslValue for u32 {
 }
 
 impl WgslValue for f32 {
+    const SCALAR: bool = true;
     fn wgsl_type() -> String {
         "f32".into()
     }
-    const SCALAR: bool = true;
     fn wgsl_value(&self) -> String {
         assert!(self.is_finite(), "{self} has no WGSL literal");
         format!("{self:?}f")
@@ -67,13 +68,13 @@ impl WgslValue for f32 {
 }
 
 impl<T: WgslValue, const N: usize> WgslValue for [T; N] {
+    const SCALAR: bool = false;
     fn wgsl_type() -> String {
         match T::SCALAR && (2..=4).contains(&N) {
             true => format!("vec{N}<{}>", T::wgsl_type()),
             false => format!("array<{}, {N}>", T::wgsl_type()),
         }
     }
-    const SCALAR: bool = false;
     fn wgsl_value(&self) -> String {
         let components: Vec<String> = self.iter().map(WgslValue::wgsl_value).collect();
         format!("{}({})", Self::wgsl_type(), components.join(", "))
