@@ -347,7 +347,7 @@ impl<'a> Renderer<'a> {
                         &never_hit[..]
                     }
                     ArraySource::Uvs(k) if data.uvs[k].is_empty() => {
-                        never_hit = vec![0; binding.element_size];
+                        never_hit = vec![0; binding.element_size()];
                         &never_hit[..]
                     }
                     source => data.array_bytes(source),

@@ -170,13 +170,13 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     }
     let mut scene_bytes = 0;
     for array in config.scene_arrays() {
-        let count = data.array_bytes(array.source).len() / array.element_size;
-        scene_bytes += count * array.element_size;
+        let count = data.array_bytes(array.source).len() / array.element_size();
+        scene_bytes += count * array.element_size();
         println!(
             "  {}: {count} x {} B = {} B",
             array.name.replace('_', " "),
-            array.element_size,
-            count * array.element_size
+            array.element_size(),
+            count * array.element_size()
         );
     }
     let triangles = scene.triangles.len();

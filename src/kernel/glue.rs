@@ -99,12 +99,8 @@ pub fn buffer_arrays(arrays: Vec<SceneArray>) -> String {
 /// lanes per load instruction, and a struct's load is one instruction per
 /// field (a `Triangle`'s four, a `Material`'s eight), its words' one per 16 bytes.
 fn buffer_array(out: &mut String, array: &SceneArray) {
-    let SceneArray {
-        name,
-        wgsl_type,
-        binding,
-        ..
-    } = array;
+    let SceneArray { name, binding, .. } = array;
+    let wgsl_type = array.wgsl_type();
     let words = array.source.element_layout().and_then(vector_words);
     let Some(fields) = words else {
         writeln!(
@@ -116,7 +112,7 @@ fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
         .unwrap();
         return;
     };
-    let per_element = array.element_size / 16;
+    let per_element = array.element_size() / 16;
     let mut loads = String::new();
     for w in 0..per_element {
         writeln!(loads, "    let w{w} = {name}[{per_element}u * i + {w}u];").unwrap();
@@ -164,9 +160,8 @@ fn vector_words(layout: ErasedLayout) -> Option<Vec<String>> {
 }
 
 fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
-    let SceneArray {
-        name, wgsl_type, ..
-    } = array;
+    let name = &array.name;
+    let wgsl_type = array.wgsl_type();
     let values: Vec<String> = match array.source {
         ArraySource::Materials => data.materials.iter().map(GpuLayout::wgsl_value).collect(),
         ArraySource::Primitives(k) | ArraySource::Lights(k) => {

@@ -10,7 +10,7 @@ use crate::environment::EnvironmentInfo;
 use crate::gpu::accumulator::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
 };
-use crate::gpu::layout::{GpuLayout, Material, SceneData};
+use crate::gpu::layout::{Material, SceneData};
 use crate::kinds::{ErasedLayout, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, TextureInfo};
 use crate::lights::{DeltaLight, LightGroup, LightPick};
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
@@ -161,13 +161,38 @@ impl ArraySource {
         )
     }
 
-    /// The host struct of this array's elements, where they are one.
+    /// The WGSL type and bytes of one element.
+    pub fn element(self) -> (&'static str, usize) {
+        match (self.element_layout(), self) {
+            (Some(layout), _) => (layout.wgsl_name, layout.size),
+            (None, ArraySource::LightTable(_, LightTablePart::BvhRefs)) => ("u32", 4),
+            (None, ArraySource::Environment(EnvironmentPart::Texels)) => ("vec4<f32>", 16),
+            (
+                None,
+                ArraySource::MaterialTables
+                | ArraySource::TextureTexels
+                | ArraySource::Environment(EnvironmentPart::Rows),
+            ) => ("f32", 4),
+            (None, other) => unreachable!("{other:?} has a host struct"),
+        }
+    }
+
+    /// The host struct of this array's elements, where they are one (else
+    /// they are `u32` light references, `vec4<f32>` texels or `f32` tables).
     pub fn element_layout(self) -> Option<ErasedLayout> {
         match self {
             ArraySource::Materials => Some(ErasedLayout::of::<Material>()),
             ArraySource::Primitives(k) | ArraySource::Lights(k) => Some(PRIMITIVE_KINDS[k].layout),
-            ArraySource::Normals(k) => PRIMITIVE_KINDS[k].shading_normals,
-            ArraySource::Uvs(k) => PRIMITIVE_KINDS[k].texture_uvs,
+            ArraySource::Normals(k) => Some(
+                PRIMITIVE_KINDS[k]
+                    .shading_normals
+                    .expect("only kinds with shading normals have them"),
+            ),
+            ArraySource::Uvs(k) => Some(
+                PRIMITIVE_KINDS[k]
+                    .texture_uvs
+                    .expect("only kinds with texture coordinates have them"),
+            ),
             ArraySource::LightTable(_, LightTablePart::Groups) => {
                 Some(ErasedLayout::of::<LightGroup>())
             }
@@ -227,24 +252,12 @@ impl LightTablePart {
         };
         format!("light_{name}_{part}")
     }
-
-    fn layout(self) -> (&'static str, usize) {
-        match self {
-            LightTablePart::Groups => (LightGroup::WGSL_NAME, size_of::<LightGroup>()),
-            LightTablePart::Picks => (LightPick::WGSL_NAME, size_of::<LightPick>()),
-            LightTablePart::BvhNodes => (BvhNode::WGSL_NAME, size_of::<BvhNode>()),
-            LightTablePart::BvhRefs => ("u32", size_of::<u32>()),
-        }
-    }
 }
 
 /// One array of the scene the kernel declares.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneArray {
     pub name: String,
-    pub wgsl_type: &'static str,
-    /// Bytes per element.
-    pub element_size: usize,
     /// Its binding in group 1 when the scene is read from buffers: materials 0,
     /// then the primitive kinds in table order, then their light arrays, the
     /// BVH, the shading normals, the light tables, the environment map, the
@@ -256,6 +269,17 @@ pub struct SceneArray {
     /// whatever this says).
     pub indexed: bool,
     pub source: ArraySource,
+}
+
+impl SceneArray {
+    pub fn wgsl_type(&self) -> &'static str {
+        self.source.element().0
+    }
+
+    /// Bytes per element.
+    pub fn element_size(&self) -> usize {
+        self.source.element().1
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -665,8 +689,6 @@ impl KernelConfig {
         let count = PRIMITIVE_KINDS.len() as u32;
         let mut arrays = vec![SceneArray {
             name: "materials".into(),
-            wgsl_type: Material::WGSL_NAME,
-            element_size: size_of::<Material>(),
             binding: 0,
             indexed: true,
             source: ArraySource::Materials,
@@ -674,8 +696,6 @@ impl KernelConfig {
         if self.reads_material_tables() {
             arrays.push(SceneArray {
                 name: "material_tables".into(),
-                wgsl_type: "f32",
-                element_size: size_of::<f32>(),
                 binding: 6 + 7 * count,
                 indexed: true,
                 source: ArraySource::MaterialTables,
@@ -685,8 +705,6 @@ impl KernelConfig {
             let kind = PRIMITIVE_KINDS[k];
             arrays.push(SceneArray {
                 name: kind.array.into(),
-                wgsl_type: kind.layout.wgsl_name,
-                element_size: kind.layout.size,
                 binding: 1 + k as u32,
                 // The BVH's leaves, and the shading normal and texture
                 // coordinates at the closest hit, look primitives up by index.
@@ -695,14 +713,8 @@ impl KernelConfig {
             });
         }
         for k in self.normal_kinds.iter() {
-            let kind = PRIMITIVE_KINDS[k];
-            let layout = kind
-                .shading_normals
-                .expect("only kinds with shading normals have them");
             arrays.push(SceneArray {
-                name: kind.normals_array(),
-                wgsl_type: layout.wgsl_name,
-                element_size: layout.size,
+                name: PRIMITIVE_KINDS[k].normals_array(),
                 binding: 3 + 2 * count + k as u32,
                 indexed: true,
                 source: ArraySource::Normals(k),
@@ -710,11 +722,8 @@ impl KernelConfig {
         }
         for k in self.grouped_light_kinds() {
             for (j, part) in LightTablePart::ALL.into_iter().enumerate() {
-                let (wgsl_type, element_size) = part.layout();
                 arrays.push(SceneArray {
                     name: part.array(PRIMITIVE_KINDS[k].name),
-                    wgsl_type,
-                    element_size,
                     binding: 3 + 3 * count + 4 * k as u32 + j as u32,
                     indexed: true,
                     source: ArraySource::LightTable(k, part),
@@ -725,8 +734,6 @@ impl KernelConfig {
             let kind = PRIMITIVE_KINDS[k];
             arrays.push(SceneArray {
                 name: kind.light_array(),
-                wgsl_type: kind.layout.wgsl_name,
-                element_size: kind.layout.size,
                 binding: 1 + count + k as u32,
                 indexed: true,
                 source: ArraySource::Lights(k),
@@ -735,8 +742,6 @@ impl KernelConfig {
         if self.bvh {
             arrays.push(SceneArray {
                 name: "bvh_nodes".into(),
-                wgsl_type: WideBvhNode::WGSL_NAME,
-                element_size: size_of::<WideBvhNode>(),
                 binding: 1 + 2 * count,
                 indexed: true,
                 source: ArraySource::BvhNodes,
@@ -745,27 +750,21 @@ impl KernelConfig {
         if self.textures {
             arrays.push(SceneArray {
                 name: "textures".into(),
-                wgsl_type: TextureInfo::WGSL_NAME,
-                element_size: size_of::<TextureInfo>(),
                 binding: 7 + 7 * count,
                 indexed: true,
                 source: ArraySource::Textures,
             });
             arrays.push(SceneArray {
                 name: "texture_texels".into(),
-                wgsl_type: "f32",
-                element_size: size_of::<f32>(),
                 binding: 8 + 7 * count,
                 indexed: true,
                 source: ArraySource::TextureTexels,
             });
             for k in self.primitive_kinds.iter() {
                 let kind = PRIMITIVE_KINDS[k];
-                if let Some(layout) = kind.texture_uvs {
+                if kind.texture_uvs.is_some() {
                     arrays.push(SceneArray {
                         name: kind.uvs_array(),
-                        wgsl_type: layout.wgsl_name,
-                        element_size: layout.size,
                         binding: 9 + 7 * count + k as u32,
                         indexed: true,
                         source: ArraySource::Uvs(k),
@@ -774,29 +773,17 @@ impl KernelConfig {
             }
         }
         if self.environment {
-            let parts: &[(EnvironmentPart, &str, &'static str, usize)] = &[
-                (
-                    EnvironmentPart::Info,
-                    "environment_info",
-                    EnvironmentInfo::WGSL_NAME,
-                    size_of::<EnvironmentInfo>(),
-                ),
-                (
-                    EnvironmentPart::Texels,
-                    "environment_texels",
-                    "vec4<f32>",
-                    16,
-                ),
-                (EnvironmentPart::Rows, "environment_rows", "f32", 4),
+            let parts = [
+                (EnvironmentPart::Info, "environment_info"),
+                (EnvironmentPart::Texels, "environment_texels"),
+                (EnvironmentPart::Rows, "environment_rows"),
             ];
-            for (j, &(part, name, wgsl_type, element_size)) in parts.iter().enumerate() {
+            for (j, (part, name)) in parts.into_iter().enumerate() {
                 if part == EnvironmentPart::Rows && !self.light_environment {
                     continue;
                 }
                 arrays.push(SceneArray {
                     name: name.into(),
-                    wgsl_type,
-                    element_size,
                     // After the grouped lights' tables (4 per kind).
                     binding: 3 + 7 * count + j as u32,
                     indexed: true,
@@ -807,8 +794,6 @@ impl KernelConfig {
         if self.delta_lights {
             arrays.push(SceneArray {
                 name: "delta_lights".into(),
-                wgsl_type: DeltaLight::WGSL_NAME,
-                element_size: size_of::<DeltaLight>(),
                 // After the texture coordinates (one binding per primitive kind).
                 binding: 9 + 8 * count,
                 indexed: true,
@@ -827,7 +812,7 @@ impl KernelConfig {
                 ArraySource::Lights(k) => data.lights[k].len(),
                 ArraySource::Normals(k) => data.primitives[k].len(),
                 ArraySource::LightTable(..) | ArraySource::DeltaLights => {
-                    data.array_bytes(array.source).len() / array.element_size
+                    data.array_bytes(array.source).len() / array.element_size()
                 }
                 ArraySource::BvhNodes => {
                     unreachable!("a baked scene has no BVH")
