@@ -1,7 +1,7 @@
 //! Progressive accumulation: dispatching samples in short submissions, reading
 //! the running sums back, and the rules that stop a run.
 
-use crate::accel::WideBvh;
+use crate::accel::{self, WideBvh};
 use crate::adaptive;
 use crate::gpu::accumulator::{
     Accumulator, LAYER_SQUARES, LAYER_SUM, REPLICATES, compensated_sums, map_read, replicate_layer,
@@ -974,14 +974,20 @@ pub fn plan_kernel(
     };
     let mut data = data;
     let scene_storage = match scene_storage {
-        SceneStorage::Bvh => match WideBvh::build(&mut data) {
-            Some(bvh) => {
-                data.bvh = Some(bvh);
-                SceneStorage::Bvh
+        SceneStorage::Bvh => {
+            // The general kernel compiles nothing in, large primitives included.
+            if !options.general_kernel {
+                accel::put_large_first(&mut data);
             }
-            // Nothing to hit: the loops over empty buffers are the same.
-            None => SceneStorage::Buffers,
-        },
+            match WideBvh::build(&mut data) {
+                Some(bvh) => {
+                    data.bvh = Some(bvh);
+                    SceneStorage::Bvh
+                }
+                // Nothing to hit: the loops over empty buffers are the same.
+                None => SceneStorage::Buffers,
+            }
+        }
         storage => storage,
     };
     if scene_storage == SceneStorage::Baked && !data.is_finite() {

@@ -161,10 +161,12 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         SceneStorage::Bvh => {
             let bvh = data.bvh.as_ref().expect("a BVH kernel has a BVH");
             println!(
-                "scene data: storage buffers with a BVH: {} nodes, depth {}, built in {:.3} s",
+                "scene data: storage buffers with a BVH: {} nodes, depth {}, built in {:.3} s; \
+                 {} large primitives tested beside it",
                 bvh.nodes.len(),
                 bvh.depth,
-                bvh.build_seconds
+                bvh.build_seconds,
+                data.large.iter().sum::<usize>()
             );
         }
     }
@@ -172,11 +174,14 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     for array in config.scene_arrays() {
         let count = data.array_bytes(array.source).len() / array.element_size();
         scene_bytes += count * array.element_size();
+        // Beside a BVH some arrays are compiled in (`KernelConfig::compiles_in`).
+        let compiled = config.bvh() && config.compiles_in(array.source);
         println!(
-            "  {}: {count} x {} B = {} B",
+            "  {}: {count} x {} B = {} B{}",
             array.name.replace('_', " "),
             array.element_size(),
-            count * array.element_size()
+            count * array.element_size(),
+            if compiled { " (compiled in)" } else { "" }
         );
     }
     let triangles = scene.triangles.len();

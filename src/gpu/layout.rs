@@ -243,7 +243,11 @@ pub struct SceneData {
     /// Per kind with grouped lights that has some: their groups, alias tables
     /// and BVH (`lights`), from `lights` and `light_members`.
     pub light_tables: Vec<Option<LightTables>>,
-    /// Over `primitives`, when the kernel traverses one.
+    /// Per kind: how many of `primitives`, first in its array, are large
+    /// (`accel::put_large_first`): tested by every ray beside the BVH, which
+    /// holds the rest.
+    pub large: Vec<usize>,
+    /// Over `primitives` after the large ones, when the kernel traverses one.
     pub bvh: Option<WideBvh>,
     /// The environment map's texels and sampling tables (shared: a map is large).
     pub environment: Option<Arc<EnvironmentTables>>,
@@ -264,6 +268,7 @@ impl Default for SceneData {
             texture_texels: Vec::new(),
             light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
             light_tables: vec![None; PRIMITIVE_KINDS.len()],
+            large: vec![0; PRIMITIVE_KINDS.len()],
             bvh: None,
             environment: None,
             delta_lights: Vec::new(),
@@ -326,6 +331,72 @@ impl SceneData {
         }
         data.build_light_tables();
         data
+    }
+
+    /// Puts kind `k`'s primitives, and every array indexed like them (the
+    /// shading normals, the texture coordinates), in `order`: element `j`
+    /// becomes the one at `order[j]` (each index once).
+    pub fn reorder(&mut self, k: usize, order: &[u32]) {
+        let array = &mut self.primitives[k];
+        let size = PRIMITIVE_KINDS[k].layout.size;
+        let mut sorted = PackedArray::default();
+        for &i in order {
+            sorted
+                .bytes
+                .extend_from_slice(array.element(i as usize, size));
+            sorted.materials.push(array.materials[i as usize]);
+        }
+        *array = sorted;
+        for per_primitive in [&mut self.normals[k], &mut self.uvs[k]] {
+            if !per_primitive.is_empty() {
+                let size = per_primitive.len() / order.len();
+                assert_eq!(
+                    per_primitive.len(),
+                    size * order.len(),
+                    "one element per primitive"
+                );
+                *per_primitive = order
+                    .iter()
+                    .flat_map(|&i| &per_primitive[i as usize * size..(i as usize + 1) * size])
+                    .copied()
+                    .collect();
+            }
+        }
+    }
+
+    /// What a BVH kernel compiles in (`KernelConfig::compiled_in`): the large
+    /// primitives, and the light density where it is small enough to bake
+    /// (with the large ones, at most `crate::kernel::SceneStorage::MAX_BAKED_OBJECTS`) and
+    /// finite. Without a BVH only the lights could be: `None` when nothing is.
+    pub fn beside_bvh(&self) -> Option<SceneData> {
+        let large: usize = self.large.iter().sum();
+        let lights_bake = large + self.light_count()
+            <= crate::kernel::SceneStorage::MAX_BAKED_OBJECTS
+            && PRIMITIVE_KINDS.iter().enumerate().all(|(k, kind)| {
+                let lights = &self.lights[k];
+                (0..lights.len())
+                    .all(|i| (kind.layout.is_finite)(lights.element(i, kind.layout.size)))
+            });
+        if large == 0 && !(lights_bake && self.light_count() > 0) {
+            return None;
+        }
+        let mut compiled = SceneData {
+            large: self.large.clone(),
+            ..SceneData::default()
+        };
+        for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            let array = &self.primitives[k];
+            compiled.primitives[k] = PackedArray {
+                bytes: array.bytes[..self.large[k] * kind.layout.size].to_vec(),
+                materials: array.materials[..self.large[k]].to_vec(),
+            };
+        }
+        if lights_bake {
+            compiled.lights = self.lights.clone();
+            compiled.light_members = self.light_members.clone();
+            compiled.light_tables = self.light_tables.clone();
+        }
+        Some(compiled)
     }
 
     /// Drops non-emitting objects from the light density.

@@ -71,8 +71,8 @@ pub fn shared_constants() -> String {
 pub fn scene(config: &KernelConfig) -> String {
     let mut out = String::new();
     for array in config.scene_arrays() {
-        match &config.baked_scene {
-            Some(data) if array.source.bakes() => baked_array(&mut out, &array, data),
+        match &config.compiled_in {
+            Some(data) if config.compiles_in(array.source) => baked_array(&mut out, &array, data),
             _ => buffer_array(&mut out, &array),
         }
     }
@@ -164,10 +164,11 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
     let wgsl_type = array.wgsl_type();
     let values: Vec<String> = match array.source {
         ArraySource::Materials => data.materials.iter().map(GpuLayout::wgsl_value).collect(),
-        ArraySource::Primitives(k) | ArraySource::Lights(k) => {
+        ArraySource::Primitives(k) | ArraySource::Large(k) | ArraySource::Lights(k) => {
+            // Beside a BVH the compiled-in primitives are the large ones alone.
             let packed = match array.source {
-                ArraySource::Primitives(_) => &data.primitives[k],
-                _ => &data.lights[k],
+                ArraySource::Lights(_) => &data.lights[k],
+                _ => &data.primitives[k],
             };
             let layout = PRIMITIVE_KINDS[k].layout;
             (0..packed.len())
@@ -282,8 +283,21 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
 "
         )
     };
-    if config.bvh {
-        bvh_traversal(out, &kinds, test);
+    if config.bvh() {
+        // The large primitives first: the BVH then starts from their closest hit.
+        for array in config.scene_arrays() {
+            if let ArraySource::Large(k) = array.source {
+                write!(
+                    out,
+                    "#for_each primitive in {}\n{}#end_for\n",
+                    array.name,
+                    test(k, "    ")
+                )
+                .unwrap();
+            }
+        }
+        let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
+        bvh_traversal(out, &bvh_kinds, test);
     } else {
         for &k in &kinds {
             let array = PRIMITIVE_KINDS[k].array;

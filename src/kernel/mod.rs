@@ -130,6 +130,9 @@ pub enum ArraySource {
     Uvs(usize),
     /// The primitives of kind `k` of `PRIMITIVE_KINDS`.
     Primitives(usize),
+    /// Its large primitives, the first of `Primitives(k)` (`SceneData::large`):
+    /// beside a BVH, always compiled in.
+    Large(usize),
     /// The primitives of kind `k` in the light density.
     Lights(usize),
     /// The shading normals of the primitives of kind `k`.
@@ -182,7 +185,9 @@ impl ArraySource {
     pub fn element_layout(self) -> Option<ErasedLayout> {
         match self {
             ArraySource::Materials => Some(ErasedLayout::of::<Material>()),
-            ArraySource::Primitives(k) | ArraySource::Lights(k) => Some(PRIMITIVE_KINDS[k].layout),
+            ArraySource::Primitives(k) | ArraySource::Large(k) | ArraySource::Lights(k) => {
+                Some(PRIMITIVE_KINDS[k].layout)
+            }
             ArraySource::Normals(k) => Some(
                 PRIMITIVE_KINDS[k]
                     .shading_normals
@@ -307,11 +312,14 @@ pub struct KernelConfig {
     /// Adaptive sampling: each dispatch runs over a list of active pixels, each
     /// continuing its own sample sequence (needs `variance`).
     pub adaptive: bool,
-    /// The scene compiled into the kernel (`SceneStorage::Baked`), or `None`
-    /// to read it from storage buffers.
-    pub baked_scene: Option<SceneData>,
-    /// Closest hits through the scene's BVH (`SceneStorage::Bvh`).
-    pub bvh: bool,
+    /// Scene data compiled into the kernel: the whole scene
+    /// (`SceneStorage::Baked`), or beside a BVH its large primitives and a small
+    /// light density (`SceneData::beside_bvh`); `None`: everything is read from
+    /// storage buffers.
+    pub compiled_in: Option<SceneData>,
+    /// Primitive kinds in the scene's BVH, through which closest hits are found
+    /// (`SceneStorage::Bvh`); empty: no BVH.
+    pub bvh_kinds: KindSet,
     /// The pixel filter camera rays are drawn from.
     pub filter: Filter,
     /// Some material of the scene is one-sided (black from behind).
@@ -376,8 +384,17 @@ impl KernelConfig {
             accumulator,
             variance,
             adaptive: false,
-            baked_scene: (scene_storage == SceneStorage::Baked).then(|| data.clone()),
-            bvh: scene_storage == SceneStorage::Bvh,
+            compiled_in: match scene_storage {
+                SceneStorage::Baked => Some(data.clone()),
+                SceneStorage::Bvh => data.beside_bvh(),
+                SceneStorage::Buffers => None,
+            },
+            bvh_kinds: match scene_storage {
+                SceneStorage::Bvh => (0..PRIMITIVE_KINDS.len())
+                    .filter(|&k| data.primitives[k].len() > data.large[k])
+                    .collect(),
+                _ => KindSet::default(),
+            },
             filter,
             one_sided: data.has_one_sided_materials(),
             environment,
@@ -391,10 +408,17 @@ impl KernelConfig {
     /// This kernel with every primitive and material kind compiled in, as a kernel
     /// not specialised to the scene would be (for measuring what specialising saves).
     /// The light density stays as the scene needs it: it changes the estimator.
+    /// Nothing is compiled in (the scene having no large primitives).
     pub fn generalized(self) -> KernelConfig {
+        let all_primitives = KindSet::all(PRIMITIVE_KINDS.len());
         KernelConfig {
-            primitive_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+            primitive_kinds: all_primitives,
             material_kinds: KindSet::all(MATERIAL_KINDS.len()),
+            compiled_in: None,
+            bvh_kinds: match self.bvh() {
+                true => all_primitives,
+                false => KindSet::default(),
+            },
             ..self
         }
     }
@@ -421,8 +445,8 @@ impl KernelConfig {
             accumulator,
             variance: true,
             adaptive: false,
-            baked_scene: None,
-            bvh: false,
+            compiled_in: None,
+            bvh_kinds: KindSet::default(),
             filter: Filter::Box,
             one_sided: true,
             environment: true,
@@ -434,10 +458,30 @@ impl KernelConfig {
     }
 
     pub fn scene_storage(&self) -> SceneStorage {
-        match (&self.baked_scene, self.bvh) {
-            (Some(_), _) => SceneStorage::Baked,
-            (None, true) => SceneStorage::Bvh,
+        match (&self.compiled_in, self.bvh()) {
+            (_, true) => SceneStorage::Bvh,
+            (Some(_), false) => SceneStorage::Baked,
             (None, false) => SceneStorage::Buffers,
+        }
+    }
+
+    /// Whether closest hits are found through a BVH.
+    pub fn bvh(&self) -> bool {
+        !self.bvh_kinds.is_empty()
+    }
+
+    /// Whether the kernel compiles `source` in as constants rather than
+    /// reading it from a storage buffer.
+    pub fn compiles_in(&self, source: ArraySource) -> bool {
+        let Some(data) = &self.compiled_in else {
+            return false;
+        };
+        match source {
+            _ if !self.bvh() => source.bakes(),
+            ArraySource::Large(_) => true,
+            ArraySource::Lights(k) => !data.lights[k].is_empty(),
+            ArraySource::LightTable(k, _) => data.light_tables[k].is_some(),
+            _ => false,
         }
     }
 
@@ -483,7 +527,7 @@ impl KernelConfig {
             ),
             ("ADAPTIVE", self.adaptive),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
-            ("BVH", self.bvh),
+            ("BVH", self.bvh()),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
             ("ONE_SIDED", self.one_sided),
             (
@@ -525,7 +569,7 @@ impl KernelConfig {
         modules.extend(geometry.iter().map(|k| PRIMITIVE_KINDS[k].module.clone()));
         let grouped_lights = self.grouped_light_kinds().next().is_some();
         // The light groups' density walks a BVH of its own.
-        if self.bvh || grouped_lights {
+        if self.bvh() || grouped_lights {
             modules.push(BVH);
         }
         if grouped_lights {
@@ -708,9 +752,20 @@ impl KernelConfig {
                 binding: 1 + k as u32,
                 // The BVH's leaves, and the shading normal and texture
                 // coordinates at the closest hit, look primitives up by index.
-                indexed: self.bvh || self.normal_kinds.contains(k) || self.textures,
+                indexed: self.bvh() || self.normal_kinds.contains(k) || self.textures,
                 source: ArraySource::Primitives(k),
             });
+        }
+        if let Some(data) = self.compiled_in.as_ref().filter(|_| self.bvh()) {
+            for k in self.primitive_kinds.iter().filter(|&k| data.large[k] > 0) {
+                arrays.push(SceneArray {
+                    name: format!("large_{}", PRIMITIVE_KINDS[k].array),
+                    // Never a buffer.
+                    binding: 10 + 8 * count + k as u32,
+                    indexed: false,
+                    source: ArraySource::Large(k),
+                });
+            }
         }
         for k in self.normal_kinds.iter() {
             arrays.push(SceneArray {
@@ -739,7 +794,7 @@ impl KernelConfig {
                 source: ArraySource::Lights(k),
             });
         }
-        if self.bvh {
+        if self.bvh() {
             arrays.push(SceneArray {
                 name: "bvh_nodes".into(),
                 binding: 1 + 2 * count,
@@ -805,24 +860,26 @@ impl KernelConfig {
 
     /// Where `#for_each` finds the elements of `array`.
     fn array_form(&self, array: &SceneArray) -> ArrayForm {
-        match &self.baked_scene {
-            Some(data) if array.source.bakes() => ArrayForm::Constants(match array.source {
-                ArraySource::Materials => data.materials.len(),
-                ArraySource::Primitives(k) => data.primitives[k].len(),
-                ArraySource::Lights(k) => data.lights[k].len(),
-                ArraySource::Normals(k) => data.primitives[k].len(),
-                ArraySource::LightTable(..) | ArraySource::DeltaLights => {
-                    data.array_bytes(array.source).len() / array.element_size()
-                }
-                ArraySource::BvhNodes => {
-                    unreachable!("a baked scene has no BVH")
-                }
-                ArraySource::Environment(_)
-                | ArraySource::MaterialTables
-                | ArraySource::Textures
-                | ArraySource::TextureTexels
-                | ArraySource::Uvs(_) => unreachable!("never baked"),
-            }),
+        match &self.compiled_in {
+            Some(data) if self.compiles_in(array.source) => {
+                ArrayForm::Constants(match array.source {
+                    ArraySource::Materials => data.materials.len(),
+                    ArraySource::Primitives(k) | ArraySource::Large(k) => data.primitives[k].len(),
+                    ArraySource::Lights(k) => data.lights[k].len(),
+                    ArraySource::Normals(k) => data.primitives[k].len(),
+                    ArraySource::LightTable(..) | ArraySource::DeltaLights => {
+                        data.array_bytes(array.source).len() / array.element_size()
+                    }
+                    ArraySource::BvhNodes => {
+                        unreachable!("a BVH is never compiled in")
+                    }
+                    ArraySource::Environment(_)
+                    | ArraySource::MaterialTables
+                    | ArraySource::Textures
+                    | ArraySource::TextureTexels
+                    | ArraySource::Uvs(_) => unreachable!("never baked"),
+                })
+            }
             _ => ArrayForm::Buffer,
         }
     }
@@ -850,10 +907,9 @@ impl KernelConfig {
     /// Scene arrays read from storage buffers (group 1): when the scene is
     /// baked, only those never baked (an environment map's).
     pub fn scene_bindings(&self) -> Vec<SceneArray> {
-        let baked = self.baked_scene.is_some();
         self.scene_arrays()
             .into_iter()
-            .filter(|array| !baked || !array.source.bakes())
+            .filter(|array| !self.compiles_in(array.source))
             .collect()
     }
 
@@ -918,6 +974,9 @@ impl SceneData {
             ArraySource::TextureTexels => bytemuck::cast_slice(&self.texture_texels),
             ArraySource::Uvs(k) => &self.uvs[k],
             ArraySource::Primitives(k) => &self.primitives[k].bytes,
+            ArraySource::Large(k) => {
+                &self.primitives[k].bytes[..self.large[k] * PRIMITIVE_KINDS[k].layout.size]
+            }
             ArraySource::Lights(k) => &self.lights[k].bytes,
             ArraySource::Normals(k) => &self.normals[k],
             ArraySource::LightTable(k, part) => {
@@ -1018,7 +1077,10 @@ mod tests {
                             // Adaptive sampling needs variance; with the BVH
                             // bit, to keep the variants few.
                             adaptive: variance && mask >> (primitives + 1) != 0,
-                            bvh: mask >> (primitives + 1) != 0,
+                            bvh_kinds: match mask >> (primitives + 1) != 0 {
+                                true => primitive_kinds,
+                                false => KindSet::default(),
+                            },
                             environment: false,
                             light_environment: false,
                             delta_lights: variance && has_smooth_lobe(material_kinds),
@@ -1116,7 +1178,7 @@ mod tests {
                     } else {
                         KindSet::all(PRIMITIVE_KINDS.len())
                     },
-                    baked_scene: None,
+                    compiled_in: None,
                     ..config
                 };
                 validate(&all_lights);
@@ -1347,6 +1409,59 @@ mod tests {
         assert!(arrays_checked >= 14, "{arrays_checked}");
     }
 
+    /// Beside a BVH the large primitives (the sphere field's ground) and a
+    /// small light density (its lamp) are compiled in, bit for bit what their
+    /// buffers would hold, and left out of the bindings; a large light density
+    /// stays in buffers.
+    #[test]
+    fn large_primitives_and_few_lights_are_compiled_in_beside_a_bvh() {
+        let scene = crate::bench::sphere_field(300);
+        let mut data = SceneData::pack(&scene);
+        crate::accel::put_large_first(&mut data);
+        data.bvh = crate::accel::WideBvh::build(&mut data);
+        let sphere = kind_index("sphere");
+        assert_eq!(data.large[sphere], 1);
+        let config_for = |data: &SceneData| {
+            KernelConfig::for_scene(
+                data,
+                Strategy::NeeMis,
+                &scene.render,
+                Filter::Box,
+                AccumulatorKind::Buffer,
+                false,
+                SceneStorage::Bvh,
+            )
+        };
+        let config = config_for(&data);
+        let module = validate(&config);
+        for (name, source) in [
+            ("large_spheres", ArraySource::Large(sphere)),
+            ("light_spheres", ArraySource::Lights(sphere)),
+        ] {
+            assert!(config.compiles_in(source), "{name}");
+            let expected: Vec<u32> = bytemuck::pod_collect_to_vec(data.array_bytes(source));
+            assert!(!expected.is_empty());
+            assert_eq!(baked_words(&module, name), expected, "{name}");
+        }
+        let bound: Vec<String> = config
+            .scene_bindings()
+            .into_iter()
+            .map(|a| a.name)
+            .collect();
+        assert_eq!(bound, ["materials", "spheres", "bvh_nodes"]);
+
+        let lamp = data.lights[sphere].clone();
+        let lights = &mut data.lights[sphere];
+        for _ in 0..SceneStorage::MAX_BAKED_OBJECTS {
+            lights.bytes.extend_from_slice(&lamp.bytes);
+            lights.materials.extend_from_slice(&lamp.materials);
+        }
+        let config = config_for(&data);
+        validate(&config);
+        assert!(config.compiles_in(ArraySource::Large(sphere)));
+        assert!(!config.compiles_in(ArraySource::Lights(sphere)));
+    }
+
     #[test]
     fn small_finite_scenes_are_baked_by_default() {
         let quads = |n: usize| {
@@ -1396,7 +1511,7 @@ mod tests {
             primitive_kinds: KindSet::default(),
             light_kinds: KindSet::default(),
             normal_kinds: KindSet::default(),
-            baked_scene: Some(data.clone()),
+            compiled_in: Some(data.clone()),
             ..KernelConfig::general(Strategy::Bsdf, AccumulatorKind::Buffer)
         };
         let module = validate(&config);
