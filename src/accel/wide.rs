@@ -156,8 +156,8 @@ impl WideBvh {
             wide.nodes
                 .push(WideBvhNode::quantised(&[(bounds, root.first, root.count)]));
         }
-        // The kernel's stack holds an entry per level: `MAX_DEPTH` (`BVH_STACK`)
-        // bounds the binary tree's depth and so the collapsed one's.
+        // The kernel's stack holds an entry per level (`KernelConfig::bvh_stack`):
+        // `MAX_DEPTH` bounds the binary tree's depth and so the collapsed one's.
         assert!(wide.depth < MAX_DEPTH, "depth {}", wide.depth);
         assert!(
             wide.nodes.len() <= MAX_NODES,

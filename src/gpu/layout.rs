@@ -365,9 +365,9 @@ impl SceneData {
     }
 
     /// What a BVH kernel compiles in (`KernelConfig::compiled_in`): the large
-    /// primitives, and the light density where it is small enough to bake
-    /// (with the large ones, at most `crate::kernel::SceneStorage::MAX_BAKED_OBJECTS`) and
-    /// finite. Without a BVH only the lights could be: `None` when nothing is.
+    /// primitives, and the light density where it is finite and small enough
+    /// to bake (with the large ones, at most `SceneStorage::MAX_BAKED_OBJECTS`,
+    /// as a baked scene); `None` when neither is there.
     pub fn beside_bvh(&self) -> Option<SceneData> {
         let large: usize = self.large.iter().sum();
         let lights_bake = large + self.light_count()

@@ -55,7 +55,6 @@ pub fn shared_constants() -> String {
         constant(name, value);
     }
     constant("ROUGH_TRANSMITTANCE_RES", ROUGH_TRANSMITTANCE_RES as u32);
-    constant("BVH_STACK", accel::MAX_DEPTH);
     constant("BVH_LEAF_KIND_SHIFT", accel::LEAF_KIND_SHIFT);
     constant("BVH_LEAF_COUNT_MASK", accel::LEAF_COUNT_MASK);
     out
@@ -297,7 +296,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             }
         }
         let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
-        bvh_traversal(out, &bvh_kinds, test);
+        bvh_traversal(out, &bvh_kinds, config.bvh_stack, test);
     } else {
         for &k in &kinds {
             let array = PRIMITIVE_KINDS[k].array;
@@ -361,7 +360,12 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
 /// there are any (the stack pointer alone decides), so no store depends on the
 /// lane and the stack holds one entry per level; a pop takes the entry's
 /// nearest child and reads its link from the node.
-fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -> String) {
+fn bvh_traversal(
+    out: &mut String,
+    kinds: &[usize],
+    stack_size: u32,
+    test: impl Fn(usize, &str) -> String,
+) {
     let pop = |indent: &str| {
         [
             "let entry = stack[depth - 1u];",
@@ -378,7 +382,7 @@ fn bvh_traversal(out: &mut String, kinds: &[usize], test: impl Fn(usize, &str) -
     write!(
         out,
         "    let inv_dir = 1.0 / ray.dir;
-    var stack: array<u32, BVH_STACK>;
+    var stack: array<u32, {stack_size}>;
     var depth = 0u;
     // The child being walked to: (first, count) as in a node (count 0: interior).
     var link = vec2<u32>(0u, 0u);
@@ -455,7 +459,7 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
     let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
     for &k in kinds.iter().filter(|&&k| grouped(k)) {
-        grouped_lights(out, PRIMITIVE_KINDS[k]);
+        grouped_lights(out, PRIMITIVE_KINDS[k], config.light_bvh_stack);
     }
     let mut counts: Vec<String> = kinds
         .iter()
@@ -555,7 +559,7 @@ fn light_density(out: &mut String, config: &KernelConfig) {
 /// could have been sampled along it) through the lights' own BVH (leaves are
 /// ranges of its `refs`, which index the light array), each member's
 /// density weighted by its probability within its group.
-fn grouped_lights(out: &mut String, kind: &PrimitiveKind) {
+fn grouped_lights(out: &mut String, kind: &PrimitiveKind, stack_size: u32) {
     let (name, lights) = (kind.name, kind.light_array());
     let groups = LightTablePart::Groups.array(name);
     let picks = LightTablePart::Picks.array(name);
@@ -574,7 +578,7 @@ fn grouped_lights(out: &mut String, kind: &PrimitiveKind) {
 fn {lights}_groups_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {{
     var total = 0.0;
     let inv_dir = 1.0 / dir;
-    var stack: array<u32, BVH_STACK>;
+    var stack: array<u32, {stack_size}>;
     var depth = 0u;
     var node_index = 0u;
     loop {{
