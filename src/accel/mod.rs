@@ -351,6 +351,13 @@ pub(crate) mod tests {
         }
     }
 
+    /// `count` points drawn uniformly in the cube [0, extent]³.
+    fn random_points(random: &mut impl FnMut() -> f32, count: usize, extent: f32) -> Vec<[f32; 3]> {
+        (0..count)
+            .map(|_| [random(), random(), random()].map(|u| extent * u))
+            .collect()
+    }
+
     /// Whether box `outer` holds box `inner`.
     pub(crate) fn box_contains(outer: (Vec3, Vec3), inner: (Vec3, Vec3)) -> bool {
         outer.0.cmple(inner.0).all() && inner.1.cmple(outer.1).all()
@@ -494,9 +501,7 @@ pub(crate) mod tests {
         walk: impl Fn(&H, Vec3, Vec3, &dyn Fn(usize, f32) -> Option<f32>) -> Option<(f32, usize)>,
     ) {
         let mut random = uniforms(11);
-        let centers: Vec<[f32; 3]> = (0..2000)
-            .map(|_| [40.0 * random(), 40.0 * random(), 40.0 * random()])
-            .collect();
+        let centers = random_points(&mut random, 2000, 40.0);
         let (hierarchy, sorted) = build(&spheres(&centers));
         let array = &sorted.primitives[kind_index("sphere")];
         let sphere =
@@ -575,9 +580,7 @@ pub(crate) mod tests {
     #[test]
     fn large_primitives_are_tested_beside_the_bvh() {
         let mut random = uniforms(3);
-        let centers: Vec<[f32; 3]> = (0..500)
-            .map(|_| [20.0 * random(), 20.0 * random(), 20.0 * random()])
-            .collect();
+        let centers = random_points(&mut random, 500, 20.0);
         let mut data = spheres(&centers);
         let k = kind_index("sphere");
         let size = size_of::<Sphere>();
@@ -632,9 +635,7 @@ pub(crate) mod tests {
     #[test]
     fn per_primitive_arrays_follow_the_leaf_order() {
         let mut random = uniforms(5);
-        let centers: Vec<[f32; 3]> = (0..300)
-            .map(|_| [10.0 * random(), 10.0 * random(), 10.0 * random()])
-            .collect();
+        let centers = random_points(&mut random, 300, 10.0);
         let mut data = spheres(&centers);
         let k = kind_index("sphere");
         // Two words per primitive, both its original index (its material).
