@@ -17,7 +17,8 @@ Run by hand, not in CI:
 
 Scenes may hold quads, boxes, spheres and meshes (OBJ and PLY files, with their
 scale, rotate_y / rotate and translate; Mitsuba computes smooth normals where the
-file has none, as pathmix does). With `--reference-renderer mitsuba` the common
+file has none, as pathmix does), and a background colour (`render.background`, as
+Mitsuba's `constant` emitter). With `--reference-renderer mitsuba` the common
 reference is Mitsuba's `path` integrator (independent sampler) at
 `--reference-spp`, and the script also prints each image's mean against the
 reference's and its worst 16x16 block. `--mitsuba-reference-only OUT` only writes
@@ -173,6 +174,12 @@ def mitsuba_scene(mi, scene, size, spp, max_depth, sampler, scene_dir=Path("."))
             if emit and max(emit) > 0:
                 shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": emit}}
             shapes[f"shape{len(shapes)}"] = shape
+
+    # pathmix's background is the radiance of rays that leave the scene: Mitsuba's
+    # constant emitter (which its path integrator also samples by NEE).
+    background = scene.get("render", {}).get("background", [0, 0, 0])
+    if max(background) > 0:
+        shapes["background"] = {"type": "constant", "radiance": {"type": "rgb", "value": background}}
 
     camera = scene["camera"]
     return {
