@@ -21,7 +21,9 @@ file has none, as pathmix does), and a background colour (`render.background`, a
 Mitsuba's `constant` emitter). With `--reference-renderer mitsuba` the common
 reference is Mitsuba's `path` integrator (independent sampler) at
 `--reference-spp`, and the script also prints each image's mean against the
-reference's and its worst 16x16 block. `--mitsuba-reference-only OUT` only writes
+reference's and its worst 16x16 block. The reference is kept in `--out` under a name
+made of the scene file's name, the depth, the renderer, the size and the samples, and
+reused by later runs that match. `--mitsuba-reference-only OUT` only writes
 that Mitsuba render (the test fixture `tests/fixtures/mitsuba-cbox-bunny-64.exr`
 was made so).
 
@@ -262,7 +264,9 @@ def main():
         return
     subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
 
-    reference_path = args.out / f"reference-{args.reference_renderer}-{args.size}-{args.reference_spp}.exr"
+    # Kept and reused: named by everything that makes the image.
+    reference_path = args.out / (f"reference-{args.scene.stem}-depth{args.max_depth}-"
+                                 f"{args.reference_renderer}-{args.size}-{args.reference_spp}.exr")
     if not reference_path.exists():
         print(f"rendering the reference with {args.reference_renderer} ({args.reference_spp} spp)...",
               file=sys.stderr)
