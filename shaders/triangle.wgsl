@@ -53,25 +53,18 @@ fn triangle_hit_t(tri: Triangle, ray: Ray, t_max: f32) -> f32 {
     let e0 = difference_of_products(p1.x, p2.y, p1.y, p2.x);
     let e1 = difference_of_products(p2.x, p0.y, p2.y, p0.x);
     let e2 = difference_of_products(p0.x, p1.y, p0.y, p1.x);
-    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
-        return -1.0;
-    }
+    // The tests end in one select, not in early returns: lavapipe runs every
+    // branch anyway, and the returns took 1.045x the CPU time on Mitsuba's box
+    // with the bunny (images identical).
     let det = e0 + e1 + e2;
-    if det == 0.0 {
-        return -1.0;
-    }
     let t_scaled = (e0 * p0.z + e1 * p1.z + e2 * p2.z) * shear.z;
-    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
-        return -1.0;
-    }
-    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
-        return -1.0;
-    }
+    let mixed_signs = ((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0));
+    // Outside (0, t_max) before the division, with det's sign.
+    let outside_negative = (det < 0.0) & ((t_scaled >= 0.0) | (t_scaled < t_max * det));
+    let outside_positive = (det > 0.0) & ((t_scaled <= 0.0) | (t_scaled > t_max * det));
     let t = t_scaled / det;
-    if !(t > 0.0 && t < t_max) {
-        return -1.0;
-    }
-    return t;
+    let inside = !mixed_signs & (det != 0.0) & !outside_negative & !outside_positive & (t > 0.0) & (t < t_max);
+    return select(-1.0, t, inside);
 }
 
 // The closest hit keeps the face normal.
