@@ -814,10 +814,14 @@ mod tests {
         )
     }
 
-    fn temp(name: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("pathmix-shard-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        dir.join(name)
+    /// A path `name` in a fresh folder, removed when the first value is dropped.
+    fn temp(name: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::Builder::new()
+            .prefix("pathmix-shard-")
+            .tempdir()
+            .unwrap();
+        let path = dir.path().join(name);
+        (dir, path)
     }
 
     #[test]
@@ -852,7 +856,7 @@ mod tests {
                 })
                 .collect();
             let p = sized_part(250..500, 40, 30, layers, texels);
-            let path = temp(&format!("p{layers}.exr"));
+            let (_dir, path) = temp(&format!("p{layers}.exr"));
             write_partial(&path, &p).unwrap();
             assert_eq!(read_partial(&path).unwrap(), p);
             let bytes = std::fs::read(&path).unwrap();
@@ -879,7 +883,7 @@ mod tests {
     #[test]
     fn parts_short_of_their_request_are_refused_unless_allowed() {
         let cut = part(10..15, 1.0, 2).asked_for(Some(10..20), true);
-        let path = temp("short.exr");
+        let (_dir, path) = temp("short.exr");
         write_partial(&path, &cut).unwrap();
         let read = read_partial(&path).unwrap();
         assert_eq!(
@@ -912,7 +916,7 @@ mod tests {
 
     #[test]
     fn partial_files_of_an_older_format_are_refused_as_older() {
-        let path = temp("older.exr");
+        let (_dir, path) = temp("older.exr");
         write_partial(&path, &part(0..10, 1.0, 2)).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         let ours = format!("partial {FORMAT}");
@@ -933,7 +937,7 @@ mod tests {
     }
 
     fn read_partial_bytes(bytes: &[u8]) -> String {
-        let path = temp("damaged.exr");
+        let (_dir, path) = temp("damaged.exr");
         std::fs::write(&path, bytes).unwrap();
         match read_partial(&path) {
             Ok(_) => "read without error".into(),

@@ -2,7 +2,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn pathmix(args: &[&str]) -> Output {
@@ -18,13 +18,6 @@ fn scene(name: &str) -> String {
         .join(name)
         .display()
         .to_string()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pathmix-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 fn stderr(output: &Output) -> String {
@@ -58,7 +51,7 @@ fn help_explains_every_render_flag() {
 
 #[test]
 fn bad_scene_is_refused_naming_file_and_field_and_writes_nothing() {
-    let dir = temp_dir("bad-scene");
+    let dir = common::TempDir::new("cli", "bad-scene");
     let scene_path = dir.join("broken.toml");
     let text = std::fs::read_to_string(scene("cornell.toml"))
         .unwrap()
@@ -82,7 +75,7 @@ fn bad_scene_is_refused_naming_file_and_field_and_writes_nothing() {
 
 #[test]
 fn unwritable_outputs_are_refused_before_rendering() {
-    let dir = temp_dir("outputs");
+    let dir = common::TempDir::new("cli", "outputs");
     let missing = dir.join("no-such-folder").join("out.png");
     let output = pathmix(&[
         "render",
@@ -125,7 +118,7 @@ fn renders_png_and_exr_and_reports_speed() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("render");
+    let dir = common::TempDir::new("cli", "render");
     let (png, exr) = (dir.join("box.png"), dir.join("box.exr"));
     let output = pathmix(&[
         "render",
@@ -161,7 +154,7 @@ fn light_strategy_warns_that_it_is_biased() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("light");
+    let dir = common::TempDir::new("cli", "light");
     let png = dir.join("light.png");
     let output = pathmix(&[
         "render",
@@ -310,7 +303,7 @@ fn bad_inputs_exit_2_naming_the_problem_and_write_nothing() {
         ),
     ];
     for (case, text, extra, fragments) in cases {
-        let dir = temp_dir("bad-input");
+        let dir = common::TempDir::new("cli", "bad-input");
         let scene_path = dir.join("case.toml");
         std::fs::write(&scene_path, text).unwrap();
         let out = dir.join("out.png");
@@ -346,7 +339,7 @@ fn bad_inputs_exit_2_naming_the_problem_and_write_nothing() {
 #[test]
 fn compare_exits_0_within_the_tolerance_1_beyond_it_2_for_unreadable_files() {
     use pathmix::output::{Image, write_exr};
-    let dir = temp_dir("compare");
+    let dir = common::TempDir::new("cli", "compare");
     let image = |pixels: Vec<[f32; 3]>| Image {
         width: 2,
         height: 1,
@@ -409,7 +402,6 @@ fn compare_exits_0_within_the_tolerance_1_beyond_it_2_for_unreadable_files() {
     );
     let output = pathmix(&["compare", &a, &close, "--tolerance", "-1"]);
     assert_eq!(output.status.code(), Some(2));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A scene whose mesh file is missing, malformed or empty exits with code 2,
@@ -417,7 +409,7 @@ fn compare_exits_0_within_the_tolerance_1_beyond_it_2_for_unreadable_files() {
 /// it) the line, and writes nothing.
 #[test]
 fn bad_mesh_files_are_refused_naming_object_and_file() {
-    let dir = temp_dir("bad-meshes");
+    let dir = common::TempDir::new("cli", "bad-meshes");
     let cases = [
         ("missing.obj", None, "cannot read the mesh file"),
         ("short.obj", Some("v 0 0 0\nv 1 0 0\nf 1 2\n"), "line 3"),

@@ -18,12 +18,6 @@ fn scene_path(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pathmix-converge-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
 /// The Cornell box with two boxes, small and at depth 8 (as in tests/render.rs).
 /// One study serves every check on the command's outputs. The ladder goes to 1024 spp:
 /// on this scene the light strategy's bias (about 0.045 RMS) stays below its noise up to
@@ -36,7 +30,8 @@ fn converge_measures_flags_and_writes_its_report() {
     let ctx = gpu_or_skip!();
     let scene = common::small_cornell_boxes(32, Sampler::Independent);
     let scene_bytes = std::fs::read(scene_path("cornell-boxes.toml")).unwrap();
-    let dir = temp_dir("study");
+    let temp = common::TempDir::new("converge", "study");
+    let dir = temp.join("out");
     let variants = [Variant::BSDF, Variant::LIGHT, Variant::mixture(0.5)];
     let study = Study {
         scene: &scene,
@@ -134,7 +129,6 @@ fn converge_measures_flags_and_writes_its_report() {
         })
         .unwrap();
     assert!(cached.estimated_error.is_some_and(|e| e > 0.0));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The error estimate is honest under both samplers: on the Cornell box, the RMS over
@@ -229,7 +223,8 @@ fn standard_error_predicts_the_measured_error() {
 
 #[test]
 fn a_reference_of_another_size_is_refused() {
-    let dir = temp_dir("size");
+    let temp = common::TempDir::new("converge", "size");
+    let dir = temp.join("out");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("ref.exr");
     output::write_exr(&path, &Image::new(4, 3), &[]).unwrap();
@@ -242,7 +237,6 @@ fn a_reference_of_another_size_is_refused() {
     }
     let reference = converge::given_reference(&path, 4, 3).unwrap();
     assert_eq!(reference.source, ReferenceSource::Given);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 fn pathmix(args: &[&str]) -> std::process::Output {
@@ -275,7 +269,8 @@ fn converge_help_explains_every_flag() {
 
 #[test]
 fn converge_refuses_bad_input_before_rendering() {
-    let dir = temp_dir("refused");
+    let temp = common::TempDir::new("converge", "refused");
+    let dir = temp.join("out");
     let scene = scene_path("cornell-boxes.toml");
     let out = dir.display().to_string();
     let bad_variant = pathmix(&[
@@ -310,7 +305,6 @@ fn converge_refuses_bad_input_before_rendering() {
         "{stderr}"
     );
     assert!(!dir.join("converge.md").exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The command end to end at a tiny size: outputs, the summary on stdout, and the
@@ -320,7 +314,8 @@ fn converge_command_renders_then_reuses_its_reference() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("command");
+    let temp = common::TempDir::new("converge", "command");
+    let dir = temp.join("out");
     let scene = scene_path("cornell-boxes.toml").display().to_string();
     let out = dir.display().to_string();
     let args = [
@@ -366,7 +361,6 @@ fn converge_command_renders_then_reuses_its_reference() {
         })
         .count();
     assert_eq!(references, 1);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The warm-up restarts the accumulation with `Renderer::reset`: what follows must be

@@ -329,9 +329,7 @@ fn many_point_lights_picked_by_power_give_the_analytic_irradiance() {
 /// A bad light exits with code 2 naming the file and the field, writing nothing.
 #[test]
 fn bad_lights_exit_2_naming_file_and_field() {
-    let dir = std::env::temp_dir().join(format!("pathmix-deltalights-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::TempDir::new("deltalights", "bad");
     let base = "[camera]\nlookfrom = [0, 1, -3]\nlookat = [0, 0, 0]\n[[lights]]\n";
     for (light, field, message) in [
         (

@@ -30,13 +30,6 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pathmix-deploy-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 /// Every document of a manifest file.
 fn documents(path: &str) -> Vec<Yaml> {
     YamlLoader::load_from_str(&read(path)).unwrap_or_else(|e| panic!("{path}: {e}"))
@@ -366,7 +359,7 @@ fn kubernetes_pods_run_as_local_processes_merge_to_one_run() {
     if common::gpu().is_none() {
         return;
     }
-    let root = temp_dir("k8s");
+    let root = common::TempDir::new("deploy", "k8s");
     let render_docs = documents("deploy/k8s/render-job.yaml");
     let render = find(&render_docs, "Job", "pathmix-render");
     let merge_docs = documents("deploy/k8s/merge-job.yaml");
@@ -393,7 +386,7 @@ fn kubernetes_pods_run_as_local_processes_merge_to_one_run() {
     let pods: Vec<_> = (0..completions)
         .map(|index| {
             let container = container.clone();
-            let root = root.clone();
+            let root = root.to_path_buf();
             let mut env = small.to_vec();
             env.push(("JOB_COMPLETION_INDEX", index.to_string()));
             std::thread::spawn(move || run_container(&container, &root, &env))
@@ -449,5 +442,4 @@ fn kubernetes_pods_run_as_local_processes_merge_to_one_run() {
         text(&output.stdout),
         text(&output.stderr)
     );
-    let _ = std::fs::remove_dir_all(&root);
 }

@@ -7,7 +7,6 @@ use pathmix::kernel::SceneStorage;
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Scene, Strategy};
 use std::fmt::Write;
-use std::path::PathBuf;
 
 macro_rules! gpu_or_skip {
     () => {
@@ -32,8 +31,8 @@ fn furnace_mesh(name: &str, strategy: Strategy, spp: u32, max_depth: u32) -> Sce
         let base = 4 * i + 1;
         writeln!(obj, "f {} {} {} {}", base, base + 1, base + 2, base + 3).unwrap();
     }
-    let path: PathBuf =
-        std::env::temp_dir().join(format!("pathmix-{name}-{}.obj", std::process::id()));
+    let dir = common::TempDir::new("meshes", name);
+    let path = dir.join("furnace.obj");
     std::fs::write(&path, obj).unwrap();
     let text = format!(
         "[camera]\nlookfrom = [0, 0, 0]\nlookat = [0, 0, 1]\nvfov = 90\nwidth = 16\nheight = 16\n\
@@ -135,8 +134,7 @@ fn stanford_bunny_renders_through_the_bvh() {
 /// A scene file beside a mesh file `name` with `contents`, in a folder of its
 /// own (named after `tag`).
 fn scene_beside_mesh(tag: &str, name: &str, contents: &str, scene: &str) -> Scene {
-    let dir = std::env::temp_dir().join(format!("pathmix-meshes-{}-{tag}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::TempDir::new("meshes", tag);
     std::fs::write(dir.join(name), contents).unwrap();
     let path = dir.join("scene.toml");
     std::fs::write(&path, scene).unwrap();
@@ -379,8 +377,7 @@ fn gltf_two_materials(dir: &std::path::Path, second_material: &str) {
 /// a face without a material needs `material`.
 #[test]
 fn gltf_materials_map_to_the_nearest_pathmix_material() {
-    let dir = std::env::temp_dir().join(format!("pathmix-meshes-{}-gltf", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::TempDir::new("meshes", "gltf");
     let scene = |second_material: &str, keys: &str| {
         gltf_two_materials(&dir, second_material);
         let text = format!(
@@ -575,10 +572,8 @@ fn triangle_light_gives_the_analytic_irradiance() {
             .map(|p| format!("v {} {} {}\n", p[0], p[1], p[2]))
             .collect::<String>()
             + "f 1 2 3\n";
-        let path: PathBuf = std::env::temp_dir().join(format!(
-            "pathmix-triangle-light-{name}-{}.obj",
-            std::process::id()
-        ));
+        let dir = common::TempDir::new("triangle-light", name);
+        let path = dir.join("triangle.obj");
         std::fs::write(&path, obj).unwrap();
         let expected = albedo / std::f64::consts::PI * emit * triangle_irradiance(v);
         let mesh = format!("[[objects]]\ntype = \"mesh\"\nfile = {path:?}\nmaterial = \"lamp\"\n");

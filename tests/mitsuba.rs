@@ -32,13 +32,6 @@ fn defines(pairs: &[(&str, &str)]) -> Vec<Define> {
         .collect()
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pathmix-mitsuba-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn pathmix(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_pathmix"))
         .args(args)
@@ -416,7 +409,7 @@ fn resume_keeps_the_mitsuba_parameters() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("resume-defines");
+    let dir = common::TempDir::new("mitsuba", "resume-defines");
     let xml = repo("tests/data/roughplastic-spheres.xml");
     let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
     let xml = xml.to_string_lossy().into_owned();
@@ -474,7 +467,7 @@ fn resume_keeps_the_mitsuba_parameters() {
 #[test]
 fn convert_round_trips_to_the_same_scene() {
     let Some(xml) = cbox_xml() else { return };
-    let dir = temp_dir("convert");
+    let dir = common::TempDir::new("mitsuba", "convert");
     let out = dir.join("nested/cbox.toml");
     std::fs::create_dir_all(out.parent().unwrap()).unwrap();
     let output = pathmix(&[
@@ -513,7 +506,7 @@ fn convert_round_trips_to_the_same_scene() {
 #[test]
 fn convert_writes_textures() {
     let xml = repo("tests/data/textured.xml");
-    let dir = temp_dir("convert-textures");
+    let dir = common::TempDir::new("mitsuba", "convert-textures");
     let out = dir.join("textured.toml");
     let output = pathmix(&[
         "convert",
@@ -578,7 +571,7 @@ fn pathdiff_like(path: &Path, folder: &Path) -> String {
 /// nothing written, no panic.
 #[test]
 fn bad_scenes_are_refused_with_file_line_and_column() {
-    let dir = temp_dir("bad");
+    let dir = common::TempDir::new("mitsuba", "bad");
     let sensor = r#"<sensor type="perspective"><float name="fov" value="40"/></sensor>"#;
     std::fs::write(dir.join("quad.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n").unwrap();
     std::fs::write(dir.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap();

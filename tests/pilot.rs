@@ -9,7 +9,7 @@ use pathmix::pilot::{self, Pilot};
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopRule};
 use pathmix::scene::{Sampler, Scene, Strategy};
 use pathmix::stats;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::{Mutex, MutexGuard};
 
@@ -237,13 +237,6 @@ fn pathmix(args: &[&str]) -> Output {
         .unwrap()
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pathmix-pilot-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()
 }
@@ -280,7 +273,7 @@ fn text(bytes: &[u8]) -> String {
 fn auto_in_the_scene_file_prints_its_choice_and_resumes_without_a_pilot() {
     let _ctx = gpu_or_skip!();
     let _alone = one_at_a_time();
-    let dir = temp_dir("resume");
+    let dir = common::TempDir::new("pilot", "resume");
     let cornell = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml");
     let source = std::fs::read_to_string(&cornell).unwrap();
     assert!(source.contains("strategy = \"mixture\""));
@@ -351,7 +344,7 @@ fn auto_in_the_scene_file_prints_its_choice_and_resumes_without_a_pilot() {
 /// chooses the light weight. Refused before rendering, exit 2.
 #[test]
 fn auto_with_shards_or_a_light_weight_is_refused() {
-    let dir = temp_dir("refused");
+    let dir = common::TempDir::new("pilot", "refused");
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml");
     let out = dir.join("x.png");
     for (extra, flag) in [
@@ -379,7 +372,7 @@ fn auto_with_shards_or_a_light_weight_is_refused() {
 fn the_chosen_candidates_pilot_samples_start_the_run() {
     let _ctx = gpu_or_skip!();
     let _alone = one_at_a_time();
-    let dir = temp_dir("reuse");
+    let dir = common::TempDir::new("pilot", "reuse");
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml");
     // 24×24 at 256 spp: the pilot's 8 spp per candidate fit at the run's size.
     assert_eq!(pilot::shape(24, 24, 256), ((24, 24), 8));

@@ -142,13 +142,6 @@ fn repo(path: &str) -> String {
         .to_string()
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pathmix-prog-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
@@ -186,7 +179,7 @@ fn interrupt_and_resume_equals_uninterrupted_bit_for_bit() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("interrupt");
+    let dir = common::TempDir::new("prog", "interrupt");
     let scene = repo("scenes/cornell-boxes.toml");
     let (ckpt, exr, png) = (
         dir.join("run.ckpt"),
@@ -288,7 +281,7 @@ fn second_interrupt_exits_at_once_leaving_whole_files() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("twice");
+    let dir = common::TempDir::new("prog", "twice");
     let ckpt = dir.join("run.ckpt");
     let mut child = Command::new(bin())
         .args([
@@ -323,7 +316,7 @@ fn sigterm_saves_and_exits_143() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("term");
+    let dir = common::TempDir::new("prog", "term");
     let ckpt = dir.join("run.ckpt");
     let mut child = Command::new(bin())
         .args(["render", &repo("scenes/furnace.toml"), "--spp", "100000"])
@@ -368,7 +361,7 @@ fn damaged_checkpoints_and_partials_are_refused() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("damaged");
+    let dir = common::TempDir::new("prog", "damaged");
     let (ckpt, part) = small_outputs(&dir, &repo("scenes/cornell-boxes.toml"));
     let bytes = std::fs::read(&ckpt).unwrap();
     let damaged = dir.join("damaged.ckpt");
@@ -424,7 +417,7 @@ fn changed_scene_on_resume_is_refused_naming_what_differs() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("changed");
+    let dir = common::TempDir::new("prog", "changed");
     let original = std::fs::read_to_string(repo("scenes/cornell-boxes.toml")).unwrap();
     let scene = dir.join("scene.toml");
     std::fs::write(&scene, &original).unwrap();
@@ -476,7 +469,7 @@ fn shards_from_the_deploy_scripts_merge_to_one_run() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("shards");
+    let dir = common::TempDir::new("prog", "shards");
     let scene = repo("scenes/cornell-boxes.toml");
     let parts = dir.join("parts");
     let flags = "--width 24 --height 16";
@@ -631,7 +624,7 @@ fn an_interrupted_shard_is_refused_by_merge() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("short-shard");
+    let dir = common::TempDir::new("prog", "short-shard");
     let scene = repo("scenes/furnace.toml");
     let size = ["--width", "16", "--height", "16", "--quiet"];
     let (q0, q1, ckpt) = (dir.join("q0.exr"), dir.join("q1.exr"), dir.join("q1.ckpt"));
@@ -703,7 +696,7 @@ fn two_resumes_of_one_checkpoint_cannot_both_run() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("two-resumes");
+    let dir = common::TempDir::new("prog", "two-resumes");
     let ckpt = dir.join("run.ckpt");
     let started = pathmix(&[
         "render",
@@ -764,7 +757,7 @@ fn sigkill_during_checkpoint_writes_never_damages_the_checkpoint() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("kill-loop");
+    let dir = common::TempDir::new("prog", "kill-loop");
     let ckpt = dir.join("run.ckpt");
     let png = dir.join("out.png");
     let run = || {

@@ -7,7 +7,7 @@ mod common;
 use pathmix::render::{self, RenderOptions, StopRule};
 use pathmix::scene::{Scene, Strategy};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 use std::time::Duration;
 
@@ -21,13 +21,6 @@ fn pathmix_in(dir: &Path, args: &[&str]) -> Output {
         .current_dir(dir)
         .output()
         .unwrap()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("pathmix-robust-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 fn text(bytes: &[u8]) -> String {
@@ -130,7 +123,7 @@ fn every_pair_of_path_flags_naming_one_file_is_refused_and_every_file_is_kept() 
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("collide");
+    let dir = common::TempDir::new("robust", "collide");
     inputs(&dir);
     let own_file = |flag: &str, other: &str| match (flag, other) {
         // SCENE and --resume collide where both name the checkpoint.
@@ -215,13 +208,12 @@ fn every_pair_of_path_flags_naming_one_file_is_refused_and_every_file_is_kept() 
         );
         assert!(snapshot(&dir) == before, "{case}: a file changed");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `--checkpoint` replaces only a checkpoint; any other file is kept.
 #[test]
 fn a_checkpoint_never_replaces_a_file_that_is_not_one() {
-    let dir = temp_dir("not-ckpt");
+    let dir = common::TempDir::new("robust", "not-ckpt");
     std::fs::copy(cornell(), dir.join("scene.toml")).unwrap();
     std::fs::write(dir.join("notes.txt"), "my notes").unwrap();
     let before = snapshot(&dir);
@@ -238,7 +230,6 @@ fn a_checkpoint_never_replaces_a_file_that_is_not_one() {
     assert_eq!(output.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("not a pathmix checkpoint"), "{stderr}");
     assert!(snapshot(&dir) == before);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A read-only output (mode 0444) is refused before rendering, even for root,
@@ -247,7 +238,7 @@ fn a_checkpoint_never_replaces_a_file_that_is_not_one() {
 #[test]
 fn read_only_outputs_are_refused_before_rendering() {
     use std::os::unix::fs::PermissionsExt;
-    let dir = temp_dir("read-only");
+    let dir = common::TempDir::new("robust", "read-only");
     std::fs::copy(cornell(), dir.join("scene.toml")).unwrap();
     for (flag, name) in [
         ("-o", "kept.png"),
@@ -281,7 +272,6 @@ fn read_only_outputs_are_refused_before_rendering() {
         );
         assert!(snapshot(&dir) == before, "{flag}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A render whose scene path is not UTF-8 cannot be recorded in a checkpoint:
@@ -290,7 +280,7 @@ fn read_only_outputs_are_refused_before_rendering() {
 #[test]
 fn non_utf8_scene_paths_are_refused_when_a_checkpoint_records_them() {
     use std::os::unix::ffi::OsStrExt;
-    let dir = temp_dir("utf8");
+    let dir = common::TempDir::new("robust", "utf8");
     let name = std::ffi::OsStr::from_bytes(b"sc\xffene.toml");
     std::fs::copy(cornell(), dir.join(name)).unwrap();
     let before = snapshot(&dir);
@@ -306,7 +296,6 @@ fn non_utf8_scene_paths_are_refused_when_a_checkpoint_records_them() {
     assert_eq!(output.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("not UTF-8"), "{stderr}");
     assert!(snapshot(&dir) == before);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 const EMPTY_SCENE: &str = r#"
@@ -385,7 +374,7 @@ fn emission_at_the_top_of_f32_is_refused_or_counted_never_silent() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    let dir = temp_dir("bright");
+    let dir = common::TempDir::new("robust", "bright");
     let cornell_text = std::fs::read_to_string(cornell()).unwrap();
     assert!(cornell_text.contains("emit = [15, 15, 15]"));
     for emit in [f32::MAX, 1e38] {
@@ -456,7 +445,6 @@ fn emission_at_the_top_of_f32_is_refused_or_counted_never_silent() {
     render::check_emission(&scene, 4, true).unwrap();
     let accumulation = common::render(ctx, &scene, &common::with_variance());
     render::check_sums_finite(&accumulation).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The mixture at light weight 1 is the `light` strategy, biased alike: warned.
@@ -500,7 +488,7 @@ fn an_empty_shard_is_a_valid_empty_part() {
     if common::gpu().is_none() {
         return;
     }
-    let dir = temp_dir("empty-shard");
+    let dir = common::TempDir::new("robust", "empty-shard");
     std::fs::copy(cornell(), dir.join("scene.toml")).unwrap();
     let size = ["--width", "8", "--height", "8", "--spp", "1", "-q"];
     for (shard, part) in [("0/2", "e0.exr"), ("1/2", "e1.exr")] {
@@ -523,13 +511,12 @@ fn an_empty_shard_is_a_valid_empty_part() {
         "{}",
         text(&merged.stdout)
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `compare` on a cut-off EXR says it is truncated.
 #[test]
 fn compare_names_a_truncated_file_as_truncated() {
-    let dir = temp_dir("truncated");
+    let dir = common::TempDir::new("robust", "truncated");
     let image = pathmix::output::Image {
         width: 32,
         height: 32,
@@ -545,7 +532,6 @@ fn compare_names_a_truncated_file_as_truncated() {
         assert_eq!(output.status.code(), Some(2), "{stderr}");
         assert!(stderr.contains("truncated"), "{cut}: {stderr}");
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A scene past a resource limit is refused before the device is asked, naming

@@ -1914,16 +1914,18 @@ mod tests {
     use crate::scene::{Disk, Filter, MaterialKind, Roulette, Scene, Strategy};
     use glam::Vec3;
 
-    /// `files` written into a fresh folder; the first is the scene.
-    fn folder(name: &str, files: &[(&str, &str)]) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("pathmix-mitsuba-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+    /// `files` written into a fresh folder (removed when the first value is
+    /// dropped), and the path of the first, the scene.
+    fn folder(name: &str, files: &[(&str, &str)]) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("pathmix-mitsuba-{name}-"))
+            .tempdir()
+            .unwrap();
         for (file, text) in files {
-            std::fs::write(dir.join(file), text).unwrap();
+            std::fs::write(dir.path().join(file), text).unwrap();
         }
-        dir.join(files[0].0)
+        let scene = dir.path().join(files[0].0);
+        (dir, scene)
     }
 
     const QUAD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
@@ -1942,7 +1944,7 @@ mod tests {
     }
 
     fn read(name: &str, body: &str, defines: &[Define]) -> Result<(Scene, Converted)> {
-        let path = folder(
+        let (_dir, path) = folder(
             name,
             &[("scene.xml", &scene_text(body)), ("quad.obj", QUAD_OBJ)],
         );
@@ -2219,7 +2221,7 @@ mod tests {
         let body = r#"<emitter type="envmap"><string name="filename" value="sky.hdr"/>
                <float name="scale" value="2"/>
                <transform name="to_world"><rotate y="1" angle="90"/></transform></emitter>"#;
-        let path = folder("envmap", &[("scene.xml", &scene_text(body))]);
+        let (_dir, path) = folder("envmap", &[("scene.xml", &scene_text(body))]);
         // A 2 x 1 Radiance HDR (flat RGBE): (128, 128, 128, 129) is 1.
         let mut hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n".to_vec();
         hdr.extend([128, 128, 128, 129, 128, 128, 128, 129]);
@@ -2243,7 +2245,7 @@ mod tests {
         let twice = format!(
             "{body}<emitter type=\"constant\"><rgb name=\"radiance\" value=\"1\"/></emitter>"
         );
-        let path = folder("envmap-twice", &[("scene.xml", &scene_text(&twice))]);
+        let (_dir, path) = folder("envmap-twice", &[("scene.xml", &scene_text(&twice))]);
         std::fs::write(path.with_file_name("sky.hdr"), "").unwrap();
         let e = Converted::read(&path, &[]).unwrap_err().to_string();
         assert!(e.contains("a second constant or envmap emitter"), "{e}");
@@ -2437,7 +2439,7 @@ mod tests {
 
     #[test]
     fn includes_resolve_against_the_top_folder() {
-        let path = folder(
+        let (_dir, path) = folder(
             "include",
             &[
                 (

@@ -3472,16 +3472,12 @@ material = "white"
 
     /// A scene file in a fresh folder with `mesh.obj` beside it, for mesh objects.
     fn scene_with_mesh(obj: &str, object_keys: &str) -> std::result::Result<Scene, SceneError> {
-        use std::sync::atomic::{AtomicUsize, Ordering};
-        static NEXT: AtomicUsize = AtomicUsize::new(0);
-        let dir = std::env::temp_dir().join(format!(
-            "pathmix-parse-mesh-{}-{}",
-            std::process::id(),
-            NEXT.fetch_add(1, Ordering::SeqCst)
-        ));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("mesh.obj"), obj).unwrap();
-        let path = dir.join("scene.toml");
+        let dir = tempfile::Builder::new()
+            .prefix("pathmix-parse-mesh-")
+            .tempdir()
+            .unwrap();
+        std::fs::write(dir.path().join("mesh.obj"), obj).unwrap();
+        let path = dir.path().join("scene.toml");
         let text =
             format!("{BASE}\n[[objects]]\ntype = \"mesh\"\nmaterial = \"white\"\n{object_keys}\n");
         std::fs::write(&path, text).unwrap();
