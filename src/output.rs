@@ -660,30 +660,28 @@ mod tests {
     use std::io::Write;
 
     /// A fresh folder under the system temp folder, removed on drop.
-    struct TestDir(PathBuf);
+    struct TestDir(tempfile::TempDir);
 
     impl TestDir {
         fn new(name: &str) -> TestDir {
-            let dir =
-                std::env::temp_dir().join(format!("pathmix-output-{}-{name}", std::process::id()));
-            let _ = fs::remove_dir_all(&dir);
-            fs::create_dir_all(&dir).unwrap();
+            let dir = tempfile::Builder::new()
+                .prefix(&format!("pathmix-output-{name}-"))
+                .tempdir()
+                .unwrap();
             TestDir(dir)
         }
 
+        fn join(&self, name: impl AsRef<Path>) -> PathBuf {
+            self.0.path().join(name)
+        }
+
         fn entries(&self) -> Vec<String> {
-            let mut names: Vec<String> = fs::read_dir(&self.0)
+            let mut names: Vec<String> = fs::read_dir(self.0.path())
                 .unwrap()
                 .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
                 .collect();
             names.sort();
             names
-        }
-    }
-
-    impl Drop for TestDir {
-        fn drop(&mut self) {
-            let _ = fs::remove_dir_all(&self.0);
         }
     }
 
@@ -842,7 +840,7 @@ mod tests {
     #[test]
     fn png_round_trip_matches_tone_mapping() {
         let dir = TestDir::new("png");
-        let path = dir.0.join("out.png");
+        let path = dir.join("out.png");
         let image = test_image();
         write_png(&path, &image, 0.5).unwrap();
         let read = image::open(&path).unwrap().to_rgb8();
@@ -854,7 +852,7 @@ mod tests {
     #[test]
     fn exr_round_trip_is_bit_exact() {
         let dir = TestDir::new("exr");
-        let path = dir.0.join("out.exr");
+        let path = dir.join("out.exr");
         let mut image = test_image();
         image.pixels[3] = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
         write_exr(&path, &image, &[]).unwrap();
@@ -875,7 +873,7 @@ mod tests {
     #[test]
     fn exr_attributes_round_trip() {
         let dir = TestDir::new("exr-attributes");
-        let path = dir.0.join("out.exr");
+        let path = dir.join("out.exr");
         let attributes = [
             ("pathmix.samples", "1024".to_owned()),
             ("pathmix.scene", "scenes/cornell box.toml".to_owned()),
@@ -896,7 +894,7 @@ mod tests {
     #[test]
     fn exr_rejects_non_latin1_attribute_without_writing() {
         let dir = TestDir::new("exr-bad-attribute");
-        let path = dir.0.join("out.exr");
+        let path = dir.join("out.exr");
         let error = write_exr(&path, &test_image(), &[("note", "雪".to_owned())]).unwrap_err();
         assert!(error.to_string().contains("out.exr"), "{error}");
         assert!(
@@ -909,7 +907,7 @@ mod tests {
     #[test]
     fn exr_rejects_reserved_attribute_without_writing() {
         let dir = TestDir::new("exr-reserved-attribute");
-        let path = dir.0.join("out.exr");
+        let path = dir.join("out.exr");
         let error =
             write_exr(&path, &test_image(), &[("compression", "none".to_owned())]).unwrap_err();
         assert!(
@@ -922,7 +920,7 @@ mod tests {
     #[test]
     fn read_exr_errors_name_the_path() {
         let dir = TestDir::new("exr-read-errors");
-        let missing = dir.0.join("missing.exr");
+        let missing = dir.join("missing.exr");
         let error = read_exr(&missing).unwrap_err();
         assert!(
             error
@@ -931,7 +929,7 @@ mod tests {
             "{error}"
         );
 
-        let png = dir.0.join("not-exr.exr");
+        let png = dir.join("not-exr.exr");
         write_atomically(&png, |w| w.write_all(b"\x89PNG\r\n\x1a\n")).unwrap();
         let error = read_exr(&png).unwrap_err();
         assert!(
@@ -946,18 +944,15 @@ mod tests {
     fn write_image_picks_format_by_extension() {
         let dir = TestDir::new("write-image");
         let image = test_image();
-        write_image(&dir.0.join("a.PNG"), &image).unwrap();
-        write_image(&dir.0.join("b.exr"), &image).unwrap();
+        write_image(&dir.join("a.PNG"), &image).unwrap();
+        write_image(&dir.join("b.exr"), &image).unwrap();
         assert_eq!(
-            image::open(dir.0.join("a.PNG"))
-                .unwrap()
-                .to_rgb8()
-                .into_raw(),
+            image::open(dir.join("a.PNG")).unwrap().to_rgb8().into_raw(),
             to_srgb8(&image, 0.0)
         );
-        assert_eq!(read_exr(&dir.0.join("b.exr")).unwrap(), image);
+        assert_eq!(read_exr(&dir.join("b.exr")).unwrap(), image);
         assert!(
-            write_image(&dir.0.join("c.jpg"), &image)
+            write_image(&dir.join("c.jpg"), &image)
                 .unwrap_err()
                 .message
                 .contains("unknown image extension")
@@ -973,21 +968,21 @@ mod tests {
             height: 2,
             pixels: vec![[0.0; 3]; 3],
         };
-        let error = write_image(&dir.0.join("a.png"), &image).unwrap_err();
+        let error = write_image(&dir.join("a.png"), &image).unwrap_err();
         assert!(
             error
                 .message
                 .ends_with("a 2x2 image needs 4 pixels but has 3"),
             "{error}"
         );
-        assert!(write_image(&dir.0.join("a.exr"), &image).is_err());
+        assert!(write_image(&dir.join("a.exr"), &image).is_err());
         assert!(dir.entries().is_empty());
     }
 
     #[test]
     fn atomic_write_replaces_file_and_leaves_no_temporary() {
         let dir = TestDir::new("atomic-ok");
-        let path = dir.0.join("out.txt");
+        let path = dir.join("out.txt");
         fs::write(&path, "old").unwrap();
         write_atomically(&path, |w| w.write_all(b"new")).unwrap();
         assert_eq!(fs::read_to_string(&path).unwrap(), "new");
@@ -997,7 +992,7 @@ mod tests {
     #[test]
     fn failed_atomic_write_keeps_previous_file() {
         let dir = TestDir::new("atomic-fail");
-        let path = dir.0.join("out.png");
+        let path = dir.join("out.png");
         fs::write(&path, "old").unwrap();
         let error = write_atomically(&path, |w| {
             // Enough to spill past BufWriter's buffer into the temporary file.
@@ -1018,7 +1013,7 @@ mod tests {
     #[test]
     fn failed_atomic_write_creates_no_file() {
         let dir = TestDir::new("atomic-fail-new");
-        let path = dir.0.join("out.png");
+        let path = dir.join("out.png");
         assert!(write_atomically(&path, |_| Err(io::Error::other("no"))).is_err());
         assert!(dir.entries().is_empty());
     }
@@ -1026,7 +1021,7 @@ mod tests {
     #[test]
     fn atomic_write_into_missing_folder_names_the_path() {
         let dir = TestDir::new("atomic-missing");
-        let path = dir.0.join("nowhere/out.png");
+        let path = dir.join("nowhere/out.png");
         let error = write_atomically(&path, |w| w.write_all(b"x")).unwrap_err();
         assert_eq!(error.path, path);
         assert_eq!(
@@ -1034,7 +1029,7 @@ mod tests {
             format!(
                 "cannot write `{}`: folder `{}` does not exist",
                 path.display(),
-                dir.0.join("nowhere").display()
+                dir.join("nowhere").display()
             )
         );
     }
@@ -1042,14 +1037,14 @@ mod tests {
     #[test]
     fn check_output_path_accepts_writable_paths() {
         let dir = TestDir::new("check-ok");
-        check_output_path(&dir.0.join("a.png"), ImageFormat::Png).unwrap();
-        check_output_path(&dir.0.join("a.EXR"), ImageFormat::Exr).unwrap();
-        fs::write(dir.0.join("old.png"), "previous render").unwrap();
-        check_output_path(&dir.0.join("old.png"), ImageFormat::Png).unwrap();
+        check_output_path(&dir.join("a.png"), ImageFormat::Png).unwrap();
+        check_output_path(&dir.join("a.EXR"), ImageFormat::Exr).unwrap();
+        fs::write(dir.join("old.png"), "previous render").unwrap();
+        check_output_path(&dir.join("old.png"), ImageFormat::Png).unwrap();
         // The probe file is gone and nothing was created or changed.
         assert_eq!(dir.entries(), ["old.png"]);
         assert_eq!(
-            fs::read_to_string(dir.0.join("old.png")).unwrap(),
+            fs::read_to_string(dir.join("old.png")).unwrap(),
             "previous render"
         );
     }
@@ -1057,7 +1052,7 @@ mod tests {
     #[test]
     fn check_output_path_rejects_bad_paths() {
         let dir = TestDir::new("check-bad");
-        let jpg = dir.0.join("a.jpg");
+        let jpg = dir.join("a.jpg");
         assert_eq!(
             check_output_path(&jpg, ImageFormat::Png)
                 .unwrap_err()
@@ -1068,7 +1063,7 @@ mod tests {
             )
         );
 
-        let png = dir.0.join("a.png");
+        let png = dir.join("a.png");
         assert_eq!(
             check_output_path(&png, ImageFormat::Exr)
                 .unwrap_err()
@@ -1079,7 +1074,7 @@ mod tests {
             )
         );
 
-        let missing = dir.0.join("missing/a.png");
+        let missing = dir.join("missing/a.png");
         assert_eq!(
             check_output_path(&missing, ImageFormat::Png)
                 .unwrap_err()
@@ -1087,24 +1082,24 @@ mod tests {
             format!(
                 "cannot write `{}`: folder `{}` does not exist",
                 missing.display(),
-                dir.0.join("missing").display()
+                dir.join("missing").display()
             )
         );
 
-        fs::write(dir.0.join("file"), "").unwrap();
-        let under_file = dir.0.join("file/a.png");
+        fs::write(dir.join("file"), "").unwrap();
+        let under_file = dir.join("file/a.png");
         let error = check_output_path(&under_file, ImageFormat::Png).unwrap_err();
         assert!(error.message.ends_with("is not a folder"), "{error}");
 
-        fs::create_dir(dir.0.join("folder.png")).unwrap();
-        let error = check_output_path(&dir.0.join("folder.png"), ImageFormat::Png).unwrap_err();
+        fs::create_dir(dir.join("folder.png")).unwrap();
+        let error = check_output_path(&dir.join("folder.png"), ImageFormat::Png).unwrap_err();
         assert!(error.message.ends_with("it is a folder"), "{error}");
     }
 
     #[test]
     fn read_only_files_are_refused_before_anything_is_written() {
         let dir = TestDir::new("read-only");
-        let path = dir.0.join("kept.png");
+        let path = dir.join("kept.png");
         fs::write(&path, "precious").unwrap();
         let mut permissions = fs::metadata(&path).unwrap().permissions();
         permissions.set_readonly(true);
@@ -1119,16 +1114,17 @@ mod tests {
     fn temporaries_of_dead_processes_are_removed_and_live_ones_kept() {
         let dir = TestDir::new("stale");
         // A pid above Linux's largest (2^22) never runs; this process does.
-        let dead = dir.0.join(".out.exr.tmp-4999999-abc123");
-        let dead_old_form = dir.0.join(".out.exr.tmp-4999998");
+        let dead = dir.join(".out.exr.tmp-4999999-abc123");
+        let dead_old_form = dir.join(".out.exr.tmp-4999998");
         let alive = dir
             .0
+            .path()
             .join(format!(".out.exr.tmp-{}-xyz", std::process::id()));
-        let other = dir.0.join(".other.exr.tmp-4999999-abc");
+        let other = dir.join(".other.exr.tmp-4999999-abc");
         for path in [&dead, &dead_old_form, &alive, &other] {
             fs::write(path, "x").unwrap();
         }
-        check_output_path(&dir.0.join("out.exr"), ImageFormat::Exr).unwrap();
+        check_output_path(&dir.join("out.exr"), ImageFormat::Exr).unwrap();
         let mut expected = vec![
             format!(".out.exr.tmp-{}-xyz", std::process::id()),
             ".other.exr.tmp-4999999-abc".to_string(),
@@ -1140,7 +1136,7 @@ mod tests {
     #[test]
     fn temporaries_have_unique_names() {
         let dir = TestDir::new("unique");
-        let path = dir.0.join("out.txt");
+        let path = dir.join("out.txt");
         // Two writes of one path in flight at once, as two renders would make.
         write_atomically(&path, |outer| {
             outer.write_all(b"first")?;

@@ -122,16 +122,13 @@ pub fn collision(uses: &[PathUse]) -> Option<String> {
 mod tests {
     use super::*;
 
-    fn temp_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("pathmix-paths-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
-    }
-
     #[test]
     fn the_same_file_is_found_however_it_is_named() {
-        let dir = temp_dir("same");
+        let temp = tempfile::Builder::new()
+            .prefix("pathmix-paths-same-")
+            .tempdir()
+            .unwrap();
+        let dir = temp.path();
         let file = dir.join("a.exr");
         std::fs::write(&file, "x").unwrap();
         std::fs::hard_link(&file, dir.join("hard.exr")).unwrap();
@@ -185,6 +182,5 @@ mod tests {
             collision(&[PathUse::input("PART", &file), PathUse::input("PART", &file)]),
             None
         );
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -50,9 +50,9 @@ fn options() -> RenderOptions {
 fn constant_map_furnace() {
     let ctx = gpu_or_skip!();
     let dir = common::TempDir::new("env", "furnace");
-    common::write_exr(&dir.0.join("one.exr"), 8, 4, |_, _| [1.0, 1.0, 1.0]);
+    common::write_exr(&dir.join("one.exr"), 8, 4, |_, _| [1.0, 1.0, 1.0]);
     // One texel: one cell over the whole sphere.
-    common::write_exr(&dir.0.join("texel.exr"), 1, 1, |_, _| [1.0, 1.0, 1.0]);
+    common::write_exr(&dir.join("texel.exr"), 1, 1, |_, _| [1.0, 1.0, 1.0]);
     let strategies = [
         Strategy::Bsdf,
         Strategy::Mixture,
@@ -66,7 +66,7 @@ fn constant_map_furnace() {
             );
             let environment = format!("file = \"{file}\"");
             let s = scene(
-                &dir.0,
+                &dir,
                 &environment,
                 WHITE_SPHERE,
                 &render,
@@ -203,10 +203,10 @@ fn planes_under_banded_maps_match_the_analytic_irradiance() {
         1 => [1.0, 1.0, 1.0],
         _ => [0.0, 0.0, 0.0],
     };
-    common::write_exr(&dir.0.join("bands.exr"), 8, 4, bands);
+    common::write_exr(&dir.join("bands.exr"), 8, 4, bands);
     // Columns 0..4 of 8: u in [0, 1/2), azimuths from -z through +x to +z.
     let half = |x: usize, _: usize| if x < 4 { [1.0; 3] } else { [0.0; 3] };
-    common::write_exr(&dir.0.join("half.exr"), 8, 4, half);
+    common::write_exr(&dir.join("half.exr"), 8, 4, half);
     let identity = glam::DMat3::IDENTITY;
     let about_x = glam::DMat3::from_axis_angle(glam::DVec3::X, std::f64::consts::FRAC_PI_2);
     // The book's rotate_y 90: map +x to world -z.
@@ -264,7 +264,7 @@ fn planes_under_banded_maps_match_the_analytic_irradiance() {
         for strategy in STRATEGIES {
             let lookfrom = [n[0] * 1.0 + 0.01, n[1] * 1.0 + 0.02, n[2] * 1.0 + 0.03];
             let s = scene(
-                &dir.0,
+                &dir,
                 environment,
                 &body,
                 &render_settings(strategy, 64),
@@ -622,13 +622,13 @@ fn a_sun_is_sampled_without_bias() {
             [1.0, 1.0, 1.0]
         }
     };
-    common::write_exr(&dir.0.join("sun.exr"), 64, 32, sky);
+    common::write_exr(&dir.join("sun.exr"), 64, 32, sky);
     let expected = plane_radiance(64, 32, &sky, glam::DMat3::IDENTITY, [0.0, 1.0, 0.0]);
     assert!(expected > 100.0, "the sun dominates: {expected}");
     let (body, n) = plane([0.0, 1.0, 0.0]);
     for strategy in [Strategy::Mixture, Strategy::NeeMis] {
         let s = scene(
-            &dir.0,
+            &dir,
             "file = \"sun.exr\"",
             &body,
             &render_settings(strategy, 256),
@@ -646,11 +646,11 @@ fn a_sun_is_sampled_without_bias() {
 fn large_maps_render_or_are_refused_by_the_binding_limit() {
     let ctx = gpu_or_skip!();
     let dir = common::TempDir::new("env", "large");
-    common::write_exr(&dir.0.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
+    common::write_exr(&dir.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
     let limit = ctx.limits().max_storage_buffer_binding_size;
     for (width, height) in [(4096u32, 2048u32), (8192, 4096)] {
         let mut s = scene(
-            &dir.0,
+            &dir,
             "file = \"one.exr\"",
             WHITE_SPHERE,
             &render_settings(Strategy::NeeMis, 16),
@@ -691,7 +691,7 @@ fn large_maps_render_or_are_refused_by_the_binding_limit() {
 #[test]
 fn bad_maps_exit_2_naming_scene_field_and_image() {
     let dir = common::TempDir::new("env", "bad");
-    let d = &dir.0;
+    let d = &dir;
     common::write_exr(&d.join("nan.exr"), 4, 2, |x, _| {
         if x == 3 {
             [1.0, f32::NAN, 1.0]
@@ -775,9 +775,9 @@ fn bad_maps_exit_2_naming_scene_field_and_image() {
 #[test]
 fn environment_keys_parse_and_refuse() {
     let dir = common::TempDir::new("env", "keys");
-    common::write_exr(&dir.0.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
+    common::write_exr(&dir.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
     let load = |environment: &str| {
-        let path = dir.0.join("keys.toml");
+        let path = dir.join("keys.toml");
         std::fs::write(&path, format!("[camera]\nlookfrom = [0, 0, -5]\nlookat = [0, 0, 0]\n[environment]\nfile = \"one.exr\"\n{environment}")).unwrap();
         Scene::load(&path)
     };

@@ -209,7 +209,7 @@ fn texels_land_where_each_shapes_uvs_say() {
         return;
     }
     let dir = common::TempDir::new("textures", "shapes");
-    common::write_exr(&dir.0.join("map.exr"), 4, 4, distinct);
+    common::write_exr(&dir.join("map.exr"), 4, 4, distinct);
     let material = |wrap: &str, to_uv: &str| {
         format!(
             "[materials.m]\ntype = \"lambertian\"\nalbedo = {{ type = \"bitmap\", file = \"map.exr\", filter_type = \"nearest\", wrap_mode = \"{wrap}\"{to_uv} }}\n"
@@ -223,7 +223,7 @@ fn texels_land_where_each_shapes_uvs_say() {
     let front = ([0.4, 0.3, 2.5], [0.4, 0.45, 0.0], [0.0, 1.0, 0.0]);
     // A tilted quad.
     let (q, u, v) = ([-0.3, -0.2, 0.1], [1.4, 0.2, -0.3], [0.1, 1.3, 0.2]);
-    let s = scene(&dir.0, &(plain.clone() + &quad(q, u, v)), front, 32, 4);
+    let s = scene(&dir, &(plain.clone() + &quad(q, u, v)), front, 32, 4);
     let n = assert_uniform_pixels_exact(&s, &quad_uv(dv(q), dv(u), dv(v)), "quad");
     assert!(n > 256, "quad: {n} pixels checked");
     // Wrap modes: the quad's uv mapped onto [-1, 2]^2 by to_uv, so the map
@@ -232,7 +232,7 @@ fn texels_land_where_each_shapes_uvs_say() {
     for wrap in ["repeat", "mirror", "clamp"] {
         let body = material(wrap, ", to_uv = { scale = 3, translate = [-1, -1] }") + &quad(q, u, v);
         let s = scene(
-            &dir.0,
+            &dir,
             &body,
             ([0.4, 0.4, 2.5], [0.4, 0.4, 0.0], [0.0, 1.0, 0.0]),
             48,
@@ -247,7 +247,7 @@ fn texels_land_where_each_shapes_uvs_say() {
         "{plain}[[objects]]\ntype = \"disk\"\ncenter = {c:?}\nu = {u:?}\nv = {v:?}\nmaterial = \"m\"\n"
     );
     let s = scene(
-        &dir.0,
+        &dir,
         &body,
         ([0.2, 0.3, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
         32,
@@ -260,7 +260,7 @@ fn texels_land_where_each_shapes_uvs_say() {
         "{plain}[[objects]]\ntype = \"sphere\"\ncenter = [0.1, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
     );
     let s = scene(
-        &dir.0,
+        &dir,
         &body,
         ([4.0, 0.7, 0.4], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
         32,
@@ -281,8 +281,8 @@ fn texels_land_where_each_shapes_uvs_say() {
             .map(|t| format!("vt {} {}\n", t[0], t[1]))
             .collect::<String>()
         + "f 1/1 2/2 3/3\n";
-    std::fs::write(dir.0.join("uvs.obj"), with_uvs).unwrap();
-    std::fs::write(dir.0.join("plain.obj"), obj + "f 1 2 3\n").unwrap();
+    std::fs::write(dir.join("uvs.obj"), with_uvs).unwrap();
+    std::fs::write(dir.join("plain.obj"), obj + "f 1 2 3\n").unwrap();
     let flipped = vt.map(|[u, v]| Vec2::new(u as f32, 1.0 - v as f32));
     let barycentric = [Vec2::ZERO, Vec2::X, Vec2::Y];
     for (file, uvs) in [("uvs.obj", flipped), ("plain.obj", barycentric)] {
@@ -290,7 +290,7 @@ fn texels_land_where_each_shapes_uvs_say() {
             "{plain}[[objects]]\ntype = \"mesh\"\nfile = \"{file}\"\nsmooth = false\nmaterial = \"m\"\n"
         );
         let s = scene(
-            &dir.0,
+            &dir,
             &body,
             ([0.2, 0.2, 3.0], [0.2, 0.2, 0.0], [0.0, 1.0, 0.0]),
             32,
@@ -312,7 +312,7 @@ fn bilinear_lookups_weigh_the_four_nearest_texels() {
         return;
     };
     let dir = common::TempDir::new("textures", "bilinear");
-    common::write_exr(&dir.0.join("map.exr"), 3, 2, distinct);
+    common::write_exr(&dir.join("map.exr"), 3, 2, distinct);
     let (q, u, v) = ([-1.0, -1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
     let shape = quad_uv(DVec3::from(q), DVec3::from(u), DVec3::from(v));
     let mut worst: f32 = 0.0;
@@ -322,7 +322,7 @@ fn bilinear_lookups_weigh_the_four_nearest_texels() {
              [[objects]]\ntype = \"quad\"\nq = {q:?}\nu = {u:?}\nv = {v:?}\nmaterial = \"m\"\n"
         );
         let s = scene(
-            &dir.0,
+            &dir,
             &body,
             ([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
             24,
@@ -370,9 +370,9 @@ fn eight_bit_images_decode_from_srgb() {
     let dir = common::TempDir::new("textures", "srgb");
     let codes: [[u8; 3]; 2] = [[128, 10, 255], [0, 64, 200]];
     let image = image::RgbImage::from_fn(2, 1, |x, _| image::Rgb(codes[x as usize]));
-    image.save(dir.0.join("codes.png")).unwrap();
+    image.save(dir.join("codes.png")).unwrap();
     image::RgbImage::from_pixel(8, 8, image::Rgb([128, 128, 128]))
-        .save(dir.0.join("flat.jpg"))
+        .save(dir.join("flat.jpg"))
         .unwrap();
     let srgb = |c: u8| {
         let c = c as f64 / 255.0;
@@ -390,7 +390,7 @@ fn eight_bit_images_decode_from_srgb() {
             "[materials.m]\ntype = \"lambertian\"\nalbedo = {{ type = \"bitmap\", filter_type = \"nearest\", {texture} }}\n\
              [[objects]]\ntype = \"quad\"\nq = {q:?}\nu = {u:?}\nv = {v:?}\nmaterial = \"m\"\n"
         );
-        let s = scene(&dir.0, &body, view, 16, 4);
+        let s = scene(&dir, &body, view, 16, 4);
         let mean = common::render(ctx, &s, &RenderOptions::default()).mean();
         (s, mean)
     };
@@ -477,7 +477,7 @@ fn checkerboard_pixels_equal_constant_colour_renders() {
                 "[camera]\nlookfrom = [0, 0, -1]\nlookat = [0, 0, 0]\nvfov = 90\nwidth = 16\nheight = 16\n\
                  [render]\nspp = 16\nmax_depth = 2\nstrategy = \"bsdf\"\nbackground = [1, 1, 1]\n{body}"
             );
-            let path = dir.0.join("scene.toml");
+            let path = dir.join("scene.toml");
             std::fs::write(&path, text).unwrap();
             let s = Scene::load(&path).unwrap();
             common::render(ctx, &s, &RenderOptions::default()).mean()
@@ -506,7 +506,7 @@ fn checkerboard_pixels_equal_constant_colour_renders() {
 #[test]
 fn bad_texture_inputs_exit_2_naming_file_and_field() {
     let dir = common::TempDir::new("textures", "bad");
-    let d = &dir.0;
+    let d = &dir;
     common::write_exr(&d.join("nan.exr"), 4, 2, |x, _| {
         if x == 3 {
             [f32::NAN, 0.5, 0.5]

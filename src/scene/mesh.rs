@@ -766,30 +766,24 @@ fn add_primitive(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::atomic::{AtomicUsize, Ordering};
 
     /// A folder of its own under the system's temp dir, removed when dropped.
-    struct Scratch(PathBuf);
+    struct Scratch(tempfile::TempDir);
 
     impl Scratch {
         fn new() -> Scratch {
-            static NEXT: AtomicUsize = AtomicUsize::new(0);
-            let n = NEXT.fetch_add(1, Ordering::Relaxed);
-            let dir = std::env::temp_dir().join(format!("pathmix-mesh-{}-{n}", std::process::id()));
-            std::fs::create_dir_all(&dir).unwrap();
-            Scratch(dir)
+            Scratch(
+                tempfile::Builder::new()
+                    .prefix("pathmix-mesh-")
+                    .tempdir()
+                    .unwrap(),
+            )
         }
 
         fn file(&self, name: &str, bytes: &[u8]) -> PathBuf {
-            let path = self.0.join(name);
+            let path = self.0.path().join(name);
             std::fs::write(&path, bytes).unwrap();
             path
-        }
-    }
-
-    impl Drop for Scratch {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
         }
     }
 
@@ -1139,7 +1133,7 @@ end_header
 
     #[test]
     fn missing_file_is_named() {
-        let path = Scratch::new().0.join("absent.ply");
+        let path = Scratch::new().0.path().join("absent.ply");
         let e = load_mesh(&path).unwrap_err();
         assert!(matches!(e, MeshError::Read { .. }));
         let text = e.to_string();

@@ -5,7 +5,7 @@ use pathmix::gpu::GpuContext;
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Sampler, Scene, SceneOverrides};
 use pathmix::stats::Accumulation;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 
 /// The device shared by every test of this process, or `None` (test skipped)
@@ -222,16 +222,16 @@ pub fn assert_every_pixel_is(acc: &Accumulation, expected: f32, tolerance: f32, 
     }
 }
 
-/// A fresh folder under the system's temporary one, `pathmix-{prefix}-{name}-{pid}`,
-/// removed with everything in it when dropped.
-pub struct TempDir(pub PathBuf);
+/// A fresh folder under the system's temporary one, named `pathmix-{prefix}-{name}-`
+/// and a random suffix, removed with everything in it when dropped.
+pub struct TempDir(tempfile::TempDir);
 
 impl TempDir {
     pub fn new(prefix: &str, name: &str) -> TempDir {
-        let dir =
-            std::env::temp_dir().join(format!("pathmix-{prefix}-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("pathmix-{prefix}-{name}-"))
+            .tempdir()
+            .unwrap();
         TempDir(dir)
     }
 }
@@ -240,19 +240,13 @@ impl std::ops::Deref for TempDir {
     type Target = Path;
 
     fn deref(&self) -> &Path {
-        &self.0
+        self.0.path()
     }
 }
 
 impl AsRef<Path> for TempDir {
     fn as_ref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
+        self.0.path()
     }
 }
 
