@@ -36,6 +36,12 @@ struct Params {
     zero_bits: u32,
     // Adaptive sampling: entries of `active_pixels` (kernel.wgsl).
     active_count: u32,
+    // The dispatch's workgroup row r covers the tile's row of workgroups
+    // r * step mod rows (kernel.wgsl).
+    workgroup_row_step: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Mirrors `gpu::layout::Counters`.

@@ -101,8 +101,13 @@ fn camera_ray(pixel: vec2<u32>) -> CameraRay {
 #endif
 
 @compute @workgroup_size(WORKGROUP_SIZE_X, WORKGROUP_SIZE_Y, 1)
-fn render(@builtin(global_invocation_id) id: vec3<u32>) {
+fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_id) local: vec3<u32>) {
     load_params();
+    // lavapipe gives each thread one contiguous range of a dispatch's workgroups:
+    // in order, one thread would take the sky and another the ground. Stepping
+    // through the rows spreads every range over the whole tile.
+    let group_row = (group.y * params.workgroup_row_step) % groups.y;
+    let id = vec2<u32>(group.x * WORKGROUP_SIZE_X + local.x, group_row * WORKGROUP_SIZE_Y + local.y);
     if id.x >= params.tile_size.x || id.y >= params.tile_size.y {
         return;
     }
@@ -118,7 +123,7 @@ fn render(@builtin(global_invocation_id) id: vec3<u32>) {
     // A pixel's first samples start its sums.
     let reset = sample_start == 0u;
 #else
-    let pixel = params.tile_origin + id.xy;
+    let pixel = params.tile_origin + id;
     let pixel_index = pixel.y * params.width + pixel.x;
     let sample_start = params.sample_start;
     let reset = params.reset != 0u;

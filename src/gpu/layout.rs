@@ -133,6 +133,12 @@ gpu_struct! {
         pub zero_bits: u32,
         /// Adaptive sampling: entries of the active-pixel list this dispatch covers.
         pub active_count: u32,
+        /// The dispatch's workgroup row `r` covers the tile's row of workgroups
+        /// `r × step mod rows` (`render::workgroup_row_step`).
+        pub workgroup_row_step: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
     }
 }
 
