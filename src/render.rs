@@ -1136,13 +1136,14 @@ fn submission_shape(budget: u64, width: u32, height: u32, max_samples: u32) -> (
 /// field of 4 000 spheres the two threads were busy 78% and 61% of the time).
 /// A step coprime with `rows` visits every row once; the one nearest `rows`
 /// times the golden ratio's conjugate spreads every contiguous range of the
-/// sequence evenly over the tile (a Weyl sequence). `r × step` stays below
-/// 2^32: a dispatch has at most `u16::MAX` rows of workgroups.
-pub fn workgroup_row_step(rows: u32) -> u32 {
+/// sequence evenly over the tile (a Weyl sequence). The step is at most `rows`,
+/// so `r × step` stays below 2^32: a dispatch has at most `u16::MAX` rows of
+/// workgroups.
+fn workgroup_row_step(rows: u32) -> u32 {
     let nearest = (rows as f64 * (5f64.sqrt() - 1.0) / 2.0).round() as u32;
     (0..=rows)
         .flat_map(|d| [nearest + d, nearest.saturating_sub(d)])
-        .find(|&step| step > 0 && greatest_common_divisor(step, rows) == 1)
+        .find(|&step| (1..=rows).contains(&step) && greatest_common_divisor(step, rows) == 1)
         .expect("1 is coprime with every row count")
 }
 
