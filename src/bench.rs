@@ -51,8 +51,17 @@ pub fn measure(
 /// `n` small diffuse spheres in a grid on a ground sphere, under a sky colour
 /// and a sphere light: how the cost grows with the scene (256x256, max depth 8).
 pub fn sphere_field(n: usize) -> Scene {
-    let mut text = String::from(
-        "[camera]\nlookfrom = [0, 6, 14]\nlookat = [0, 0, 0]\nwidth = 256\nheight = 256\n\
+    Scene::parse(&sphere_field_toml(n), "sphere-field.toml")
+        .expect("the sphere field is a valid scene")
+}
+
+/// The scene file of `sphere_field(n)`, as `pathmix bench --write-sphere-field`
+/// prints it for other renderers (`scripts/compare-mitsuba.py`).
+pub fn sphere_field_toml(n: usize) -> String {
+    let mut text = format!(
+        "# A field of {n} diffuse spheres on a ground sphere under a sky colour and a sphere\n\
+         # light: `pathmix bench --write-sphere-field {n}`, the scale curve's scene.\n\
+         [camera]\nlookfrom = [0, 6, 14]\nlookat = [0, 0, 0]\nwidth = 256\nheight = 256\n\
          [render]\nmax_depth = 8\nbackground = [0.5, 0.7, 1.0]\n\
          [materials.ground]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
          [materials.ball]\ntype = \"lambertian\"\nalbedo = [0.7, 0.3, 0.2]\n\
@@ -69,7 +78,7 @@ pub fn sphere_field(n: usize) -> Scene {
             "[[objects]]\ntype = \"sphere\"\ncenter = [{x}, {radius}, {z}]\nradius = {radius}\nmaterial = \"ball\"\n"
         ));
     }
-    Scene::parse(&text, "sphere-field.toml").expect("the sphere field is a valid scene")
+    text
 }
 
 pub fn median(values: &[f64]) -> f64 {

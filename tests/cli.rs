@@ -219,6 +219,19 @@ fn bench_prints_speed_figures() {
     );
 }
 
+/// The scale curve's sphere field, printed as a scene file, reads back as the
+/// scene `pathmix bench` renders (no device needed).
+#[test]
+fn bench_writes_the_sphere_field_as_a_scene_file() {
+    let output = pathmix(&["bench", "--write-sphere-field", "10"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = String::from_utf8(output.stdout).unwrap();
+    let scene = pathmix::scene::Scene::parse(&text, "sphere-field.toml").unwrap();
+    assert_eq!(scene, pathmix::bench::sphere_field(10));
+    // The ground, the lamp and the ten spheres.
+    assert_eq!(text.matches("type = \"sphere\"").count(), 12, "{text}");
+}
+
 /// Each bad input exits with code 2 before rendering, with a message that names the
 /// file (or flag) and the field or line, and leaves nothing behind.
 #[test]

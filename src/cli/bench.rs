@@ -25,6 +25,11 @@ pub struct BenchArgs {
     /// Use the first adapter whose name contains NAME [env: PATHMIX_ADAPTER].
     #[arg(long, value_name = "NAME")]
     pub adapter: Option<String>,
+    /// Print the scale curve's field of N spheres as a scene file (TOML) and
+    /// exit, to render it elsewhere (e.g. against Mitsuba with
+    /// scripts/compare-mitsuba.py).
+    #[arg(long, value_name = "N")]
+    pub write_sphere_field: Option<usize>,
 }
 
 struct Case {
@@ -100,6 +105,10 @@ fn scenes_dir() -> PathBuf {
 }
 
 pub fn bench(args: BenchArgs) -> Result<(), Failure> {
+    if let Some(n) = args.write_sphere_field {
+        print!("{}", bench::sphere_field_toml(n));
+        return Ok(());
+    }
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
     let repetitions = if args.quick {
         1
