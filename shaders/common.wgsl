@@ -74,7 +74,20 @@ struct Hit {
     // Texture coordinates (`NAME_hit_uv` of the primitive's kind).
     uv: vec2<f32>,
 #endif
+#if LIGHT_POINTS
+    // The grouped light hit (its index in the kind's light array), or NO_LIGHT.
+    light: u32,
+#endif
 }
+
+#if LIGHT_DENSITY
+// A direction toward an object of the light density (`light_sample`), and the
+// grouped light it aimed at (its index in the kind's light array), or NO_LIGHT.
+struct LightSample {
+    dir: vec3<f32>,
+    light: u32,
+}
+#endif
 
 // The dispatch's parameters come from a storage buffer, not a uniform buffer:
 // lavapipe specialises a kernel on the uniform values that steer loops and
@@ -90,10 +103,19 @@ fn load_params() {
 @group(0) @binding(BINDING_COUNTERS) var<storage, read_write> counters: Counters;
 
 fn no_hit() -> Hit {
+#if LIGHT_POINTS
+    var hit: Hit;
+    hit.t = F32_MAX;
+    hit.normal = vec3<f32>(0.0, 1.0, 0.0);
+    hit.shading_normal = hit.normal;
+    hit.light = NO_LIGHT;
+    return hit;
+#else
 #if TEXTURES
     return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), 0u, vec2<f32>(0.0));
 #else
     return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), 0u);
+#endif
 #endif
 }
 

@@ -188,7 +188,11 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 // After a smooth bounce the shadow ray could have found this emitter too.
                 var mis = 1.0;
                 if !last_delta {
+#if LIGHT_POINTS
+                    mis = power_heuristic(last_bsdf_pdf, last_light_pdf + light_point_pdf(hit, ray.dir));
+#else
                     mis = power_heuristic(last_bsdf_pdf, last_light_pdf);
+#endif
                 }
                 radiance += throughput * material.emit * mis;
 #else
@@ -228,14 +232,27 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir), scattered.shadow_dir);
                     let shadow_hit = intersect_scene(shadow_ray);
                     segments += 1u;
+#if LIGHT_POINTS
+                    // A grouped light's sample counts only where the shadow ray finds the
+                    // point it aimed at first (its density is that point's); any other
+                    // sample, whatever emitter it finds, with that emitter's point share.
+                    let aimed = scattered.shadow_light == NO_LIGHT || scattered.shadow_light == shadow_hit.light;
+                    let light_density = scattered.shadow_pdfs.y + light_point_pdf(shadow_hit, shadow_ray.dir);
+                    var shadow_weight = vec3<f32>(0.0);
+                    if aimed && light_density > 0.0 {
+                        shadow_weight = scattered.shadow_weight * (power_heuristic(light_density, scattered.shadow_pdfs.x) / light_density);
+                    }
+#else
+                    let shadow_weight = scattered.shadow_weight;
+#endif
                     // Unoccluded emitter facing the shading point: the light sample's contribution.
                     if shadow_hit.t < F32_MAX && dot(shadow_ray.dir, shadow_hit.normal) < 0.0 {
-                        radiance += throughput * scattered.shadow_weight * materials_at(shadow_hit.material).emit;
+                        radiance += throughput * shadow_weight * materials_at(shadow_hit.material).emit;
                     }
 #if ENVIRONMENT
                     // Unoccluded to infinity: the environment's radiance (whichever object was sampled).
                     if shadow_hit.t == F32_MAX {
-                        radiance += throughput * scattered.shadow_weight * environment_radiance(shadow_ray.dir);
+                        radiance += throughput * shadow_weight * environment_radiance(shadow_ray.dir);
                     }
 #endif
                 }

@@ -24,13 +24,20 @@ struct Scatter {
     // A delta lobe drew `dir`: an emitter it hits counts fully (no MIS weight).
     delta: bool,
     // Densities of `dir` under BSDF and light sampling, for the MIS weight of an
-    // emitter the continuation hits.
+    // emitter the continuation hits (under LIGHT_POINTS, a grouped light's share
+    // is left out: the kernel adds the point's where the ray lands).
     bsdf_pdf: f32,
     light_pdf: f32,
+    // Under LIGHT_POINTS, what the kernel finishes the light sample's weight
+    // with where its shadow ray lands (`shadow_weight` is then f |cos| alone):
+    // the sample direction's BSDF density and light density (less the grouped
+    // lights' share), and the grouped light it aimed at, or NO_LIGHT.
+    shadow_pdfs: vec2<f32>,
+    shadow_light: u32,
 }
 
 fn absorbed() -> Scatter {
-    return Scatter(vec3<f32>(0.0), vec3<f32>(0.0), true, vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0, 0.0);
+    return Scatter(vec3<f32>(0.0), vec3<f32>(0.0), true, vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0, 0.0, vec2<f32>(0.0), NO_LIGHT);
 }
 
 // The BSDF's own sample, followed as it is.
@@ -38,7 +45,7 @@ fn follow(s: BsdfSample) -> Scatter {
     if s.pdf <= 0.0 {
         return absorbed();
     }
-    return Scatter(s.wi, s.weight, false, vec3<f32>(0.0), vec3<f32>(0.0), s.delta, s.pdf, 0.0);
+    return Scatter(s.wi, s.weight, false, vec3<f32>(0.0), vec3<f32>(0.0), s.delta, s.pdf, 0.0, vec2<f32>(0.0), NO_LIGHT);
 }
 
 // The power heuristic a^2 / (a^2 + b^2), written so huge densities cannot overflow.
@@ -54,34 +61,43 @@ fn scatter_smooth(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -
     // Light sample; the kernel traces its shadow ray.
     var shadow_weight = vec3<f32>(0.0);
     let light_select = sample_1d();
-    let light_dir = light_sample(origin, light_select, sample_2d());
+    let light = light_sample(origin, light_select, sample_2d());
+    let light_dir = light.dir;
     let light_density = light_pdf(origin, light_dir);
     let f_light = bsdf_eval(m, frame, wo, light_dir);
+    let light_bsdf_pdf = bsdf_pdf(m, frame, wo, light_dir);
+#if LIGHT_POINTS
+    // A grouped light's share of the density is known where the shadow ray lands.
+    if any(f_light > vec3<f32>(0.0)) {
+        shadow_weight = f_light;
+    }
+#else
     if light_density > 0.0 && any(f_light > vec3<f32>(0.0)) {
-        let mis = power_heuristic(light_density, bsdf_pdf(m, frame, wo, light_dir));
+        let mis = power_heuristic(light_density, light_bsdf_pdf);
         shadow_weight = f_light * (mis / light_density);
     }
+#endif
     // BSDF sample: the continuation; its emitter hit is weighted in the kernel.
     // A sample of a delta lobe (a plastic's coat) counts the emitter it finds fully.
     let s = smooth_bsdf_sample(m, frame, wo);
-    return Scatter(s.wi, s.weight, s.pdf <= 0.0, light_dir, shadow_weight, s.delta, s.pdf, light_pdf(origin, s.wi));
+    return Scatter(s.wi, s.weight, s.pdf <= 0.0, light_dir, shadow_weight, s.delta, s.pdf, light_pdf(origin, s.wi), vec2<f32>(light_bsdf_pdf, light_density), light.light);
 #else
 #if STRATEGY_LIGHT
     let light_select = sample_1d();
-    let wi = light_sample(origin, light_select, sample_2d());
+    let wi = light_sample(origin, light_select, sample_2d()).dir;
     let pdf = light_pdf(origin, wi);
 #else
     // The choice, rescaled, also picks the light.
     let choice = sample_1d();
     var wi: vec3<f32>;
     if choice < LIGHT_WEIGHT {
-        wi = light_sample(origin, choice / LIGHT_WEIGHT, sample_2d());
+        wi = light_sample(origin, choice / LIGHT_WEIGHT, sample_2d()).dir;
     } else {
         let s = smooth_bsdf_sample(m, frame, wo);
         // A delta lobe's direction has no density to mix: only this branch
         // draws it, with (1 - w) times the probability the BSDF gives it.
         if s.delta {
-            return Scatter(s.wi, s.weight / (1.0 - LIGHT_WEIGHT), false, vec3<f32>(0.0), vec3<f32>(0.0), true, 0.0, 0.0);
+            return Scatter(s.wi, s.weight / (1.0 - LIGHT_WEIGHT), false, vec3<f32>(0.0), vec3<f32>(0.0), true, 0.0, 0.0, vec2<f32>(0.0), NO_LIGHT);
         }
         wi = s.wi;
     }
@@ -93,7 +109,7 @@ fn scatter_smooth(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -
     if pdf <= 0.0 || all(f == vec3<f32>(0.0)) {
         return absorbed();
     }
-    return Scatter(wi, f / pdf, false, vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0, 0.0);
+    return Scatter(wi, f / pdf, false, vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0, 0.0, vec2<f32>(0.0), NO_LIGHT);
 #endif
 }
 #endif

@@ -7,7 +7,8 @@ struct Triangle {
     p0: vec3<f32>,
     material: u32,
     p1: vec3<f32>,
-    _pad1: u32,
+    // Its index in the light array, or NO_LIGHT.
+    light: u32,
     p2: vec3<f32>,
     _pad2: u32,
 }
@@ -152,11 +153,17 @@ fn triangle_light_sample(tri: Triangle, origin: vec3<f32>, u: vec2<f32>) -> vec3
 }
 
 // Solid-angle density of `triangle_light_sample`: d^2 / (|cos| A) where the ray
-// meets it (|dir . n| A = |dir . (p1 - p0) x (p2 - p0)| / 2).
+// meets it.
 fn triangle_light_pdf(tri: Triangle, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
     let t = triangle_hit_t(tri, Ray(origin, dir), F32_MAX);
     if t < 0.0 {
         return 0.0;
     }
+    return triangle_light_point_pdf(tri, t, dir);
+}
+
+// The same where the unit `dir` meets the triangle at distance `t`:
+// t^2 / (|cos| A), with |dir . n| A = |dir . (p1 - p0) x (p2 - p0)| / 2.
+fn triangle_light_point_pdf(tri: Triangle, t: f32, dir: vec3<f32>) -> f32 {
     return (2.0 * t * t) / abs(dot(dir, triangle_cross(tri)));
 }

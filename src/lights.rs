@@ -4,7 +4,8 @@
 //! picked in proportion to its power by an alias table (Walker 1977, Vose 1991)
 //! in O(1). The density of a direction sums every primitive of the kind the ray
 //! meets, found through a BVH over the light primitives alone, so evaluating it
-//! costs O(log n), not O(n).
+//! costs O(log n), not O(n). (Next-event estimation over many faces weighs by
+//! the density of the point hit instead, with no walk: `KernelConfig::light_points`.)
 //!
 //! Also the point and spot lights ([`DeltaLight`]), which are no part of the
 //! light density: the kernel sends them shadow rays of their own.

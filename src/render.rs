@@ -1275,8 +1275,8 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
         SceneStorage::Bvh => BVH_ITERATIONS_PER_RAY,
     };
     let baked = config.scene_storage() == SceneStorage::Baked;
-    let mut inner_loops =
-        closest_hit + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, baked);
+    let mut inner_loops = closest_hit
+        + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, baked, config.walks_light_groups());
     // The environment's sampling bisects its two CDFs.
     if let Some(tables) = data
         .environment

@@ -4,7 +4,7 @@
 use crate::accel::WideBvh;
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
-    KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, PRIMITIVE_KINDS, PackedPrimitive,
+    KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT, PRIMITIVE_KINDS, PackedPrimitive,
     PrimitiveKind, TextureInfo, TextureTables, pack_material,
 };
 use crate::lights::{DeltaLight, LightTables, pack_delta_lights};
@@ -223,6 +223,16 @@ impl PackedArray {
     pub fn element(&self, i: usize, size: usize) -> &[u8] {
         &self.bytes[i * size..(i + 1) * size]
     }
+
+    /// Replaces the `u32` at byte `offset` of every element (of size `size`) by
+    /// `f` of it.
+    fn map_u32(&mut self, size: usize, offset: usize, f: impl Fn(u32) -> u32) {
+        for element in self.bytes.chunks_exact_mut(size) {
+            let field = &mut element[offset..offset + 4];
+            let value = f(bytemuck::pod_read_unaligned(field));
+            field.copy_from_slice(bytemuck::bytes_of(&value));
+        }
+    }
 }
 
 /// The scene as the kernel sees it: only what is present, tightly packed.
@@ -317,7 +327,15 @@ impl SceneData {
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
             let mut smooth = false;
-            for primitive in (kind.pack)(scene) {
+            for mut primitive in (kind.pack)(scene) {
+                let in_density = primitive.importance && kind.light_density;
+                if let Some(offset) = kind.light_field() {
+                    let light = match in_density {
+                        true => data.lights[k].len() as u32,
+                        false => NO_LIGHT,
+                    };
+                    primitive.bytes[offset..offset + 4].copy_from_slice(bytemuck::bytes_of(&light));
+                }
                 if !invisible(primitive.material) {
                     data.primitives[k].push(&primitive);
                     data.normals[k].extend_from_slice(&primitive.normals);
@@ -326,7 +344,7 @@ impl SceneData {
                     }
                     smooth |= primitive.smooth;
                 }
-                if primitive.importance && kind.light_density {
+                if in_density {
                     data.lights[k].push(&primitive);
                     data.light_members[k].extend(primitive.light_group);
                 }
@@ -414,6 +432,8 @@ impl SceneData {
                 .any(|&e| e > 0.0)
         };
         let mut members = vec![Vec::new(); PRIMITIVE_KINDS.len()];
+        // Per kind, each light's index among those kept (`NO_LIGHT`: dropped).
+        let mut renumbered = vec![Vec::new(); PRIMITIVE_KINDS.len()];
         let kept: Vec<PackedArray> = PRIMITIVE_KINDS
             .iter()
             .enumerate()
@@ -422,15 +442,27 @@ impl SceneData {
                 let mut kept = PackedArray::default();
                 for (i, &material) in lights.materials.iter().enumerate() {
                     if emits(material) {
+                        renumbered[k].push(kept.len() as u32);
                         kept.bytes
                             .extend_from_slice(lights.element(i, kind.layout.size));
                         kept.materials.push(material);
                         members[k].extend(self.light_members[k].get(i));
+                    } else {
+                        renumbered[k].push(NO_LIGHT);
                     }
                 }
                 kept
             })
             .collect();
+        for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            if let Some(offset) = kind.light_field() {
+                let renumber = |light: u32| match light {
+                    NO_LIGHT => NO_LIGHT,
+                    light => renumbered[k][light as usize],
+                };
+                self.primitives[k].map_u32(kind.layout.size, offset, renumber);
+            }
+        }
         self.lights = kept;
         self.light_members = members;
         self.build_light_tables();
@@ -470,13 +502,20 @@ impl SceneData {
     /// Loop iterations of one evaluation of the light density: one per light of
     /// a kind walked in a loop (none when `baked`: the loops are unrolled); for
     /// grouped lights, a walk of their BVH (nodes visited plus lights tested,
-    /// a loop even when baked), counted as at most `bvh_allowance`.
-    pub fn light_density_iterations(&self, bvh_allowance: u64, baked: bool) -> u64 {
+    /// a loop even when baked), counted as at most `bvh_allowance`, where the
+    /// kernel `walks_groups` (`KernelConfig::walks_light_groups`; else none).
+    pub fn light_density_iterations(
+        &self,
+        bvh_allowance: u64,
+        baked: bool,
+        walks_groups: bool,
+    ) -> u64 {
         PRIMITIVE_KINDS
             .iter()
             .zip(&self.lights)
             .zip(&self.light_tables)
             .map(|((kind, lights), tables)| match tables {
+                Some(_) if kind.grouped_lights && !walks_groups => 0,
                 Some(tables) if kind.grouped_lights => {
                     bvh_allowance.min((tables.bvh.nodes.len() + tables.refs.len()) as u64)
                 }

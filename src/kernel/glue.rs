@@ -15,8 +15,8 @@ use crate::gpu::pipeline::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
 };
 use crate::kinds::{
-    ErasedLayout, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, PRIMITIVE_KINDS, PrimitiveKind,
-    ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
+    ErasedLayout, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, NO_LIGHT, PRIMITIVE_KINDS,
+    PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
 };
 use crate::shader::element_constant;
 use std::fmt::Write;
@@ -57,6 +57,7 @@ pub fn shared_constants() -> String {
     constant("ROUGH_TRANSMITTANCE_RES", ROUGH_TRANSMITTANCE_RES as u32);
     constant("BVH_LEAF_KIND_SHIFT", accel::LEAF_KIND_SHIFT);
     constant("BVH_LEAF_COUNT_MASK", accel::LEAF_COUNT_MASK);
+    constant("NO_LIGHT", NO_LIGHT);
     out
 }
 
@@ -215,21 +216,9 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
         writeln!(out, "const {constant}: {wgsl_type} = {value};").unwrap();
     }
     if array.indexed && n > 0 {
-        writeln!(
-            out,
-            "fn {name}_at(i: u32) -> {wgsl_type} {{\n    switch i {{"
-        )
-        .unwrap();
-        for i in 0..n {
-            let label = if i + 1 == n {
-                "default".to_string()
-            } else {
-                format!("case {i}u")
-            };
-            let constant = element_constant(name, i);
-            writeln!(out, "        {label}: {{ return {constant}; }}").unwrap();
-        }
-        out.push_str("    }\n}\n");
+        writeln!(out, "fn {name}_at(i: u32) -> {wgsl_type} {{").unwrap();
+        index_tree(out, name, 0..n, "    ");
+        out.push_str("}\n");
     } else if array.indexed {
         // Nothing to index (a scene without objects has no materials): never called.
         writeln!(
@@ -238,6 +227,26 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
         )
         .unwrap();
     }
+}
+
+/// Returns the constant of `name` at index `i` for `i` in `range` (the last one
+/// for any index past it), by halving the range: a binary tree of `if`s. A
+/// `switch` over the indices was miscompiled by lavapipe (Mesa 22.3) past some
+/// size: over the light tables of a mesh of 108 emitting faces (95 nodes, 108
+/// picks and references) the `light` strategy saw no light and the mixture 3.3x
+/// too much, where this tree and the same tables in buffers agree bit for bit.
+fn index_tree(out: &mut String, name: &str, range: std::ops::Range<usize>, indent: &str) {
+    if range.len() == 1 {
+        let constant = element_constant(name, range.start);
+        writeln!(out, "{indent}return {constant};").unwrap();
+        return;
+    }
+    let middle = range.start + range.len() / 2;
+    writeln!(out, "{indent}if i < {middle}u {{").unwrap();
+    index_tree(out, name, range.start..middle, &format!("{indent}    "));
+    writeln!(out, "{indent}}} else {{").unwrap();
+    index_tree(out, name, middle..range.end, &format!("{indent}    "));
+    writeln!(out, "{indent}}}").unwrap();
 }
 
 /// The closest hit keeps only each kind's `NAME_hit_keep` of the closest
@@ -271,6 +280,13 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         };
         if keeps_index(k) {
             writeln!(tag, "{indent}    hit_index = primitive_index;").unwrap();
+        }
+        if config.light_points {
+            let light = match PRIMITIVE_KINDS[k].grouped_lights {
+                true => "primitive.light",
+                false => "NO_LIGHT",
+            };
+            writeln!(tag, "{indent}    hit.light = {light};").unwrap();
         }
         format!(
             "{indent}let t = {name}_hit_t(primitive, ray, hit.t);
@@ -535,8 +551,12 @@ fn bvh_traversal(
 fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
     let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
+    let points = config.light_points;
     for &k in kinds.iter().filter(|&&k| grouped(k)) {
-        grouped_lights(out, PRIMITIVE_KINDS[k], config.light_bvh_stack);
+        group_sample(out, PRIMITIVE_KINDS[k]);
+        if !points {
+            groups_pdf(out, PRIMITIVE_KINDS[k], config.light_bvh_stack);
+        }
     }
     let mut counts: Vec<String> = kinds
         .iter()
@@ -560,7 +580,9 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     .unwrap();
     // `select` (uniform in [0, 1)) picks the object, `u` the point on it; what
     // is left of `select` picks a group's member.
-    out.push_str("fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> vec3<f32> {\n");
+    out.push_str(
+        "fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> LightSample {\n",
+    );
     if !kinds.is_empty() {
         out.push_str(
             "    let count = light_count();
@@ -577,7 +599,7 @@ fn light_density(out: &mut String, config: &KernelConfig) {
                 kind.light_array()
             ),
             false => format!(
-                "{}_light_sample({}_at(k - first), origin, u)",
+                "LightSample({}_light_sample({}_at(k - first), origin, u), NO_LIGHT)",
                 kind.name,
                 kind.light_array()
             ),
@@ -594,7 +616,7 @@ fn light_density(out: &mut String, config: &KernelConfig) {
         }
     }
     if environment {
-        out.push_str("    return environment_sample(u);\n");
+        out.push_str("    return LightSample(environment_sample(u), NO_LIGHT);\n");
     }
     out.push_str("}\n");
     out.push_str(
@@ -602,6 +624,10 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     );
     for &k in &kinds {
         let kind = PRIMITIVE_KINDS[k];
+        if grouped(k) && points {
+            // Its points' densities are found where rays hit them (`light_point_pdf`).
+            continue;
+        }
         if grouped(k) {
             writeln!(
                 out,
@@ -626,21 +652,73 @@ fn light_density(out: &mut String, config: &KernelConfig) {
         out.push_str("    total += environment_pdf(dir);\n");
     }
     out.push_str("    return total / f32(light_count());\n}\n");
+    if points {
+        light_point_pdf(out, &kinds);
+    }
 }
 
-/// Sampling and density of the groups of grouped light kind `name`
-/// (`lights::LightTables`): `LIGHTS_group_sample` (LIGHTS: the kind's light
-/// array) picks a member of a group
-/// by its alias table, `LIGHTS_groups_pdf` sums over every member the ray
+/// `light_point_pdf(hit, dir)`: the light density's share of the grouped light
+/// `hit` found along `dir` (`KernelConfig::light_points`), that point's own
+/// (0 where it found none): the probability of its group's pick and of the
+/// member within it, times the member's density at the point.
+fn light_point_pdf(out: &mut String, kinds: &[usize]) {
+    let grouped: Vec<&PrimitiveKind> = kinds
+        .iter()
+        .map(|&k| PRIMITIVE_KINDS[k])
+        .filter(|kind| kind.grouped_lights)
+        .collect();
+    // `Hit::light` indexes one kind's lights.
+    let [kind] = grouped[..] else {
+        panic!("one grouped light kind, not {}", grouped.len());
+    };
+    let (name, lights) = (kind.name, kind.light_array());
+    let picks = LightTablePart::Picks.array(name);
+    // Selects rather than an early return: lavapipe runs both sides, and the
+    // reads stay in bounds.
+    writeln!(
+        out,
+        "fn light_point_pdf(hit: Hit, dir: vec3<f32>) -> f32 {{
+    let found = hit.light != NO_LIGHT;
+    let light = select(0u, hit.light, found);
+    let pdf = {picks}_at(light).pmf * {name}_light_point_pdf({lights}_at(light), hit.t, dir);
+    return select(0.0, pdf / f32(light_count()), found);
+}}"
+    )
+    .unwrap();
+}
+
+/// `LIGHTS_group_sample` (LIGHTS: the kind's light array): a member of a group
+/// of grouped light kind `kind` (`lights::LightTables`), picked by its alias
+/// table, and the direction toward a point on it.
+fn group_sample(out: &mut String, kind: &PrimitiveKind) {
+    let (name, lights) = (kind.name, kind.light_array());
+    let groups = LightTablePart::Groups.array(name);
+    let picks = LightTablePart::Picks.array(name);
+    write!(
+        out,
+        "fn {lights}_group_sample(group_index: u32, choice: f32, origin: vec3<f32>, u: vec2<f32>) -> LightSample {{
+    let group = {groups}_at(group_index);
+    let scaled = choice * f32(group.count);
+    let slot = min(u32(scaled), group.count - 1u);
+    let pick = {picks}_at(group.first + slot);
+    let member = group.first + select(pick.other, slot, scaled - f32(slot) < pick.threshold);
+    return LightSample({name}_light_sample({lights}_at(member), origin, u), member);
+}}
+"
+    )
+    .unwrap();
+}
+
+/// `LIGHTS_groups_pdf`: the density of a direction over the groups of grouped
+/// light kind `kind`, summed over every member the ray
 /// meets (not only the first: a direction's density counts every point that
 /// could have been sampled along it) through the lights' own BVH (leaves are
 /// ranges of its `refs`, which index the light array), each member's
 /// density weighted by its probability within its group. While-while, as the
 /// closest hit's walk: the leaf's loop runs once per leaf, not once per node
 /// (0.84x the CPU time on Mitsuba's box with an emissive bunny).
-fn grouped_lights(out: &mut String, kind: &PrimitiveKind, stack_size: u32) {
+fn groups_pdf(out: &mut String, kind: &PrimitiveKind, stack_size: u32) {
     let (name, lights) = (kind.name, kind.light_array());
-    let groups = LightTablePart::Groups.array(name);
     let picks = LightTablePart::Picks.array(name);
     let nodes = LightTablePart::BvhNodes.array(name);
     let refs = LightTablePart::BvhRefs.array(name);
@@ -650,15 +728,7 @@ fn grouped_lights(out: &mut String, kind: &PrimitiveKind, stack_size: u32) {
     };
     write!(
         out,
-        "fn {lights}_group_sample(group_index: u32, choice: f32, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {{
-    let group = {groups}_at(group_index);
-    let scaled = choice * f32(group.count);
-    let slot = min(u32(scaled), group.count - 1u);
-    let pick = {picks}_at(group.first + slot);
-    let member = select(pick.other, slot, scaled - f32(slot) < pick.threshold);
-    return {name}_light_sample({lights}_at(group.first + member), origin, u);
-}}
-fn {lights}_groups_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {{
+        "fn {lights}_groups_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {{
     var total = 0.0;
     let inv_dir = 1.0 / dir;
 {declare}    var depth = 0u;

@@ -40,6 +40,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "STRATEGY_LIGHT",
     "STRATEGY_NEE",
     "LIGHT_DENSITY",
+    "LIGHT_POINTS",
     "VARIANCE",
     "REPLICATE_SUMS",
     "ADAPTIVE",
@@ -150,9 +151,11 @@ pub enum ArraySource {
 impl ArraySource {
     /// Whether a baked kernel compiles this array in as constants. Large tables
     /// read at computed indices stay in buffers: a baked array is read through a
-    /// `switch` over its elements, which over the 64-entry tables of a few
-    /// `roughplastic` coats gave wrong values on lavapipe (Mesa 22.3), and a
-    /// constant array indexed at run time was 75x slower there.
+    /// binary tree of `if`s over its elements (`glue::index_tree`), and a
+    /// constant array indexed at run time was 75x slower on lavapipe (Mesa
+    /// 22.3). (A `switch` over the elements, used before, gave wrong values
+    /// there over the 64-entry tables of a few `roughplastic` coats, and over
+    /// the light tables of a mesh of 108 emitting faces.)
     pub fn bakes(self) -> bool {
         !matches!(
             self,
@@ -343,6 +346,15 @@ pub struct KernelConfig {
     pub delta_light_pick: bool,
     /// Some material has a texture: hits carry texture coordinates.
     pub textures: bool,
+    /// Next-event estimation weighs a grouped light by the density of the point
+    /// it hit (`NAME_light_point_pdf`), as Mitsuba and pbrt-v4 weigh area lights,
+    /// rather than by that of the direction, which sums every member the line
+    /// meets through the groups' BVH. Both are unbiased: a light sample then
+    /// counts only where its shadow ray finds the point it aimed at first. The
+    /// mixture and `light` keep the direction's density, the estimator their
+    /// one sample divides by. Set where the grouped lights number at least
+    /// [`KernelConfig::LIGHT_POINTS_MIN`].
+    pub light_points: bool,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -361,6 +373,15 @@ impl KernelConfig {
     /// the error of picking too, so the switch is far out.
     pub const MAX_DELTA_SHADOW_RAYS: usize = 64;
 
+    /// Fewest grouped lights (mesh faces) whose next-event estimation weighs
+    /// by the point's density (`light_points`). A sample of a face that the
+    /// mesh hides from itself then counts nothing, where the line's density
+    /// counted it through the face in front, so a small closed emitter, whose
+    /// walk is cheap, loses: measured (README, "Emitting meshes under
+    /// `nee-mis`"), a lone 12-face cube 0.42x the efficiency and 1.08x in a
+    /// Cornell box; 32 faces 0.85x and 1.51x; 512 faces 0.93x and 2.17x.
+    pub const LIGHT_POINTS_MIN: usize = 32;
+
     /// The kernel for `data`; `strategy` must have objects to aim at unless it is `bsdf`.
     pub fn for_scene(
         data: &SceneData,
@@ -374,6 +395,10 @@ impl KernelConfig {
         let material_kinds = data.material_kinds();
         let samples_lights = has_smooth_lobe(material_kinds) && strategy != Strategy::Bsdf;
         let environment = data.environment.is_some();
+        let grouped_lights: usize = (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| PRIMITIVE_KINDS[k].grouped_lights)
+            .map(|k| data.lights[k].len())
+            .sum();
         KernelConfig {
             primitive_kinds: data.primitive_kinds(),
             light_kinds: if samples_lights {
@@ -420,6 +445,9 @@ impl KernelConfig {
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
+            light_points: samples_lights
+                && strategy == Strategy::NeeMis
+                && grouped_lights >= Self::LIGHT_POINTS_MIN,
         }
     }
 
@@ -477,6 +505,7 @@ impl KernelConfig {
             delta_lights: true,
             delta_light_pick: false,
             textures: true,
+            light_points: false,
         }
     }
 
@@ -524,6 +553,11 @@ impl KernelConfig {
             .filter(|&k| PRIMITIVE_KINDS[k].grouped_lights)
     }
 
+    /// Whether the light density walks the groups' BVH (`LightTablePart::BvhNodes`).
+    pub fn walks_light_groups(&self) -> bool {
+        self.grouped_light_kinds().next().is_some() && !self.light_points
+    }
+
     pub fn flags(&self) -> BTreeSet<String> {
         let mut flags = BTreeSet::new();
         for k in self.primitive_kinds.iter() {
@@ -543,6 +577,7 @@ impl KernelConfig {
             ("STRATEGY_LIGHT", self.strategy == Strategy::Light),
             ("STRATEGY_NEE", self.strategy == Strategy::NeeMis),
             ("LIGHT_DENSITY", self.samples_lights()),
+            ("LIGHT_POINTS", self.light_points),
             ("VARIANCE", self.variance),
             (
                 "REPLICATE_SUMS",
@@ -592,7 +627,7 @@ impl KernelConfig {
         modules.extend(geometry.iter().map(|k| PRIMITIVE_KINDS[k].module.clone()));
         let grouped_lights = self.grouped_light_kinds().next().is_some();
         // The light groups' density walks a BVH of its own.
-        if self.bvh() || grouped_lights {
+        if self.bvh() || self.walks_light_groups() {
             modules.push(BVH);
         }
         if grouped_lights {
@@ -800,6 +835,10 @@ impl KernelConfig {
         }
         for k in self.grouped_light_kinds() {
             for (j, part) in LightTablePart::ALL.into_iter().enumerate() {
+                let walk = matches!(part, LightTablePart::BvhNodes | LightTablePart::BvhRefs);
+                if walk && !self.walks_light_groups() {
+                    continue;
+                }
                 arrays.push(SceneArray {
                     name: part.array(PRIMITIVE_KINDS[k].name),
                     binding: 3 + 3 * count + 4 * k as u32 + j as u32,
@@ -1205,6 +1244,21 @@ mod tests {
                     ..config
                 };
                 validate(&all_lights);
+                if strategy == Strategy::NeeMis {
+                    // Grouped lights weighed by the points hit: no walk, so no
+                    // light BVH bound.
+                    let points = KernelConfig {
+                        light_points: true,
+                        ..all_lights
+                    };
+                    assert!(points.flags().contains("LIGHT_POINTS"));
+                    validate(&points);
+                    let nodes = LightTablePart::BvhNodes.array("triangle");
+                    assert!(
+                        points.scene_bindings().iter().all(|a| a.name != nodes),
+                        "{nodes} bound"
+                    );
+                }
             }
         }
     }
@@ -1723,6 +1777,9 @@ mod tests {
             let mut functions = vec!["hit_t", "hit_keep", "hit_normal"];
             if kind.light_density {
                 functions.extend(["light_sample", "light_pdf"]);
+            }
+            if kind.grouped_lights {
+                functions.push("light_point_pdf");
             }
             for function in functions {
                 assert!(

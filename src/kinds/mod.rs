@@ -63,6 +63,9 @@ pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[
 ///   `NAME_uvs` as a second argument.
 ///
 /// The WGSL struct's first `u32` field named `material` indexes the materials.
+/// A kind with `grouped_lights` also has a `u32` field named `light`: the
+/// primitive's index in the kind's light array, or `NO_LIGHT` (written by
+/// `SceneData::pack`), so that a hit tells which light it found.
 pub struct PrimitiveKind {
     /// Singular, lower case: the module's name and its functions' prefix.
     pub name: &'static str,
@@ -91,9 +94,15 @@ pub struct PrimitiveKind {
     /// Its lights come in groups (a mesh's faces), each group one object of the
     /// light density, a member picked by power (`lights::LightTables`). The
     /// module then defines `fn NAME_light_sample` and `NAME_light_pdf` per
-    /// primitive, and the generated light density walks the groups.
+    /// primitive, and the generated light density walks the groups; and `fn
+    /// NAME_light_point_pdf(p: S, t: f32, dir: vec3<f32>) -> f32`, the density
+    /// of `dir` where it meets the primitive at distance `t` (the point's own
+    /// share, which next-event estimation weighs hits by: `KernelConfig::light_points`).
     pub grouped_lights: bool,
 }
+
+/// The `light` field of a primitive outside the light density.
+pub const NO_LIGHT: u32 = u32::MAX;
 
 impl PrimitiveKind {
     /// The kernel's presence flag for the primitives (`QUADS`).
@@ -122,6 +131,17 @@ impl PrimitiveKind {
 
     pub fn normals_flag(&self) -> String {
         self.normals_array().to_uppercase()
+    }
+
+    /// The byte offset of the `light` field of a kind with `grouped_lights`.
+    pub fn light_field(&self) -> Option<usize> {
+        self.grouped_lights.then(|| {
+            (self.layout.fields)()
+                .into_iter()
+                .find(|&(name, _, _)| name == "light")
+                .map(|(_, offset, _)| offset)
+                .expect("a kind with grouped lights has a `light` field")
+        })
     }
 }
 

@@ -1,6 +1,6 @@
 //! Triangles: the faces of meshes.
 
-use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
+use super::{ErasedLayout, NO_LIGHT, PackedPrimitive, PrimitiveKind};
 use crate::gpu::layout::gpu_struct;
 use crate::scene::Scene;
 use crate::shader::shader_module;
@@ -57,7 +57,8 @@ gpu_struct! {
         pub p0: [f32; 3],
         pub material: u32,
         pub p1: [f32; 3],
-        pub _pad1: u32,
+        /// Its index in the light array, or `NO_LIGHT` (`PrimitiveKind::light_field`).
+        pub light: u32,
         pub p2: [f32; 3],
         pub _pad2: u32,
     }
@@ -71,6 +72,7 @@ impl Triangle {
             p1,
             p2,
             material: triangle.material,
+            light: NO_LIGHT,
             ..Triangle::default()
         }
     }
