@@ -177,6 +177,42 @@ fn baked_scene_matches_scene_buffers() {
     }
 }
 
+/// A baked scene of 120 materials, one per quad, renders what the buffers
+/// render bit for bit: its kernel looks the hit's material up among 120
+/// constants. lavapipe compiled that lookup wrong as a `switch` (a quarter of
+/// the values differed, some black); it is a tree of `if`s
+/// (`kernel::glue::index_tree`).
+#[test]
+fn baked_lookups_among_many_constants_match_scene_buffers() {
+    let ctx = gpu_or_skip!();
+    let mut text = String::from(
+        "[camera]\nlookfrom = [0, 0, 12]\nlookat = [0, 0, 0]\nwidth = 32\nheight = 32\n\
+         [render]\nspp = 2\nmax_depth = 2\nbackground = [0.8, 0.8, 0.8]\n",
+    );
+    for i in 0..120 {
+        let (x, y) = ((i % 11) as f32 - 5.45, (i / 11) as f32 - 5.45);
+        let albedo = [7, 11, 13].map(|m| (i % m) as f32 / m as f32 + 0.05);
+        text += &format!(
+            "[materials.m{i}]\ntype = \"lambertian\"\nalbedo = {albedo:?}\n\
+             [[objects]]\ntype = \"quad\"\nq = [{x}, {y}, 0]\nu = [0.9, 0, 0]\nv = [0, 0.9, 0]\nmaterial = \"m{i}\"\n"
+        );
+    }
+    let scene = common::scene_text(&text);
+    let render = |storage| {
+        let options = RenderOptions {
+            scene_storage: Some(storage),
+            ..RenderOptions::default()
+        };
+        common::render(ctx, &scene, &options)
+    };
+    let baked = render(SceneStorage::Baked);
+    assert!(baked.sum.iter().any(|p| p[0] > 0.0), "black image");
+    assert!(
+        baked == render(SceneStorage::Buffers),
+        "baked and buffers differ"
+    );
+}
+
 /// The benchmark's field of `n` spheres, small.
 fn small_field(n: usize) -> Scene {
     let mut scene = pathmix::bench::sphere_field(n);
