@@ -1760,6 +1760,18 @@ mod tests {
         }
     }
 
+    /// The kernel with everything compiled in (textures, the environment, every
+    /// kind) under `nee-mis` weighing grouped lights by the points hit.
+    #[test]
+    fn light_points_kernel_validates() {
+        let config = KernelConfig {
+            light_points: true,
+            ..KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer)
+        };
+        assert!(config.textures && config.environment && config.delta_lights);
+        validate(&config);
+    }
+
     /// Each kind's module defines what its description promises.
     #[test]
     fn kind_modules_define_their_interface() {
