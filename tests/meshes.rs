@@ -596,7 +596,6 @@ fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
     let (emit, albedo) = (3.0f64, 0.6f64);
     let (low, high) = ([-0.5, 0.6, -0.3], [0.5, 1.4, 0.7]);
     for n in [1, 3] {
-        // Each face as (corner, edge u, edge v), u x v pointing out.
         let size = [high[0] - low[0], high[1] - low[1], high[2] - low[2]];
         let axis = |i: usize, length: f64| {
             let mut v = [0.0; 3];
@@ -605,6 +604,7 @@ fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
         };
         let (x, y, z) = (axis(0, size[0]), axis(1, size[1]), axis(2, size[2]));
         let minus = |v: [f64; 3]| v.map(|c| -c);
+        // Each face as (corner, edge u, edge v), u x v pointing out.
         let faces = [
             (low, x, z),
             (high, minus(z), minus(x)),
@@ -650,6 +650,7 @@ fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
              [materials.lamp]\ntype = \"light\"\nemit = [1, 1, 1]\n\
              [[objects]]\ntype = \"sphere\"\ncenter = [0, -100, 0]\nradius = 100\nmaterial = \"floor\"\n{mesh}"
         ));
+        // Its `nee-mis` kernel weighs by points from `LIGHT_POINTS_MIN` faces on.
         let renderer = Renderer::new(ctx, &scene, &RenderOptions::default()).unwrap();
         assert_eq!(
             renderer.config().light_points,
