@@ -65,22 +65,23 @@ fn scatter_smooth(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -
     let light_dir = light.dir;
     let light_density = light_pdf(origin, light_dir);
     let f_light = bsdf_eval(m, frame, wo, light_dir);
-    let light_bsdf_pdf = bsdf_pdf(m, frame, wo, light_dir);
 #if LIGHT_POINTS
     // A grouped light's share of the density is known where the shadow ray lands.
+    let shadow_pdfs = vec2<f32>(bsdf_pdf(m, frame, wo, light_dir), light_density);
     if any(f_light > vec3<f32>(0.0)) {
         shadow_weight = f_light;
     }
 #else
+    let shadow_pdfs = vec2<f32>(0.0);
     if light_density > 0.0 && any(f_light > vec3<f32>(0.0)) {
-        let mis = power_heuristic(light_density, light_bsdf_pdf);
+        let mis = power_heuristic(light_density, bsdf_pdf(m, frame, wo, light_dir));
         shadow_weight = f_light * (mis / light_density);
     }
 #endif
     // BSDF sample: the continuation; its emitter hit is weighted in the kernel.
     // A sample of a delta lobe (a plastic's coat) counts the emitter it finds fully.
     let s = smooth_bsdf_sample(m, frame, wo);
-    return Scatter(s.wi, s.weight, s.pdf <= 0.0, light_dir, shadow_weight, s.delta, s.pdf, light_pdf(origin, s.wi), vec2<f32>(light_bsdf_pdf, light_density), light.light);
+    return Scatter(s.wi, s.weight, s.pdf <= 0.0, light_dir, shadow_weight, s.delta, s.pdf, light_pdf(origin, s.wi), shadow_pdfs, light.light);
 #else
 #if STRATEGY_LIGHT
     let light_select = sample_1d();

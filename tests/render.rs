@@ -2,11 +2,12 @@
 
 mod common;
 
+use pathmix::gpu::GpuContext;
 use pathmix::gpu::accumulator::REPLICATES;
 use pathmix::kernel::{AccumulatorKind, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Roulette, Sampler, Scene, SceneOverrides, Strategy};
-use pathmix::stats;
+use pathmix::stats::{self, Accumulation};
 
 /// Every pixel of the white furnace converges to E * sum_{k=0}^{D} a^k.
 fn furnace(strategy: Strategy, spp: u32, max_depth: u32) -> pathmix::scene::Scene {
@@ -198,19 +199,21 @@ fn baked_lookups_among_many_constants_match_scene_buffers() {
         );
     }
     let scene = common::scene_text(&text);
-    let render = |storage| {
-        let options = RenderOptions {
-            scene_storage: Some(storage),
-            ..RenderOptions::default()
-        };
-        common::render(ctx, &scene, &options)
-    };
-    let baked = render(SceneStorage::Baked);
+    let baked = render_stored(ctx, &scene, SceneStorage::Baked);
     assert!(baked.sum.iter().any(|p| p[0] > 0.0), "black image");
     assert!(
-        baked == render(SceneStorage::Buffers),
+        baked == render_stored(ctx, &scene, SceneStorage::Buffers),
         "baked and buffers differ"
     );
+}
+
+/// `scene` rendered with its data in `storage`.
+fn render_stored(ctx: &GpuContext, scene: &Scene, storage: SceneStorage) -> Accumulation {
+    let options = RenderOptions {
+        scene_storage: Some(storage),
+        ..RenderOptions::default()
+    };
+    common::render(ctx, scene, &options)
 }
 
 /// The benchmark's field of `n` spheres, small.
@@ -255,17 +258,10 @@ fn bvh_matches_scene_buffers() {
             let mut scene = scene.clone();
             scene.render.strategy = strategy;
             scene.render.rr_depth = Roulette::From(3);
-            let render = |storage| {
-                let options = RenderOptions {
-                    scene_storage: Some(storage),
-                    ..RenderOptions::default()
-                };
-                common::render(ctx, &scene, &options)
-            };
-            let bvh = render(SceneStorage::Bvh);
+            let bvh = render_stored(ctx, &scene, SceneStorage::Bvh);
             assert!(bvh.sum.iter().any(|p| p[0] > 0.0), "{name}: black image");
             assert!(
-                bvh == render(SceneStorage::Buffers),
+                bvh == render_stored(ctx, &scene, SceneStorage::Buffers),
                 "{name} {strategy}: BVH and buffers differ"
             );
         }
