@@ -1,25 +1,6 @@
-// The BVH's nodes (`accel::BvhNode`) and the ray-box test of its traversal,
-// which `intersect_scene` runs (generated: `kernel::glue`).
-
-// Mirrors `accel::BvhNode`. Interior (count 0): left child next, right child
-// `first`. Leaf: `count` primitive references from `first` on.
-struct BvhNode {
-    min: vec3<f32>,
-    first: u32,
-    max: vec3<f32>,
-    count: u32,
-}
-
-// Distance at which the ray enters the box within (0, t_max), or F32_MAX if it
-// misses. The far distance is widened by 2 gamma(3) (pbrt-v4) so rounding
-// cannot cull a box the ray grazes.
-fn bvh_box_t(node: BvhNode, origin: vec3<f32>, inv_dir: vec3<f32>, t_max: f32) -> f32 {
-    let t0 = (node.min - origin) * inv_dir;
-    let t1 = (node.max - origin) * inv_dir;
-    let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), 0.0));
-    let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), t_max));
-    return select(F32_MAX, near, near <= far * 1.0000004);
-}
+// The wide BVH's nodes (`accel::WideBvhNode`) and the box tests and stack
+// entries of its walks (generated: `kernel::glue`), which `intersect_scene`
+// runs over the scene and the light density over a mesh light's faces.
 
 // Mirrors `accel::WideBvhNode`: child i in component or byte i. Planes are
 // `origin + q * scale` for a byte q; the traversal reads the box vectors alone
@@ -34,9 +15,10 @@ struct WideBvhNode {
     links: array<vec2<u32>, 4>,
 }
 
-// `bvh_box_t` for the four children of node `i` of `nodes` at once. Each axis's
-// near plane is chosen by the ray's sign; empty slots are misses (a distance
-// not below F32_MAX is a miss).
+// Distances at which the ray enters the four children's boxes within (0, t_max),
+// or F32_MAX where it misses (or the slot is empty). Each axis's near plane is
+// chosen by the ray's sign. The far distance is widened by 2 gamma(3)
+// (pbrt-v4) so rounding cannot cull a box the ray grazes.
 fn wide_bvh_children_t(planes_a: vec4<u32>, planes_b: vec4<u32>, box_origin: vec4<f32>, origin: vec3<f32>, inv_dir: vec3<f32>, t_max: f32) -> vec4<f32> {
     let scale = bitcast<vec3<f32>>(((vec3<u32>(planes_b.z) >> vec3<u32>(0u, 8u, 16u)) & vec3<u32>(0xffu)) << vec3<u32>(23u));
     let min_x = box_origin.x + vec4<f32>(unpack4xU8(planes_a.x)) * scale.x;

@@ -4,13 +4,14 @@
 //! picked in proportion to its power by an alias table (Walker 1977, Vose 1991)
 //! in O(1). The density of a direction sums every primitive of the kind the ray
 //! meets, found through a BVH over the light primitives alone, so evaluating it
-//! costs O(log n), not O(n). (Next-event estimation over many faces weighs by
-//! the density of the point hit instead, with no walk: `KernelConfig::light_points`.)
+//! costs O(log n), not O(n) (a few are tested each instead). Next-event
+//! estimation over many faces weighs by the density of the point hit, with no
+//! walk. (`kernel::GroupedDensity`.)
 //!
 //! Also the point and spot lights ([`DeltaLight`]), which are no part of the
 //! light density: the kernel sends them shadow rays of their own.
 
-use crate::accel::Bvh;
+use crate::accel::{Bvh, WideBvh};
 use crate::gpu::layout::{Material, PackedArray, SceneData, gpu_struct};
 use crate::scene::PointLight;
 
@@ -138,7 +139,7 @@ pub struct LightTables {
     pub picks: Vec<LightPick>,
     /// Over the light primitives, which it leaves in place (groups are
     /// contiguous there): its leaves are ranges of `refs`.
-    pub bvh: Bvh,
+    pub bvh: WideBvh,
     /// The light array's indices in the BVH's leaf order (`Bvh::build_order`).
     pub refs: Vec<u32>,
 }
@@ -186,7 +187,7 @@ impl LightTables {
         let mut only_lights = SceneData::default();
         only_lights.primitives[k] = lights.clone();
         if let Some((bvh, mut leaf_order)) = Bvh::build_order(&only_lights) {
-            tables.bvh = bvh;
+            tables.bvh = WideBvh::collapse(&bvh);
             tables.refs = std::mem::take(&mut leaf_order[k]);
         }
         tables

@@ -1260,8 +1260,9 @@ const BVH_ITERATIONS_PER_RAY: u64 = 256;
 /// leaf, and one per primitive tested) have no tight bound:
 /// `BVH_ITERATIONS_PER_RAY` is a generous allowance, and the truncation guard
 /// reports a ray that needs more. The walk of a grouped kind's light BVH visits
-/// each node and tests each light at most once, so nodes plus lights bound it
-/// (`SceneData::light_density_iterations`), capped at the same allowance.
+/// each node, reaches each leaf and tests each light at most once, so its
+/// nodes and lights bound it (`SceneData::light_density_iterations`), capped at
+/// the same allowance.
 pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
     let per_sample = loop_iterations_per_vertex(data, config) * (config.max_depth as u64 + 1);
     (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
@@ -1276,7 +1277,7 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     };
     let baked = config.scene_storage() == SceneStorage::Baked;
     let mut inner_loops = closest_hit
-        + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, baked, config.walks_light_groups());
+        + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, baked, config.grouped_density);
     // The environment's sampling bisects its two CDFs.
     if let Some(tables) = data
         .environment

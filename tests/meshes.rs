@@ -3,7 +3,7 @@
 
 mod common;
 
-use pathmix::kernel::{KernelConfig, SceneStorage};
+use pathmix::kernel::{GroupedDensity, KernelConfig, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Scene, Strategy};
 use std::fmt::Write;
@@ -585,11 +585,12 @@ fn triangle_light_gives_the_analytic_irradiance() {
 /// squares of two triangles: the point under it sees the bottom face alone
 /// (the others face away or lie behind it), so its irradiance is that square's,
 /// under every strategy. Under `nee-mis`, with enough faces to be weighed by
-/// their points' density (`KernelConfig::light_points`, 108 faces here; 12
+/// their points' density (`GroupedDensity::Points`, 108 faces here; 12
 /// keep the line's), a sample of a hidden face finds the bottom face first
 /// and must count nothing: counting the face it found gave 1.6x the expected
-/// radiance. The 108 faces' light tables are compiled in: read through a
-/// `switch`, lavapipe gave `light` no light and the mixture 3.3x too much.
+/// radiance. The line's density tests the 12 faces each and walks the 108's
+/// BVH, whose light tables are compiled in: read through a `switch`, lavapipe
+/// gave `light` no light and the mixture 3.3x too much.
 #[test]
 fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
     let ctx = gpu_or_skip!();
@@ -644,18 +645,29 @@ fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
         let path = dir.join("cube.obj");
         std::fs::write(&path, obj).unwrap();
         let mesh = format!("[[objects]]\ntype = \"mesh\"\nfile = {path:?}\nmaterial = \"lamp\"\n");
-        let scene = common::scene_text(&format!(
-            "[camera]\nlookfrom = [0, 0.1, 0]\nlookat = [0, 0, 0]\nvup = [0, 0, -1]\nwidth = 4\nheight = 4\n[render]\nstrategy = \"nee-mis\"\n\
-             [materials.floor]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
-             [materials.lamp]\ntype = \"light\"\nemit = [1, 1, 1]\n\
-             [[objects]]\ntype = \"sphere\"\ncenter = [0, -100, 0]\nradius = 100\nmaterial = \"floor\"\n{mesh}"
-        ));
-        // Its `nee-mis` kernel weighs by points from `LIGHT_POINTS_MIN` faces on.
-        let renderer = Renderer::new(ctx, &scene, &RenderOptions::default()).unwrap();
+        // `nee-mis` weighs by points from `LIGHT_POINTS_MIN` faces on; the
+        // mixture tests each face below `LIGHT_WALK_MIN` and walks their BVH from there.
+        let density = |strategy: &str| {
+            let scene = common::scene_text(&format!(
+                "[camera]\nlookfrom = [0, 0.1, 0]\nlookat = [0, 0, 0]\nvup = [0, 0, -1]\nwidth = 4\nheight = 4\n[render]\nstrategy = \"{strategy}\"\n\
+                 [materials.floor]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                 [materials.lamp]\ntype = \"light\"\nemit = [1, 1, 1]\n\
+                 [[objects]]\ntype = \"sphere\"\ncenter = [0, -100, 0]\nradius = 100\nmaterial = \"floor\"\n{mesh}"
+            ));
+            let renderer = Renderer::new(ctx, &scene, &RenderOptions::default()).unwrap();
+            renderer.config().grouped_density
+        };
+        let (faces_count, walked) = (12 * n * n, 12 * n * n >= KernelConfig::LIGHT_WALK_MIN);
         assert_eq!(
-            renderer.config().light_points,
-            12 * n * n >= KernelConfig::LIGHT_POINTS_MIN
+            density("nee-mis"),
+            match faces_count >= KernelConfig::LIGHT_POINTS_MIN {
+                true => GroupedDensity::Points,
+                false if walked => GroupedDensity::Walk,
+                false => GroupedDensity::Every,
+            }
         );
+        let line = [GroupedDensity::Every, GroupedDensity::Walk][walked as usize];
+        assert_eq!(density("mixture"), line);
         let bottom = [
             point(faces[0], 0.0, 0.0),
             point(faces[0], 1.0, 0.0),

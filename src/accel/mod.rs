@@ -1,12 +1,12 @@
 //! The acceleration structure: one binary BVH over every primitive of the scene
 //! but its few large ones (`put_large_first`), all kinds together, built on the
-//! host with the binned surface-area heuristic (Wald 2007) and flattened
-//! depth-first for the kernel's stack traversal (`shaders/bvh.wgsl`,
-//! `kernel::glue`). Building it puts each kind's primitives in leaf order, so
+//! host with the binned surface-area heuristic (Wald 2007), flattened
+//! depth-first and collapsed into the 4-wide BVH the kernel walks (`wide`,
+//! `shaders/bvh.wgsl`, `kernel::glue`). Building it puts each kind's primitives in leaf order, so
 //! a leaf is a range of one kind's array: the kernel reads no references and
 //! switches on the kind once per leaf.
 
-use crate::gpu::layout::{SceneData, gpu_struct};
+use crate::gpu::layout::SceneData;
 use crate::kinds::PRIMITIVE_KINDS;
 use glam::Vec3;
 use std::time::Instant;
@@ -14,16 +14,16 @@ use std::time::Instant;
 pub mod wide;
 pub use wide::{WideBvh, WideBvhNode};
 
-gpu_struct! {
-    /// Interior (`count` 0): the left child is the next node, the right one is
-    /// node `first`. Leaf: primitives `first` to `first + (count & LEAF_COUNT_MASK)`
-    /// of the kind `count >> LEAF_KIND_SHIFT` (index into `PRIMITIVE_KINDS`).
-    pub struct BvhNode {
-        pub min: [f32; 3],
-        pub first: u32,
-        pub max: [f32; 3],
-        pub count: u32,
-    }
+/// A node of the binary BVH, which the kernel reads collapsed (`WideBvh`).
+/// Interior (`count` 0): the left child is the next node, the right one is
+/// node `first`. Leaf: primitives `first` to `first + (count & LEAF_COUNT_MASK)`
+/// of the kind `count >> LEAF_KIND_SHIFT` (index into `PRIMITIVE_KINDS`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    pub first: u32,
+    pub max: [f32; 3],
+    pub count: u32,
 }
 
 /// A leaf's kind is in the top bits of its `count`, its size below.
@@ -470,7 +470,7 @@ pub(crate) mod tests {
         build_checked(&data);
     }
 
-    /// The kernel's ray-box test (`bvh_box_t`).
+    /// The kernel's slab test (`wide_bvh_children_t`) of one binary node.
     fn box_t(node: &BvhNode, origin: Vec3, inv_dir: Vec3, t_max: f32) -> f32 {
         let t0 = (Vec3::from(node.min) - origin) * inv_dir;
         let t1 = (Vec3::from(node.max) - origin) * inv_dir;

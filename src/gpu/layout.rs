@@ -3,6 +3,7 @@
 
 use crate::accel::WideBvh;
 use crate::environment::EnvironmentTables;
+use crate::kernel::GroupedDensity;
 use crate::kinds::{
     KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT, PRIMITIVE_KINDS, PackedPrimitive,
     PrimitiveKind, TextureInfo, TextureTables, pack_material,
@@ -500,24 +501,25 @@ impl SceneData {
     }
 
     /// Loop iterations of one evaluation of the light density: one per light of
-    /// a kind walked in a loop (none when `baked`: the loops are unrolled); for
-    /// grouped lights, a walk of their BVH (nodes visited plus lights tested,
-    /// a loop even when baked), counted as at most `bvh_allowance`, where the
-    /// kernel `walks_groups` (`KernelConfig::walks_light_groups`; else none).
+    /// a kind tested in a loop (none when `baked`: the loops are unrolled); for
+    /// grouped lights weighed by `grouped`, none by points, and a walk of
+    /// their BVH (a loop even when baked: an inner step per node visited and
+    /// per leaf reached, an outer step per leaf, one per light tested, and a
+    /// leaf holds a light at least) counted as at most `bvh_allowance`.
     pub fn light_density_iterations(
         &self,
         bvh_allowance: u64,
         baked: bool,
-        walks_groups: bool,
+        grouped: GroupedDensity,
     ) -> u64 {
         PRIMITIVE_KINDS
             .iter()
             .zip(&self.lights)
             .zip(&self.light_tables)
-            .map(|((kind, lights), tables)| match tables {
-                Some(_) if kind.grouped_lights && !walks_groups => 0,
-                Some(tables) if kind.grouped_lights => {
-                    bvh_allowance.min((tables.bvh.nodes.len() + tables.refs.len()) as u64)
+            .map(|((kind, lights), tables)| match (tables, grouped) {
+                (Some(_), GroupedDensity::Points) if kind.grouped_lights => 0,
+                (Some(tables), GroupedDensity::Walk) if kind.grouped_lights => {
+                    bvh_allowance.min((tables.bvh.nodes.len() + 3 * tables.refs.len()) as u64)
                 }
                 _ if baked => 0,
                 _ => lights.len() as u64,

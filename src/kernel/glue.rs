@@ -281,7 +281,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         if keeps_index(k) {
             writeln!(tag, "{indent}    hit_index = primitive_index;").unwrap();
         }
-        if config.light_points {
+        if config.light_points() {
             let light = match PRIMITIVE_KINDS[k].grouped_lights {
                 true => "primitive.light",
                 false => "NO_LIGHT",
@@ -428,27 +428,52 @@ impl RegisterStack {
     }
 }
 
-/// Depth-first traversal of the wide BVH with a stack: the nearest hit child
-/// next, the others later, nearer first; boxes behind the closest hit so far
-/// skipped. While-while (Aila and Laine 2009): an inner loop descends to a
-/// leaf, so SIMD lanes walking interior nodes stay in step. A node's farther
-/// hit children are one stack entry (`wide_bvh_entry`), so the stack holds one
-/// entry per level (a `RegisterStack`); a pop takes the entry's nearest child
-/// and reads its link from the node. lavapipe runs both sides of every branch
-/// (masked), so a node visit reads one link, its nearest hit child's or the
-/// popped one's (two reads took 1.08x the CPU time on 4 000 spheres), and
-/// updates the stack by `select`s rather than under branches.
-fn bvh_traversal(
-    out: &mut String,
-    kinds: &[usize],
-    stack_size: u32,
-    test: impl Fn(usize, &str) -> String,
-) {
+/// A walk of a wide BVH (`accel::WideBvh`) from its root, the code of
+/// `wide_bvh_walk`: where its nodes are and which boxes it opens.
+struct WideWalk<'a> {
+    /// The nodes' array, compiled in (`baked`: read through `NAME_at`) or a
+    /// buffer, whose nodes are read in place: copying each node out through
+    /// `NAME_at` took 1.25x the time of the light walk in place (Mitsuba's box
+    /// with the bunny emitting, under the mixture).
+    nodes: &'a str,
+    baked: bool,
+    /// The ray's origin; `inv_dir` is its direction's reciprocal, in scope.
+    origin: &'a str,
+    /// Boxes entered beyond this distance are skipped.
+    t_max: &'a str,
+}
+
+/// Depth-first walk of a wide BVH with a stack, running `leaf` at every leaf
+/// whose box the ray enters before `walk.t_max` (with `link` the leaf's
+/// `(first, count)` and `end` its range's end): the nearest hit child next,
+/// the others later, nearer first. While-while (Aila and Laine 2009): an inner
+/// loop descends to a leaf, so SIMD lanes walking interior nodes stay in step.
+/// A node's farther hit children are one stack entry (`wide_bvh_entry`), so
+/// the stack holds one entry per level (a `RegisterStack`); a pop takes the
+/// entry's nearest child and reads its link from the node. lavapipe runs both
+/// sides of every branch (masked), so a node visit reads one link, its nearest
+/// hit child's or the popped one's (two reads took 1.08x the CPU time on 4 000
+/// spheres), and updates the stack by `select`s rather than under branches.
+fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str) {
     let stack = RegisterStack {
         name: "stack",
         size: stack_size,
     };
     let top = stack.top();
+    let WideWalk {
+        nodes,
+        baked,
+        origin,
+        t_max,
+    } = walk;
+    let node_at = |index: &str| match baked {
+        true => format!("{nodes}_at({index})"),
+        false => format!("{nodes}[{index}]"),
+    };
+    let (visited, node) = match baked {
+        true => (node_at("link.x"), "node"),
+        false => (format!("&{}", node_at("link.x")), "(*node)"),
+    };
     // The top entry once `entry`, its nearest child, is taken: the rest, or
     // popped when none is left (where `taken`, if given).
     let pop_rest = |taken: Option<&str>, indent: &str| {
@@ -467,8 +492,7 @@ fn bvh_traversal(
     };
     write!(
         out,
-        "    let inv_dir = 1.0 / ray.dir;
-{}    var depth = 0u;
+        "{}    var depth = 0u;
     // The child being walked to: (first, count) as in a node (count 0: interior).
     var link = vec2<u32>(0u, 0u);
     loop {{
@@ -477,8 +501,8 @@ fn bvh_traversal(
             if link.y != 0u {{
                 break;
             }}
-            let node = &bvh_nodes[link.x];
-            let keys = wide_bvh_order(wide_bvh_children_t((*node).planes_a, (*node).planes_b, (*node).origin, ray.origin, inv_dir, hit.t));
+            let node = {visited};
+            let keys = wide_bvh_order(wide_bvh_children_t({node}.planes_a, {node}.planes_b, {node}.origin, {origin}, inv_dir, {t_max}));
             let hits = select(vec4<u32>(0u), vec4<u32>(1u), keys < vec4<u32>(WIDE_BVH_MISS));
             let pending = hits.y + hits.z + hits.w;
             let pushed = pending != 0u;
@@ -490,12 +514,18 @@ fn bvh_traversal(
             }}
             // The nearest hit child, else the stack top's nearest.
             let entry = {top};
-            link = bvh_nodes[select(link.x, entry >> 8u, from_stack)].links[select(keys.x, entry, from_stack) & 3u];
+            link = {}.links[select(keys.x, entry, from_stack) & 3u];
 {}        }}
         if missed {{
             break;
         }}
         let end = link.x + (link.y & BVH_LEAF_COUNT_MASK);
+{leaf}        if depth == 0u {{
+            break;
+        }}
+        let entry = {top};
+        link = {}.links[entry & 3u];
+{}    }}
 ",
         stack.declare("    "),
         stack.push(
@@ -503,10 +533,22 @@ fn bvh_traversal(
             Some("pushed"),
             "            "
         ),
+        node_at("select(link.x, entry >> 8u, from_stack)"),
         pop_rest(Some("from_stack"), "            "),
+        node_at("entry >> 8u"),
+        pop_rest(None, "        "),
     )
     .unwrap();
-    // A leaf is a range of one kind's array: one switch per leaf, none with one kind.
+}
+
+/// The closest hit's walk of the scene's BVH (`bvh_nodes`): a leaf is a range
+/// of one kind's array, tested by `test`; one switch per leaf, none with one kind.
+fn bvh_traversal(
+    out: &mut String,
+    kinds: &[usize],
+    stack_size: u32,
+    test: impl Fn(usize, &str) -> String,
+) {
     let range = |k: usize, indent: &str| {
         let array = PRIMITIVE_KINDS[k].array;
         format!(
@@ -514,32 +556,29 @@ fn bvh_traversal(
             test(k, &format!("{indent}    "))
         )
     };
-    if let [only] = kinds {
-        out.push_str(&range(*only, "        "));
+    let leaf = if let [only] = kinds {
+        range(*only, "        ")
     } else {
-        out.push_str("        switch link.y >> BVH_LEAF_KIND_SHIFT {\n");
+        let mut cases = String::from("        switch link.y >> BVH_LEAF_KIND_SHIFT {\n");
         for &k in kinds {
             write!(
-                out,
+                cases,
                 "            case {k}u: {{\n{}            }}\n",
                 range(k, "                ")
             )
             .unwrap();
         }
-        out.push_str("            default: {}\n        }\n");
-    }
-    write!(
-        out,
-        "        if depth == 0u {{
-            break;
-        }}
-        let entry = {top};
-        link = bvh_nodes[entry >> 8u].links[entry & 3u];
-{}    }}
-",
-        pop_rest(None, "        ")
-    )
-    .unwrap();
+        cases.push_str("            default: {}\n        }\n");
+        cases
+    };
+    out.push_str("    let inv_dir = 1.0 / ray.dir;\n");
+    let walk = WideWalk {
+        nodes: "bvh_nodes",
+        baked: false,
+        origin: "ray.origin",
+        t_max: "hit.t",
+    };
+    wide_bvh_walk(out, &walk, stack_size, &leaf);
 }
 
 /// The light density p_light: the average of the solid-angle densities of every
@@ -551,11 +590,11 @@ fn bvh_traversal(
 fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
     let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
-    let points = config.light_points;
+    let points = config.light_points();
     for &k in kinds.iter().filter(|&&k| grouped(k)) {
         group_sample(out, PRIMITIVE_KINDS[k]);
-        if !points {
-            groups_pdf(out, PRIMITIVE_KINDS[k], config.light_bvh_stack);
+        if config.walks_light_groups() {
+            groups_pdf(out, k, config);
         }
     }
     let mut counts: Vec<String> = kinds
@@ -628,11 +667,24 @@ fn light_density(out: &mut String, config: &KernelConfig) {
             // Its points' densities are found where rays hit them (`light_point_pdf`).
             continue;
         }
-        if grouped(k) {
+        if grouped(k) && config.walks_light_groups() {
             writeln!(
                 out,
                 "    total += {}_groups_pdf(origin, dir);",
                 kind.light_array()
+            )
+            .unwrap();
+        } else if grouped(k) {
+            // Each member, weighted by its probability within its group.
+            write!(
+                out,
+                "#for_each light in {}
+    total += {}_at(light_index).pmf * {}_light_pdf(light, origin, dir);
+#end_for
+",
+                kind.light_array(),
+                LightTablePart::Picks.array(kind.name),
+                kind.name
             )
             .unwrap();
         } else {
@@ -658,7 +710,7 @@ fn light_density(out: &mut String, config: &KernelConfig) {
 }
 
 /// `light_point_pdf(hit, dir)`: the light density's share of the grouped light
-/// `hit` found along `dir` (`KernelConfig::light_points`), that point's own
+/// `hit` found along `dir` (`GroupedDensity::Points`), that point's own
 /// (0 where it found none): the probability of its group's pick and of the
 /// member within it, times the member's density at the point.
 fn light_point_pdf(out: &mut String, kinds: &[usize]) {
@@ -712,69 +764,39 @@ fn group_sample(out: &mut String, kind: &PrimitiveKind) {
 /// `LIGHTS_groups_pdf`: the density of a direction over the groups of grouped
 /// light kind `kind`, summed over every member the ray
 /// meets (not only the first: a direction's density counts every point that
-/// could have been sampled along it) through the lights' own BVH (leaves are
-/// ranges of its `refs`, which index the light array), each member's
-/// density weighted by its probability within its group. While-while, as the
-/// closest hit's walk: the leaf's loop runs once per leaf, not once per node
-/// (0.84x the CPU time on Mitsuba's box with an emissive bunny).
-fn groups_pdf(out: &mut String, kind: &PrimitiveKind, stack_size: u32) {
+/// could have been sampled along it) through the lights' own wide BVH (leaves
+/// are ranges of its `refs`, which index the light array), each member's
+/// density weighted by its probability within its group.
+fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
+    let kind = PRIMITIVE_KINDS[k];
+    let baked = config.compiles_in(ArraySource::LightTable(k, LightTablePart::BvhNodes));
     let (name, lights) = (kind.name, kind.light_array());
     let picks = LightTablePart::Picks.array(name);
     let nodes = LightTablePart::BvhNodes.array(name);
     let refs = LightTablePart::BvhRefs.array(name);
-    let stack = RegisterStack {
-        name: "stack",
-        size: stack_size,
-    };
     write!(
         out,
         "fn {lights}_groups_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {{
     var total = 0.0;
     let inv_dir = 1.0 / dir;
-{declare}    var depth = 0u;
-    var node_index = 0u;
-    loop {{
-        // Down to the next leaf the line meets: a met interior node's left
-        // child next (its right one pushed), else the stack's top.
-        var node = {nodes}_at(node_index);
-        var found = false;
-        loop {{
-            let met = bvh_box_t(node, origin, inv_dir, F32_MAX) < F32_MAX;
-            if met && node.count != 0u {{
-                found = true;
-                break;
-            }}
-            if !met && depth == 0u {{
-                break;
-            }}
-            let popped = {top};
-{push_met}{pop_missed}            depth = select(depth - 1u, depth + 1u, met);
-            node_index = select(popped, node_index + 1u, met);
-            node = {nodes}_at(node_index);
-        }}
-        if !found {{
-            break;
-        }}
-        for (var r = node.first; r < node.first + (node.count & BVH_LEAF_COUNT_MASK); r += 1u) {{
+"
+    )
+    .unwrap();
+    let leaf = format!(
+        "        for (var r = link.x; r < end; r += 1u) {{
             let index = {refs}_at(r);
             total += {picks}_at(index).pmf * {name}_light_pdf({lights}_at(index), origin, dir);
         }}
-        if depth == 0u {{
-            break;
-        }}
-        depth -= 1u;
-        node_index = {top};
-{pop}    }}
-    return total;
-}}
-",
-        declare = stack.declare("    "),
-        push_met = stack.push("node.first", Some("met"), "            "),
-        pop_missed = stack.pop(Some("!met"), "            "),
-        top = stack.top(),
-        pop = stack.pop(None, "        "),
-    )
-    .unwrap();
+"
+    );
+    let walk = WideWalk {
+        nodes: &nodes,
+        baked,
+        origin: "origin",
+        t_max: "F32_MAX",
+    };
+    wide_bvh_walk(out, &walk, config.light_bvh_stack, &leaf);
+    out.push_str("    return total;\n}\n");
 }
 
 /// The BSDF interface's dispatch by material kind (materials.wgsl), over the

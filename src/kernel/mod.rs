@@ -5,7 +5,7 @@
 
 mod glue;
 
-use crate::accel::{self, BvhNode, WideBvhNode};
+use crate::accel::{self, WideBvhNode};
 use crate::environment::EnvironmentInfo;
 use crate::gpu::accumulator::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
@@ -207,10 +207,9 @@ impl ArraySource {
             ArraySource::LightTable(_, LightTablePart::Picks) => {
                 Some(ErasedLayout::of::<LightPick>())
             }
-            ArraySource::LightTable(_, LightTablePart::BvhNodes) => {
-                Some(ErasedLayout::of::<BvhNode>())
+            ArraySource::LightTable(_, LightTablePart::BvhNodes) | ArraySource::BvhNodes => {
+                Some(ErasedLayout::of::<WideBvhNode>())
             }
-            ArraySource::BvhNodes => Some(ErasedLayout::of::<WideBvhNode>()),
             ArraySource::Textures => Some(ErasedLayout::of::<TextureInfo>()),
             ArraySource::Environment(EnvironmentPart::Info) => {
                 Some(ErasedLayout::of::<EnvironmentInfo>())
@@ -273,7 +272,7 @@ pub struct SceneArray {
     /// array, whichever arrays a kernel declares).
     pub binding: u32,
     /// Read by a dynamic index (`NAME_at`), not only walked by `#for_each`:
-    /// baked, such an array needs its `switch` (a buffer array has `NAME_at`
+    /// baked, such an array needs its lookup tree (a buffer array has `NAME_at`
     /// whatever this says).
     pub indexed: bool,
     pub source: ArraySource,
@@ -346,15 +345,27 @@ pub struct KernelConfig {
     pub delta_light_pick: bool,
     /// Some material has a texture: hits carry texture coordinates.
     pub textures: bool,
+    /// How the light density weighs the grouped lights (mesh faces).
+    pub grouped_density: GroupedDensity,
+}
+
+/// How the light density weighs the lights of grouped kinds (a mesh's faces),
+/// chosen by their number (`KernelConfig::for_scene`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroupedDensity {
+    /// A direction's density sums every member, each tested in turn: below
+    /// [`KernelConfig::LIGHT_WALK_MIN`], where the walk costs more than it skips.
+    Every,
+    /// A direction's density sums the members the line meets, found through
+    /// the groups' BVH (`LightTablePart::BvhNodes`): its cost grows as log n.
+    Walk,
     /// Next-event estimation weighs a grouped light by the density of the point
     /// it hit (`NAME_light_point_pdf`), as Mitsuba and pbrt-v4 weigh area lights,
-    /// rather than by that of the direction, which sums every member the line
-    /// meets through the groups' BVH. Both are unbiased: a light sample then
-    /// counts only where its shadow ray finds the point it aimed at first. The
-    /// mixture and `light` keep the direction's density, the estimator their
-    /// one sample divides by. Set where the grouped lights number at least
-    /// [`KernelConfig::LIGHT_POINTS_MIN`].
-    pub light_points: bool,
+    /// rather than by that of the direction. Both are unbiased: a light sample
+    /// then counts only where its shadow ray finds the point it aimed at first.
+    /// The mixture and `light` keep the direction's density, the estimator
+    /// their one sample divides by. From [`KernelConfig::LIGHT_POINTS_MIN`] on.
+    Points,
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -373,8 +384,15 @@ impl KernelConfig {
     /// the error of picking too, so the switch is far out.
     pub const MAX_DELTA_SHADOW_RAYS: usize = 64;
 
+    /// Fewest grouped lights (mesh faces) whose density walks their BVH
+    /// (`GroupedDensity::Walk`) rather than testing each. Measured under the
+    /// mixture in Mitsuba's box with an emitting mesh beside its 2-face light
+    /// (README, "Emitting meshes"): testing each took 0.6-0.7x the CPU time
+    /// of the walk with 14 and 34 faces, 2.5x with 130.
+    pub const LIGHT_WALK_MIN: usize = 48;
+
     /// Fewest grouped lights (mesh faces) whose next-event estimation weighs
-    /// by the point's density (`light_points`). A sample of a face that the
+    /// by the point's density (`GroupedDensity::Points`). A sample of a face that the
     /// mesh hides from itself then counts nothing, where the line's density
     /// counted it through the face in front, so a small closed emitter, whose
     /// walk is cheap, loses: measured (README, "Emitting meshes under
@@ -445,9 +463,16 @@ impl KernelConfig {
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
-            light_points: samples_lights
-                && strategy == Strategy::NeeMis
-                && grouped_lights >= Self::LIGHT_POINTS_MIN,
+            grouped_density: match grouped_lights {
+                n if samples_lights
+                    && strategy == Strategy::NeeMis
+                    && n >= Self::LIGHT_POINTS_MIN =>
+                {
+                    GroupedDensity::Points
+                }
+                n if n >= Self::LIGHT_WALK_MIN => GroupedDensity::Walk,
+                _ => GroupedDensity::Every,
+            },
         }
     }
 
@@ -505,7 +530,7 @@ impl KernelConfig {
             delta_lights: true,
             delta_light_pick: false,
             textures: true,
-            light_points: false,
+            grouped_density: GroupedDensity::Walk,
         }
     }
 
@@ -555,7 +580,12 @@ impl KernelConfig {
 
     /// Whether the light density walks the groups' BVH (`LightTablePart::BvhNodes`).
     pub fn walks_light_groups(&self) -> bool {
-        self.grouped_light_kinds().next().is_some() && !self.light_points
+        self.grouped_light_kinds().next().is_some() && self.grouped_density == GroupedDensity::Walk
+    }
+
+    /// Whether next-event estimation weighs grouped lights by the points hit.
+    pub fn light_points(&self) -> bool {
+        self.grouped_density == GroupedDensity::Points
     }
 
     pub fn flags(&self) -> BTreeSet<String> {
@@ -577,7 +607,7 @@ impl KernelConfig {
             ("STRATEGY_LIGHT", self.strategy == Strategy::Light),
             ("STRATEGY_NEE", self.strategy == Strategy::NeeMis),
             ("LIGHT_DENSITY", self.samples_lights()),
-            ("LIGHT_POINTS", self.light_points),
+            ("LIGHT_POINTS", self.light_points()),
             ("VARIANCE", self.variance),
             (
                 "REPLICATE_SUMS",
@@ -1234,29 +1264,37 @@ mod tests {
                     bound.contains(&"environment_texels".to_string()),
                     "{bound:?}"
                 );
-                let all_lights = KernelConfig {
-                    light_kinds: if strategy == Strategy::Bsdf {
-                        KindSet::default()
-                    } else {
-                        KindSet::all(PRIMITIVE_KINDS.len())
-                    },
-                    compiled_in: None,
-                    ..config
-                };
-                validate(&all_lights);
-                if strategy == Strategy::NeeMis {
-                    // Grouped lights weighed by the points hit: no walk, so no
-                    // light BVH bound.
-                    let points = KernelConfig {
-                        light_points: true,
-                        ..all_lights
+                // Every kind in the light density, grouped ones weighed each way
+                // (by the points hit under `nee-mis` alone): only the walk binds
+                // the light BVH.
+                for density in [
+                    GroupedDensity::Every,
+                    GroupedDensity::Walk,
+                    GroupedDensity::Points,
+                ] {
+                    if density == GroupedDensity::Points && strategy != Strategy::NeeMis {
+                        continue;
+                    }
+                    let all_lights = KernelConfig {
+                        light_kinds: if strategy == Strategy::Bsdf {
+                            KindSet::default()
+                        } else {
+                            KindSet::all(PRIMITIVE_KINDS.len())
+                        },
+                        compiled_in: None,
+                        grouped_density: density,
+                        ..config.clone()
                     };
-                    assert!(points.flags().contains("LIGHT_POINTS"));
-                    validate(&points);
+                    validate(&all_lights);
+                    assert_eq!(
+                        all_lights.flags().contains("LIGHT_POINTS"),
+                        density == GroupedDensity::Points
+                    );
                     let nodes = LightTablePart::BvhNodes.array("triangle");
-                    assert!(
-                        points.scene_bindings().iter().all(|a| a.name != nodes),
-                        "{nodes} bound"
+                    assert_eq!(
+                        all_lights.scene_bindings().iter().any(|a| a.name == nodes),
+                        density == GroupedDensity::Walk && strategy != Strategy::Bsdf,
+                        "{density:?} {strategy:?}"
                     );
                 }
             }
@@ -1765,7 +1803,7 @@ mod tests {
     #[test]
     fn light_points_kernel_validates() {
         let config = KernelConfig {
-            light_points: true,
+            grouped_density: GroupedDensity::Points,
             ..KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer)
         };
         assert!(config.textures && config.environment && config.delta_lights);
@@ -1925,7 +1963,6 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
         check_layout(&module, ErasedLayout::of::<DeltaLight>());
         check_layout(&module, ErasedLayout::of::<TextureInfo>());
-        check_layout(&module, ErasedLayout::of::<BvhNode>());
         check_layout(&module, ErasedLayout::of::<WideBvhNode>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);

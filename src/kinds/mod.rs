@@ -97,7 +97,7 @@ pub struct PrimitiveKind {
     /// primitive, and the generated light density walks the groups; and `fn
     /// NAME_light_point_pdf(p: S, t: f32, dir: vec3<f32>) -> f32`, the density
     /// of `dir` where it meets the primitive at distance `t` (the point's own
-    /// share, which next-event estimation weighs hits by: `KernelConfig::light_points`).
+    /// share, which next-event estimation weighs hits by: `GroupedDensity::Points`).
     pub grouped_lights: bool,
 }
 
