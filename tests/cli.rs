@@ -200,6 +200,47 @@ fn info_shows_what_the_kernel_contains() {
     );
 }
 
+/// How the light density weighs emitting mesh faces, by their number and the
+/// strategy: 2 faces (Mitsuba's light) each tested; the knot's 4 608 walked
+/// through their BVH, or weighed by the points hit under `nee-mis`.
+#[test]
+fn info_says_how_emitting_mesh_faces_are_weighed() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = common::TempDir::new("info", "mesh-lights");
+    let knot = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/knot.obj");
+    let glowing_knot = dir.join("knot.toml");
+    std::fs::write(
+        &glowing_knot,
+        format!(
+            "[camera]\nlookfrom = [0, 0, 8]\nlookat = [0, 0, 0]\n\
+             [materials.glow]\ntype = \"light\"\nemit = [1, 1, 1]\n\
+             [materials.floor]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+             [[objects]]\ntype = \"sphere\"\ncenter = [0, -102, 0]\nradius = 100\nmaterial = \"floor\"\n\
+             [[objects]]\ntype = \"mesh\"\nfile = {knot:?}\nmaterial = \"glow\"\n"
+        ),
+    )
+    .unwrap();
+    let mitsuba_box =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/mitsuba-cbox-bunny.toml");
+    for (scene, strategy, expected) in [
+        (mitsuba_box.as_path(), "mixture", "each tested"),
+        (mitsuba_box.as_path(), "nee-mis", "each tested"),
+        (glowing_knot.as_path(), "mixture", "walks their BVH"),
+        (glowing_knot.as_path(), "nee-mis", "point hit"),
+    ] {
+        let output = pathmix(&["info", scene.to_str().unwrap(), "--strategy", strategy]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let stdout = String::from_utf8_lossy(&output.stdout);
+        let line = stdout
+            .lines()
+            .find(|l| l.contains("emitting mesh faces:"))
+            .unwrap_or_else(|| panic!("{stdout}"));
+        assert!(line.contains(expected), "{strategy}: {line}");
+    }
+}
+
 #[test]
 fn bench_prints_speed_figures() {
     if common::gpu().is_none() {

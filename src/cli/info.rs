@@ -142,6 +142,12 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         .map(|(k, v)| format!("{k}={v}"))
         .collect();
     println!("  constants: {}", constants.join(" "));
+    if config.grouped_light_kinds().next().is_some() {
+        println!(
+            "  emitting mesh faces: {}",
+            config.grouped_density.describe()
+        );
+    }
     let source = config.source().map_err(Failure::runtime)?;
     println!(
         "  composed WGSL: {} lines, {} bytes",

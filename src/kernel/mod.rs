@@ -368,6 +368,17 @@ pub enum GroupedDensity {
     Points,
 }
 
+impl GroupedDensity {
+    /// As `pathmix info` says it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            GroupedDensity::Every => "each tested for a direction's density",
+            GroupedDensity::Walk => "a direction's density walks their BVH",
+            GroupedDensity::Points => "weighed by the density of the point hit, with no walk",
+        }
+    }
+}
+
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
 fn has_smooth_lobe(kinds: KindSet) -> bool {
     kinds.iter().any(|k| MATERIAL_KINDS[k].lobe.has_density())
