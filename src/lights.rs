@@ -14,6 +14,7 @@
 use crate::accel::{Bvh, WideBvh};
 use crate::gpu::layout::{Material, PackedArray, SceneData, gpu_struct};
 use crate::scene::PointLight;
+use std::sync::OnceLock;
 
 gpu_struct! {
     /// A group's primitives: `count` from `first` on in the kind's light array.
@@ -137,11 +138,33 @@ pub struct LightTables {
     pub groups: Vec<LightGroup>,
     /// One per light primitive, in the light array's order.
     pub picks: Vec<LightPick>,
+    /// Built where a kernel walks it (`SceneData::light_bvh`), once.
+    pub walk: OnceLock<LightBvh>,
+}
+
+/// The BVH through which a direction's density finds the lights of a grouped
+/// kind that the line meets (`kernel::GroupedDensity::Walk`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LightBvh {
     /// Over the light primitives, which it leaves in place (groups are
     /// contiguous there): its leaves are ranges of `refs`.
     pub bvh: WideBvh,
     /// The light array's indices in the BVH's leaf order (`Bvh::build_order`).
     pub refs: Vec<u32>,
+}
+
+impl LightBvh {
+    /// Over `lights`, the light primitives of kind `k`.
+    pub fn build(k: usize, lights: &PackedArray) -> LightBvh {
+        let mut only_lights = SceneData::default();
+        only_lights.primitives[k] = lights.clone();
+        let (bvh, mut leaf_order) =
+            Bvh::build_order(&only_lights).expect("a grouped kind's tables have lights");
+        LightBvh {
+            bvh: WideBvh::collapse(&bvh),
+            refs: std::mem::take(&mut leaf_order[k]),
+        }
+    }
 }
 
 /// Rec. 709 luminance: how bright an emission looks, for weighing lights.
@@ -155,7 +178,6 @@ impl LightTables {
     /// contiguous). A light's power is its area times its emission's luminance;
     /// a group that does not emit (`importance = true` only) is weighed by area.
     pub fn build(
-        k: usize,
         lights: &PackedArray,
         groups: &[u32],
         areas: &[f32],
@@ -183,12 +205,6 @@ impl LightTables {
                 count: (end - start) as u32,
             });
             start = end;
-        }
-        let mut only_lights = SceneData::default();
-        only_lights.primitives[k] = lights.clone();
-        if let Some((bvh, mut leaf_order)) = Bvh::build_order(&only_lights) {
-            tables.bvh = WideBvh::collapse(&bvh);
-            tables.refs = std::mem::take(&mut leaf_order[k]);
         }
         tables
     }

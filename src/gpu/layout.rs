@@ -8,7 +8,7 @@ use crate::kinds::{
     KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT, PRIMITIVE_KINDS, PackedPrimitive,
     PrimitiveKind, TextureInfo, TextureTables, pack_material,
 };
-use crate::lights::{DeltaLight, LightTables, pack_delta_lights};
+use crate::lights::{DeltaLight, LightBvh, LightTables, pack_delta_lights};
 use crate::scene::{Camera, MaterialKind, Scene};
 use bytemuck::Pod;
 use glam::Vec3;
@@ -475,9 +475,19 @@ impl SceneData {
             self.light_tables[k] = (kind.grouped_lights && !lights.is_empty()).then(|| {
                 let (groups, areas): (Vec<u32>, Vec<f32>) =
                     self.light_members[k].iter().copied().unzip();
-                LightTables::build(k, lights, &groups, &areas, &self.materials)
+                LightTables::build(lights, &groups, &areas, &self.materials)
             });
         }
+    }
+
+    /// The BVH over the lights of grouped kind `k` (which has some), built on
+    /// the first call: only a kernel that walks it needs it.
+    pub fn light_bvh(&self, k: usize) -> &LightBvh {
+        self.light_tables[k]
+            .as_ref()
+            .expect("a grouped kind with lights has their tables")
+            .walk
+            .get_or_init(|| LightBvh::build(k, &self.lights[k]))
     }
 
     /// Whether every float is finite (has a WGSL literal, so it can be baked).
@@ -516,10 +526,12 @@ impl SceneData {
             .iter()
             .zip(&self.lights)
             .zip(&self.light_tables)
-            .map(|((kind, lights), tables)| match (tables, grouped) {
+            .enumerate()
+            .map(|(k, ((kind, lights), tables))| match (tables, grouped) {
                 (Some(_), GroupedDensity::Points) if kind.grouped_lights => 0,
-                (Some(tables), GroupedDensity::Walk) if kind.grouped_lights => {
-                    bvh_allowance.min((tables.bvh.nodes.len() + 3 * tables.refs.len()) as u64)
+                (Some(_), GroupedDensity::Walk) if kind.grouped_lights => {
+                    let walk = self.light_bvh(k);
+                    bvh_allowance.min((walk.bvh.nodes.len() + 3 * walk.refs.len()) as u64)
                 }
                 _ if baked => 0,
                 _ => lights.len() as u64,

@@ -191,10 +191,12 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             match part {
                 LightTablePart::Groups => tables.groups.iter().map(GpuLayout::wgsl_value).collect(),
                 LightTablePart::Picks => tables.picks.iter().map(GpuLayout::wgsl_value).collect(),
-                LightTablePart::BvhNodes => {
-                    tables.bvh.nodes.iter().map(GpuLayout::wgsl_value).collect()
-                }
-                LightTablePart::BvhRefs => tables.refs.iter().map(|r| format!("{r}u")).collect(),
+                LightTablePart::BvhNodes => (data.light_bvh(k).bvh.nodes.iter())
+                    .map(GpuLayout::wgsl_value)
+                    .collect(),
+                LightTablePart::BvhRefs => (data.light_bvh(k).refs.iter())
+                    .map(|r| format!("{r}u"))
+                    .collect(),
             }
         }
         ArraySource::DeltaLights => data

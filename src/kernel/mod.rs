@@ -428,6 +428,20 @@ impl KernelConfig {
             .filter(|&k| PRIMITIVE_KINDS[k].grouped_lights)
             .map(|k| data.lights[k].len())
             .sum();
+        let grouped_density = match grouped_lights {
+            n if samples_lights && strategy == Strategy::NeeMis && n >= Self::LIGHT_POINTS_MIN => {
+                GroupedDensity::Points
+            }
+            n if samples_lights && n >= Self::LIGHT_WALK_MIN => GroupedDensity::Walk,
+            _ => GroupedDensity::Every,
+        };
+        // Built here (`SceneData::light_bvh`) where walked, before the scene
+        // is copied to be compiled in.
+        let light_bvh_stack = (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| grouped_density == GroupedDensity::Walk && data.light_tables[k].is_some())
+            .map(|k| data.light_bvh(k).bvh.depth + 1)
+            .max()
+            .unwrap_or(accel::MAX_DEPTH);
         KernelConfig {
             primitive_kinds: data.primitive_kinds(),
             light_kinds: if samples_lights {
@@ -460,13 +474,7 @@ impl KernelConfig {
                 .bvh
                 .as_ref()
                 .map_or(accel::MAX_DEPTH, |bvh| bvh.depth + 1),
-            light_bvh_stack: data
-                .light_tables
-                .iter()
-                .flatten()
-                .map(|tables| tables.bvh.depth + 1)
-                .max()
-                .unwrap_or(accel::MAX_DEPTH),
+            light_bvh_stack,
             filter,
             one_sided: data.has_one_sided_materials(),
             environment,
@@ -474,16 +482,7 @@ impl KernelConfig {
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
-            grouped_density: match grouped_lights {
-                n if samples_lights
-                    && strategy == Strategy::NeeMis
-                    && n >= Self::LIGHT_POINTS_MIN =>
-                {
-                    GroupedDensity::Points
-                }
-                n if n >= Self::LIGHT_WALK_MIN => GroupedDensity::Walk,
-                _ => GroupedDensity::Every,
-            },
+            grouped_density,
         }
     }
 
@@ -1089,8 +1088,8 @@ impl SceneData {
                 match part {
                     LightTablePart::Groups => bytemuck::cast_slice(&tables.groups),
                     LightTablePart::Picks => bytemuck::cast_slice(&tables.picks),
-                    LightTablePart::BvhNodes => bytemuck::cast_slice(&tables.bvh.nodes),
-                    LightTablePart::BvhRefs => bytemuck::cast_slice(&tables.refs),
+                    LightTablePart::BvhNodes => bytemuck::cast_slice(&self.light_bvh(k).bvh.nodes),
+                    LightTablePart::BvhRefs => bytemuck::cast_slice(&self.light_bvh(k).refs),
                 }
             }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
@@ -1533,6 +1532,73 @@ mod tests {
         // materials, quads, light quads (x3), the cornell box's sphere and light
         // sphere, and the materials scene's arrays.
         assert!(arrays_checked >= 14, "{arrays_checked}");
+    }
+
+    /// How a kernel weighs emitting mesh faces follows their number and the
+    /// strategy, and only one that walks their BVH builds it.
+    #[test]
+    fn emitting_faces_are_weighed_by_their_number() {
+        let text = r#"
+            [camera]
+            lookfrom = [0, 0, 5]
+            lookat = [0, 0, 0]
+            [materials.floor]
+            type = "lambertian"
+            albedo = [0.5, 0.5, 0.5]
+            [materials.lamp]
+            type = "light"
+            emit = [1, 1, 1]
+            [[objects]]
+            type = "sphere"
+            center = [0, -101, 0]
+            radius = 100
+            material = "floor"
+        "#;
+        let (every, walk, points) = (
+            GroupedDensity::Every,
+            GroupedDensity::Walk,
+            GroupedDensity::Points,
+        );
+        for (faces, expected) in [
+            (12, [every, every, every]),
+            (40, [every, every, points]),
+            (60, [walk, walk, points]),
+        ] {
+            let mut scene = crate::scene::Scene::parse(text, "lamp.toml").unwrap();
+            let lamp = scene
+                .materials
+                .iter()
+                .position(|m| m.name == "lamp")
+                .unwrap();
+            for i in 0..faces {
+                let x = glam::Vec3::X * i as f32;
+                scene.triangles.push(crate::scene::Triangle {
+                    vertices: [x, x + glam::Vec3::X, x + glam::Vec3::Y],
+                    normals: None,
+                    uvs: None,
+                    material: lamp as u32,
+                    importance: true,
+                    mesh: 0,
+                });
+            }
+            let strategies = [Strategy::Mixture, Strategy::Light, Strategy::NeeMis];
+            for (strategy, expected) in strategies.into_iter().zip(expected) {
+                let data = SceneData::pack(&scene);
+                let config = KernelConfig::for_scene(
+                    &data,
+                    strategy,
+                    &scene.render,
+                    Filter::Box,
+                    AccumulatorKind::Buffer,
+                    false,
+                    SceneStorage::Buffers,
+                );
+                assert_eq!(config.grouped_density, expected, "{faces} {strategy:?}");
+                let triangle = kind_index("triangle");
+                let built = data.light_tables[triangle].as_ref().unwrap().walk.get();
+                assert_eq!(built.is_some(), expected == walk, "{faces} {strategy:?}");
+            }
+        }
     }
 
     /// Beside a BVH the large primitives (the sphere field's ground) and a
