@@ -1121,6 +1121,25 @@ mod tests {
     use crate::gpu::layout::{Counters, PackedArray, Params};
     use crate::kinds::{ErasedLayout, Lobe, Quad};
 
+    /// `KernelConfig::for_scene` with a box filter, a buffer accumulator and no
+    /// variance, as the kernel tests take it.
+    fn box_filtered_kernel(
+        data: &SceneData,
+        strategy: Strategy,
+        settings: &RenderSettings,
+        storage: SceneStorage,
+    ) -> KernelConfig {
+        KernelConfig::for_scene(
+            data,
+            strategy,
+            settings,
+            Filter::Box,
+            AccumulatorKind::Buffer,
+            false,
+            storage,
+        )
+    }
+
     /// Parses and validates `source`, failing with `what` and naga's report.
     fn validate_source(source: &str, what: &dyn std::fmt::Debug) -> naga::Module {
         let module = naga::front::wgsl::parse_str(source)
@@ -1253,15 +1272,7 @@ mod tests {
                 SceneStorage::Buffers,
                 SceneStorage::Bvh,
             ] {
-                let config = KernelConfig::for_scene(
-                    &data,
-                    strategy,
-                    &settings,
-                    Filter::Box,
-                    AccumulatorKind::Buffer,
-                    false,
-                    storage,
-                );
+                let config = box_filtered_kernel(&data, strategy, &settings, storage);
                 assert!(config.environment);
                 assert_eq!(config.light_environment, strategy != Strategy::Bsdf);
                 validate(&config);
@@ -1361,15 +1372,7 @@ mod tests {
                 SceneStorage::Buffers,
                 SceneStorage::Bvh,
             ] {
-                let config = KernelConfig::for_scene(
-                    &data,
-                    strategy,
-                    &scene.render,
-                    Filter::Box,
-                    AccumulatorKind::Buffer,
-                    false,
-                    storage,
-                );
+                let config = box_filtered_kernel(&data, strategy, &scene.render, storage);
                 assert!(config.textures);
                 validate(&config);
                 let bound: Vec<String> = config
@@ -1393,14 +1396,11 @@ mod tests {
         untextured[0].flags &= (1 << shift) - 1;
         assert_eq!(plain.materials, untextured);
         assert!(
-            !KernelConfig::for_scene(
+            !box_filtered_kernel(
                 &plain,
                 Strategy::Mixture,
                 &scene.render,
-                Filter::Box,
-                AccumulatorKind::Buffer,
-                false,
-                SceneStorage::Baked,
+                SceneStorage::Baked
             )
             .textures
         );
@@ -1584,15 +1584,8 @@ mod tests {
             let strategies = [Strategy::Mixture, Strategy::Light, Strategy::NeeMis];
             for (strategy, expected) in strategies.into_iter().zip(expected) {
                 let data = SceneData::pack(&scene);
-                let config = KernelConfig::for_scene(
-                    &data,
-                    strategy,
-                    &scene.render,
-                    Filter::Box,
-                    AccumulatorKind::Buffer,
-                    false,
-                    SceneStorage::Buffers,
-                );
+                let config =
+                    box_filtered_kernel(&data, strategy, &scene.render, SceneStorage::Buffers);
                 assert_eq!(config.grouped_density, expected, "{faces} {strategy:?}");
                 let triangle = kind_index("triangle");
                 let built = data.light_tables[triangle].as_ref().unwrap().walk.get();
@@ -1614,15 +1607,7 @@ mod tests {
         let sphere = kind_index("sphere");
         assert_eq!(data.large[sphere], 1);
         let config_for = |data: &SceneData| {
-            KernelConfig::for_scene(
-                data,
-                Strategy::NeeMis,
-                &scene.render,
-                Filter::Box,
-                AccumulatorKind::Buffer,
-                false,
-                SceneStorage::Bvh,
-            )
+            box_filtered_kernel(data, Strategy::NeeMis, &scene.render, SceneStorage::Bvh)
         };
         let config = config_for(&data);
         let module = validate(&config);
