@@ -657,16 +657,16 @@ fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
             let renderer = Renderer::new(ctx, &scene, &RenderOptions::default()).unwrap();
             renderer.config().grouped_density
         };
-        let (faces_count, walked) = (12 * n * n, 12 * n * n >= KernelConfig::LIGHT_WALK_MIN);
+        let count = 12 * n * n;
+        let line = match count >= KernelConfig::LIGHT_WALK_MIN {
+            true => GroupedDensity::Walk,
+            false => GroupedDensity::Every,
+        };
+        let points = count >= KernelConfig::LIGHT_POINTS_MIN;
         assert_eq!(
             density("nee-mis"),
-            match faces_count >= KernelConfig::LIGHT_POINTS_MIN {
-                true => GroupedDensity::Points,
-                false if walked => GroupedDensity::Walk,
-                false => GroupedDensity::Every,
-            }
+            if points { GroupedDensity::Points } else { line }
         );
-        let line = [GroupedDensity::Every, GroupedDensity::Walk][walked as usize];
         assert_eq!(density("mixture"), line);
         let bottom = [
             point(faces[0], 0.0, 0.0),
