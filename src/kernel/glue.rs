@@ -676,24 +676,19 @@ fn light_density(out: &mut String, config: &KernelConfig) {
                 kind.light_array()
             )
             .unwrap();
-        } else if grouped(k) {
-            // Each member, weighted by its probability within its group.
-            write!(
-                out,
-                "#for_each light in {}
-    total += {}_at(light_index).pmf * {}_light_pdf(light, origin, dir);
-#end_for
-",
-                kind.light_array(),
-                LightTablePart::Picks.array(kind.name),
-                kind.name
-            )
-            .unwrap();
         } else {
+            // Each light; a group's member weighted by its probability within the group.
+            let weight = match grouped(k) {
+                true => format!(
+                    "{}_at(light_index).pmf * ",
+                    LightTablePart::Picks.array(kind.name)
+                ),
+                false => String::new(),
+            };
             write!(
                 out,
                 "#for_each light in {}
-    total += {}_light_pdf(light, origin, dir);
+    total += {weight}{}_light_pdf(light, origin, dir);
 #end_for
 ",
                 kind.light_array(),
