@@ -103,20 +103,15 @@ fn load_params() {
 @group(0) @binding(BINDING_COUNTERS) var<storage, read_write> counters: Counters;
 
 fn no_hit() -> Hit {
-#if LIGHT_POINTS
+    // The fields not set here (the point, material, texture coordinates) are zero.
     var hit: Hit;
     hit.t = F32_MAX;
     hit.normal = vec3<f32>(0.0, 1.0, 0.0);
     hit.shading_normal = hit.normal;
+#if LIGHT_POINTS
     hit.light = NO_LIGHT;
+#endif
     return hit;
-#else
-#if TEXTURES
-    return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), 0u, vec2<f32>(0.0));
-#else
-    return Hit(F32_MAX, vec3<f32>(0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), 0u);
-#endif
-#endif
 }
 
 // Moves a point off a surface on the side `dir` leaves toward.
