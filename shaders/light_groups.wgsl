@@ -16,3 +16,10 @@ struct LightPick {
     other: u32,
     pmf: f32,
 }
+
+// Mirrors `lights::LightRef`: a leaf entry of the light BVH, a light and its
+// probability within its group, read by the density's walk in one load.
+struct LightRef {
+    light: u32,
+    pmf: f32,
+}

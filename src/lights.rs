@@ -39,6 +39,17 @@ gpu_struct! {
 }
 
 gpu_struct! {
+    /// A leaf entry of the light BVH (`LightBvh::refs`): a light primitive and
+    /// its `LightPick::pmf`, together so the density's walk reads both in one
+    /// load where it read the index, then the pick.
+    pub struct LightRef {
+        /// Index in the kind's light array.
+        pub light: u32,
+        pub pmf: f32,
+    }
+}
+
+gpu_struct! {
     /// A point or spot light as the kernel reads it (`shaders/delta_lights.wgsl`).
     /// A point light is a spot whose cone covers every direction.
     pub struct DeltaLight {
@@ -149,20 +160,25 @@ pub struct LightBvh {
     /// Over the light primitives, which it leaves in place (groups are
     /// contiguous there): its leaves are ranges of `refs`.
     pub bvh: WideBvh,
-    /// The light array's indices in the BVH's leaf order (`Bvh::build_order`).
-    pub refs: Vec<u32>,
+    /// The lights in the BVH's leaf order (`Bvh::build_order`), with their picks' pmf.
+    pub refs: Vec<LightRef>,
 }
 
 impl LightBvh {
-    /// Over `lights`, the light primitives of kind `k`.
-    pub fn build(k: usize, lights: &PackedArray) -> LightBvh {
+    /// Over `lights`, the light primitives of kind `k`, whose picks are `picks`.
+    pub fn build(k: usize, lights: &PackedArray, picks: &[LightPick]) -> LightBvh {
         let mut only_lights = SceneData::default();
         only_lights.primitives[k] = lights.clone();
-        let (bvh, mut leaf_order) =
+        let (bvh, leaf_order) =
             Bvh::build_order(&only_lights).expect("a grouped kind's tables have lights");
         LightBvh {
             bvh: WideBvh::collapse(&bvh),
-            refs: std::mem::take(&mut leaf_order[k]),
+            refs: (leaf_order[k].iter())
+                .map(|&light| LightRef {
+                    light,
+                    pmf: picks[light as usize].pmf,
+                })
+                .collect(),
         }
     }
 }

@@ -483,11 +483,10 @@ impl SceneData {
     /// The BVH over the lights of grouped kind `k` (which has some), built on
     /// the first call: only a kernel that walks it needs it.
     pub fn light_bvh(&self, k: usize) -> &LightBvh {
-        self.light_tables[k]
+        let tables = self.light_tables[k]
             .as_ref()
-            .expect("a grouped kind with lights has their tables")
-            .walk
-            .get_or_init(|| LightBvh::build(k, &self.lights[k]))
+            .expect("a grouped kind with lights has their tables");
+        (tables.walk).get_or_init(|| LightBvh::build(k, &self.lights[k], &tables.picks))
     }
 
     /// Whether every float is finite (has a WGSL literal, so it can be baked).

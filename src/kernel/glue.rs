@@ -93,16 +93,18 @@ pub fn buffer_arrays(arrays: Vec<SceneArray>) -> String {
 }
 
 /// A buffer array is read through `NAME_count` and `NAME_at`. Where its
-/// elements are structs of whole 16-byte vectors of 4-byte fields, the buffer
-/// is declared as `vec4<u32>` words and `NAME_at` rebuilds the struct from
-/// them: lavapipe (Mesa 22.3) loads a storage buffer in a loop over the SIMD
-/// lanes per load instruction, and a struct's load is one instruction per
-/// field (a `Triangle`'s four, a `Material`'s eight), its words' one per 16 bytes.
+/// elements are structs of whole words (16-byte vectors, or one 8-byte one) of
+/// 4-byte fields, the buffer is declared as `vec4<u32>` (`vec2<u32>`) words
+/// and `NAME_at` rebuilds the struct from them: lavapipe (Mesa 22.3) loads a
+/// storage buffer in a loop over the SIMD lanes per load instruction, and a
+/// struct's load is one instruction per field (a `Triangle`'s four, a
+/// `Material`'s eight), its words' one per word.
 fn buffer_array(out: &mut String, array: &SceneArray) {
     let SceneArray { name, binding, .. } = array;
     let wgsl_type = array.wgsl_type();
-    let words = array.source.element_layout().and_then(vector_words);
-    let Some(fields) = words else {
+    let layout = array.source.element_layout();
+    let words = layout.and_then(|layout| Some((word_size(layout)?, vector_words(layout)?)));
+    let Some((word, fields)) = words else {
         writeln!(
             out,
             "@group(1) @binding({binding}) var<storage, read> {name}: array<{wgsl_type}>;
@@ -112,14 +114,15 @@ fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
         .unwrap();
         return;
     };
-    let per_element = array.element_size() / 16;
+    let per_element = array.element_size() / word;
     let mut loads = String::new();
     for w in 0..per_element {
         writeln!(loads, "    let w{w} = {name}[{per_element}u * i + {w}u];").unwrap();
     }
+    let components = word / 4;
     writeln!(
         out,
-        "@group(1) @binding({binding}) var<storage, read> {name}: array<vec4<u32>>;
+        "@group(1) @binding({binding}) var<storage, read> {name}: array<vec{components}<u32>>;
 fn {name}_count() -> u32 {{ return arrayLength(&{name}) / {per_element}u; }}
 fn {name}_at(i: u32) -> {wgsl_type} {{
 {loads}    return {wgsl_type}({});
@@ -129,13 +132,21 @@ fn {name}_at(i: u32) -> {wgsl_type} {{
     .unwrap();
 }
 
-/// Each field of `layout` read from the words `w0`, `w1`, ... of its
-/// element, or `None` where the element is not whole 16-byte words or a field
-/// is not a 4-byte scalar or a vector of them within one word.
-fn vector_words(layout: ErasedLayout) -> Option<Vec<String>> {
-    if layout.size % 16 != 0 {
-        return None;
+/// The bytes of the words an element of `layout` is read in: 16, or 8 for an
+/// element of 8 bytes; `None` for other sizes.
+fn word_size(layout: ErasedLayout) -> Option<usize> {
+    match layout.size {
+        8 => Some(8),
+        size if size % 16 == 0 => Some(16),
+        _ => None,
     }
+}
+
+/// Each field of `layout` read from the words `w0`, `w1`, ... of its element
+/// (of `word_size` bytes), or `None` where a field is not a 4-byte scalar or a
+/// vector of them within one word.
+fn vector_words(layout: ErasedLayout) -> Option<Vec<String>> {
+    let word = word_size(layout)?;
     (layout.fields)()
         .into_iter()
         .map(|(_, offset, wgsl_type)| {
@@ -146,11 +157,11 @@ fn vector_words(layout: ErasedLayout) -> Option<Vec<String>> {
                 "vec4<u32>" | "vec4<f32>" => 4,
                 _ => return None,
             };
-            let first = offset % 16 / 4;
-            if offset % 4 != 0 || first + components > 4 {
+            let first = offset % word / 4;
+            if offset % 4 != 0 || first + components > word / 4 {
                 return None;
             }
-            let bits = format!("w{}.{}", offset / 16, &"xyzw"[first..first + components]);
+            let bits = format!("w{}.{}", offset / word, &"xyzw"[first..first + components]);
             Some(match wgsl_type.ends_with("f32>") || wgsl_type == "f32" {
                 true => format!("bitcast<{wgsl_type}>({bits})"),
                 false => bits,
@@ -195,7 +206,7 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
                     .map(GpuLayout::wgsl_value)
                     .collect(),
                 LightTablePart::BvhRefs => (data.light_bvh(k).refs.iter())
-                    .map(|r| format!("{r}u"))
+                    .map(GpuLayout::wgsl_value)
                     .collect(),
             }
         }
@@ -768,7 +779,6 @@ fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
     let kind = PRIMITIVE_KINDS[k];
     let baked = config.compiles_in(ArraySource::LightTable(k, LightTablePart::BvhNodes));
     let (name, lights) = (kind.name, kind.light_array());
-    let picks = LightTablePart::Picks.array(name);
     let nodes = LightTablePart::BvhNodes.array(name);
     let refs = LightTablePart::BvhRefs.array(name);
     write!(
@@ -781,8 +791,8 @@ fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
     .unwrap();
     let leaf = format!(
         "        for (var r = link.x; r < end; r += 1u) {{
-            let index = {refs}_at(r);
-            total += {picks}_at(index).pmf * {name}_light_pdf({lights}_at(index), origin, dir);
+            let entry = {refs}_at(r);
+            total += entry.pmf * {name}_light_pdf({lights}_at(entry.light), origin, dir);
         }}
 "
     );
@@ -941,6 +951,7 @@ mod tests {
     use super::*;
     use crate::accel::WideBvhNode;
     use crate::kinds::{Triangle, TriangleNormals};
+    use crate::lights::LightRef;
     use std::collections::HashMap;
 
     #[test]
@@ -955,6 +966,11 @@ mod tests {
                 "bitcast<vec3<f32>>(w2.xyz)",
                 "w2.w",
             ]
+        );
+        // An 8-byte element is one two-component word.
+        assert_eq!(
+            vector_words(ErasedLayout::of::<LightRef>()).unwrap(),
+            ["w0.x", "bitcast<f32>(w0.y)"]
         );
         // 12 bytes an element, and an array field: read as structs.
         assert_eq!(vector_words(ErasedLayout::of::<TriangleNormals>()), None);

@@ -12,7 +12,7 @@ use crate::gpu::accumulator::{
 };
 use crate::gpu::layout::{Material, SceneData};
 use crate::kinds::{ErasedLayout, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, TextureInfo};
-use crate::lights::{DeltaLight, LightGroup, LightPick};
+use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
@@ -171,7 +171,6 @@ impl ArraySource {
     pub fn element(self) -> (&'static str, usize) {
         match (self.element_layout(), self) {
             (Some(layout), _) => (layout.wgsl_name, layout.size),
-            (None, ArraySource::LightTable(_, LightTablePart::BvhRefs)) => ("u32", 4),
             (None, ArraySource::Environment(EnvironmentPart::Texels)) => ("vec4<f32>", 16),
             (
                 None,
@@ -184,7 +183,7 @@ impl ArraySource {
     }
 
     /// The host struct of this array's elements, where they are one (else
-    /// they are `u32` light references, `vec4<f32>` texels or `f32` tables).
+    /// they are `vec4<f32>` texels or `f32` tables).
     pub fn element_layout(self) -> Option<ErasedLayout> {
         match self {
             ArraySource::Materials => Some(ErasedLayout::of::<Material>()),
@@ -207,6 +206,9 @@ impl ArraySource {
             ArraySource::LightTable(_, LightTablePart::Picks) => {
                 Some(ErasedLayout::of::<LightPick>())
             }
+            ArraySource::LightTable(_, LightTablePart::BvhRefs) => {
+                Some(ErasedLayout::of::<LightRef>())
+            }
             ArraySource::LightTable(_, LightTablePart::BvhNodes) | ArraySource::BvhNodes => {
                 Some(ErasedLayout::of::<WideBvhNode>())
             }
@@ -215,8 +217,7 @@ impl ArraySource {
                 Some(ErasedLayout::of::<EnvironmentInfo>())
             }
             ArraySource::DeltaLights => Some(ErasedLayout::of::<DeltaLight>()),
-            ArraySource::LightTable(_, LightTablePart::BvhRefs)
-            | ArraySource::MaterialTables
+            ArraySource::MaterialTables
             | ArraySource::TextureTexels
             | ArraySource::Environment(_) => None,
         }
@@ -2022,6 +2023,7 @@ mod tests {
         check_layout(&module, ErasedLayout::of::<Material>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightGroup>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
+        check_layout(&module, ErasedLayout::of::<crate::lights::LightRef>());
         check_layout(&module, ErasedLayout::of::<EnvironmentInfo>());
         check_layout(&module, ErasedLayout::of::<DeltaLight>());
         check_layout(&module, ErasedLayout::of::<TextureInfo>());
