@@ -5,10 +5,11 @@
 //! knows it, the line or the element; no input makes these readers panic.
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
+use gltf::mesh::Mode;
 use ply_rs_bw::parser::{ParseError, Parser, Reader};
-use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property};
+use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property, PropertyType};
 use std::fmt;
-use std::io::{self, BufRead, BufReader};
+use std::io::{self, BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 
 /// A triangle mesh as read from a file, in the file's own coordinates (for glTF,
@@ -102,12 +103,6 @@ pub enum MeshError {
         path: PathBuf,
         at: Location,
         message: String,
-    },
-    #[error("{}{at}: unsupported: {what}", .path.display())]
-    Unsupported {
-        path: PathBuf,
-        at: Location,
-        what: String,
     },
     /// `index` as the file writes it (OBJ counts from 1, or back from -1).
     #[error("{}{at}: index {index} out of range ({count} {of})", .path.display())]
@@ -211,22 +206,18 @@ fn read_error(path: &Path) -> impl FnOnce(io::Error) -> MeshError + '_ {
 
 fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
     let bytes = std::fs::read(path).map_err(read_error(path))?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| MeshError::Malformed {
-        path: path.into(),
-        at: Location::Line(line_of(&bytes, e.valid_up_to())),
-        message: "not UTF-8 text".into(),
-    })?;
-    check_obj(path, text)?;
+    let text = surface_lines(&String::from_utf8_lossy(&bytes));
+    check_obj(path, &text)?;
 
     // Polygons are fanned below, with one index per vertex (normals and texture
-    // coordinates follow the positions). Points and two-vertex lines are no surface.
+    // coordinates follow the positions).
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: false,
-        ignore_points: true,
-        ignore_lines: true,
+        ..tobj::LoadOptions::default()
     };
-    let mut rest = text.as_bytes();
+    let bytes = text.as_bytes();
+    let mut rest = bytes;
     // Materials are the scene file's business: no library is opened.
     let (models, _) = tobj::load_obj_buf(&mut rest, &options, |_| {
         Err(tobj::LoadError::OpenFileFailed)
@@ -234,10 +225,7 @@ fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
     .map_err(|e| MeshError::Malformed {
         path: path.into(),
         // tobj stops on the line it fails on, so what it consumed ends with that line.
-        at: Location::Line(line_of(
-            &bytes,
-            (bytes.len() - rest.len()).saturating_sub(1),
-        )),
+        at: Location::Line(line_of(bytes, (bytes.len() - rest.len()).saturating_sub(1))),
         message: e.to_string(),
     })?;
 
@@ -286,11 +274,28 @@ fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
     Ok(mesh)
 }
 
+/// An OBJ file's text as tobj is given it, line for line: comments (from `#`,
+/// also after data) cut off, and points and lines (`p`, `l`), which are no
+/// surface, emptied (tobj would make faces of polylines). Mitsuba reads OBJ
+/// so, as bytes: text that is not UTF-8 reaches here replaced by U+FFFD,
+/// harmless in a comment or a name and a parse error in a number.
+fn surface_lines(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    // A byte order mark is no part of the first line's keyword.
+    for line in text.strip_prefix('\u{feff}').unwrap_or(text).lines() {
+        let data = line.split_once('#').map_or(line, |(data, _)| data);
+        if !matches!(data.split_whitespace().next(), Some("p" | "l")) {
+            out.push_str(data);
+        }
+        out.push('\n');
+    }
+    out
+}
+
 /// Checks, with the line, what tobj does not check (non-finite numbers, faces of
-/// fewer than three vertices), what it would misread (polylines of three or more
-/// vertices become faces) and what it reports only without a line, or, in a debug
-/// build, overflows on (indices out of range; indices count from 1, negative ones
-/// back from the last element so far).
+/// fewer than three vertices) and what it reports only without a line, or, in a
+/// debug build, overflows on (indices out of range; indices count from 1,
+/// negative ones back from the last element so far).
 fn check_obj(path: &Path, text: &str) -> Result<(), MeshError> {
     // By kind: v, vt, vn.
     const OF: [&str; 3] = [
@@ -351,35 +356,35 @@ fn check_obj(path: &Path, text: &str) -> Result<(), MeshError> {
                     }
                 }
             }
-            Some("l") => {
-                let vertices = words.count();
-                if vertices > 2 {
-                    return Err(MeshError::Unsupported {
-                        path: path.into(),
-                        at,
-                        what: format!("a polyline (`l`) of {vertices} vertices"),
-                    });
-                }
-            }
             _ => {}
         }
     }
     Ok(())
 }
 
-/// ply-rs-bw's message on one line, and without its own "Line N: " (the location
-/// says it).
+/// ply-rs-bw's message on one line, without its own "Line N: " (the location
+/// says it) and without the Rust debug output it appends to the text it
+/// quotes (`Error: ParseIntError { kind: InvalidDigit }`).
 fn ply_message(e: &ParseError) -> String {
     let text = e.to_string();
     let text = match e.line() {
         Some(n) => text.strip_prefix(&format!("Line {n}: ")).unwrap_or(&text),
         None => &text,
     };
-    text.lines().map(str::trim).collect::<Vec<_>>().join(" ")
+    // A quoted header line ends with its newline.
+    let text = text.replace("\n'", "'");
+    let text = text.split("\n\tError:").next().unwrap_or_default();
+    let text = text.split(": Parse").next().unwrap_or_default();
+    text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
-/// The names of the texture coordinates PLY writers use, by pairs.
-const UV_NAMES: [[&str; 2]; 3] = [["u", "v"], ["s", "t"], ["texture_u", "texture_v"]];
+/// The names of the texture coordinates PLY writers use, by pairs (pbrt-v4's).
+const UV_NAMES: [[&str; 2]; 4] = [
+    ["u", "v"],
+    ["s", "t"],
+    ["texture_u", "texture_v"],
+    ["texture_s", "texture_t"],
+];
 
 fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
     let file = std::fs::File::open(path).map_err(read_error(path))?;
@@ -407,8 +412,28 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
         triangle_materials: Vec::new(),
     };
 
-    // ASCII elements are one a line, from the line after `end_header`.
-    let mut line = reader.line();
+    // ASCII data is words separated by white space, on lines or across them
+    // (as Mitsuba and pbrt-v4 read it), from the line after `end_header`.
+    let first_line = reader.line();
+    let mut body = Vec::new();
+    if header.encoding == Encoding::Ascii {
+        reader
+            .get_mut()
+            .read_to_end(&mut body)
+            .map_err(read_error(path))?;
+    }
+    let body = std::str::from_utf8(&body).map_err(|e| MeshError::Malformed {
+        path: path.into(),
+        at: Location::Line(first_line + line_of(&body, e.valid_up_to()) - 1),
+        message: "ASCII data that is not UTF-8 text".into(),
+    })?;
+    let end_line = first_line + body.lines().count();
+    let mut words = (body.lines().enumerate())
+        .flat_map(|(i, text)| {
+            text.split_whitespace()
+                .map(move |word| (first_line + i, word))
+        })
+        .peekable();
     for def in header.elements.values() {
         // Element by element, not the crate's whole payload at once, so that an
         // error names the element (the crate's binary errors carry none).
@@ -416,10 +441,14 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
             let at = Location::Element {
                 name: def.name.clone(),
                 index,
-                line: (header.encoding == Encoding::Ascii).then_some(line),
+                line: (header.encoding == Encoding::Ascii)
+                    .then(|| words.peek().map_or(end_line, |&(line, _)| line)),
             };
-            line += 1;
-            let element = match read_element(&parser, &mut reader, header.encoding, def) {
+            let element = match header.encoding {
+                Encoding::Ascii => ascii_element(&parser, &mut words, def),
+                encoding => binary_element(&parser, &mut reader, encoding, def),
+            };
+            let element = match element {
                 Ok(Some(element)) => element,
                 Ok(None) => {
                     return Err(MeshError::Truncated {
@@ -500,26 +529,55 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
             }
         }
     }
+    // Data the header does not declare is a count that is wrong (Mitsuba refuses it too).
+    if let Some((line, word)) = words.next() {
+        return Err(MeshError::Malformed {
+            path: path.into(),
+            at: Location::Line(line),
+            message: format!("`{word}` after the last element the header declares"),
+        });
+    }
     Ok(mesh)
 }
 
-/// The next element, or `None` where the file ends before it.
-fn read_element<R: BufRead>(
+/// The next ASCII element, its words taken from `words` (with their lines), or
+/// `None` where the file ends before or within it.
+fn ascii_element<'a>(
+    parser: &Parser<DefaultElement>,
+    words: &mut impl Iterator<Item = (usize, &'a str)>,
+    def: &ElementDef,
+) -> Result<Option<DefaultElement>, ParseError> {
+    let mut taken = Vec::new();
+    for property in def.properties.values() {
+        // A list is its length, then as many words; a length that is no
+        // number is the parser's to report.
+        let Some((_, word)) = words.next() else {
+            return Ok(None);
+        };
+        taken.push(word);
+        if let PropertyType::List(..) = property.data_type {
+            for _ in 0..word.parse::<usize>().unwrap_or(0) {
+                let Some((_, word)) = words.next() else {
+                    return Ok(None);
+                };
+                taken.push(word);
+            }
+        }
+    }
+    parser.read_ascii_element(&taken.join(" "), def).map(Some)
+}
+
+/// The next binary element, or `None` where the file ends before or within it.
+fn binary_element<R: BufRead>(
     parser: &Parser<DefaultElement>,
     reader: &mut Reader<R>,
     encoding: Encoding,
     def: &ElementDef,
 ) -> Result<Option<DefaultElement>, ParseError> {
     let element = match encoding {
-        Encoding::Ascii => {
-            let mut text = String::new();
-            if reader.get_mut().read_line(&mut text)? == 0 {
-                return Ok(None);
-            }
-            parser.read_ascii_element(&text, def)
-        }
         Encoding::BinaryLittleEndian => parser.read_little_endian_element(reader.get_mut(), def),
         Encoding::BinaryBigEndian => parser.read_big_endian_element(reader.get_mut(), def),
+        Encoding::Ascii => unreachable!("ASCII elements are read by ascii_element"),
     };
     match element {
         Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => Ok(None),
@@ -589,9 +647,7 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
         }
     }
     let gltf = gltf::Document::from_json(json).map_err(|e| malformed(e.to_string()))?;
-    // External buffers resolve against the file's folder, as glTF says.
-    let buffers =
-        gltf::import_buffers(&gltf, path.parent(), blob).map_err(|e| malformed(e.to_string()))?;
+    let buffers = gltf_buffers(path, &gltf, blob)?;
     let mut mesh = Mesh {
         positions: Vec::new(),
         triangles: Vec::new(),
@@ -604,7 +660,9 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
     let mut material_indices: Vec<usize> = Vec::new();
     // A file without a default scene shows its first, as viewers do.
     let Some(scene) = gltf.default_scene().or_else(|| gltf.scenes().next()) else {
-        return Ok(mesh);
+        return Err(malformed(
+            "no scene: `scenes` is empty, so no node places a mesh".into(),
+        ));
     };
     // Depth first, with each node's transform composed onto its parent's.
     let mut stack: Vec<_> = scene.nodes().map(|node| (node, Mat4::IDENTITY)).collect();
@@ -627,6 +685,10 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
                 };
                 let triangles_before = mesh.triangles.len();
                 add_primitive(path, &mut mesh, &primitive, &buffers, transform, at)?;
+                let added = mesh.triangles.len() - triangles_before;
+                if added == 0 {
+                    continue;
+                }
                 let material = primitive.material();
                 let used = material.index().map(|index| {
                     material_indices
@@ -638,7 +700,6 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
                             mesh.materials.len() - 1
                         })
                 });
-                let added = mesh.triangles.len() - triangles_before;
                 mesh.triangle_materials
                     .extend(std::iter::repeat_n(used, added));
             }
@@ -649,6 +710,41 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
         mesh.triangle_materials.clear();
     }
     Ok(mesh)
+}
+
+/// The data of each of the document's buffers: the GLB's binary chunk (`blob`),
+/// a data URI, or a file beside the glTF file (as glTF resolves them). An error
+/// names the buffer.
+fn gltf_buffers(
+    path: &Path,
+    gltf: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>, MeshError> {
+    let mut buffers = Vec::new();
+    for buffer in gltf.buffers() {
+        let which = match buffer.source() {
+            gltf::buffer::Source::Bin => "the GLB's binary chunk".to_string(),
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => "a data URI".into(),
+            gltf::buffer::Source::Uri(uri) => format!("`{uri}`"),
+        };
+        let malformed = |message: String| MeshError::Malformed {
+            path: path.into(),
+            at: Location::File,
+            message: format!("buffer {} ({which}): {message}", buffer.index()),
+        };
+        let data =
+            gltf::buffer::Data::from_source_and_blob(buffer.source(), path.parent(), &mut blob)
+                .map_err(|e| malformed(e.to_string()))?;
+        if data.len() < buffer.length() {
+            return Err(malformed(format!(
+                "{} bytes, fewer than its byteLength {}",
+                data.len(),
+                buffer.length()
+            )));
+        }
+        buffers.push(data);
+    }
+    Ok(buffers)
 }
 
 fn mesh_material(material: &gltf::Material, index: usize) -> MeshMaterial {
@@ -663,7 +759,9 @@ fn mesh_material(material: &gltf::Material, index: usize) -> MeshMaterial {
     }
 }
 
-/// Appends one glTF primitive to `mesh`, transformed into the scene's coordinates.
+/// Appends one glTF primitive to `mesh`, transformed into the scene's
+/// coordinates: its triangles, whether a list, a strip or a fan; points and
+/// lines are no surface, and add nothing (as `p` and `l` in OBJ).
 fn add_primitive(
     path: &Path,
     mesh: &mut Mesh,
@@ -677,12 +775,12 @@ fn add_primitive(
         at: at.clone(),
         message: message.into(),
     };
-    if primitive.mode() != gltf::mesh::Mode::Triangles {
-        return Err(MeshError::Unsupported {
-            path: path.into(),
-            at,
-            what: format!("primitive mode {:?} (only triangles)", primitive.mode()),
-        });
+    let mode = primitive.mode();
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
+        return Ok(());
     }
     let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|data| &data[..]));
     // The reader answers None where an accessor lies outside its buffer.
@@ -710,7 +808,7 @@ fn add_primitive(
         // Unindexed triangles take the vertices in order; count fits u32 as glTF's indices do.
         None => (0..count as u32).collect(),
     };
-    if indices.len() % 3 != 0 {
+    if mode == Mode::Triangles && indices.len() % 3 != 0 {
         return Err(malformed(&format!(
             "{} triangle indices, not a multiple of 3",
             indices.len()
@@ -726,13 +824,32 @@ fn add_primitive(
         });
     }
 
+    // glTF 2.0, 3.7.2.1: a strip's triangle i is (i, i + 1 + i % 2, i + 2 - i % 2),
+    // so that each keeps the first's winding, and a fan's is (i + 1, i + 2, 0).
+    let after_first_two = 0..indices.len().saturating_sub(2);
+    let triangles: Vec<[u32; 3]> = match mode {
+        Mode::TriangleStrip => after_first_two
+            .map(|i| [i, i + 1 + i % 2, i + 2 - i % 2].map(|v| indices[v]))
+            .collect(),
+        Mode::TriangleFan => after_first_two
+            .map(|i| [i + 1, i + 2, 0].map(|v| indices[v]))
+            .collect(),
+        _ => indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect(),
+    };
+    // A transform that mirrors (negative determinant) turns counter-clockwise
+    // faces clockwise: glTF says their winding then reverses, so the face
+    // normal stays on the side the vertex normals are on.
+    let mirrors = Mat3::from_mat4(transform).determinant() < 0.0;
     let base = mesh.positions.len() as u32;
     mesh.positions.extend(positions);
-    mesh.triangles.extend(
-        indices
-            .chunks_exact(3)
-            .map(|t| [base + t[0], base + t[1], base + t[2]]),
-    );
+    mesh.triangles
+        .extend(triangles.into_iter().map(|[a, b, c]| match mirrors {
+            true => [base + a, base + c, base + b],
+            false => [base + a, base + b, base + c],
+        }));
     // Normals turn by the inverse transpose, so that they stay perpendicular
     // under non-uniform scale.
     let normal_matrix = Mat3::from_mat4(transform).inverse().transpose();
@@ -846,6 +963,24 @@ f 4 1 5 8
         );
     }
 
+    /// A byte order mark, text that is not UTF-8 in a comment, comments after
+    /// data, points and polylines: read past, each line where it was.
+    #[test]
+    fn obj_comments_points_and_lines_are_skipped() {
+        let obj = b"\xef\xbb\xbf# caf\xe9\nv 0 0 0 # origin\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    p 1\nl 1 2\nl 1 2 3 4\nf 1 2 3 # first\nf 1 3 4\nf 1 2 5\n";
+        let mesh = load("comments.obj", obj);
+        let text = mesh.unwrap_err().to_string();
+        assert!(
+            text.contains("line 11") && text.contains("index 5 out of range"),
+            "{text}"
+        );
+        let obj = &obj[..obj.len() - b"f 1 2 5\n".len()];
+        let mesh = load("comments.obj", obj).unwrap();
+        assert_eq!(mesh.positions.len(), 4);
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+
     #[test]
     fn obj_objects_are_merged_and_relative_indices_resolved() {
         let obj = "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\
@@ -921,6 +1056,21 @@ end_header
         assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 2, 3]]);
         assert_eq!(mesh.normals, Some(vec![Vec3::Z; 4]));
         assert_eq!(mesh.uvs.unwrap()[2], Vec2::new(1.0, 1.0));
+    }
+
+    /// ASCII values are words: blank lines, an element over two lines and pbrt's
+    /// `texture_s`/`texture_t` read as the plain file is.
+    #[test]
+    fn ascii_ply_words_across_lines() {
+        let plain = load("square.ply", ASCII_PLY.as_bytes()).unwrap();
+        let spread = ASCII_PLY
+            .replace(
+                "property float s\nproperty float t",
+                "property float texture_s\nproperty float texture_t",
+            )
+            .replace("end_header\n", "end_header\n\n")
+            .replace("4 0 1 2 3\n", "4 0 1\n\t2 3\n\n");
+        assert_eq!(load("spread.ply", spread.as_bytes()).unwrap(), plain);
     }
 
     /// A binary PLY of a unit square as two triangles: little endian with float
@@ -1030,7 +1180,12 @@ end_header
             (
                 "polyline.obj",
                 format!("{square}l 1 2 3\n").into_bytes(),
-                &["line 4", "unsupported", "polyline"],
+                &["no triangles"],
+            ),
+            (
+                "latin1-number.obj",
+                b"v 0 0 0\nv 1 0 0\nv 0 1\xb7 0\nf 1 2 3\n".to_vec(),
+                &["line 3", "malformed"],
             ),
             (
                 "words.obj",
@@ -1043,7 +1198,8 @@ end_header
                 &["no triangles"],
             ),
             ("empty.obj", Vec::new(), &["no triangles"]),
-            ("garbage.obj", garbage.clone(), &["malformed", "not UTF-8"]),
+            // Read as Mitsuba does, as bytes: nothing in it is a face.
+            ("garbage.obj", garbage.clone(), &["no triangles"]),
             (
                 "index.ply",
                 format!("{ply_header}0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n").into_bytes(),
@@ -1080,6 +1236,27 @@ end_header
                 &["line 12 (vertex 2)", "truncated", "declares 3"],
             ),
             (
+                "ascii-truncated-list.ply",
+                format!("{ply_header}0 0 0\n1 0 0\n0 1 0\n3 0 1\n").into_bytes(),
+                &["line 13 (face 0)", "truncated", "declares 1"],
+            ),
+            (
+                // Words, not lines: the 7 shifts every value after it.
+                "extra-value.ply",
+                format!("{ply_header}0 0 0 7\n1 0 0\n0 1 0\n3 0 1 2\n").into_bytes(),
+                &["line 12 (face 0)", "face with 0 vertices"],
+            ),
+            (
+                "extra-line.ply",
+                format!("{ply_header}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 1\n").into_bytes(),
+                &["line 14", "`3` after the last element"],
+            ),
+            (
+                "list-length.ply",
+                format!("{ply_header}0 0 0\n1 0 0\n0 1 0\n-3 0 1 2\n").into_bytes(),
+                &["line 13 (face 0)", "malformed", "'-3'"],
+            ),
+            (
                 "truncated.ply",
                 binary_ply(false, 5),
                 &["face 2", "truncated", "declares 5"],
@@ -1106,6 +1283,11 @@ end_header
                 "bad-header.ply",
                 "ply\nformat ascii 1.0\nelement vertex three\nend_header\n".into(),
                 &["line 3", "malformed"],
+            ),
+            (
+                "bad-format.ply",
+                "ply\nformat binary_middle_endian 1.0\nend_header\n".into(),
+                &["line 2", "malformed", "'format binary_middle_endian 1.0'"],
             ),
             ("garbage.ply", garbage, &["malformed", "UTF-8"]),
             (
@@ -1307,12 +1489,42 @@ end_header
         }
     }
 
+    /// Under a mirroring node the normals follow the inverse transpose and the
+    /// winding reverses, so that the face's normal is on their side too.
     #[test]
-    fn gltf_normals_follow_the_inverse_transpose() {
+    fn gltf_mirrored_nodes_keep_faces_and_normals_together() {
         let nodes = r#"[{"mesh": 0, "scale": [1, 1, -2]}, {}, {}]"#;
         let mesh = load("mirrored.gltf", &gltf(SQUARE, 4, nodes)).unwrap();
         assert_eq!(mesh.positions[2], Vec3::new(1.0, 1.0, 0.0));
         assert_eq!(mesh.normals, Some(vec![Vec3::NEG_Z; 4]));
+        assert_eq!(mesh.triangles, vec![[0, 2, 1], [0, 3, 2]]);
+        for [a, b, c] in mesh.triangles {
+            let p = [a, b, c].map(|i| mesh.positions[i as usize]);
+            assert!((p[1] - p[0]).cross(p[2] - p[0]).dot(Vec3::NEG_Z) > 0.0);
+        }
+    }
+
+    /// Strips and fans become triangles of the same winding (glTF 2.0,
+    /// 3.7.2.1); points and lines add nothing.
+    #[test]
+    fn gltf_strips_and_fans_are_triangles() {
+        let nodes = r#"[{"mesh": 0}, {}, {}]"#;
+        let strip = load("strip.gltf", &gltf([0, 1, 3, 2, 0, 1], 5, nodes)).unwrap();
+        assert_eq!(
+            strip.triangles,
+            vec![[0, 1, 3], [1, 2, 3], [3, 2, 0], [2, 1, 0]]
+        );
+        let fan = load("fan.gltf", &gltf([0, 1, 2, 3, 0, 0], 6, nodes)).unwrap();
+        assert_eq!(
+            fan.triangles,
+            vec![[1, 2, 0], [2, 3, 0], [3, 0, 0], [0, 0, 0]]
+        );
+        for mode in [0, 1, 2, 3] {
+            let text = load("lines.gltf", &gltf(SQUARE, mode, nodes))
+                .unwrap_err()
+                .to_string();
+            assert!(text.contains("no triangles"), "mode {mode}: {text}");
+        }
     }
 
     #[test]
@@ -1324,9 +1536,21 @@ end_header
         );
         let cases: Vec<(&str, Vec<u8>, &[&str])> = vec![
             (
-                "lines.gltf",
-                gltf(SQUARE, 1, NODES),
-                &["mesh 0, primitive 0", "unsupported", "Lines"],
+                "no-scene.gltf",
+                String::from_utf8(gltf(SQUARE, 4, NODES))
+                    .unwrap()
+                    .replace(r#""scene": 0,"#, "")
+                    .replace(r#""scenes": [{"nodes": [0]}, {"nodes": [2]}],"#, "")
+                    .into_bytes(),
+                &["malformed", "no scene"],
+            ),
+            (
+                "bad-base64.gltf",
+                String::from_utf8(gltf(SQUARE, 4, NODES))
+                    .unwrap()
+                    .replace("base64,", "base64,@")
+                    .into_bytes(),
+                &["malformed", "buffer 0 (a data URI)"],
             ),
             (
                 "index.gltf",
@@ -1338,7 +1562,11 @@ end_header
                 gltf(SQUARE, 4, cycle),
                 &["malformed", "node 0 is reached twice"],
             ),
-            ("external.gltf", external.into_bytes(), &["malformed"]),
+            (
+                "external.gltf",
+                external.into_bytes(),
+                &["malformed", "buffer 0 (`absent.bin`)"],
+            ),
             ("broken.gltf", b"{\"asset\": ".to_vec(), &["malformed"]),
             ("empty.glb", Vec::new(), &["malformed"]),
             (
