@@ -196,7 +196,7 @@ pub fn material_flag(name: &str) -> u32 {
 }
 
 /// Ray origins leave a surface by this fraction of the scene's extent.
-pub const RAY_OFFSET_RELATIVE: f32 = 1e-5;
+pub const RAY_OFFSET_RELATIVE: f32 = 1e-6;
 
 /// Packed elements of one scene array, as its storage buffer holds them.
 #[derive(Clone, Debug, Default, PartialEq)]

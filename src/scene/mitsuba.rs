@@ -641,6 +641,16 @@ fn numbers(e: &Elem, text: &str) -> Result<Vec<f64>> {
         .collect()
 }
 
+/// The first axis Mitsuba's `coordinate_system` builds across the unit vector
+/// `n` (Duff et al. 2017, "Building an Orthonormal Basis, Revisited"), with
+/// drjit's sign of zero, +1.
+fn coordinate_system_first(n: DVec3) -> DVec3 {
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    DVec3::new(n.x * n.x * a * sign + 1.0, b * sign, -n.x * sign)
+}
+
 fn three(e: &Elem, text: &str) -> Result<DVec3> {
     match numbers(e, text)?[..] {
         [x, y, z] => Ok(DVec3::new(x, y, z)),
@@ -725,11 +735,17 @@ fn transform(e: &Elem) -> Result<DMat4> {
                 op.check_attrs(&["origin", "target", "up"])?;
                 let origin = three(op, op.require("origin")?)?;
                 let target = three(op, op.require("target")?)?;
+                let dir = (target - origin).normalize();
                 let up = match op.attr("up") {
                     Some(v) => three(op, v)?,
-                    None => DVec3::Y,
+                    None => DVec3::ZERO,
                 };
-                let dir = (target - origin).normalize();
+                // Without an `up` (or a zero one), Mitsuba takes one across the view.
+                let up = if up == DVec3::ZERO {
+                    coordinate_system_first(dir)
+                } else {
+                    up
+                };
                 let left = up.cross(dir);
                 if !dir.is_finite() || left.length() <= 1e-9 * up.length() {
                     return Err(op.origin.error(
@@ -1437,10 +1453,13 @@ impl<'a> Builder<'a> {
                 let center = props.point("center")?.unwrap_or(DVec3::ZERO);
                 let radius = props.float("radius")?.unwrap_or(1.0);
                 props.finish()?;
-                if sided && flip {
+                // Mitsuba turns a mirrored sphere's normals inward (a negative
+                // radius out of `transform_decompose`), as flip_normals does.
+                if sided && flip != mirrors {
                     return Err(e.origin.error(
-                        "flip_normals on an emitting, glass or one-sided sphere is not \
-                                supported (wrap a reflecting BSDF in `twosided`)",
+                        "inward normals (flip_normals, or a mirroring to_world) on an \
+                         emitting, glass or one-sided sphere are not supported (wrap a \
+                         reflecting BSDF in `twosided`)",
                     ));
                 }
                 let columns =
@@ -1988,6 +2007,33 @@ mod tests {
         assert_eq!((s.render.spp, s.render.seed), (4, 0));
     }
 
+    /// Without `up` (or with a zero one) Mitsuba's lookat takes the first axis of
+    /// its `coordinate_system` of the view direction: +x looking down -z, and a
+    /// view straight down is no error.
+    #[test]
+    fn lookat_without_up_is_mitsubas() {
+        let sensor = |name: &str, lookat: &str| {
+            scene(
+                name,
+                &format!(
+                    r#"<sensor type="perspective"><float name="fov" value="45"/>
+                       <transform name="to_world"><lookat {lookat}/></transform></sensor>"#
+                ),
+            )
+            .camera
+        };
+        let camera = sensor("no-up", r#"origin="0, 0, 5" target="0, 0, 0""#);
+        assert_eq!(camera.vup, Vec3::X);
+        let zero = sensor(
+            "zero-up",
+            r#"origin="0, 0, 5" target="0, 0, 0" up="0, 0, 0""#,
+        );
+        assert_eq!(zero.vup, Vec3::X);
+        let down = sensor("down", r#"origin="0, 5, 0" target="0, 0, 0""#);
+        assert!(down.vup.is_finite() && down.vup.dot(Vec3::NEG_Y).abs() < 1e-6);
+        assert_eq!(down.lookat - down.lookfrom, Vec3::NEG_Y);
+    }
+
     #[test]
     fn fov_axes() {
         let vfov = |axis: &str, w: u32, h: u32| {
@@ -2206,6 +2252,21 @@ mod tests {
             r#"<shape type="sphere"><boolean name="flip_normals" value="true"/><bsdf type="diffuse"/></shape>"#,
         );
         assert!(e.contains("one-sided sphere"), "{e}");
+        // As is a mirrored one (Mitsuba turns its normals inward), unless also flipped.
+        let mirrored =
+            r#"<transform name="to_world"><scale x="-1"/></transform><bsdf type="diffuse"/>"#;
+        let e = error(
+            "one-sided-mirror",
+            &format!(r#"<shape type="sphere">{mirrored}</shape>"#),
+        );
+        assert!(e.contains("one-sided sphere"), "{e}");
+        let s = scene(
+            "one-sided-mirror-flip",
+            &format!(
+                r#"<shape type="sphere"><boolean name="flip_normals" value="true"/>{mirrored}</shape>"#
+            ),
+        );
+        assert_eq!(s.spheres[0].radius, 1.0);
         let s = scene(
             "constant",
             r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,

@@ -1601,6 +1601,23 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                     Some(normals) => normals.iter().map(|&n| xf.normal(n)).collect(),
                     None => vertex_normals(&world, &faces),
                 });
+                // A smooth face is on the side of its file's vertex normals, as
+                // Mitsuba (its shading frame) and pbrt-v4 (`FaceForward`) decide it,
+                // whatever its winding says.
+                let faces: Vec<[u32; 3]> = match (&normals, &mesh.normals) {
+                    (Some(normals), Some(_)) => faces
+                        .into_iter()
+                        .map(|[a, b, c]| {
+                            let [pa, pb, pc] = [a, b, c].map(|i| world[i as usize]);
+                            let shading: Vec3 = [a, b, c].map(|i| normals[i as usize]).iter().sum();
+                            match (pb - pa).cross(pc - pa).dot(shading) < 0.0 {
+                                true => [a, c, b],
+                                false => [a, b, c],
+                            }
+                        })
+                        .collect(),
+                    _ => faces,
+                };
                 // Each face's material and whether it is in the light density.
                 let face_materials: Vec<(u32, bool)> = match chosen {
                     Some(_) => vec![(material, importance); faces.len()],
@@ -3517,6 +3534,22 @@ material = "white"
         let [a, b, c] = s.triangles[0].vertices;
         // The original faces +z; mirrored in x it still does.
         assert!((b - a).cross(c - a).z > 0.0);
+    }
+
+    /// With the file's vertex normals, a smooth face is on their side whatever
+    /// its winding; with `smooth = false` the winding decides (as Mitsuba's
+    /// `face_normals`).
+    #[test]
+    fn file_normals_choose_the_face_side() {
+        let clockwise = "v 0 0 0\nv 0 1 0\nv 1 0 0\nvn 0 0 1\nf 1//1 2//1 3//1\n";
+        let side = |keys: &str| {
+            let s = scene_with_mesh(clockwise, &format!("file = \"mesh.obj\"\n{keys}")).unwrap();
+            let [a, b, c] = s.triangles[0].vertices;
+            (b - a).cross(c - a).z
+        };
+        assert!(side("") > 0.0);
+        assert!(side("scale = [-1, 1, 1]") > 0.0);
+        assert!(side("smooth = false") < 0.0);
     }
 
     #[test]
