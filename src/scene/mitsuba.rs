@@ -546,6 +546,20 @@ impl<'e> Props<'e> {
         Ok(Some((e.require("value")?, e)))
     }
 
+    /// An emitter's colour: as `color`, except that a uniform `<spectrum>` is, as in
+    /// Mitsuba's RGB variants (`create_texture_from_spectrum` in its xml.cpp, for
+    /// any spectrum within an emitter), the equal-energy spectrum seen in sRGB: its
+    /// value times `xyz_to_srgb(1, 1, 1)`, a purplish white.
+    fn emitted(&mut self, name: &str) -> Result<Option<[f64; 3]>> {
+        // The row sums of Mitsuba's `xyz_to_srgb` (include/mitsuba/core/spectrum.h).
+        const EQUAL_ENERGY_SRGB: [f64; 3] = [1.204794, 0.948291, 0.908916];
+        let uniform_spectrum = self.get(name).is_some_and(|e| e.tag == "spectrum");
+        Ok(self.color(name)?.map(|c| match uniform_spectrum {
+            true => std::array::from_fn(|i| c[i] * EQUAL_ENERGY_SRGB[i]),
+            false => c,
+        }))
+    }
+
     /// A colour: `<rgb>`, a uniform `<spectrum>` or a `<float>` (grey).
     fn color(&mut self, name: &str) -> Result<Option<[f64; 3]>> {
         // One `Builder::texturable` took is no longer a problem.
@@ -661,10 +675,19 @@ fn three(e: &Elem, text: &str) -> Result<DVec3> {
     }
 }
 
-/// `value="x, y, z"` or `x=".." y=".." z=".."` (each defaulting to `default`).
+/// `value="x, y, z"` (or one number for all three, as Mitsuba's
+/// `expand_value_to_xyz` reads it) or `x=".." y=".." z=".."` (each defaulting to
+/// `default`).
 fn vector_of(e: &Elem, default: f64) -> Result<DVec3> {
     if let Some(v) = e.attr("value") {
-        return three(e, v);
+        return match numbers(e, v)?[..] {
+            [x] => Ok(DVec3::splat(x)),
+            [x, y, z] => Ok(DVec3::new(x, y, z)),
+            ref other => Err(e.origin.error(format!(
+                "expected 1 or 3 numbers, got {} in `{v}`",
+                other.len()
+            ))),
+        };
     }
     let axis = |name: &str| e.attr(name).map_or(Ok(default), |v| number(e, v));
     Ok(DVec3::new(axis("x")?, axis("y")?, axis("z")?))
@@ -686,15 +709,7 @@ fn transform(e: &Elem) -> Result<DMat4> {
             }
             "scale" => {
                 op.check_attrs(&["x", "y", "z", "value"])?;
-                let s = match op.attr("value") {
-                    Some(v) => match numbers(op, v)?[..] {
-                        [s] => DVec3::splat(s),
-                        [x, y, z] => DVec3::new(x, y, z),
-                        _ => return Err(op.origin.error("expected 1 or 3 numbers")),
-                    },
-                    None => vector_of(op, 1.0)?,
-                };
-                DMat4::from_scale(s)
+                DMat4::from_scale(vector_of(op, 1.0)?)
             }
             "rotate" => {
                 op.check_attrs(&["x", "y", "z", "value", "angle"])?;
@@ -948,7 +963,7 @@ impl<'a> Builder<'a> {
                     }
                     e.check_attrs(&["type", "id"])?;
                     let mut props = Props::new(e);
-                    let radiance = props.color("radiance")?.unwrap_or([1.0; 3]);
+                    let radiance = props.emitted("radiance")?.unwrap_or([1.0; 3]);
                     props.finish()?;
                     self.background = Some(radiance);
                     Ok(())
@@ -977,7 +992,7 @@ impl<'a> Builder<'a> {
         let ty = e.ty();
         let mut light = Table::new();
         light.insert("type".into(), Value::String(ty.into()));
-        let intensity = props.color("intensity")?.unwrap_or([1.0; 3]);
+        let intensity = props.emitted("intensity")?.unwrap_or([1.0; 3]);
         light.insert("intensity".into(), color_value(intensity));
         let position = if ty == "point" {
             props.point("position")?
@@ -1209,7 +1224,7 @@ impl<'a> Builder<'a> {
         e.check_attrs(&["type", "id", "name"])?;
         let mut props = Props::new(e);
         let radiance = props
-            .color("radiance")?
+            .emitted("radiance")?
             .ok_or_else(|| e.origin.error("missing <rgb name=\"radiance\">"))?;
         props.finish()?;
         if radiance.iter().any(|&c| c < 0.0) {
@@ -2077,6 +2092,14 @@ mod tests {
                <transform name="to_world"><matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/></transform></shape>"#,
         );
         assert_eq!(s.triangles[0].vertices[0], Vec3::new(5.0, 6.0, 7.0));
+        // One number stands for all three (Mitsuba's `expand_value_to_xyz`).
+        let s = scene(
+            "one-value",
+            r#"<shape type="sphere"><point name="center" value="1"/>
+               <transform name="to_world"><translate value="2"/></transform>
+               <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>"#,
+        );
+        assert_eq!(s.spheres[0].center, Vec3::splat(3.0));
     }
 
     #[test]
@@ -2272,6 +2295,25 @@ mod tests {
             r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,
         );
         assert_eq!(s.render.background, Vec3::new(0.5, 1.0, 2.0));
+    }
+
+    /// Within an emitter a uniform `<spectrum>` is Mitsuba's equal-energy white in
+    /// sRGB (purplish); a `<float>` there, and a spectrum in a BSDF, stay grey.
+    #[test]
+    fn uniform_spectra_in_emitters_are_equal_energy_white() {
+        let s = scene(
+            "spectra",
+            r#"<emitter type="constant"><spectrum name="radiance" value="2"/></emitter>
+               <emitter type="point"><float name="intensity" value="3"/></emitter>
+               <shape type="rectangle"><emitter type="area"><spectrum name="radiance" value="1"/></emitter></shape>
+               <shape type="rectangle"><bsdf type="diffuse"><spectrum name="reflectance" value="0.5"/></bsdf></shape>"#,
+        );
+        let white = Vec3::new(1.204794, 0.948291, 0.908916);
+        assert!(s.render.background.abs_diff_eq(2.0 * white, 1e-6));
+        assert_eq!(s.point_lights[0].intensity, Vec3::splat(3.0));
+        let material = |i: usize| &s.materials[s.quads[i].material as usize];
+        assert!(material(0).emit.abs_diff_eq(white, 1e-6));
+        assert_eq!(material(1).albedo, Vec3::splat(0.5));
     }
 
     /// `envmap` becomes `[environment]`: the file found like a mesh (written
