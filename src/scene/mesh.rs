@@ -5,6 +5,8 @@
 //! knows it, the line or the element; no input makes these readers panic.
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
+use gltf::Semantic;
+use gltf::accessor::{DataType, Dimensions, Item, Iter};
 use gltf::mesh::Mode;
 use ply_rs_bw::parser::{ParseError, Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property, PropertyType};
@@ -627,7 +629,10 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| malformed(e.to_string()))?;
     // gltf-json's validation looks up each POSITION accessor before it checks the
     // index, and panics on one out of range: check that first.
-    let json = document.into_json();
+    let mut json = document.into_json();
+    // Read here: integer positions, normals and texture coordinates (`attribute`).
+    json.extensions_required
+        .retain(|extension| extension != "KHR_mesh_quantization");
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             if let Some(index) =
@@ -783,10 +788,11 @@ fn add_primitive(
         return Ok(());
     }
     let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|data| &data[..]));
-    // The reader answers None where an accessor lies outside its buffer.
-    let positions: Vec<Vec3> = reader
-        .read_positions()
+    let positions: Vec<Vec3> = primitive
+        .get(&Semantic::Positions)
+        .and_then(|accessor| attribute::<3>(accessor, buffers))
         .ok_or_else(|| malformed("no readable POSITION accessor"))?
+        .into_iter()
         .map(|p| transform.transform_point3(Vec3::from(p)))
         .collect();
     if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
@@ -853,7 +859,7 @@ fn add_primitive(
     // Normals turn by the inverse transpose, so that they stay perpendicular
     // under non-uniform scale.
     let normal_matrix = Mat3::from_mat4(transform).inverse().transpose();
-    let normals = reader.read_normals().map(|n| n.collect::<Vec<_>>());
+    let normals = (primitive.get(&Semantic::Normals)).and_then(|a| attribute::<3>(a, buffers));
     mesh.normals = mesh
         .normals
         .take()
@@ -868,9 +874,7 @@ fn add_primitive(
                 all
             })
         });
-    let uvs = reader
-        .read_tex_coords(0)
-        .map(|t| t.into_f32().collect::<Vec<_>>());
+    let uvs = (primitive.get(&Semantic::TexCoords(0))).and_then(|a| attribute::<2>(a, buffers));
     mesh.uvs = mesh.uvs.take().zip(uvs).and_then(|(mut all, uvs)| {
         (uvs.len() == count).then(|| {
             all.extend(uvs.into_iter().map(Vec2::from));
@@ -878,6 +882,60 @@ fn add_primitive(
         })
     });
     Ok(())
+}
+
+/// A vertex attribute's values, `N` floats each, whatever their component type
+/// (as `KHR_mesh_quantization` allows for positions, normals and texture
+/// coordinates): floats as they are, integers as their values or, where
+/// `normalized`, mapped to [0, 1] (unsigned) or [-1, 1] (signed), as glTF
+/// says. `None` for an accessor of other dimensions, of 32-bit integers
+/// (no attribute's type) or outside its buffer.
+fn attribute<const N: usize>(
+    accessor: gltf::Accessor<'_>,
+    buffers: &[gltf::buffer::Data],
+) -> Option<Vec<[f32; N]>>
+where
+    [f32; N]: Item,
+    [i8; N]: Item,
+    [u8; N]: Item,
+    [i16; N]: Item,
+    [u16; N]: Item,
+{
+    fn each<T: Copy, const N: usize>(
+        values: impl Iterator<Item = [T; N]>,
+        to_f32: impl Fn(T) -> f32,
+    ) -> Vec<[f32; N]> {
+        values.map(|v| v.map(&to_f32)).collect()
+    }
+    let dimensions = match N {
+        2 => Dimensions::Vec2,
+        _ => Dimensions::Vec3,
+    };
+    if accessor.dimensions() != dimensions {
+        return None;
+    }
+    let normalized = accessor.normalized();
+    let data = |buffer: gltf::Buffer<'_>| buffers.get(buffer.index()).map(|data| &data[..]);
+    let unit = |value: f32, max: f32| match normalized {
+        true => (value / max).max(-1.0),
+        false => value,
+    };
+    Some(match accessor.data_type() {
+        DataType::F32 => Iter::<[f32; N]>::new(accessor, data)?.collect(),
+        DataType::I8 => each(Iter::<[i8; N]>::new(accessor, data)?, |v| {
+            unit(v.into(), 127.0)
+        }),
+        DataType::U8 => each(Iter::<[u8; N]>::new(accessor, data)?, |v| {
+            unit(v.into(), 255.0)
+        }),
+        DataType::I16 => each(Iter::<[i16; N]>::new(accessor, data)?, |v| {
+            unit(v.into(), 32767.0)
+        }),
+        DataType::U16 => each(Iter::<[u16; N]>::new(accessor, data)?, |v| {
+            unit(v.into(), 65535.0)
+        }),
+        DataType::U32 => return None,
+    })
 }
 
 #[cfg(test)]
@@ -1501,6 +1559,63 @@ end_header
         for [a, b, c] in mesh.triangles {
             let p = [a, b, c].map(|i| mesh.positions[i as usize]);
             assert!((p[1] - p[0]).cross(p[2] - p[0]).dot(Vec3::NEG_Z) > 0.0);
+        }
+    }
+
+    /// `KHR_mesh_quantization`'s integer attributes (gltfpack writes them):
+    /// positions as shorts scaled back by the node, normals as normalized bytes,
+    /// texture coordinates as normalized unsigned or signed shorts.
+    #[test]
+    fn gltf_quantized_attributes_are_read() {
+        for (uv_type, uv_max) in [(5123u32, 65535u16), (5122, 32767)] {
+            let mut buffer = Vec::new();
+            // Positions: three shorts and two bytes of padding (a stride of 8).
+            for [x, y] in [[0i16, 0], [2, 0], [2, 2], [0, 2]] {
+                [x, y, 0, 0]
+                    .iter()
+                    .for_each(|c| buffer.extend(c.to_le_bytes()));
+            }
+            // Normals: three normalized bytes and one of padding.
+            for _ in 0..4 {
+                buffer.extend([0u8, 0, 127, 0]);
+            }
+            for [u, v] in [[0, 0], [uv_max, 0], [uv_max, uv_max], [0, uv_max]] {
+                [u, v].iter().for_each(|c| buffer.extend(c.to_le_bytes()));
+            }
+            SQUARE.iter().for_each(|i| buffer.extend(i.to_le_bytes()));
+            let json = format!(
+                r#"{{
+  "asset": {{"version": "2.0"}},
+  "extensionsUsed": ["KHR_mesh_quantization"],
+  "extensionsRequired": ["KHR_mesh_quantization"],
+  "scene": 0,
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0, "scale": [0.5, 0.5, 0.5]}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3}}]}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5122, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [2, 2, 0]}},
+    {{"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": {uv_type}, "normalized": true, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}}
+  ],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 32, "byteStride": 8}},
+    {{"buffer": 0, "byteOffset": 32, "byteLength": 16, "byteStride": 4}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 16}},
+    {{"buffer": 0, "byteOffset": 64, "byteLength": 12}}
+  ],
+  "buffers": [{{"uri": "data:application/octet-stream;base64,{}", "byteLength": 76}}]
+}}"#,
+                base64(&buffer)
+            );
+            let mesh = load("quantized.gltf", json.as_bytes()).unwrap();
+            assert_eq!(
+                mesh.positions,
+                vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y]
+            );
+            assert_eq!(mesh.normals, Some(vec![Vec3::Z; 4]));
+            let uvs = mesh.uvs.unwrap();
+            assert_eq!((uvs[0], uvs[2]), (Vec2::ZERO, Vec2::ONE), "{uv_type}");
         }
     }
 
