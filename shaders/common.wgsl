@@ -27,8 +27,9 @@ struct Params {
     seed: u32,
     tile_origin: vec2<u32>,
     tile_size: vec2<u32>,
-    // Ray origins move this far off a surface: a fixed fraction of the scene's
-    // size, so the same scene renders the same at any scale.
+    // Ray origins move this far off a surface, times its kind's factor
+    // (`Hit.offset`): a fixed fraction of the scene's size, so the same scene
+    // renders the same at any scale.
     ray_offset: f32,
     // 1: this dispatch starts the accumulation (ignore what the accumulator holds).
     reset: u32,
@@ -70,6 +71,9 @@ struct Hit {
     // else `normal`.
     shading_normal: vec3<f32>,
     material: u32,
+    // How far rays leave the surface (its kind's `ray_offset_factor` times
+    // `params.ray_offset`).
+    offset: f32,
 #if TEXTURES
     // Texture coordinates (`NAME_hit_uv` of the primitive's kind).
     uv: vec2<f32>,
@@ -103,7 +107,7 @@ fn load_params() {
 @group(0) @binding(BINDING_COUNTERS) var<storage, read_write> counters: Counters;
 
 fn no_hit() -> Hit {
-    // The fields not set here (the point, material, texture coordinates) are zero.
+    // The fields not set here (the point, material, offset, texture coordinates) are zero.
     var hit: Hit;
     hit.t = F32_MAX;
     hit.normal = vec3<f32>(0.0, 1.0, 0.0);
@@ -114,8 +118,8 @@ fn no_hit() -> Hit {
     return hit;
 }
 
-// Moves a point off a surface on the side `dir` leaves toward.
-fn offset_origin(p: vec3<f32>, normal: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+// Moves a point off a surface by `offset` on the side `dir` leaves toward.
+fn offset_origin(p: vec3<f32>, normal: vec3<f32>, dir: vec3<f32>, offset: f32) -> vec3<f32> {
     let side = select(-1.0, 1.0, dot(dir, normal) >= 0.0);
-    return p + normal * (side * params.ray_offset);
+    return p + normal * (side * offset);
 }

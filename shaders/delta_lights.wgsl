@@ -71,14 +71,14 @@ fn delta_light_chosen(i: u32) -> DeltaLight {
 #endif
 }
 
-// The shadow ray toward `light` from the hit point `p` (geometric normal `normal`).
-fn delta_light_shadow(m: Material, frame: Frame, wo: vec3<f32>, p: vec3<f32>, normal: vec3<f32>, light: DeltaLight) -> DeltaShadow {
-    let to_light = light.position - p;
+// The shadow ray toward `light` from the point `hit`.
+fn delta_light_shadow(m: Material, frame: Frame, wo: vec3<f32>, hit: Hit, light: DeltaLight) -> DeltaShadow {
+    let to_light = light.position - hit.p;
     let distance_sqr = dot(to_light, to_light);
     let wi = to_light * inverseSqrt(distance_sqr);
     let falloff = delta_light_falloff(light, dot(-wi, light.direction));
     let f = bsdf_eval(m, frame, wo, wi);
-    let origin = offset_origin(p, normal, wi);
+    let origin = offset_origin(hit.p, hit.normal, wi, hit.offset);
     let weight = f * light.intensity * (falloff / (distance_sqr * light.pmf));
     return DeltaShadow(Ray(origin, wi), length(light.position - origin), weight);
 }

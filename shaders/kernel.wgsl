@@ -212,7 +212,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 // strategy estimates them by these shadow rays.
                 if delta_lights_reach(material, frame) {
                     for (var j = 0u; j < delta_shadow_rays(); j++) {
-                        let delta = delta_light_shadow(material, frame, -ray.dir, hit.p, hit.normal, delta_light_chosen(j));
+                        let delta = delta_light_shadow(material, frame, -ray.dir, hit, delta_light_chosen(j));
                         if any(delta.weight > vec3<f32>(0.0)) {
                             let delta_hit = intersect_scene(delta.ray);
                             segments += 1u;
@@ -223,13 +223,13 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     }
                 }
 #endif
-                let scattered = scatter(material, frame, -ray.dir, hit.p + frame.ng * params.ray_offset);
+                let scattered = scatter(material, frame, -ray.dir, hit.p + frame.ng * hit.offset);
 #if STRATEGY_NEE
                 // The shadow ray is traced within the vertex's iteration. As an
                 // iteration of its own, lanes drifted out of step (some tracing
                 // shadow rays while others shade), which cost 18-38% of the speed.
                 if any(scattered.shadow_weight > vec3<f32>(0.0)) {
-                    let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir), scattered.shadow_dir);
+                    let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir, hit.offset), scattered.shadow_dir);
                     let shadow_hit = intersect_scene(shadow_ray);
                     segments += 1u;
 #if LIGHT_POINTS
@@ -261,7 +261,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     path_done = true;
                 } else {
                     throughput *= scattered.weight;
-                    ray = Ray(offset_origin(hit.p, hit.normal, scattered.dir), scattered.dir);
+                    ray = Ray(offset_origin(hit.p, hit.normal, scattered.dir, hit.offset), scattered.dir);
                     depth += 1u;
                     // Russian roulette: end dim paths early, reweighting survivors (unbiased).
                     if depth >= RR_DEPTH {

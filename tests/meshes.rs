@@ -141,6 +141,74 @@ fn scene_beside_mesh(tag: &str, name: &str, contents: &str, scene: &str) -> Scen
     Scene::load(&path).unwrap()
 }
 
+/// A thin closed cylinder (radius 0.05, length 2, 128 sides: faces 800 times as
+/// long as they are wide, as long as the scene) under a red sky, at depth 1:
+/// every ray that leaves its surface escapes, so every pixel the cylinder
+/// fills holds its albedo's share of the sky, 0.5 in red, exactly. The
+/// surface emits green alone, which marks the filled pixels (all samples hit
+/// it). With rays leaving triangles by the offset of spheres and quads, such
+/// slivers hit themselves: 626 of these pixels lost up to 8% of their red
+/// (`PrimitiveKind::ray_offset_factor`).
+#[test]
+fn long_thin_faces_do_not_shadow_themselves() {
+    let ctx = gpu_or_skip!();
+    let sides = 128;
+    let mut obj = String::new();
+    for i in 0..sides {
+        let angle = std::f64::consts::TAU * i as f64 / sides as f64;
+        let (x, z) = (0.05 * angle.cos(), 0.05 * angle.sin());
+        writeln!(obj, "v {x} -1 {z}\nv {x} 1 {z}").unwrap();
+    }
+    for i in 0..sides {
+        let j = (i + 1) % sides;
+        writeln!(
+            obj,
+            "f {} {} {} {}",
+            2 * i + 1,
+            2 * i + 2,
+            2 * j + 2,
+            2 * j + 1
+        )
+        .unwrap();
+    }
+    for end in [1, 2] {
+        let cap: Vec<String> = (0..sides).map(|i| (2 * i + end).to_string()).collect();
+        writeln!(obj, "f {}", cap.join(" ")).unwrap();
+    }
+    let scene = scene_beside_mesh(
+        "thin-faces",
+        "cylinder.obj",
+        &obj,
+        r#"
+        [camera]
+        lookfrom = [0.9, 1.3, 4]
+        lookat = [0, 0, 0]
+        vfov = 12
+        width = 96
+        height = 96
+        [render]
+        spp = 64
+        max_depth = 1
+        strategy = "bsdf"
+        background = [1, 0, 0]
+        [materials.marked]
+        type = "lambertian"
+        albedo = [0.5, 0.5, 0.5]
+        emit = [0, 1, 0]
+        [[objects]]
+        type = "mesh"
+        file = "cylinder.obj"
+        smooth = false
+        material = "marked"
+        "#,
+    );
+    let mean = common::render(ctx, &scene, &RenderOptions::default()).mean();
+    let filled: Vec<&[f32; 3]> = mean.pixels.iter().filter(|p| p[1] == 1.0).collect();
+    assert!(filled.len() > 500, "{} filled pixels", filled.len());
+    let dark = filled.iter().filter(|p| p[0] != 0.5).count();
+    assert_eq!(dark, 0, "of {} filled pixels", filled.len());
+}
+
 /// A square floor at y = 0 (two triangles, face normal +y) whose file normals
 /// are all tilted by `tilt_degrees` toward +z, under a white sky, seen from
 /// straight above; one Lambertian bounce (albedo 0.5) under BSDF sampling.

@@ -195,7 +195,8 @@ pub fn material_flag(name: &str) -> u32 {
         .expect("a material flag")
 }
 
-/// Ray origins leave a surface by this fraction of the scene's extent.
+/// Ray origins leave a surface by this fraction of the scene's extent, times
+/// its kind's `ray_offset_factor`.
 pub const RAY_OFFSET_RELATIVE: f32 = 1e-6;
 
 /// Packed elements of one scene array, as its storage buffer holds them.

@@ -346,8 +346,10 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         } else {
             "hit.normal".to_string()
         };
+        let factor = PRIMITIVE_KINDS[k].ray_offset_factor;
         let mut set = format!(
-            "hit.normal = {name}_hit_normal(hit_keep, hit.p); hit.shading_normal = {shading};"
+            "hit.normal = {name}_hit_normal(hit_keep, hit.p); hit.shading_normal = {shading}; \
+             hit.offset = {factor:?} * params.ray_offset;"
         );
         if config.textures {
             let kind = PRIMITIVE_KINDS[k];

@@ -99,6 +99,11 @@ pub struct PrimitiveKind {
     /// of `dir` where it meets the primitive at distance `t` (the point's own
     /// share, which next-event estimation weighs hits by: `GroupedDensity::Points`).
     pub grouped_lights: bool,
+    /// How far rays leave a surface of this kind, in units of the scene's ray
+    /// offset (`Params::ray_offset`): where its hit points err by more than a
+    /// few ulps of the scene's extent, a larger factor keeps a ray from hitting
+    /// the surface it leaves.
+    pub ray_offset_factor: f32,
 }
 
 /// The `light` field of a primitive outside the light density.

@@ -36,6 +36,9 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
     shading_normals: None,
     texture_uvs: None,
     grouped_lights: false,
+    // Its hit point (the ray meets it by a plane or sphere equation) errs by a
+    // few ulps of the extent.
+    ray_offset_factor: 1.0,
 };
 
 gpu_struct! {

@@ -43,6 +43,10 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     shading_normals: Some(ErasedLayout::of::<TriangleNormals>()),
     texture_uvs: Some(ErasedLayout::of::<TriangleUvs>()),
     grouped_lights: true,
+    // The watertight test's distance errs by the triangle's length over its
+    // width: under a uniform sky, slivers of 200 to 800 to one as long as the
+    // scene hit themselves at 1x (up to 8% of the light lost), never at 10x.
+    ray_offset_factor: 10.0,
 };
 
 gpu_struct! {
