@@ -1247,8 +1247,13 @@ const LOOP_ITERATION_BUDGET: u64 = 32768;
 /// lavapipe's limit itself: loop iterations of one invocation, all loops together.
 const DRIVER_LOOP_LIMIT: u64 = 65535;
 
-/// Loop iterations allowed for one ray's BVH traversal (see `max_samples_per_dispatch`).
+/// Loop iterations allowed for one ray's BVH traversal at least (see
+/// `max_samples_per_dispatch`).
 const BVH_ITERATIONS_PER_RAY: u64 = 256;
+
+/// How many times its mean (`WideBvh::expected_steps`) a ray's walk of the
+/// scene's BVH is allowed, where that is more than `BVH_ITERATIONS_PER_RAY`.
+const BVH_MEAN_STEPS_MARGIN: f64 = 4.0;
 
 /// Samples per dispatch that stay within `LOOP_ITERATION_BUDGET` even if every
 /// path runs to the kernel's maximum depth: one path-loop iteration per vertex
@@ -1258,8 +1263,11 @@ const BVH_ITERATIONS_PER_RAY: u64 = 256;
 /// loops are unrolled. A BVH traversal's iterations (while-while: an inner-loop
 /// step per interior node visited and per leaf reached, an outer-loop step per
 /// leaf, and one per primitive tested) have no tight bound:
-/// `BVH_ITERATIONS_PER_RAY` is a generous allowance, and the truncation guard
-/// reports a ray that needs more. The walk of a grouped kind's light BVH visits
+/// `BVH_ITERATIONS_PER_RAY` is a generous allowance for a BVH of well
+/// separated boxes, raised to `BVH_MEAN_STEPS_MARGIN` times the walk's mean
+/// for one whose boxes overlap much (a rotated mesh of long, thin faces: 4 000
+/// such faces took over 1 000 steps a ray and failed at 256), and the
+/// truncation guard reports a ray that needs more. The walk of a grouped kind's light BVH visits
 /// each node, reaches each leaf and tests each light at most once, so its
 /// nodes and lights bound it (`SceneData::light_density_iterations`), capped at
 /// the same allowance.
@@ -1273,7 +1281,10 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     let closest_hit = match config.scene_storage() {
         SceneStorage::Baked => 0,
         SceneStorage::Buffers => data.primitive_count() as u64,
-        SceneStorage::Bvh => BVH_ITERATIONS_PER_RAY,
+        SceneStorage::Bvh => {
+            let mean = data.bvh.as_ref().map_or(0.0, WideBvh::expected_steps);
+            BVH_ITERATIONS_PER_RAY.max((BVH_MEAN_STEPS_MARGIN * mean).ceil() as u64)
+        }
     };
     let baked = config.scene_storage() == SceneStorage::Baked;
     let mut inner_loops = closest_hit

@@ -209,6 +209,65 @@ fn long_thin_faces_do_not_shadow_themselves() {
     assert_eq!(dark, 0, "of {} filled pixels", filled.len());
 }
 
+/// A square of 2 000 strips, each two faces 1 000 times as long as wide, turned
+/// off the axes: every face's box spans the square, so a ray's walk crosses
+/// hundreds of them (about 1 460 steps on average by `WideBvh::expected_steps`).
+/// The dispatches are sized for that, so no invocation is cut short by
+/// lavapipe's loop limit (with 256 steps allowed a ray, as for any BVH before,
+/// thousands were, and the run failed).
+#[test]
+fn overlapping_boxes_are_walked_within_the_loop_limit() {
+    let ctx = gpu_or_skip!();
+    let strips = 2000;
+    let mut obj = String::new();
+    for i in 0..strips {
+        let [x0, x1] = [i, i + 1].map(|x| 2.0 * x as f64 / strips as f64 - 1.0);
+        writeln!(obj, "v {x0} -1 0\nv {x1} -1 0\nv {x1} 1 0\nv {x0} 1 0").unwrap();
+        let k = 4 * i + 1;
+        writeln!(
+            obj,
+            "f {} {} {}\nf {} {} {}",
+            k,
+            k + 1,
+            k + 2,
+            k,
+            k + 2,
+            k + 3
+        )
+        .unwrap();
+    }
+    let scene = scene_beside_mesh(
+        "overlapping-boxes",
+        "strips.obj",
+        &obj,
+        r#"
+        [camera]
+        lookfrom = [0.3, 0.5, 3.2]
+        lookat = [0, 0, 0]
+        vfov = 40
+        width = 24
+        height = 24
+        [render]
+        spp = 64
+        max_depth = 1
+        strategy = "bsdf"
+        background = [1, 1, 1]
+        [materials.grey]
+        type = "lambertian"
+        albedo = [0.5, 0.5, 0.5]
+        [[objects]]
+        type = "mesh"
+        file = "strips.obj"
+        smooth = false
+        material = "grey"
+        rotate = { axis = [1, 2, 3], angle = 37 }
+        "#,
+    );
+    // `common::render` asserts that no invocation was cut short.
+    let mean = common::render(ctx, &scene, &RenderOptions::default()).mean();
+    assert!(mean.pixels.iter().flatten().all(|c| c.is_finite()));
+}
+
 /// A square floor at y = 0 (two triangles, face normal +y) whose file normals
 /// are all tilted by `tilt_degrees` toward +z, under a white sky, seen from
 /// straight above; one Lambertian bounce (albedo 0.5) under BSDF sampling.

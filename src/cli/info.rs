@@ -167,11 +167,12 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         SceneStorage::Bvh => {
             let bvh = data.bvh.as_ref().expect("a BVH kernel has a BVH");
             println!(
-                "scene data: storage buffers with a BVH: {} nodes, depth {}, built in {:.3} s; \
-                 {} large primitives tested beside it",
+                "scene data: storage buffers with a BVH: {} nodes, depth {}, built in {:.3} s, \
+                 at most {:.0} walk steps a ray on average; {} large primitives tested beside it",
                 bvh.nodes.len(),
                 bvh.depth,
                 bvh.build_seconds,
+                bvh.expected_steps(),
                 data.large.iter().sum::<usize>()
             );
         }
