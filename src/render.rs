@@ -1270,10 +1270,16 @@ const BVH_MEAN_STEPS_MARGIN: f64 = 4.0;
 /// truncation guard reports a ray that needs more. The walk of a grouped kind's light BVH visits
 /// each node, reaches each leaf and tests each light at most once, so its
 /// nodes and lights bound it (`SceneData::light_density_iterations`), capped at
-/// the same allowance.
+/// its own such allowance.
 pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
     let per_sample = loop_iterations_per_vertex(data, config) * (config.max_depth as u64 + 1);
     (LOOP_ITERATION_BUDGET / per_sample).clamp(1, u32::MAX as u64) as u32
+}
+
+/// Loop iterations allowed for one ray's walk of `bvh`: `BVH_ITERATIONS_PER_RAY`,
+/// or `BVH_MEAN_STEPS_MARGIN` times its mean where that is more.
+fn bvh_walk_allowance(bvh: &WideBvh) -> u64 {
+    BVH_ITERATIONS_PER_RAY.max((BVH_MEAN_STEPS_MARGIN * bvh.expected_steps()).ceil() as u64)
 }
 
 /// The most loop iterations one path vertex can take (see `max_samples_per_dispatch`).
@@ -1281,14 +1287,11 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     let closest_hit = match config.scene_storage() {
         SceneStorage::Baked => 0,
         SceneStorage::Buffers => data.primitive_count() as u64,
-        SceneStorage::Bvh => {
-            let mean = data.bvh.as_ref().map_or(0.0, WideBvh::expected_steps);
-            BVH_ITERATIONS_PER_RAY.max((BVH_MEAN_STEPS_MARGIN * mean).ceil() as u64)
-        }
+        SceneStorage::Bvh => data.bvh.as_ref().map_or(0, bvh_walk_allowance),
     };
     let baked = config.scene_storage() == SceneStorage::Baked;
     let mut inner_loops = closest_hit
-        + data.light_density_iterations(BVH_ITERATIONS_PER_RAY, baked, config.grouped_density);
+        + data.light_density_iterations(bvh_walk_allowance, baked, config.grouped_density);
     // The environment's sampling bisects its two CDFs.
     if let Some(tables) = data
         .environment

@@ -515,10 +515,10 @@ impl SceneData {
     /// grouped lights weighed by `grouped`, none by points, and a walk of
     /// their BVH (a loop even when baked: an inner step per node visited and
     /// per leaf reached, an outer step per leaf, one per light tested, and a
-    /// leaf holds a light at least) counted as at most `bvh_allowance`.
+    /// leaf holds a light at least) counted as at most `bvh_allowance` of it.
     pub fn light_density_iterations(
         &self,
-        bvh_allowance: u64,
+        bvh_allowance: impl Fn(&WideBvh) -> u64,
         baked: bool,
         grouped: GroupedDensity,
     ) -> u64 {
@@ -531,7 +531,8 @@ impl SceneData {
                 (Some(_), GroupedDensity::Points) if kind.grouped_lights => 0,
                 (Some(_), GroupedDensity::Walk) if kind.grouped_lights => {
                     let walk = self.light_bvh(k);
-                    bvh_allowance.min((walk.bvh.nodes.len() + 3 * walk.refs.len()) as u64)
+                    bvh_allowance(&walk.bvh)
+                        .min((walk.bvh.nodes.len() + 3 * walk.refs.len()) as u64)
                 }
                 _ if baked => 0,
                 _ => lights.len() as u64,
