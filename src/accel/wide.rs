@@ -8,7 +8,7 @@
 //! binary walk loaded two whole nodes per pair of boxes. Leaves stay ranges of
 //! one kind's array, encoded as in `BvhNode`.
 
-use super::{Bvh, BvhNode, LEAF_COUNT_MASK, MAX_DEPTH};
+use super::{Bounds, Bvh, BvhNode, LEAF_COUNT_MASK, MAX_DEPTH};
 use crate::gpu::layout::{SceneData, gpu_struct};
 use glam::Vec3;
 use std::time::Instant;
@@ -159,22 +159,21 @@ impl WideBvh {
         fn slots(node: &WideBvhNode) -> impl Iterator<Item = usize> + '_ {
             (0..WIDTH).filter(|&slot| node.occupied(slot))
         }
-        let area = |(min, max): (Vec3, Vec3)| {
-            let d = (max - min).max(Vec3::ZERO);
-            f64::from(d.x * d.y + d.y * d.z + d.z * d.x)
+        let child = |node: &WideBvhNode, slot: usize| {
+            let (min, max) = node.child_bounds(slot);
+            Bounds { min, max }
         };
-        let root_box = slots(root).map(|slot| root.child_bounds(slot)).fold(
-            (Vec3::INFINITY, Vec3::NEG_INFINITY),
-            |(lo, hi), (min, max)| (lo.min(min), hi.max(max)),
-        );
-        let root_area = area(root_box);
+        let root_area = slots(root)
+            .map(|slot| child(root, slot))
+            .fold(Bounds::EMPTY, Bounds::grow)
+            .half_area();
         if root_area <= 0.0 {
             return self.nodes.len() as f64;
         }
         let mut steps = 1.0;
         for node in &self.nodes {
             for slot in slots(node) {
-                let crossed = area(node.child_bounds(slot)) / root_area;
+                let crossed = f64::from(child(node, slot).half_area() / root_area);
                 let count = f64::from(node.links[slot][1] & LEAF_COUNT_MASK);
                 steps += crossed * if count == 0.0 { 1.0 } else { 2.0 + count };
             }
@@ -246,8 +245,8 @@ impl WideBvh {
 }
 
 fn half_area(node: &BvhNode) -> f32 {
-    let d = (Vec3::from(node.max) - Vec3::from(node.min)).max(Vec3::ZERO);
-    d.x * d.y + d.y * d.z + d.z * d.x
+    let (min, max) = (Vec3::from(node.min), Vec3::from(node.max));
+    Bounds { min, max }.half_area()
 }
 
 #[cfg(test)]

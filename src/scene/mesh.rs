@@ -429,7 +429,6 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
         at: Location::Line(first_line + line_of(&body, e.valid_up_to()) - 1),
         message: "ASCII data that is not UTF-8 text".into(),
     })?;
-    let end_line = first_line + body.lines().count();
     let mut words = (body.lines().enumerate())
         .flat_map(|(i, text)| {
             text.split_whitespace()
@@ -443,8 +442,11 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
             let at = Location::Element {
                 name: def.name.clone(),
                 index,
-                line: (header.encoding == Encoding::Ascii)
-                    .then(|| words.peek().map_or(end_line, |&(line, _)| line)),
+                line: (header.encoding == Encoding::Ascii).then(|| match words.peek() {
+                    Some(&(line, _)) => line,
+                    // The file ends before this element: the line after its last.
+                    None => first_line + body.lines().count(),
+                }),
             };
             let element = match header.encoding {
                 Encoding::Ascii => ascii_element(&parser, &mut words, def),
