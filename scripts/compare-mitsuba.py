@@ -12,6 +12,7 @@ Run by hand, not in CI:
         [--size 256] [--spp 256] [--reference-spp 4096] [--reference-renderer pathmix|mitsuba]
         [--pathmix mixture/sobol,mixture/independent,nee-mis/sobol/5]
         [--mitsuba-samplers independent,multijitter] [--max-depth 50]
+        [--without-avx512]
     python3 scripts/compare-mitsuba.py --scene S.toml --size 64 --reference-spp 65536 \
         --mitsuba-reference-only out.exr
 
@@ -36,6 +37,12 @@ with the Sobol sampler.
 It creates a virtual environment in .venv-mitsuba with `mitsuba` and `numpy` from
 PyPI and re-runs itself there. Mitsuba's LLVM backend needs LLVM 19 (LLVM 15
 crashes it): `sudo apt-get install libllvm19` on Debian 12.
+
+`--without-avx512` has both renderers compile their kernels for AVX2 without
+AVX-512, as on AMD's Zen 2 and Zen 3 and on Intel's desktop CPUs: pathmix's
+lavapipe through Mesa's `GALLIUM_OVERRIDE_CPU_CAPS=avx`, Mitsuba's Dr.Jit through
+its `jit_llvm_set_target` (a Zen 3 target, 8 lanes). On a CPU with AVX-512 this
+measures, on one machine, what a CPU without it would show.
 
 Mitsuba's `max_depth` counts path vertices including the camera's first hit, so
 pathmix's max_depth D (scattering events) is Mitsuba's D + 1. Mitsuba's path
@@ -208,6 +215,20 @@ def mitsuba_scene(mi, scene, size, spp, max_depth, sampler, scene_dir=Path("."))
     }
 
 
+def without_avx512(mi):
+    """Has Dr.Jit compile Mitsuba's kernels for Zen 3 (AVX2, 8 lanes) from now on,
+    through drjit-core's `jit_llvm_set_target(cpu, features, vector_width)`."""
+    import ctypes
+    import drjit
+    core = ctypes.CDLL(str(Path(drjit.__file__).parent / "libdrjit-core.so"))
+    set_target = core._Z19jit_llvm_set_targetPKcS0_j
+    set_target.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
+    set_target(b"znver3", b"+avx2,+fma,+f16c,+bmi2,+popcnt,-avx512f", 8)
+    width = core._Z21jit_llvm_vector_widthv
+    width.restype = ctypes.c_uint32
+    assert width() == 8, "Dr.Jit kept its vector width"
+
+
 def pathmix(args, spp, out, seed, strategy="mixture", sampler="sobol", rr_depth="off"):
     """Renders with the release binary; returns the seconds it reports, or with
     `--whole-process` the wall-clock seconds of the whole command."""
@@ -247,10 +268,16 @@ def main():
                              "Mitsuba's scene loading, kernel compilation and render")
     parser.add_argument("--mitsuba-reference-only", type=Path, metavar="OUT",
                         help="only render Mitsuba's reference into OUT (EXR)")
+    parser.add_argument("--without-avx512", action="store_true",
+                        help="both renderers compile for AVX2 without AVX-512 (as on AMD Zen 2 and 3)")
     args = parser.parse_args()
     args.out.mkdir(exist_ok=True)
 
     mi.set_variant("llvm_ad_rgb")
+    if args.without_avx512:
+        # Inherited by every pathmix child process: Mesa's llvmpipe drops AVX-512.
+        os.environ["GALLIUM_OVERRIDE_CPU_CAPS"] = "avx"
+        without_avx512(mi)
     scene = tomllib.loads(args.scene.read_text())
 
     def mitsuba_render(spp, sampler, seed):

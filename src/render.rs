@@ -11,8 +11,11 @@ use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, Sce
 use crate::gpu::pipeline::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, Kernel,
 };
+use crate::gpu::texture_array::{self, TextureArray};
 use crate::gpu::{GpuContext, GpuError};
-use crate::kernel::{AccumulatorKind, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE};
+use crate::kernel::{
+    AccumulatorKind, ArrayMemory, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE,
+};
 use crate::kinds::PRIMITIVE_KINDS;
 use crate::scene::{Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
@@ -30,6 +33,9 @@ pub struct RenderOptions {
     pub variance: bool,
     /// `None`: baked into the kernel for small scenes (`SceneStorage::auto`).
     pub scene_storage: Option<SceneStorage>,
+    /// `None`: textures where they read faster and the adapter can bind the
+    /// kernel's (`choose_array_memory`).
+    pub array_memory: Option<ArrayMemory>,
     /// Wall time one submission should take: short enough to report progress
     /// and stop promptly, long enough to keep the device busy. Each dispatch waits
     /// for its slowest invocation, so more samples per invocation even out long
@@ -53,6 +59,7 @@ impl Default for RenderOptions {
             accumulator: None,
             variance: false,
             scene_storage: None,
+            array_memory: None,
             submission_seconds: 1.0,
             general_kernel: false,
             adaptive: false,
@@ -87,6 +94,11 @@ pub enum RenderError {
          use the buffer accumulator"
     )]
     NoStorageTextures { adapter: String },
+    #[error(
+        "adapter {adapter} cannot bind this scene's arrays as textures (too many, \
+         or one taller than its largest texture); read them from storage buffers"
+    )]
+    ArrayTexturesTooLarge { adapter: String },
     #[error(
         "{width}x{height} exceeds this adapter's largest texture ({max}x{max}); \
          render a smaller image or use the buffer accumulator"
@@ -178,6 +190,13 @@ pub enum RenderError {
          with it). Nothing was written"
     )]
     SumsOverflowed { count: usize },
+}
+
+/// A scene array on the device: a storage buffer, or a texture
+/// (`kernel::ArrayMemory::Textures`).
+enum SceneResource {
+    Buffer(wgpu::Buffer),
+    Texture(wgpu::TextureView),
 }
 
 /// One scene on one device: the specialised kernel, its buffers and the sums so far.
@@ -305,7 +324,7 @@ impl<'a> Renderer<'a> {
             layout: &kernel.frame_layout,
             entries: &frame_entries,
         });
-        let scene_buffers: Vec<(u32, wgpu::Buffer)> = kernel
+        let scene_resources: Vec<(u32, SceneResource)> = kernel
             .config
             .scene_bindings()
             .into_iter()
@@ -352,19 +371,32 @@ impl<'a> Renderer<'a> {
                     }
                     source => data.array_bytes(source),
                 };
-                let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("scene"),
-                    contents,
-                    usage: wgpu::BufferUsages::STORAGE,
-                });
-                (binding.binding, buffer)
+                let resource = match binding.source.word_size() {
+                    Some(word) if kernel.config.in_texture(binding.source) => {
+                        let count = contents.len() / binding.element_size();
+                        let texels = TextureArray::new(contents, count, word);
+                        let texture = texels.upload(device, &ctx.queue);
+                        SceneResource::Texture(texture.create_view(&Default::default()))
+                    }
+                    _ => SceneResource::Buffer(device.create_buffer_init(
+                        &wgpu::util::BufferInitDescriptor {
+                            label: Some("scene"),
+                            contents,
+                            usage: wgpu::BufferUsages::STORAGE,
+                        },
+                    )),
+                };
+                (binding.binding, resource)
             })
             .collect();
-        let scene_entries: Vec<_> = scene_buffers
+        let scene_entries: Vec<_> = scene_resources
             .iter()
-            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            .map(|(binding, resource)| wgpu::BindGroupEntry {
                 binding: *binding,
-                resource: buffer.as_entire_binding(),
+                resource: match resource {
+                    SceneResource::Buffer(buffer) => buffer.as_entire_binding(),
+                    SceneResource::Texture(view) => wgpu::BindingResource::TextureView(view),
+                },
             })
             .collect();
         let scene_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -1021,6 +1053,10 @@ pub fn plan_kernel(
         adaptive: options.adaptive,
         ..config
     };
+    let config = KernelConfig {
+        array_memory: choose_array_memory(ctx, &data, &config, options.array_memory)?,
+        ..config
+    };
     check_size(ctx, &config, width, height)?;
     check_scene_limits(ctx, scene, &data, &config)?;
     Ok(KernelPlan {
@@ -1046,7 +1082,10 @@ fn check_scene_limits(
         figure,
         limit,
     };
-    for binding in config.scene_bindings() {
+    // Arrays in textures fit: `choose_array_memory` checked their rows.
+    let buffers =
+        (config.scene_bindings().into_iter()).filter(|array| !config.in_texture(array.source));
+    for binding in buffers {
         let bytes = data.array_bytes(binding.source).len() as u64;
         for (max, name) in [
             (
@@ -1211,6 +1250,41 @@ pub fn prepare_scene(
         ));
     }
     Ok((data, strategy, warnings))
+}
+
+/// The array memory asked for, or textures where they read faster
+/// (`GpuContext::textures_read_faster`) and the adapter can bind every texture
+/// `config` would read; else storage buffers.
+pub fn choose_array_memory(
+    ctx: &GpuContext,
+    data: &SceneData,
+    config: &KernelConfig,
+    wanted: Option<ArrayMemory>,
+) -> Result<ArrayMemory, RenderError> {
+    let textures = KernelConfig {
+        array_memory: ArrayMemory::Textures,
+        ..config.clone()
+    };
+    let limits = ctx.limits();
+    let arrays: Vec<_> = (textures.scene_bindings().into_iter())
+        .filter(|array| textures.in_texture(array.source))
+        .collect();
+    let fits = arrays.len() <= limits.max_sampled_textures_per_shader_stage as usize
+        && arrays.iter().all(|array| {
+            let word = array.source.word_size().expect("texture arrays are words");
+            texture_array::rows(data.array_bytes(array.source).len(), word)
+                <= limits.max_texture_dimension_2d
+        });
+    Ok(match wanted {
+        Some(ArrayMemory::Textures) if !fits => {
+            return Err(RenderError::ArrayTexturesTooLarge {
+                adapter: ctx.describe(),
+            });
+        }
+        Some(memory) => memory,
+        None if fits && ctx.textures_read_faster => ArrayMemory::Textures,
+        None => ArrayMemory::Buffers,
+    })
 }
 
 /// The accumulator asked for, or the best the adapter offers for this size.

@@ -4,7 +4,7 @@ mod common;
 
 use pathmix::gpu::GpuContext;
 use pathmix::gpu::accumulator::REPLICATES;
-use pathmix::kernel::{AccumulatorKind, SceneStorage};
+use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Roulette, Sampler, Scene, SceneOverrides, Strategy};
 use pathmix::stats::{self, Accumulation};
@@ -174,6 +174,109 @@ fn baked_scene_matches_scene_buffers() {
         assert!(
             baked == buffers,
             "{file} {strategy}: baked and buffers differ"
+        );
+    }
+}
+
+/// Arrays read from textures (`ArrayMemory::Textures`, a word a texel, the
+/// count in texel 0) render bit for bit what storage buffers render: the same
+/// words fetched otherwise. The scenes cover every array of words: primitives
+/// and materials tested one by one (counted) and through the BVH, the BVH's
+/// nodes, an emitting mesh's light tables and the light BVH's nodes and
+/// 8-byte references (a panel of 72 faces: walked under the mixture, its
+/// points weighed under `nee-mis`), shading normals, textures, an environment
+/// map's record and delta lights.
+#[test]
+fn array_textures_match_array_buffers() {
+    let ctx = gpu_or_skip!();
+    let dir = common::TempDir::new("array-memory", "panel");
+    let mut panel = String::new();
+    let n = 6;
+    for i in 0..=n {
+        for j in 0..=n {
+            panel += &format!(
+                "v {} 1.5 {}\n",
+                i as f32 / n as f32 - 0.5,
+                j as f32 / n as f32 - 0.5
+            );
+        }
+    }
+    for i in 0..n {
+        for j in 0..n {
+            let corner = i * (n + 1) + j + 1;
+            // Facing down, onto the floor.
+            panel += &format!(
+                "f {} {} {} {}\n",
+                corner,
+                corner + n + 1,
+                corner + n + 2,
+                corner + 1
+            );
+        }
+    }
+    let path = dir.join("panel.obj");
+    std::fs::write(&path, panel).unwrap();
+    let panel_scene = common::scene_text(&format!(
+        "[camera]\nlookfrom = [0, 0.5, 3]\nlookat = [0, 0.5, 0]\nwidth = 8\nheight = 8\n\
+         [materials.floor]\ntype = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [materials.lamp]\ntype = \"light\"\nemit = [2, 2, 2]\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [0, -100, 0]\nradius = 100\nmaterial = \"floor\"\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [0.3, 0.4, 0]\nradius = 0.4\nmaterial = \"floor\"\n\
+         [[objects]]\ntype = \"mesh\"\nfile = {path:?}\nmaterial = \"lamp\"\n"
+    ));
+    let cases = [
+        ("cornell.toml", SceneStorage::Buffers, Strategy::Mixture),
+        ("cornell-boxes.toml", SceneStorage::Bvh, Strategy::NeeMis),
+        ("materials.toml", SceneStorage::Buffers, Strategy::NeeMis),
+        ("sky.toml", SceneStorage::Buffers, Strategy::Mixture),
+        ("spotlights.toml", SceneStorage::Buffers, Strategy::NeeMis),
+        ("knot.toml", SceneStorage::Bvh, Strategy::Mixture),
+        ("checkerboard.toml", SceneStorage::Bvh, Strategy::Mixture),
+        ("panel", SceneStorage::Buffers, Strategy::Mixture),
+        ("panel", SceneStorage::Buffers, Strategy::NeeMis),
+        ("panel", SceneStorage::Bvh, Strategy::Mixture),
+    ];
+    for (file, storage, strategy) in cases {
+        let mut scene = match file {
+            "panel" => panel_scene.clone(),
+            _ => common::scene_file(file),
+        };
+        scene
+            .apply_overrides(&SceneOverrides {
+                width: Some(24),
+                height: Some(20),
+                spp: Some(4),
+                strategy: Some(strategy),
+                ..Default::default()
+            })
+            .unwrap();
+        let render = |memory| {
+            let options = RenderOptions {
+                scene_storage: Some(storage),
+                array_memory: Some(memory),
+                ..common::with_variance()
+            };
+            let renderer = Renderer::new(ctx, &scene, &options).unwrap();
+            let config = renderer.config();
+            assert_eq!(
+                (config.scene_storage(), config.array_memory),
+                (storage, memory)
+            );
+            let textures = (config.scene_bindings().into_iter())
+                .filter(|array| config.in_texture(array.source))
+                .count();
+            assert_eq!(textures > 0, memory == ArrayMemory::Textures, "{file}");
+            common::render(ctx, &scene, &options)
+        };
+        let textures = render(ArrayMemory::Textures);
+        let buffers = render(ArrayMemory::Buffers);
+        assert!(
+            textures.sum.iter().any(|p| p[0] > 0.0),
+            "{file}: black image"
+        );
+        assert!(
+            textures == buffers,
+            "{file} {storage:?} {strategy}: textures and buffers differ"
         );
     }
 }

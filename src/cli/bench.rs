@@ -5,7 +5,7 @@ use clap::Args;
 use pathmix::bench::{self, Measurement};
 use pathmix::gpu::GpuContext;
 use pathmix::gpu::layout::SceneData;
-use pathmix::kernel::{AccumulatorKind, SceneStorage};
+use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::RenderOptions;
 use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
 use std::path::{Path, PathBuf};
@@ -76,26 +76,43 @@ const CASES: [Case; 4] = [
 const FIELD_SIZES: [usize; 3] = [100, 1000, 4000];
 
 /// Paths/s of the sphere field against its sphere count, in the default storage
-/// (baked up to 128 objects, the BVH above).
+/// (baked up to 128 objects, the BVH above), and the BVH's with its arrays in
+/// the other memory (`--array-memory`).
 fn scale_curve(ctx: &GpuContext, samples: u32, repetitions: usize) -> Result<(), Failure> {
     println!("\nscale curve (a field of spheres, 256x256, {samples} spp, max depth 8, mixture):\n");
     println!(
-        "| spheres | storage | M paths/s | vs {} spheres |",
+        "| spheres | storage | arrays | M paths/s | vs {} spheres |",
         FIELD_SIZES[0]
     );
-    println!("|--:|---|--:|--:|");
+    println!("|--:|---|---|--:|--:|");
+    let default_memory = match ctx.textures_read_faster {
+        true => ArrayMemory::Textures,
+        false => ArrayMemory::Buffers,
+    };
     let mut first: Option<f64> = None;
     for n in FIELD_SIZES {
         let scene = bench::sphere_field(n);
-        let options = RenderOptions::default();
         let storage = SceneStorage::auto(&SceneData::pack(&scene));
-        let m = bench::measure(ctx, &scene, &options, samples, repetitions)
-            .map_err(Failure::runtime)?;
-        let ratio = m.paths_per_second / *first.get_or_insert(m.paths_per_second);
-        println!(
-            "| {n} | {storage:?} | {:.2} | {ratio:.2}x |",
-            m.paths_per_second / 1e6
-        );
+        let memories: &[ArrayMemory] = match storage {
+            SceneStorage::Bvh => &[default_memory, ArrayMemory::Buffers, ArrayMemory::Textures],
+            _ => &[default_memory],
+        };
+        for (i, &memory) in memories.iter().enumerate() {
+            if i > 0 && memory == default_memory {
+                continue;
+            }
+            let options = RenderOptions {
+                array_memory: Some(memory),
+                ..RenderOptions::default()
+            };
+            let m = bench::measure(ctx, &scene, &options, samples, repetitions)
+                .map_err(Failure::runtime)?;
+            let ratio = m.paths_per_second / *first.get_or_insert(m.paths_per_second);
+            println!(
+                "| {n} | {storage:?} | {memory:?} | {:.2} | {ratio:.2}x |",
+                m.paths_per_second / 1e6
+            );
+        }
     }
     Ok(())
 }
@@ -126,6 +143,11 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     } else {
         AccumulatorKind::Buffer
     };
+    // The array memory this adapter does not get by default (`choose_array_memory`).
+    let (other_memory, other_memory_name) = match ctx.textures_read_faster {
+        true => (ArrayMemory::Buffers, "arrays in buffers"),
+        false => (ArrayMemory::Textures, "arrays in textures"),
+    };
     // Renderer options, and scene settings changed from the scene file's.
     let options = |options: RenderOptions| (options, SceneOverrides::default());
     let settings = |overrides: SceneOverrides| (RenderOptions::default(), overrides);
@@ -149,6 +171,13 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             "buffer accumulator",
             options(RenderOptions {
                 accumulator: Some(AccumulatorKind::Buffer),
+                ..RenderOptions::default()
+            }),
+        ),
+        (
+            other_memory_name,
+            options(RenderOptions {
+                array_memory: Some(other_memory),
                 ..RenderOptions::default()
             }),
         ),
@@ -185,6 +214,12 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
         let mut baseline: Option<Measurement> = None;
         for (name, (options, overrides)) in &configurations {
             if *name == "buffer accumulator" && default_accumulator == AccumulatorKind::Buffer {
+                continue;
+            }
+            // A baked scene reads (next to) nothing from memory.
+            if *name == other_memory_name
+                && SceneStorage::auto(&SceneData::pack(&scene)) == SceneStorage::Baked
+            {
                 continue;
             }
             let mut scene = scene.clone();

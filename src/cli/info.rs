@@ -5,7 +5,7 @@ use super::render::StrategyArg;
 use clap::Args;
 use pathmix::gpu::GpuContext;
 use pathmix::gpu::layout::PackedArray;
-use pathmix::kernel::SceneStorage;
+use pathmix::kernel::{ArrayMemory, SceneStorage};
 use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
 use pathmix::render::{KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel};
 use std::path::PathBuf;
@@ -163,11 +163,13 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
             "scene data: compiled into the kernel as constants (at most {} objects are baked)",
             SceneStorage::MAX_BAKED_OBJECTS
         ),
-        SceneStorage::Buffers => println!("scene data: storage buffers"),
+        SceneStorage::Buffers => {
+            println!("scene data: in memory, every ray testing every primitive")
+        }
         SceneStorage::Bvh => {
             let bvh = data.bvh.as_ref().expect("a BVH kernel has a BVH");
             println!(
-                "scene data: storage buffers with a BVH: {} nodes, depth {}, built in {:.3} s, \
+                "scene data: in memory with a BVH: {} nodes, depth {}, built in {:.3} s, \
                  at most {:.0} walk steps a ray on average; {} large primitives tested beside it",
                 bvh.nodes.len(),
                 bvh.depth,
@@ -177,18 +179,31 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
             );
         }
     }
+    if !config.scene_bindings().is_empty() {
+        println!(
+            "  arrays of whole 16- and 8-byte structs read from {}",
+            match config.array_memory {
+                ArrayMemory::Textures => "textures (this driver reads them faster than buffers)",
+                ArrayMemory::Buffers => "storage buffers",
+            }
+        );
+    }
     let mut scene_bytes = 0;
     for array in config.scene_arrays() {
         let count = data.array_bytes(array.source).len() / array.element_size();
         scene_bytes += count * array.element_size();
         // Beside a BVH some arrays are compiled in (`KernelConfig::compiles_in`).
         let compiled = config.bvh() && config.compiles_in(array.source);
+        let place = match () {
+            _ if compiled => " (compiled in)",
+            _ if config.in_texture(array.source) => " (texture)",
+            _ => "",
+        };
         println!(
-            "  {}: {count} x {} B = {} B{}",
+            "  {}: {count} x {} B = {} B{place}",
             array.name.replace('_', " "),
             array.element_size(),
             count * array.element_size(),
-            if compiled { " (compiled in)" } else { "" }
         );
     }
     let triangles = scene.triangles.len();

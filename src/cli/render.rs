@@ -8,7 +8,7 @@ use pathmix::adaptive;
 use pathmix::checkpoint::{self, Checkpoint, CheckpointLock, SceneIdentity};
 use pathmix::gpu::GpuContext;
 use pathmix::gpu::accumulator::LAYER_SQUARES_COMPENSATION;
-use pathmix::kernel::{AccumulatorKind, SceneStorage};
+use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::output::{self, ImageFormat};
 use pathmix::paths::{self, PathUse};
 use pathmix::pilot::{self, Pilot};
@@ -110,6 +110,13 @@ pub struct RenderArgs {
     /// baked for scenes of up to 128 objects, the BVH above.
     #[arg(long, value_enum)]
     pub scene_storage: Option<SceneStorageArg>,
+    /// How the kernel reads the scene's arrays of whole 16- and 8-byte structs
+    /// (primitives, materials, BVH nodes) that are not compiled in: from
+    /// textures, or from storage buffers. The images are the same; Mesa's
+    /// lavapipe reads textures faster on CPUs without AVX-512. Default:
+    /// textures where the adapter can bind them.
+    #[arg(long, value_enum)]
+    pub array_memory: Option<ArrayMemoryArg>,
     /// Save the accumulated state (raw sums and compensations, sample count,
     /// scene hash, settings, outputs) to FILE every --checkpoint-every and at the
     /// end, atomically. `--resume FILE` continues it bit-exactly.
@@ -228,6 +235,21 @@ impl From<SceneStorageArg> for SceneStorage {
     }
 }
 
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ArrayMemoryArg {
+    Textures,
+    Buffers,
+}
+
+impl From<ArrayMemoryArg> for ArrayMemory {
+    fn from(arg: ArrayMemoryArg) -> ArrayMemory {
+        match arg {
+            ArrayMemoryArg::Textures => ArrayMemory::Textures,
+            ArrayMemoryArg::Buffers => ArrayMemory::Buffers,
+        }
+    }
+}
+
 impl From<RenderError> for Failure {
     fn from(e: RenderError) -> Failure {
         Failure::runtime(with_flag(&e))
@@ -241,6 +263,7 @@ pub fn with_flag(e: &RenderError) -> String {
         RenderError::NoStorageTextures { .. } | RenderError::TextureTooLarge { .. } => {
             "--accumulator buffer"
         }
+        RenderError::ArrayTexturesTooLarge { .. } => "--array-memory buffers",
         RenderError::TruncatedInvocations { .. } => "--max-depth D",
         RenderError::AdaptiveNeedsSobol => "--sampler sobol",
         _ => return e.to_string(),
@@ -778,6 +801,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         accumulator: args.accumulator.map(AccumulatorKind::from),
         variance: plan.variance,
         scene_storage: args.scene_storage.map(SceneStorage::from),
+        array_memory: args.array_memory.map(ArrayMemory::from),
         adaptive: plan.adaptive,
         ..Default::default()
     };

@@ -44,6 +44,10 @@ pub struct GpuContext {
     pub info: wgpu::AdapterInfo,
     /// Read-write `rgba32float` storage textures are available (else the buffer accumulator is used).
     pub storage_texture_accumulator: bool,
+    /// The kernel reads a texture faster than a storage buffer: a CPU driver
+    /// (Mesa's llvmpipe) on a CPU whose code has no AVX-512, where each lane's
+    /// value of a buffer load passes through memory (`kernel::ArrayMemory`).
+    pub textures_read_faster: bool,
 }
 
 impl GpuContext {
@@ -112,12 +116,15 @@ impl GpuContext {
             ..Default::default()
         }))
         .map_err(|e| GpuError::Device(e.to_string()))?;
+        let textures_read_faster =
+            info.device_type == wgpu::DeviceType::Cpu && !cpu_driver_avx512();
         Ok(GpuContext {
             adapter,
             device,
             queue,
             info,
             storage_texture_accumulator,
+            textures_read_faster,
         })
     }
 
@@ -129,6 +136,19 @@ impl GpuContext {
     pub fn limits(&self) -> wgpu::Limits {
         self.device.limits()
     }
+}
+
+/// Whether a CPU driver's code uses AVX-512 here: the CPU has it, with the OS
+/// saving its registers (as Mesa checks), and `GALLIUM_OVERRIDE_CPU_CAPS` or
+/// `GALLIUM_NOSSE`, which only take features away from llvmpipe, are unset.
+fn cpu_driver_avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx512 = false;
+    avx512
+        && std::env::var_os("GALLIUM_OVERRIDE_CPU_CAPS").is_none_or(|caps| caps.is_empty())
+        && std::env::var_os("GALLIUM_NOSSE").is_none()
 }
 
 fn describe(info: &wgpu::AdapterInfo) -> String {

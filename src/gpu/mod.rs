@@ -5,5 +5,6 @@ pub mod context;
 pub mod error_estimate;
 pub mod layout;
 pub mod pipeline;
+pub mod texture_array;
 
 pub use context::{GpuContext, GpuError};

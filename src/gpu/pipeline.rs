@@ -36,6 +36,15 @@ pub(crate) fn storage_buffer(read_only: bool) -> wgpu::BindingType {
     }
 }
 
+/// A scene array in a texture (`gpu::texture_array`).
+fn texture_array() -> wgpu::BindingType {
+    wgpu::BindingType::Texture {
+        sample_type: wgpu::TextureSampleType::Uint,
+        view_dimension: wgpu::TextureViewDimension::D2,
+        multisampled: false,
+    }
+}
+
 /// How the accumulator of `kind` is bound (`shaders/accumulate_*.wgsl`).
 pub(crate) fn accumulator_binding(kind: AccumulatorKind) -> wgpu::BindingType {
     match kind {
@@ -75,7 +84,10 @@ impl Kernel {
         let scene_entries: Vec<_> = config
             .scene_bindings()
             .into_iter()
-            .map(|array| compute_entry(array.binding, storage_buffer(true)))
+            .map(|array| match config.in_texture(array.source) {
+                true => compute_entry(array.binding, texture_array()),
+                false => compute_entry(array.binding, storage_buffer(true)),
+            })
             .collect();
         let scene_layout = ctx
             .device

@@ -4,7 +4,7 @@
 //! `shaders/`, so they may use `#for_each`.
 
 use super::{ArraySource, KernelConfig, LightTablePart, SceneArray, WORKGROUP_SIZE};
-use crate::accel;
+use crate::accel::{self, WideBvhNode};
 use crate::gpu::accumulator::{
     LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
     REPLICATES,
@@ -14,6 +14,7 @@ use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
 use crate::gpu::pipeline::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
 };
+use crate::gpu::texture_array;
 use crate::kinds::{
     ErasedLayout, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, NO_LIGHT, PRIMITIVE_KINDS,
     PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
@@ -57,6 +58,7 @@ pub fn shared_constants() -> String {
     constant("ROUGH_TRANSMITTANCE_RES", ROUGH_TRANSMITTANCE_RES as u32);
     constant("BVH_LEAF_KIND_SHIFT", accel::LEAF_KIND_SHIFT);
     constant("BVH_LEAF_COUNT_MASK", accel::LEAF_COUNT_MASK);
+    constant("TEXTURE_ARRAY_WIDTH", texture_array::WIDTH);
     constant("NO_LIGHT", NO_LIGHT);
     out
 }
@@ -65,15 +67,16 @@ pub fn shared_constants() -> String {
 /// and, when the kernel samples lights, the light density.
 ///
 /// Each array `NAME` gets `NAME_count()` and, when read by a dynamic index,
-/// `NAME_at(i)`: over a storage buffer of group 1, or over one module constant
-/// per element (bit for bit the buffer's contents) when the scene is baked, which
-/// `#for_each` unrolls into straight-line code the driver's compiler folds.
+/// `NAME_at(i)`: over a storage buffer or a texture of group 1
+/// (`memory_array`), or over one module constant per element (bit for bit the
+/// buffer's contents) when the scene is baked, which `#for_each` unrolls into
+/// straight-line code the driver's compiler folds.
 pub fn scene(config: &KernelConfig) -> String {
     let mut out = String::new();
     for array in config.scene_arrays() {
         match &config.compiled_in {
             Some(data) if config.compiles_in(array.source) => baked_array(&mut out, &array, data),
-            _ => buffer_array(&mut out, &array),
+            _ => memory_array(&mut out, &array, config.in_texture(array.source)),
         }
     }
     closest_hit(&mut out, config);
@@ -87,44 +90,75 @@ pub fn scene(config: &KernelConfig) -> String {
 pub fn buffer_arrays(arrays: Vec<SceneArray>) -> String {
     let mut out = String::new();
     for array in &arrays {
-        buffer_array(&mut out, array);
+        memory_array(&mut out, array, false);
     }
     out
 }
 
-/// A buffer array is read through `NAME_count` and `NAME_at`. Where its
+/// An array in memory is read through `NAME_count` and `NAME_at`. Where its
 /// elements are structs of whole words (16-byte vectors, or one 8-byte one) of
-/// 4-byte fields, the buffer is declared as `vec4<u32>` (`vec2<u32>`) words
-/// and `NAME_at` rebuilds the struct from them: lavapipe (Mesa 22.3) loads a
-/// storage buffer in a loop over the SIMD lanes per load instruction, and a
-/// struct's load is one instruction per field (a `Triangle`'s four, a
-/// `Material`'s eight), its words' one per word.
-fn buffer_array(out: &mut String, array: &SceneArray) {
+/// 4-byte fields, it is declared as `vec4<u32>` (`vec2<u32>`) words, read by
+/// `NAME_word`, from which `NAME_at` rebuilds the struct: lavapipe (Mesa 22.3)
+/// loads a storage buffer in a loop over the SIMD lanes per load instruction,
+/// and a struct's load is one instruction per field (a `Triangle`'s four, a
+/// `Material`'s eight), its words' one per word. In a texture
+/// (`gpu::texture_array`) an array is always words, `NAME_at` only where its
+/// fields allow (a wide BVH node's are read as words by its walk).
+fn memory_array(out: &mut String, array: &SceneArray, texture: bool) {
     let SceneArray { name, binding, .. } = array;
     let wgsl_type = array.wgsl_type();
-    let layout = array.source.element_layout();
-    let words = layout.and_then(|layout| Some((word_size(layout)?, vector_words(layout)?)));
-    let Some((word, fields)) = words else {
-        writeln!(
-            out,
-            "@group(1) @binding({binding}) var<storage, read> {name}: array<{wgsl_type}>;
+    let word = array.source.word_size();
+    let fields = word.and_then(|word| vector_words(array.source.element_layout()?, word));
+    let word = match (word, texture, &fields) {
+        (Some(word), true, _) | (Some(word), false, Some(_)) => word,
+        _ => {
+            writeln!(
+                out,
+                "@group(1) @binding({binding}) var<storage, read> {name}: array<{wgsl_type}>;
 fn {name}_count() -> u32 {{ return arrayLength(&{name}); }}
 fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
-        )
-        .unwrap();
-        return;
+            )
+            .unwrap();
+            return;
+        }
     };
     let per_element = array.element_size() / word;
+    let word_type = format!("vec{}<u32>", word / 4);
+    if texture {
+        let swizzle = if word == 8 { ".xy" } else { "" };
+        writeln!(
+            out,
+            "@group(1) @binding({binding}) var {name}: texture_2d<u32>;
+fn {name}_count() -> u32 {{ return textureLoad({name}, vec2<u32>(0u), 0).x; }}
+fn {name}_word(i: u32) -> {word_type} {{
+    let texel = i + 1u;
+    return textureLoad({name}, vec2<u32>(texel % TEXTURE_ARRAY_WIDTH, texel / TEXTURE_ARRAY_WIDTH), 0){swizzle};
+}}"
+        )
+        .unwrap();
+    } else {
+        writeln!(
+            out,
+            "@group(1) @binding({binding}) var<storage, read> {name}: array<{word_type}>;
+fn {name}_count() -> u32 {{ return arrayLength(&{name}) / {per_element}u; }}
+fn {name}_word(i: u32) -> {word_type} {{ return {name}[i]; }}"
+        )
+        .unwrap();
+    }
+    let Some(fields) = fields else {
+        return;
+    };
     let mut loads = String::new();
     for w in 0..per_element {
-        writeln!(loads, "    let w{w} = {name}[{per_element}u * i + {w}u];").unwrap();
+        writeln!(
+            loads,
+            "    let w{w} = {name}_word({per_element}u * i + {w}u);"
+        )
+        .unwrap();
     }
-    let components = word / 4;
     writeln!(
         out,
-        "@group(1) @binding({binding}) var<storage, read> {name}: array<vec{components}<u32>>;
-fn {name}_count() -> u32 {{ return arrayLength(&{name}) / {per_element}u; }}
-fn {name}_at(i: u32) -> {wgsl_type} {{
+        "fn {name}_at(i: u32) -> {wgsl_type} {{
 {loads}    return {wgsl_type}({});
 }}",
         fields.join(", ")
@@ -132,21 +166,10 @@ fn {name}_at(i: u32) -> {wgsl_type} {{
     .unwrap();
 }
 
-/// The bytes of the words an element of `layout` is read in: 16, or 8 for an
-/// element of 8 bytes; `None` for other sizes.
-fn word_size(layout: ErasedLayout) -> Option<usize> {
-    match layout.size {
-        8 => Some(8),
-        size if size % 16 == 0 => Some(16),
-        _ => None,
-    }
-}
-
 /// Each field of `layout` read from the words `w0`, `w1`, ... of its element
-/// (of `word_size` bytes), or `None` where a field is not a 4-byte scalar or a
+/// (of `word` bytes), or `None` where a field is not a 4-byte scalar or a
 /// vector of them within one word.
-fn vector_words(layout: ErasedLayout) -> Option<Vec<String>> {
-    let word = word_size(layout)?;
+fn vector_words(layout: ErasedLayout, word: usize) -> Option<Vec<String>> {
     (layout.fields)()
         .into_iter()
         .map(|(_, offset, wgsl_type)| {
@@ -325,7 +348,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             }
         }
         let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
-        bvh_traversal(out, &bvh_kinds, config.bvh_stack, test);
+        bvh_traversal(out, config, &bvh_kinds, test);
     } else {
         for &k in &kinds {
             let array = PRIMITIVE_KINDS[k].array;
@@ -446,16 +469,46 @@ impl RegisterStack {
 /// A walk of a wide BVH (`accel::WideBvh`) from its root, the code of
 /// `wide_bvh_walk`: where its nodes are and which boxes it opens.
 struct WideWalk<'a> {
-    /// The nodes' array, compiled in (`baked`: read through `NAME_at`) or a
-    /// buffer, whose nodes are read in place: copying each node out through
-    /// `NAME_at` took 1.25x the time of the light walk in place (Mitsuba's box
-    /// with the bunny emitting, under the mixture).
+    /// The nodes' array.
     nodes: &'a str,
-    baked: bool,
+    memory: NodeMemory,
     /// The ray's origin; `inv_dir` is its direction's reciprocal, in scope.
     origin: &'a str,
     /// Boxes entered beyond this distance are skipped.
     t_max: &'a str,
+}
+
+/// How a walk reads its nodes' arrays.
+#[derive(Clone, Copy)]
+enum NodeMemory {
+    /// Compiled in: a node is read through `NAME_at`.
+    Baked,
+    /// A storage buffer, whose nodes are read in place: copying each node out
+    /// through `NAME_at` took 1.25x the time of the light walk in place
+    /// (Mitsuba's box with the bunny emitting, under the mixture).
+    Buffer,
+    /// A texture, read a word at a time through `NAME_word`.
+    Texture,
+}
+
+impl NodeMemory {
+    fn of(config: &KernelConfig, nodes: ArraySource) -> NodeMemory {
+        if config.compiles_in(nodes) {
+            NodeMemory::Baked
+        } else if config.in_texture(nodes) {
+            NodeMemory::Texture
+        } else {
+            NodeMemory::Buffer
+        }
+    }
+}
+
+/// The word of a wide BVH node holding `field` (`accel::WideBvhNode`'s layout).
+fn node_word(field: &str) -> usize {
+    let (_, offset, _) = (WideBvhNode::fields().into_iter())
+        .find(|(name, _, _)| *name == field)
+        .expect("a field of WideBvhNode");
+    offset / 16
 }
 
 /// Depth-first walk of a wide BVH with a stack, running `leaf` at every leaf
@@ -477,17 +530,44 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str)
     let top = stack.top();
     let WideWalk {
         nodes,
-        baked,
+        memory,
         origin,
         t_max,
     } = walk;
-    let node_at = |index: &str| match baked {
-        true => format!("{nodes}_at({index})"),
-        false => format!("{nodes}[{index}]"),
+    let words = size_of::<WideBvhNode>() / 16;
+    let box_fields = ["planes_a", "planes_b", "origin"];
+    // The visited node (`node`), and its box vectors: the three arguments of
+    // `wide_bvh_children_t`.
+    let (node, boxes) = match memory {
+        NodeMemory::Baked => (
+            format!("{nodes}_at(link.x)"),
+            box_fields.map(|field| format!("node.{field}")),
+        ),
+        NodeMemory::Buffer => (
+            format!("&{nodes}[link.x]"),
+            box_fields.map(|field| format!("(*node).{field}")),
+        ),
+        NodeMemory::Texture => (
+            format!("{words}u * link.x"),
+            box_fields.map(|field| {
+                let word = format!("{nodes}_word(node + {}u)", node_word(field));
+                match field {
+                    "origin" => format!("bitcast<vec4<f32>>({word})"),
+                    _ => word,
+                }
+            }),
+        ),
     };
-    let (visited, node) = match baked {
-        true => (node_at("link.x"), "node"),
-        false => (format!("&{}", node_at("link.x")), "(*node)"),
+    let boxes = boxes.join(", ");
+    // `link = ` the link in `slot` of node `index`.
+    let read_link = |index: &str, indent: &str| match memory {
+        NodeMemory::Baked => format!("{indent}link = {nodes}_at({index}).links[slot];\n"),
+        NodeMemory::Buffer => format!("{indent}link = {nodes}[{index}].links[slot];\n"),
+        NodeMemory::Texture => format!(
+            "{indent}let pair = {nodes}_word({words}u * ({index}) + {}u + (slot >> 1u));\n\
+             {indent}link = select(pair.xy, pair.zw, (slot & 1u) != 0u);\n",
+            node_word("links")
+        ),
     };
     // The top entry once `entry`, its nearest child, is taken: the rest, or
     // popped when none is left (where `taken`, if given).
@@ -516,8 +596,8 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str)
             if link.y != 0u {{
                 break;
             }}
-            let node = {visited};
-            let keys = wide_bvh_order(wide_bvh_children_t({node}.planes_a, {node}.planes_b, {node}.origin, {origin}, inv_dir, {t_max}));
+            let node = {node};
+            let keys = wide_bvh_order(wide_bvh_children_t({boxes}, {origin}, inv_dir, {t_max}));
             let hits = select(vec4<u32>(0u), vec4<u32>(1u), keys < vec4<u32>(WIDE_BVH_MISS));
             let pending = hits.y + hits.z + hits.w;
             let pushed = pending != 0u;
@@ -529,8 +609,8 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str)
             }}
             // The nearest hit child, else the stack top's nearest.
             let entry = {top};
-            link = {}.links[select(keys.x, entry, from_stack) & 3u];
-{}        }}
+            let slot = select(keys.x, entry, from_stack) & 3u;
+{}{}        }}
         if missed {{
             break;
         }}
@@ -539,8 +619,8 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str)
             break;
         }}
         let entry = {top};
-        link = {}.links[entry & 3u];
-{}    }}
+        let slot = entry & 3u;
+{}{}    }}
 ",
         stack.declare("    "),
         stack.push(
@@ -548,9 +628,9 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str)
             Some("pushed"),
             "            "
         ),
-        node_at("select(link.x, entry >> 8u, from_stack)"),
+        read_link("select(link.x, entry >> 8u, from_stack)", "            "),
         pop_rest(Some("from_stack"), "            "),
-        node_at("entry >> 8u"),
+        read_link("entry >> 8u", "        "),
         pop_rest(None, "        "),
     )
     .unwrap();
@@ -560,8 +640,8 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str)
 /// of one kind's array, tested by `test`; one switch per leaf, none with one kind.
 fn bvh_traversal(
     out: &mut String,
+    config: &KernelConfig,
     kinds: &[usize],
-    stack_size: u32,
     test: impl Fn(usize, &str) -> String,
 ) {
     let range = |k: usize, indent: &str| {
@@ -589,11 +669,11 @@ fn bvh_traversal(
     out.push_str("    let inv_dir = 1.0 / ray.dir;\n");
     let walk = WideWalk {
         nodes: "bvh_nodes",
-        baked: false,
+        memory: NodeMemory::of(config, ArraySource::BvhNodes),
         origin: "ray.origin",
         t_max: "hit.t",
     };
-    wide_bvh_walk(out, &walk, stack_size, &leaf);
+    wide_bvh_walk(out, &walk, config.bvh_stack, &leaf);
 }
 
 /// The light density p_light: the average of the solid-angle densities of every
@@ -779,7 +859,6 @@ fn group_sample(out: &mut String, kind: &PrimitiveKind) {
 /// density weighted by its probability within its group.
 fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
     let kind = PRIMITIVE_KINDS[k];
-    let baked = config.compiles_in(ArraySource::LightTable(k, LightTablePart::BvhNodes));
     let (name, lights) = (kind.name, kind.light_array());
     let nodes = LightTablePart::BvhNodes.array(name);
     let refs = LightTablePart::BvhRefs.array(name);
@@ -800,7 +879,7 @@ fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
     );
     let walk = WideWalk {
         nodes: &nodes,
-        baked,
+        memory: NodeMemory::of(config, ArraySource::LightTable(k, LightTablePart::BvhNodes)),
         origin: "origin",
         t_max: "F32_MAX",
     };
@@ -952,14 +1031,14 @@ fn dispatch(
 mod tests {
     use super::*;
     use crate::accel::WideBvhNode;
-    use crate::kinds::{Triangle, TriangleNormals};
+    use crate::kinds::Triangle;
     use crate::lights::LightRef;
     use std::collections::HashMap;
 
     #[test]
     fn structs_of_whole_words_are_read_as_words() {
         assert_eq!(
-            vector_words(ErasedLayout::of::<Triangle>()).unwrap(),
+            vector_words(ErasedLayout::of::<Triangle>(), 16).unwrap(),
             [
                 "bitcast<vec3<f32>>(w0.xyz)",
                 "w0.w",
@@ -971,12 +1050,18 @@ mod tests {
         );
         // An 8-byte element is one two-component word.
         assert_eq!(
-            vector_words(ErasedLayout::of::<LightRef>()).unwrap(),
+            vector_words(ErasedLayout::of::<LightRef>(), 8).unwrap(),
             ["w0.x", "bitcast<f32>(w0.y)"]
         );
-        // 12 bytes an element, and an array field: read as structs.
-        assert_eq!(vector_words(ErasedLayout::of::<TriangleNormals>()), None);
-        assert_eq!(vector_words(ErasedLayout::of::<WideBvhNode>()), None);
+        // 12 bytes an element: not words; an array field: words without `NAME_at`.
+        let triangle = PRIMITIVE_KINDS
+            .iter()
+            .position(|kind| kind.name == "triangle")
+            .unwrap();
+        assert_eq!(ArraySource::Normals(triangle).word_size(), None);
+        assert_eq!(ArraySource::Primitives(triangle).word_size(), Some(16));
+        assert_eq!(ArraySource::BvhNodes.word_size(), Some(16));
+        assert_eq!(vector_words(ErasedLayout::of::<WideBvhNode>(), 16), None);
     }
 
     /// Runs the stack's generated assignments (`x = v;` or `x = select(x, v, c);`,

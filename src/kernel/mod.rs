@@ -118,6 +118,22 @@ impl SceneStorage {
     }
 }
 
+/// How the arrays the kernel reads from memory are bound.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ArrayMemory {
+    /// Every array a read-only storage buffer.
+    Buffers,
+    /// Arrays of structs of whole words (`ArraySource::word_size`) as textures
+    /// of one word a texel (`gpu::texture_array`), read by `textureLoad`; the
+    /// others storage buffers. Mesa 22.3's lavapipe loads a storage buffer lane
+    /// by lane, each lane's value stored into a vector in memory that is then
+    /// reloaded whole: without AVX-512 (LLVM's in-register insert) every such
+    /// reload waits on a failed store forwarding. It fetches a texel per lane
+    /// into registers. Measured with AVX2 code (`GALLIUM_OVERRIDE_CPU_CAPS=avx`,
+    /// as on AMD's Zen 2 and 3): README, Speed.
+    Textures,
+}
+
 /// Where a scene array's elements come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ArraySource {
@@ -179,6 +195,16 @@ impl ArraySource {
                 | ArraySource::Environment(EnvironmentPart::Rows),
             ) => ("f32", 4),
             (None, other) => unreachable!("{other:?} has a host struct"),
+        }
+    }
+
+    /// The bytes of the words an element is read in, where its elements are
+    /// structs of whole words: 16, or 8 for an 8-byte struct.
+    pub fn word_size(self) -> Option<usize> {
+        match self.element_layout()?.size {
+            8 => Some(8),
+            size if size % 16 == 0 => Some(16),
+            _ => None,
         }
     }
 
@@ -348,6 +374,9 @@ pub struct KernelConfig {
     pub textures: bool,
     /// How the light density weighs the grouped lights (mesh faces).
     pub grouped_density: GroupedDensity,
+    /// How the arrays read from memory are bound: textures unless the device
+    /// reads buffers faster (`render::choose_array_memory`).
+    pub array_memory: ArrayMemory,
 }
 
 /// How the light density weighs the lights of grouped kinds (a mesh's faces),
@@ -484,6 +513,7 @@ impl KernelConfig {
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
             grouped_density,
+            array_memory: ArrayMemory::Textures,
         }
     }
 
@@ -542,6 +572,7 @@ impl KernelConfig {
             delta_light_pick: false,
             textures: true,
             grouped_density: GroupedDensity::Walk,
+            array_memory: ArrayMemory::Textures,
         }
     }
 
@@ -571,6 +602,14 @@ impl KernelConfig {
             ArraySource::LightTable(k, _) => data.light_tables[k].is_some(),
             _ => false,
         }
+    }
+
+    /// Whether the array of `source` is read from a texture (else from a
+    /// storage buffer, or compiled in).
+    pub fn in_texture(&self, source: ArraySource) -> bool {
+        self.array_memory == ArrayMemory::Textures
+            && source.word_size().is_some()
+            && !self.compiles_in(source)
     }
 
     /// Whether a material kind of the scene reads `material_tables`.
@@ -1222,6 +1261,15 @@ mod tests {
     fn every_module_combination_validates() {
         for config in all_variants() {
             validate(&config);
+            // The same arrays from storage buffers (the variants read textures),
+            // over every primitive kind and feature with all materials.
+            assert_eq!(config.array_memory, ArrayMemory::Textures);
+            if config.material_kinds == KindSet::all(MATERIAL_KINDS.len()) {
+                validate(&KernelConfig {
+                    array_memory: ArrayMemory::Buffers,
+                    ..config.clone()
+                });
+            }
             let mut bindings: Vec<u32> = config.scene_arrays().iter().map(|a| a.binding).collect();
             bindings.sort_unstable();
             let before = bindings.len();
