@@ -371,14 +371,18 @@ impl<'a> Renderer<'a> {
                     }
                     source => data.array_bytes(source),
                 };
-                let resource = match binding.source.word_size() {
-                    Some(word) if kernel.config.in_texture(binding.source) => {
+                let resource = match kernel.config.in_texture(binding.source) {
+                    true => {
                         let count = contents.len() / binding.element_size();
+                        let word = binding
+                            .source
+                            .word_size()
+                            .expect("texture arrays are words");
                         let texels = TextureArray::new(contents, count, word);
                         let texture = texels.upload(device, &ctx.queue);
                         SceneResource::Texture(texture.create_view(&Default::default()))
                     }
-                    _ => SceneResource::Buffer(device.create_buffer_init(
+                    false => SceneResource::Buffer(device.create_buffer_init(
                         &wgpu::util::BufferInitDescriptor {
                             label: Some("scene"),
                             contents,

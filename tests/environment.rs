@@ -4,6 +4,7 @@
 
 mod common;
 
+use pathmix::kernel::ArrayMemory;
 use pathmix::render::RenderOptions;
 use pathmix::scene::{Scene, Strategy};
 use std::path::Path;
@@ -641,10 +642,15 @@ fn a_sun_is_sampled_without_bias() {
 
 /// The largest map an adapter with 128 MiB storage bindings (lavapipe's) holds,
 /// 4096 x 2048 (8 M texels of 16 bytes), renders a furnace of 1; 8192 x 4096 is
-/// refused before the device is asked, naming the array and the limit.
+/// refused before the device is asked, naming the array and the limit. (From a
+/// texture, `ArrayMemory::Textures`, the limit is the largest texture's rows.)
 #[test]
 fn large_maps_render_or_are_refused_by_the_binding_limit() {
     let ctx = gpu_or_skip!();
+    let options = || RenderOptions {
+        array_memory: Some(ArrayMemory::Buffers),
+        ..options()
+    };
     let dir = common::TempDir::new("env", "large");
     common::write_exr(&dir.join("one.exr"), 2, 2, |_, _| [1.0; 3]);
     let limit = ctx.limits().max_storage_buffer_binding_size;

@@ -181,7 +181,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     }
     if !config.scene_bindings().is_empty() {
         println!(
-            "  arrays of whole 16- and 8-byte structs read from {}",
+            "  arrays read from {}",
             match config.array_memory {
                 ArrayMemory::Textures => "textures (this driver reads them faster than buffers)",
                 ArrayMemory::Buffers => "storage buffers",
@@ -236,6 +236,10 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         limits.max_storage_buffer_binding_size
     );
     println!("  max buffer size: {} B", limits.max_buffer_size);
+    println!(
+        "  max textures a kernel reads: {}",
+        limits.max_sampled_textures_per_shader_stage
+    );
     println!(
         "  max workgroups per dimension: {}",
         limits.max_compute_workgroups_per_dimension

@@ -97,20 +97,25 @@ pub fn buffer_arrays(arrays: Vec<SceneArray>) -> String {
 
 /// An array in memory is read through `NAME_count` and `NAME_at`. Where its
 /// elements are structs of whole words (16-byte vectors, or one 8-byte one) of
-/// 4-byte fields, it is declared as `vec4<u32>` (`vec2<u32>`) words, read by
-/// `NAME_word`, from which `NAME_at` rebuilds the struct: lavapipe (Mesa 22.3)
-/// loads a storage buffer in a loop over the SIMD lanes per load instruction,
-/// and a struct's load is one instruction per field (a `Triangle`'s four, a
-/// `Material`'s eight), its words' one per word. In a texture
-/// (`gpu::texture_array`) an array is always words, `NAME_at` only where its
-/// fields allow (a wide BVH node's are read as words by its walk).
+/// 4-byte fields, a buffer is declared as `vec4<u32>` (`vec2<u32>`) words, read
+/// by `NAME_word`, from which `NAME_at` rebuilds the struct: lavapipe (Mesa
+/// 22.3) loads a storage buffer in a loop over the SIMD lanes per load
+/// instruction, and a struct's load is one instruction per field (a
+/// `Triangle`'s four, a `Material`'s eight), its words' one per word. In a
+/// texture (`gpu::texture_array`) an array is always words, with `NAME_at`
+/// where its fields allow (a wide BVH node's are read as words by its walk).
 fn memory_array(out: &mut String, array: &SceneArray, texture: bool) {
     let SceneArray { name, binding, .. } = array;
     let wgsl_type = array.wgsl_type();
+    let layout = array.source.element_layout();
     let word = array.source.word_size();
-    let fields = word.and_then(|word| vector_words(array.source.element_layout()?, word));
-    let word = match (word, texture, &fields) {
-        (Some(word), true, _) | (Some(word), false, Some(_)) => word,
+    let fields = match layout {
+        Some(layout) => word.and_then(|word| vector_words(layout, word)),
+        // An environment map's `vec4<f32>` texels.
+        None => Some(vec![format!("bitcast<{wgsl_type}>(w0)")]),
+    };
+    let word = match word {
+        Some(word) if texture || (layout.is_some() && fields.is_some()) => word,
         _ => {
             writeln!(
                 out,
@@ -123,9 +128,11 @@ fn {name}_at(i: u32) -> {wgsl_type} {{ return {name}[i]; }}"
         }
     };
     let per_element = array.element_size() / word;
-    let word_type = format!("vec{}<u32>", word / 4);
+    let (word_type, swizzle) = match word {
+        16 => ("vec4<u32>", ""),
+        _ => ("vec2<u32>", ".xy"),
+    };
     if texture {
-        let swizzle = if word == 8 { ".xy" } else { "" };
         writeln!(
             out,
             "@group(1) @binding({binding}) var {name}: texture_2d<u32>;
@@ -1053,13 +1060,20 @@ mod tests {
             vector_words(ErasedLayout::of::<LightRef>(), 8).unwrap(),
             ["w0.x", "bitcast<f32>(w0.y)"]
         );
-        // 12 bytes an element: not words; an array field: words without `NAME_at`.
+        // 12 bytes an element, or a table of floats: not words; an
+        // environment map's `vec4<f32>` texels are; an array field: words
+        // without `NAME_at`.
         let triangle = PRIMITIVE_KINDS
             .iter()
             .position(|kind| kind.name == "triangle")
             .unwrap();
         assert_eq!(ArraySource::Normals(triangle).word_size(), None);
+        assert_eq!(ArraySource::MaterialTables.word_size(), None);
         assert_eq!(ArraySource::Primitives(triangle).word_size(), Some(16));
+        assert_eq!(
+            ArraySource::Environment(crate::kernel::EnvironmentPart::Texels).word_size(),
+            Some(16)
+        );
         assert_eq!(ArraySource::BvhNodes.word_size(), Some(16));
         assert_eq!(vector_words(ErasedLayout::of::<WideBvhNode>(), 16), None);
     }

@@ -123,11 +123,13 @@ impl SceneStorage {
 pub enum ArrayMemory {
     /// Every array a read-only storage buffer.
     Buffers,
-    /// Arrays of structs of whole words (`ArraySource::word_size`) as textures
-    /// of one word a texel (`gpu::texture_array`), read by `textureLoad`; the
-    /// others storage buffers. Mesa 22.3's lavapipe loads a storage buffer lane
-    /// by lane, each lane's value stored into a vector in memory that is then
-    /// reloaded whole: without AVX-512 (LLVM's in-register insert) every such
+    /// Arrays of whole 16- or 8-byte words (`ArraySource::word_size`) as
+    /// textures of one word a texel (`gpu::texture_array`), read by
+    /// `textureLoad`; the others storage buffers (tables of floats, 12-byte
+    /// elements: as textures of 4-byte texels, a textured scene took 1.12x
+    /// the time). Mesa 22.3's lavapipe loads a storage buffer lane by lane,
+    /// each lane's value stored into a vector in memory that is then reloaded
+    /// whole: without AVX-512 (LLVM's in-register insert) every such
     /// reload waits on a failed store forwarding. It fetches a texel per lane
     /// into registers. Measured with AVX2 code (`GALLIUM_OVERRIDE_CPU_CAPS=avx`,
     /// as on AMD's Zen 2 and 3): README, Speed.
@@ -198,10 +200,10 @@ impl ArraySource {
         }
     }
 
-    /// The bytes of the words an element is read in, where its elements are
-    /// structs of whole words: 16, or 8 for an 8-byte struct.
+    /// The bytes of the words an element is read in, where it is whole words:
+    /// 16 where its size is a multiple of 16, 8 for an 8-byte element.
     pub fn word_size(self) -> Option<usize> {
-        match self.element_layout()?.size {
+        match self.element().1 {
             8 => Some(8),
             size if size % 16 == 0 => Some(16),
             _ => None,
