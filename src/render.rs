@@ -1259,7 +1259,7 @@ pub fn prepare_scene(
 /// The array memory asked for, or textures where they read faster
 /// (`GpuContext::textures_read_faster`) and the adapter can bind every texture
 /// `config` would read; else storage buffers.
-pub fn choose_array_memory(
+fn choose_array_memory(
     ctx: &GpuContext,
     data: &SceneData,
     config: &KernelConfig,

@@ -78,29 +78,27 @@ const FIELD_SIZES: [usize; 3] = [100, 1000, 4000];
 /// Paths/s of the sphere field against its sphere count, in the default storage
 /// (baked up to 128 objects, the BVH above), and the BVH's with its arrays in
 /// the other memory (`--array-memory`).
-fn scale_curve(ctx: &GpuContext, samples: u32, repetitions: usize) -> Result<(), Failure> {
+fn scale_curve(
+    ctx: &GpuContext,
+    (default_memory, other_memory): (ArrayMemory, ArrayMemory),
+    samples: u32,
+    repetitions: usize,
+) -> Result<(), Failure> {
     println!("\nscale curve (a field of spheres, 256x256, {samples} spp, max depth 8, mixture):\n");
     println!(
         "| spheres | storage | arrays | M paths/s | vs {} spheres |",
         FIELD_SIZES[0]
     );
     println!("|--:|---|---|--:|--:|");
-    let default_memory = match ctx.textures_read_faster {
-        true => ArrayMemory::Textures,
-        false => ArrayMemory::Buffers,
-    };
     let mut first: Option<f64> = None;
     for n in FIELD_SIZES {
         let scene = bench::sphere_field(n);
         let storage = SceneStorage::auto(&SceneData::pack(&scene));
-        let memories: &[ArrayMemory] = match storage {
-            SceneStorage::Bvh => &[default_memory, ArrayMemory::Buffers, ArrayMemory::Textures],
-            _ => &[default_memory],
+        let memories = match storage {
+            SceneStorage::Bvh => vec![default_memory, other_memory],
+            _ => vec![default_memory],
         };
-        for (i, &memory) in memories.iter().enumerate() {
-            if i > 0 && memory == default_memory {
-                continue;
-            }
+        for memory in memories {
             let options = RenderOptions {
                 array_memory: Some(memory),
                 ..RenderOptions::default()
@@ -143,10 +141,16 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     } else {
         AccumulatorKind::Buffer
     };
-    // The array memory this adapter does not get by default (`choose_array_memory`).
-    let (other_memory, other_memory_name) = match ctx.textures_read_faster {
-        true => (ArrayMemory::Buffers, "arrays in buffers"),
-        false => (ArrayMemory::Textures, "arrays in textures"),
+    // The array memory this adapter gets by default (`choose_array_memory`), and the other.
+    let (memories, other_memory_name) = match ctx.textures_read_faster {
+        true => (
+            (ArrayMemory::Textures, ArrayMemory::Buffers),
+            "arrays in buffers",
+        ),
+        false => (
+            (ArrayMemory::Buffers, ArrayMemory::Textures),
+            "arrays in textures",
+        ),
     };
     // Renderer options, and scene settings changed from the scene file's.
     let options = |options: RenderOptions| (options, SceneOverrides::default());
@@ -177,7 +181,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
         (
             other_memory_name,
             options(RenderOptions {
-                array_memory: Some(other_memory),
+                array_memory: Some(memories.1),
                 ..RenderOptions::default()
             }),
         ),
@@ -244,7 +248,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
             baseline.get_or_insert(m);
         }
     }
-    scale_curve(&ctx, if args.quick { 1 } else { 16 }, repetitions)?;
+    scale_curve(&ctx, memories, if args.quick { 1 } else { 16 }, repetitions)?;
     if !args.no_startup {
         startup(args.adapter.as_deref())?;
     }

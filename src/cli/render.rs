@@ -110,11 +110,12 @@ pub struct RenderArgs {
     /// baked for scenes of up to 128 objects, the BVH above.
     #[arg(long, value_enum)]
     pub scene_storage: Option<SceneStorageArg>,
-    /// How the kernel reads the scene's arrays of whole 16- and 8-byte structs
-    /// (primitives, materials, BVH nodes) that are not compiled in: from
-    /// textures, or from storage buffers. The images are the same; Mesa's
-    /// lavapipe reads textures faster on CPUs without AVX-512. Default:
-    /// textures where the adapter can bind them.
+    /// How the kernel reads the scene's arrays of whole 16- and 8-byte words
+    /// (primitives, materials, BVH nodes, an environment map's texels) that
+    /// are not compiled in: from textures, or from storage buffers. The images
+    /// are the same; Mesa's lavapipe reads textures faster on CPUs without
+    /// AVX-512. Default: textures on such a CPU driver where the adapter can
+    /// bind them all, else buffers.
     #[arg(long, value_enum)]
     pub array_memory: Option<ArrayMemoryArg>,
     /// Save the accumulated state (raw sums and compensations, sample count,
