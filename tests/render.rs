@@ -131,6 +131,21 @@ fn buffer_accumulator_matches_texture_accumulator() {
     assert!(buffer.sum.iter().any(|p| p[0] > 0.0), "the image is black");
 }
 
+/// `scene` at 24x20, 4 spp, under `strategy`: the size at which the storage
+/// comparisons render.
+fn small(mut scene: Scene, strategy: Strategy) -> Scene {
+    scene
+        .apply_overrides(&SceneOverrides {
+            width: Some(24),
+            height: Some(20),
+            spp: Some(4),
+            strategy: Some(strategy),
+            ..Default::default()
+        })
+        .unwrap();
+    scene
+}
+
 /// The scene baked into the kernel as constants renders bit for bit what the
 /// storage buffers render: same data, same arithmetic.
 #[test]
@@ -144,16 +159,7 @@ fn baked_scene_matches_scene_buffers() {
         // Every microfacet material, the roughplastic coats' tables among them.
         ("materials.toml", Strategy::NeeMis),
     ] {
-        let mut scene = common::scene_file(file);
-        scene
-            .apply_overrides(&SceneOverrides {
-                width: Some(24),
-                height: Some(20),
-                spp: Some(4),
-                strategy: Some(strategy),
-                ..Default::default()
-            })
-            .unwrap();
+        let scene = small(common::scene_file(file), strategy);
         let render = |storage| {
             let options = RenderOptions {
                 scene_storage: Some(storage),
@@ -237,19 +243,11 @@ fn array_textures_match_array_buffers() {
         ("panel", SceneStorage::Bvh, Strategy::Mixture),
     ];
     for (file, storage, strategy) in cases {
-        let mut scene = match file {
+        let scene = match file {
             "panel" => panel_scene.clone(),
             _ => common::scene_file(file),
         };
-        scene
-            .apply_overrides(&SceneOverrides {
-                width: Some(24),
-                height: Some(20),
-                spp: Some(4),
-                strategy: Some(strategy),
-                ..Default::default()
-            })
-            .unwrap();
+        let scene = small(scene, strategy);
         let render = |memory| {
             let options = RenderOptions {
                 scene_storage: Some(storage),
