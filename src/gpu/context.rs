@@ -141,9 +141,11 @@ impl GpuContext {
 /// Whether a CPU driver's code uses AVX-512 here: the CPU has it, with the OS
 /// saving its registers (as Mesa checks), and `GALLIUM_OVERRIDE_CPU_CAPS` or
 /// `GALLIUM_NOSSE`, which only take features away from llvmpipe, are unset.
+/// The in-register lane insert on 8-lane vectors needs the VL extension too.
 fn cpu_driver_avx512() -> bool {
     #[cfg(target_arch = "x86_64")]
-    let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+    let avx512 = std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512vl");
     #[cfg(not(target_arch = "x86_64"))]
     let avx512 = false;
     avx512
