@@ -1265,13 +1265,9 @@ fn choose_array_memory(
     config: &KernelConfig,
     wanted: Option<ArrayMemory>,
 ) -> Result<ArrayMemory, RenderError> {
-    let textures = KernelConfig {
-        array_memory: ArrayMemory::Textures,
-        ..config.clone()
-    };
     let limits = ctx.limits();
-    let arrays: Vec<_> = (textures.scene_bindings().into_iter())
-        .filter(|array| textures.in_texture(array.source))
+    let arrays: Vec<_> = (config.scene_bindings().into_iter())
+        .filter(|array| config.can_be_texture(array.source))
         .collect();
     let fits = arrays.len() <= limits.max_sampled_textures_per_shader_stage as usize
         && arrays.iter().all(|array| {

@@ -609,9 +609,13 @@ impl KernelConfig {
     /// Whether the array of `source` is read from a texture (else from a
     /// storage buffer, or compiled in).
     pub fn in_texture(&self, source: ArraySource) -> bool {
-        self.array_memory == ArrayMemory::Textures
-            && source.word_size().is_some()
-            && !self.compiles_in(source)
+        self.array_memory == ArrayMemory::Textures && self.can_be_texture(source)
+    }
+
+    /// Whether the array of `source` is read from a texture under
+    /// `ArrayMemory::Textures`: words, and not compiled in.
+    pub fn can_be_texture(&self, source: ArraySource) -> bool {
+        source.word_size().is_some() && !self.compiles_in(source)
     }
 
     /// Whether a material kind of the scene reads `material_tables`.
