@@ -21,7 +21,7 @@
 //! back; where not (evenly spread error), the run goes on uniformly and its image
 //! is the mean of every sample.
 
-use crate::gpu::accumulator::REPLICATES;
+use crate::abi::REPLICATES;
 use crate::stats::{Accumulation, luminance_f64};
 
 /// Samples per pixel of the first round (every pixel), before anything is decided.

@@ -7,7 +7,7 @@
 //! theta, phi)` within its cell: the density is positive wherever the radiance
 //! is, and a constant map is sampled uniformly over the sphere.
 
-use crate::gpu::layout::gpu_struct;
+use crate::abi::gpu_struct;
 use crate::scene::EnvironmentMap;
 use crate::scene::envmap::row_edge;
 

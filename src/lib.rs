@@ -10,6 +10,7 @@
 //! `converge` measures the strategies' speed/accuracy trade; `pilot` chooses one
 //! for `strategy = "auto"`.
 
+pub mod abi;
 pub mod accel;
 pub mod adaptive;
 pub mod bench;
@@ -21,6 +22,7 @@ pub mod kernel;
 pub mod kinds;
 pub mod lights;
 pub mod output;
+pub mod pack;
 pub mod paths;
 pub mod pilot;
 pub mod render;

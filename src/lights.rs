@@ -11,8 +11,10 @@
 //! Also the point and spot lights ([`DeltaLight`]), which are no part of the
 //! light density: the kernel sends them shadow rays of their own.
 
+use crate::abi::{Material, gpu_struct};
+use crate::accel::PrimitiveArrays;
 use crate::accel::{Bvh, WideBvh};
-use crate::gpu::layout::{Material, PackedArray, SceneData, gpu_struct};
+use crate::kinds::PackedArray;
 use crate::scene::PointLight;
 use std::sync::OnceLock;
 
@@ -167,7 +169,7 @@ pub struct LightBvh {
 impl LightBvh {
     /// Over `lights`, the light primitives of kind `k`, whose picks are `picks`.
     pub fn build(k: usize, lights: &PackedArray, picks: &[LightPick]) -> LightBvh {
-        let mut only_lights = SceneData::default();
+        let mut only_lights = PrimitiveArrays::default();
         only_lights.primitives[k] = lights.clone();
         let (bvh, leaf_order) =
             Bvh::build_order(&only_lights).expect("a grouped kind's tables have lights");

@@ -13,10 +13,10 @@
 //! pilot's samples). `light` is biased and never a candidate. Like the rest of the
 //! engine, this module prints nothing.
 
+use crate::abi::REPLICATES;
 use crate::adaptive;
 use crate::converge::{Variant, short_number};
 use crate::gpu::GpuContext;
-use crate::gpu::accumulator::REPLICATES;
 use crate::gpu::error_estimate::ErrorSums;
 use crate::render::{self, RenderError, RenderOptions, Renderer, prepare_scene};
 use crate::scene::{Scene, Strategy};

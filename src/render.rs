@@ -1,22 +1,22 @@
 //! Progressive accumulation: dispatching samples in short submissions, reading
 //! the running sums back, and the rules that stop a run.
 
+use crate::abi::{
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, Counters,
+    LAYER_SQUARES, LAYER_SUM, Params, RAY_OFFSET_RELATIVE, REPLICATES, replicate_layer,
+};
 use crate::accel::{self, WideBvh};
 use crate::adaptive;
-use crate::gpu::accumulator::{
-    Accumulator, LAYER_SQUARES, LAYER_SUM, REPLICATES, compensated_sums, map_read, replicate_layer,
-};
+use crate::gpu::accumulator::{Accumulator, compensated_sums, map_read};
 use crate::gpu::error_estimate::{ErrorEstimator, ErrorSums};
-use crate::gpu::layout::{CameraFrame, Counters, Params, RAY_OFFSET_RELATIVE, SceneData};
-use crate::gpu::pipeline::{
-    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, Kernel,
-};
+use crate::gpu::pipeline::Kernel;
 use crate::gpu::texture_array::{self, TextureArray};
 use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{
     AccumulatorKind, ArrayMemory, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE,
 };
 use crate::kinds::PRIMITIVE_KINDS;
+use crate::pack::{CameraFrame, SceneData};
 use crate::scene::{Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
 use crate::stats::{Accumulation, Replicates};
@@ -332,13 +332,13 @@ impl<'a> Renderer<'a> {
                 // A general kernel may declare kinds the scene lacks; bindings cannot be empty.
                 let never_hit;
                 let contents = match binding.source {
-                    ArraySource::Primitives(k) if data.primitives[k].is_empty() => {
+                    ArraySource::Primitives(k) if data.geometry.primitives[k].is_empty() => {
                         never_hit = (PRIMITIVE_KINDS[k].never_hit)();
                         &never_hit[..]
                     }
                     // A scene without objects has no materials, and nothing reads one.
                     ArraySource::Materials if data.materials.is_empty() => {
-                        never_hit = vec![0; size_of::<crate::gpu::layout::Material>()];
+                        never_hit = vec![0; size_of::<crate::abi::Material>()];
                         &never_hit[..]
                     }
                     // A light of no intensity: a general kernel's shadow rays find nothing.
@@ -365,7 +365,7 @@ impl<'a> Renderer<'a> {
                         never_hit = vec![0; size_of::<f32>()];
                         &never_hit[..]
                     }
-                    ArraySource::Uvs(k) if data.uvs[k].is_empty() => {
+                    ArraySource::Uvs(k) if data.geometry.uvs[k].is_empty() => {
                         never_hit = vec![0; binding.element_size()];
                         &never_hit[..]
                     }
@@ -912,7 +912,7 @@ impl<'a> Renderer<'a> {
 pub struct AccumulatorState {
     pub width: u32,
     pub height: u32,
-    /// 2 (sum, compensation) or 4 (and squares, compensation): `gpu::accumulator::LAYER_*`.
+    /// 2 (sum, compensation) or 4 (and squares, compensation): `abi::LAYER_*`.
     pub layers: u32,
     pub first_sample: u32,
     pub samples: u32,
@@ -1017,9 +1017,9 @@ pub fn plan_kernel(
         SceneStorage::Bvh => {
             // The general kernel compiles nothing in, large primitives included.
             if !options.general_kernel {
-                accel::put_large_first(&mut data);
+                accel::put_large_first(&mut data.geometry);
             }
-            match WideBvh::build(&mut data) {
+            match WideBvh::build(&mut data.geometry) {
                 Some(bvh) => {
                     data.bvh = Some(bvh);
                     SceneStorage::Bvh
@@ -1113,7 +1113,7 @@ fn check_scene_limits(
         return Err(limit(
             format!(
                 "one path vertex over {} objects and {} lights (scene storage {:?})",
-                data.primitive_count(),
+                data.geometry.primitive_count(),
                 data.light_count(),
                 config.scene_storage()
             ),
@@ -1343,7 +1343,7 @@ const BVH_MEAN_STEPS_MARGIN: f64 = 4.0;
 /// such faces took over 1 000 steps a ray and failed at 256), and the
 /// truncation guard reports a ray that needs more. The walk of a grouped kind's light BVH visits
 /// each node, reaches each leaf and tests each light at most once, so its
-/// nodes and lights bound it (`SceneData::light_density_iterations`), capped at
+/// nodes and lights bound it (`kernel::light_density_iterations`), capped at
 /// its own such allowance.
 pub fn max_samples_per_dispatch(data: &SceneData, config: &KernelConfig) -> u32 {
     let per_sample = loop_iterations_per_vertex(data, config) * (config.max_depth as u64 + 1);
@@ -1360,12 +1360,17 @@ fn bvh_walk_allowance(bvh: &WideBvh) -> u64 {
 fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     let closest_hit = match config.scene_storage() {
         SceneStorage::Baked => 0,
-        SceneStorage::Buffers => data.primitive_count() as u64,
+        SceneStorage::Buffers => data.geometry.primitive_count() as u64,
         SceneStorage::Bvh => data.bvh.as_ref().map_or(0, bvh_walk_allowance),
     };
     let baked = config.scene_storage() == SceneStorage::Baked;
     let mut inner_loops = closest_hit
-        + data.light_density_iterations(bvh_walk_allowance, baked, config.grouped_density);
+        + crate::kernel::light_density_iterations(
+            data,
+            bvh_walk_allowance,
+            baked,
+            config.grouped_density,
+        );
     // The environment's sampling bisects its two CDFs.
     if let Some(tables) = data
         .environment

@@ -10,11 +10,12 @@
 //! sample range, size, pathmix version and a CRC-32 of the other attributes and
 //! the pixel data.
 
-use crate::checkpoint::{IdentityError, SceneIdentity};
-use crate::gpu::accumulator::{
+use crate::abi::{
     LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
-    REPLICATES, compensated_sums, replicate_layer,
+    REPLICATES, replicate_layer,
 };
+use crate::checkpoint::{IdentityError, SceneIdentity};
+use crate::gpu::accumulator::compensated_sums;
 use crate::kernel::accumulator_layers;
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
@@ -31,7 +32,7 @@ use std::io;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-/// Channel groups of the first layers (`gpu::accumulator::LAYER_*`); the
+/// Channel groups of the first layers (`abi::LAYER_*`); the
 /// replicates' follow (`layer_name`).
 const LAYER_NAMES: [&str; 4] = ["sum", "sum_compensation", "squares", "squares_compensation"];
 const CHANNELS: [&str; 3] = ["R", "G", "B"];

@@ -10,8 +10,8 @@
 mod common;
 
 use glam::DVec3;
+use pathmix::abi::Material;
 use pathmix::gpu::GpuContext;
-use pathmix::gpu::layout::Material;
 use pathmix::kernel::KernelConfig;
 use pathmix::kinds::{
     KindSet, MATERIAL_KINDS, MaterialTables, ROUGH_TRANSMITTANCE_RES, pack_material,

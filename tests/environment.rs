@@ -376,7 +376,7 @@ fn run_probe(
         Strategy::Mixture,
         pathmix::kernel::AccumulatorKind::Buffer,
     );
-    let data = pathmix::gpu::layout::SceneData {
+    let data = pathmix::pack::SceneData {
         environment: Some(std::sync::Arc::new(tables.clone())),
         ..Default::default()
     };

@@ -639,7 +639,7 @@ fn importance_meshes_are_light_groups_weighed_by_area() {
          [[objects]]\ntype = \"mesh\"\nfile = \"two.obj\"\nmaterial = \"white\"\nimportance = true\n\
          [[objects]]\ntype = \"mesh\"\nfile = \"two.obj\"\nmaterial = \"lamp\"\ntranslate = [0, 0, -1]\n";
     let scene = scene_beside_mesh("importance", "two.obj", obj, text);
-    let data = pathmix::gpu::layout::SceneData::pack(&scene);
+    let data = pathmix::pack::SceneData::pack(&scene);
     let triangle = pathmix::kinds::PRIMITIVE_KINDS
         .iter()
         .position(|k| k.name == "triangle")

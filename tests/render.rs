@@ -2,8 +2,8 @@
 
 mod common;
 
+use pathmix::abi::REPLICATES;
 use pathmix::gpu::GpuContext;
-use pathmix::gpu::accumulator::REPLICATES;
 use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Roulette, Sampler, Scene, SceneOverrides, Strategy};

@@ -11,8 +11,8 @@
 mod common;
 
 use glam::{DVec3, Vec2, Vec3};
-use pathmix::gpu::layout::CameraFrame;
 use pathmix::kernel::SceneStorage;
+use pathmix::pack::CameraFrame;
 use pathmix::render::RenderOptions;
 use pathmix::scene::Scene;
 use std::path::Path;

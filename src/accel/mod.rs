@@ -6,13 +6,92 @@
 //! a leaf is a range of one kind's array: the kernel reads no references and
 //! switches on the kind once per leaf.
 
-use crate::gpu::layout::SceneData;
-use crate::kinds::PRIMITIVE_KINDS;
+use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedArray};
 use glam::Vec3;
 use std::time::Instant;
 
 pub mod wide;
 pub use wide::{WideBvh, WideBvhNode};
+
+/// Each kind's packed primitives and the arrays indexed like them: what a BVH
+/// is built over, and puts in leaf order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PrimitiveArrays {
+    /// Per kind of `PRIMITIVE_KINDS`: the primitives rays can hit.
+    pub primitives: Vec<PackedArray>,
+    /// Per kind: the shading normals of `primitives`, one element each, where
+    /// any of them is smooth (else empty).
+    pub normals: Vec<Vec<u8>>,
+    /// Per kind with `texture_uvs`: the texture coordinates of `primitives`,
+    /// one element each, where the scene has textures (else empty).
+    pub uvs: Vec<Vec<u8>>,
+    /// Per kind: how many of `primitives`, first in its array, are large
+    /// (`put_large_first`): tested by every ray beside the BVH, which holds
+    /// the rest.
+    pub large: Vec<usize>,
+}
+
+impl Default for PrimitiveArrays {
+    fn default() -> Self {
+        PrimitiveArrays {
+            primitives: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
+            normals: vec![Vec::new(); PRIMITIVE_KINDS.len()],
+            uvs: vec![Vec::new(); PRIMITIVE_KINDS.len()],
+            large: vec![0; PRIMITIVE_KINDS.len()],
+        }
+    }
+}
+
+impl PrimitiveArrays {
+    /// Puts kind `k`'s primitives, and every array indexed like them (the
+    /// shading normals, the texture coordinates), in `order`: element `j`
+    /// becomes the one at `order[j]` (each index once).
+    pub fn reorder(&mut self, k: usize, order: &[u32]) {
+        let array = &mut self.primitives[k];
+        let size = PRIMITIVE_KINDS[k].layout.size;
+        let mut sorted = PackedArray::default();
+        for &i in order {
+            sorted
+                .bytes
+                .extend_from_slice(array.element(i as usize, size));
+            sorted.materials.push(array.materials[i as usize]);
+        }
+        *array = sorted;
+        for per_primitive in [&mut self.normals[k], &mut self.uvs[k]] {
+            if !per_primitive.is_empty() {
+                let size = per_primitive.len() / order.len();
+                assert_eq!(
+                    per_primitive.len(),
+                    size * order.len(),
+                    "one element per primitive"
+                );
+                *per_primitive = order
+                    .iter()
+                    .flat_map(|&i| &per_primitive[i as usize * size..(i as usize + 1) * size])
+                    .copied()
+                    .collect();
+            }
+        }
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.primitives.iter().map(PackedArray::len).sum()
+    }
+
+    /// The primitive kinds rays can hit.
+    pub fn primitive_kinds(&self) -> KindSet {
+        (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| !self.primitives[k].is_empty())
+            .collect()
+    }
+
+    /// The primitive kinds shaded with interpolated normals.
+    pub fn normal_kinds(&self) -> KindSet {
+        (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| !self.normals[k].is_empty())
+            .collect()
+    }
+}
 
 /// A node of the binary BVH, which the kernel reads collapsed (`WideBvh`).
 /// Interior (`count` 0): the left child is the next node, the right one is
@@ -64,7 +143,7 @@ pub const MAX_LARGE: usize = 64;
 /// Moves the scene's large primitives (`LARGE_AREA_FRACTION`, at most
 /// `MAX_LARGE`, the largest first) to the front of their kind's arrays and
 /// sets `data.large`. None is large where no primitive would be left for the BVH.
-pub fn put_large_first(data: &mut SceneData) {
+pub fn put_large_first(data: &mut PrimitiveArrays) {
     let mut boxes = Vec::new();
     let mut scene = Bounds::EMPTY;
     for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
@@ -152,11 +231,11 @@ struct Item {
 
 impl Bvh {
     /// The BVH over the primitives of `data` after its large ones
-    /// (`SceneData::large`), whose primitive arrays it puts in leaf order
+    /// (`PrimitiveArrays::large`), whose primitive arrays it puts in leaf order
     /// after those, and with them every array indexed like them (the shading
     /// normals, the texture coordinates); `None` (and `data` unchanged) when
     /// there are none.
-    pub fn build(data: &mut SceneData) -> Option<Bvh> {
+    pub fn build(data: &mut PrimitiveArrays) -> Option<Bvh> {
         let started = Instant::now();
         let (mut bvh, leaf_order) = Bvh::build_order(data)?;
         for (k, order) in leaf_order.iter().enumerate() {
@@ -172,7 +251,7 @@ impl Bvh {
     /// entries are indices into `data.primitives[k]`, each once). `build`
     /// applies it; the light density's BVH (`lights::LightTables`) keeps it as
     /// references.
-    pub fn build_order(data: &SceneData) -> Option<(Bvh, Vec<Vec<u32>>)> {
+    pub fn build_order(data: &PrimitiveArrays) -> Option<(Bvh, Vec<Vec<u32>>)> {
         let started = Instant::now();
         let mut items = Vec::with_capacity(data.primitive_count());
         let mut leaf_order: Vec<Vec<u32>> = data
@@ -324,8 +403,8 @@ pub(crate) mod tests {
 
     /// Spheres of radius 0.5 at `centers`, material `i` for the i-th (so each is
     /// recognisable after reordering).
-    pub(crate) fn spheres(centers: &[[f32; 3]]) -> SceneData {
-        let mut data = SceneData::default();
+    pub(crate) fn spheres(centers: &[[f32; 3]]) -> PrimitiveArrays {
+        let mut data = PrimitiveArrays::default();
         let array = &mut data.primitives[kind_index("sphere")];
         for (i, &center) in centers.iter().enumerate() {
             let sphere = Sphere {
@@ -368,11 +447,11 @@ pub(crate) mod tests {
     /// is a range of one kind, small unless at the depth limit, and the leaves
     /// partition every array after its large primitives; every node's box holds
     /// its children's and its primitives' boxes.
-    fn build_checked(data: &SceneData) -> (Bvh, SceneData) {
+    fn build_checked(data: &PrimitiveArrays) -> (Bvh, PrimitiveArrays) {
         let mut sorted = data.clone();
         let bvh = Bvh::build(&mut sorted).unwrap();
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
-            let elements = |d: &SceneData| {
+            let elements = |d: &PrimitiveArrays| {
                 let mut e: Vec<Vec<u8>> = (0..d.primitives[k].len())
                     .map(|i| d.primitives[k].element(i, kind.layout.size).to_vec())
                     .collect();
@@ -497,7 +576,7 @@ pub(crate) mod tests {
     /// leaf order; `walk` gets the hierarchy, the ray (origin, direction) and
     /// `hit(p, t_max)`, sphere `p`'s distance along the ray if below `t_max`.
     pub(crate) fn assert_walk_finds_closest_hits<H>(
-        build: impl FnOnce(&SceneData) -> (H, SceneData),
+        build: impl FnOnce(&PrimitiveArrays) -> (H, PrimitiveArrays),
         walk: impl Fn(&H, Vec3, Vec3, &dyn Fn(usize, f32) -> Option<f32>) -> Option<(f32, usize)>,
     ) {
         let mut random = uniforms(11);
@@ -659,8 +738,8 @@ pub(crate) mod tests {
 
     #[test]
     fn no_primitives_no_bvh() {
-        let mut data = SceneData::default();
+        let mut data = PrimitiveArrays::default();
         assert_eq!(Bvh::build(&mut data), None);
-        assert_eq!(data, SceneData::default());
+        assert_eq!(data, PrimitiveArrays::default());
     }
 }

@@ -9,7 +9,8 @@
 //! one kind's array, encoded as in `BvhNode`.
 
 use super::{Bounds, Bvh, BvhNode, LEAF_COUNT_MASK, MAX_DEPTH};
-use crate::gpu::layout::{SceneData, gpu_struct};
+use crate::abi::gpu_struct;
+use crate::accel::PrimitiveArrays;
 use glam::Vec3;
 use std::time::Instant;
 
@@ -136,7 +137,7 @@ pub struct WideBvh {
 impl WideBvh {
     /// The wide BVH over every primitive of `data`, whose arrays `Bvh::build`
     /// puts in leaf order; `None` (and `data` unchanged) when it has none.
-    pub fn build(data: &mut SceneData) -> Option<WideBvh> {
+    pub fn build(data: &mut PrimitiveArrays) -> Option<WideBvh> {
         let started = Instant::now();
         let binary = Bvh::build(data)?;
         let mut wide = WideBvh::collapse(&binary);
@@ -279,7 +280,7 @@ mod tests {
     /// kind in exactly one leaf, each leaf one kind's range, every primitive
     /// inside the box (as the kernel reads it) of each slot above it, empty
     /// slots without links, the depth as reported and within the stack.
-    fn build_checked(data: &SceneData) -> (WideBvh, SceneData) {
+    fn build_checked(data: &PrimitiveArrays) -> (WideBvh, PrimitiveArrays) {
         let mut sorted = data.clone();
         let wide = WideBvh::build(&mut sorted).unwrap();
         let mut covered: Vec<Vec<bool>> = sorted

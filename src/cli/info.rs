@@ -4,8 +4,8 @@ use super::Failure;
 use super::render::StrategyArg;
 use clap::Args;
 use pathmix::gpu::GpuContext;
-use pathmix::gpu::layout::PackedArray;
 use pathmix::kernel::{ArrayMemory, SceneStorage};
+use pathmix::kinds::PackedArray;
 use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
 use pathmix::render::{KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel};
 use std::path::PathBuf;
@@ -93,7 +93,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     }
     println!(
         "  {}, {} materials ({}); light density: {}",
-        counts(&data.primitives).join(", "),
+        counts(&data.geometry.primitives).join(", "),
         data.materials.len(),
         kinds.join(", "),
         lights.join(", ")
@@ -175,7 +175,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
                 bvh.depth,
                 bvh.build_seconds,
                 bvh.expected_steps(),
-                data.large.iter().sum::<usize>()
+                data.geometry.large.iter().sum::<usize>()
             );
         }
     }

@@ -3,27 +3,6 @@
 use super::context::GpuContext;
 use crate::kernel::AccumulatorKind;
 
-/// The accumulator's layers: each running sum and its Kahan compensation (the
-/// sum minus the compensation is the sum without the rounding losses).
-pub const LAYER_SUM: u32 = 0;
-pub const LAYER_SUM_COMPENSATION: u32 = 1;
-/// Only with variance on: the sum of squared samples.
-pub const LAYER_SQUARES: u32 = 2;
-pub const LAYER_SQUARES_COMPENSATION: u32 = 3;
-/// With variance on and the Sobol sampler: from this layer on, the sums of
-/// replicates 1 to `REPLICATES - 1`, each followed by its compensation (replicate
-/// 0's sum is the total minus theirs).
-pub const LAYER_REPLICATES: u32 = 4;
-/// Independently scrambled replicates a pixel's Sobol samples are split into
-/// (sample i in replicate i mod REPLICATES): their means' spread is the error
-/// estimate, with REPLICATES - 1 degrees of freedom per pixel.
-pub const REPLICATES: u32 = 4;
-
-/// Layer of replicate `r`'s sum (1 <= r < REPLICATES); its compensation follows.
-pub fn replicate_layer(r: u32) -> u32 {
-    LAYER_REPLICATES + 2 * (r - 1)
-}
-
 /// Each pixel's sum in f64 (the running sum minus its compensation) from
 /// layer-major `texels` of `pixels` pixels per layer.
 pub fn compensated_sums(
@@ -259,6 +238,9 @@ pub fn map_read<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::abi::{
+        LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
+    };
 
     #[test]
     fn compensated_sums_subtract_each_layers_compensation() {

@@ -4,44 +4,17 @@
 //! conversion took 0.2–0.4 s per candidate on lavapipe; the strips are 12 bytes
 //! per 64 pixels.
 
-use super::accumulator::{Accumulator, REPLICATES, map_read};
+use super::accumulator::{Accumulator, map_read};
 use super::context::GpuContext;
-use super::layout::gpu_struct;
-use super::pipeline::{
-    BINDING_ACCUMULATOR, BINDING_PARAMS, accumulator_binding, compute_entry, storage_buffer,
+use super::pipeline::{accumulator_binding, compute_entry, storage_buffer};
+use crate::abi::{
+    BINDING_ACCUMULATOR, BINDING_ERROR_STRIPS, BINDING_PARAMS, ERROR_ENTRY_POINT,
+    ERROR_STRIP_PIXELS, ERROR_WORKGROUP_SIZE, ErrorStrip, EstimateParams, REPLICATES,
 };
 use crate::kernel::KernelConfig;
 use crate::shader::ComposeError;
 use crate::stats::Replicates;
 use wgpu::util::DeviceExt;
-
-/// Binding of the strips' sums (group 0; the accumulator at its kernel binding).
-pub const BINDING_ERROR_STRIPS: u32 = 2;
-/// Pixels of a row one invocation sums: few enough that f32 keeps the sums to
-/// about 1e-5, many enough that the strips are a small readback.
-pub const ERROR_STRIP_PIXELS: u32 = 64;
-/// Rows a workgroup takes, one per invocation.
-pub const ERROR_WORKGROUP_SIZE: u32 = 64;
-pub const ERROR_ENTRY_POINT: &str = "estimate_error";
-
-gpu_struct! {
-    pub struct EstimateParams {
-        pub width: u32,
-        pub height: u32,
-        pub samples: u32,
-        pub strips: u32,
-        pub replicate_samples: [u32; REPLICATES as usize],
-    }
-}
-
-gpu_struct! {
-    /// One strip's sums over its pixels and channels.
-    pub struct ErrorStrip {
-        pub mean: f32,
-        pub squared_error: f32,
-        pub non_finite: u32,
-    }
-}
 
 /// The image's sums over pixels and channels, in f64.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -3,7 +3,6 @@
 pub mod accumulator;
 pub mod context;
 pub mod error_estimate;
-pub mod layout;
 pub mod pipeline;
 pub mod texture_array;
 

@@ -2,15 +2,9 @@
 //! layouts derived from the same config as the WGSL.
 
 use super::context::GpuContext;
+use crate::abi::{BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS};
 use crate::kernel::{AccumulatorKind, ENTRY_POINT, KernelConfig};
 use crate::shader::ComposeError;
-
-/// Frame bindings (group 0), declared in common.wgsl and accumulate_*.wgsl.
-pub const BINDING_PARAMS: u32 = 0;
-pub const BINDING_ACCUMULATOR: u32 = 1;
-pub const BINDING_COUNTERS: u32 = 2;
-/// Only in an adaptive kernel: the active-pixel list (kernel.wgsl).
-pub const BINDING_ACTIVE_PIXELS: u32 = 3;
 
 pub struct Kernel {
     pub config: KernelConfig,

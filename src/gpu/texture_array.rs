@@ -4,9 +4,7 @@
 //! element count, which a storage buffer's `arrayLength` gave; the elements'
 //! words follow from texel 1, and the last row is padded with zeros.
 
-/// Texels a row: a power of two, so the kernel finds a texel's row and column
-/// by a shift and a mask.
-pub const WIDTH: u32 = 4096;
+use crate::abi::TEXTURE_ARRAY_WIDTH as WIDTH;
 
 /// The texels of an array of `bytes`, `count` elements of `word`-byte words
 /// (16: `rgba32uint`, 8: `rg32uint`).

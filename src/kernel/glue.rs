@@ -4,21 +4,18 @@
 //! `shaders/`, so they may use `#for_each`.
 
 use super::{ArraySource, KernelConfig, LightTablePart, SceneArray, WORKGROUP_SIZE};
+use crate::abi::{
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_ERROR_STRIPS,
+    BINDING_PARAMS, ERROR_STRIP_PIXELS, ERROR_WORKGROUP_SIZE, GpuLayout, LAYER_REPLICATES,
+    LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION, MATERIAL_FLAGS,
+    REPLICATES, TEXTURE_ARRAY_WIDTH,
+};
 use crate::accel::{self, WideBvhNode};
-use crate::gpu::accumulator::{
-    LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
-    REPLICATES,
-};
-use crate::gpu::error_estimate::{BINDING_ERROR_STRIPS, ERROR_STRIP_PIXELS, ERROR_WORKGROUP_SIZE};
-use crate::gpu::layout::{GpuLayout, MATERIAL_FLAGS, SceneData};
-use crate::gpu::pipeline::{
-    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
-};
-use crate::gpu::texture_array;
 use crate::kinds::{
     ErasedLayout, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, NO_LIGHT, PRIMITIVE_KINDS,
     PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
 };
+use crate::pack::SceneData;
 use crate::shader::element_constant;
 use std::fmt::Write;
 
@@ -58,7 +55,7 @@ pub fn shared_constants() -> String {
     constant("ROUGH_TRANSMITTANCE_RES", ROUGH_TRANSMITTANCE_RES as u32);
     constant("BVH_LEAF_KIND_SHIFT", accel::LEAF_KIND_SHIFT);
     constant("BVH_LEAF_COUNT_MASK", accel::LEAF_COUNT_MASK);
-    constant("TEXTURE_ARRAY_WIDTH", texture_array::WIDTH);
+    constant("TEXTURE_ARRAY_WIDTH", TEXTURE_ARRAY_WIDTH);
     constant("NO_LIGHT", NO_LIGHT);
     out
 }
@@ -209,7 +206,7 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             // Beside a BVH the compiled-in primitives are the large ones alone.
             let packed = match array.source {
                 ArraySource::Lights(_) => &data.lights[k],
-                _ => &data.primitives[k],
+                _ => &data.geometry.primitives[k],
             };
             let layout = PRIMITIVE_KINDS[k].layout;
             (0..packed.len())
@@ -220,7 +217,7 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             let layout = PRIMITIVE_KINDS[k]
                 .shading_normals
                 .expect("only kinds with shading normals have them");
-            data.normals[k]
+            data.geometry.normals[k]
                 .chunks_exact(layout.size)
                 .map(layout.wgsl_value)
                 .collect()

@@ -5,14 +5,16 @@
 
 mod glue;
 
-use crate::accel::{self, WideBvhNode};
-use crate::environment::EnvironmentInfo;
-use crate::gpu::accumulator::{
-    LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, REPLICATES, replicate_layer,
+use crate::abi::{
+    LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, Material, REPLICATES, replicate_layer,
 };
-use crate::gpu::layout::{Material, SceneData};
-use crate::kinds::{ErasedLayout, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, TextureInfo};
+use crate::accel::{self, WideBvh, WideBvhNode};
+use crate::environment::EnvironmentInfo;
+use crate::kinds::{
+    ErasedLayout, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, PackedArray, TextureInfo,
+};
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
+use crate::pack::SceneData;
 use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
@@ -107,7 +109,7 @@ impl SceneStorage {
     /// Baked for small scenes, a BVH for the rest; plain buffers for a scene
     /// with non-finite numbers (no literal to bake, no box to bound).
     pub fn auto(data: &SceneData) -> SceneStorage {
-        let objects = data.primitive_count() + data.light_count();
+        let objects = data.geometry.primitive_count() + data.light_count();
         if !data.is_finite() {
             SceneStorage::Buffers
         } else if objects <= Self::MAX_BAKED_OBJECTS {
@@ -345,7 +347,7 @@ pub struct KernelConfig {
     pub adaptive: bool,
     /// Scene data compiled into the kernel: the whole scene
     /// (`SceneStorage::Baked`), or beside a BVH its large primitives and a small
-    /// light density (`SceneData::beside_bvh`); `None`: everything is read from
+    /// light density (`beside_bvh`); `None`: everything is read from
     /// storage buffers.
     pub compiled_in: Option<SceneData>,
     /// Primitive kinds in the scene's BVH, through which closest hits are found
@@ -409,6 +411,66 @@ impl GroupedDensity {
             GroupedDensity::Points => "weighed by the density of the point hit, with no walk",
         }
     }
+}
+
+/// What a BVH kernel compiles in (`KernelConfig::compiled_in`): the large
+/// primitives, and the light density where it is finite and small enough
+/// to bake (with the large ones, at most `SceneStorage::MAX_BAKED_OBJECTS`,
+/// as a baked scene); `None` when neither is there.
+fn beside_bvh(data: &SceneData) -> Option<SceneData> {
+    let large: usize = data.geometry.large.iter().sum();
+    let lights_bake = large + data.light_count() <= SceneStorage::MAX_BAKED_OBJECTS
+        && PRIMITIVE_KINDS.iter().enumerate().all(|(k, kind)| {
+            let lights = &data.lights[k];
+            (0..lights.len()).all(|i| (kind.layout.is_finite)(lights.element(i, kind.layout.size)))
+        });
+    if large == 0 && !(lights_bake && data.light_count() > 0) {
+        return None;
+    }
+    let mut compiled = SceneData::default();
+    compiled.geometry.large = data.geometry.large.clone();
+    for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+        let array = &data.geometry.primitives[k];
+        compiled.geometry.primitives[k] = PackedArray {
+            bytes: array.bytes[..data.geometry.large[k] * kind.layout.size].to_vec(),
+            materials: array.materials[..data.geometry.large[k]].to_vec(),
+        };
+    }
+    if lights_bake {
+        compiled.lights = data.lights.clone();
+        compiled.light_members = data.light_members.clone();
+        compiled.light_tables = data.light_tables.clone();
+    }
+    Some(compiled)
+}
+
+/// Loop iterations of one evaluation of the light density: one per light of
+/// a kind tested in a loop (none when `baked`: the loops are unrolled); for
+/// grouped lights weighed by `grouped`, none by points, and a walk of
+/// their BVH (a loop even when baked: an inner step per node visited and
+/// per leaf reached, an outer step per leaf, one per light tested, and a
+/// leaf holds a light at least) counted as at most `bvh_allowance` of it.
+pub fn light_density_iterations(
+    data: &SceneData,
+    bvh_allowance: impl Fn(&WideBvh) -> u64,
+    baked: bool,
+    grouped: GroupedDensity,
+) -> u64 {
+    PRIMITIVE_KINDS
+        .iter()
+        .zip(&data.lights)
+        .zip(&data.light_tables)
+        .enumerate()
+        .map(|(k, ((kind, lights), tables))| match (tables, grouped) {
+            (Some(_), GroupedDensity::Points) if kind.grouped_lights => 0,
+            (Some(_), GroupedDensity::Walk) if kind.grouped_lights => {
+                let walk = data.light_bvh(k);
+                bvh_allowance(&walk.bvh).min((walk.bvh.nodes.len() + 3 * walk.refs.len()) as u64)
+            }
+            _ if baked => 0,
+            _ => lights.len() as u64,
+        })
+        .sum()
 }
 
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
@@ -475,13 +537,13 @@ impl KernelConfig {
             .max()
             .unwrap_or(accel::MAX_DEPTH);
         KernelConfig {
-            primitive_kinds: data.primitive_kinds(),
+            primitive_kinds: data.geometry.primitive_kinds(),
             light_kinds: if samples_lights {
                 data.light_kinds()
             } else {
                 KindSet::default()
             },
-            normal_kinds: data.normal_kinds(),
+            normal_kinds: data.geometry.normal_kinds(),
             material_kinds,
             strategy,
             max_depth: settings.max_depth,
@@ -493,12 +555,12 @@ impl KernelConfig {
             adaptive: false,
             compiled_in: match scene_storage {
                 SceneStorage::Baked => Some(data.clone()),
-                SceneStorage::Bvh => data.beside_bvh(),
+                SceneStorage::Bvh => beside_bvh(data),
                 SceneStorage::Buffers => None,
             },
             bvh_kinds: match scene_storage {
                 SceneStorage::Bvh => (0..PRIMITIVE_KINDS.len())
-                    .filter(|&k| data.primitives[k].len() > data.large[k])
+                    .filter(|&k| data.geometry.primitives[k].len() > data.geometry.large[k])
                     .collect(),
                 _ => KindSet::default(),
             },
@@ -901,7 +963,11 @@ impl KernelConfig {
             });
         }
         if let Some(data) = self.compiled_in.as_ref().filter(|_| self.bvh()) {
-            for k in self.primitive_kinds.iter().filter(|&k| data.large[k] > 0) {
+            for k in self
+                .primitive_kinds
+                .iter()
+                .filter(|&k| data.geometry.large[k] > 0)
+            {
                 arrays.push(SceneArray {
                     name: format!("large_{}", PRIMITIVE_KINDS[k].array),
                     // Never a buffer.
@@ -1012,9 +1078,11 @@ impl KernelConfig {
             Some(data) if self.compiles_in(array.source) => {
                 ArrayForm::Constants(match array.source {
                     ArraySource::Materials => data.materials.len(),
-                    ArraySource::Primitives(k) | ArraySource::Large(k) => data.primitives[k].len(),
+                    ArraySource::Primitives(k) | ArraySource::Large(k) => {
+                        data.geometry.primitives[k].len()
+                    }
                     ArraySource::Lights(k) => data.lights[k].len(),
-                    ArraySource::Normals(k) => data.primitives[k].len(),
+                    ArraySource::Normals(k) => data.geometry.primitives[k].len(),
                     ArraySource::LightTable(..) | ArraySource::DeltaLights => {
                         data.array_bytes(array.source).len() / array.element_size()
                     }
@@ -1062,7 +1130,7 @@ impl KernelConfig {
     }
 
     /// Running sums the accumulator holds: each sum and its compensation
-    /// (`gpu::accumulator::LAYER_*`).
+    /// (`abi::LAYER_*`).
     pub fn accumulator_layers(&self) -> u32 {
         accumulator_layers(self.variance, self.sampler)
     }
@@ -1120,13 +1188,14 @@ impl SceneData {
             ArraySource::MaterialTables => bytemuck::cast_slice(&self.material_tables),
             ArraySource::Textures => bytemuck::cast_slice(&self.textures),
             ArraySource::TextureTexels => bytemuck::cast_slice(&self.texture_texels),
-            ArraySource::Uvs(k) => &self.uvs[k],
-            ArraySource::Primitives(k) => &self.primitives[k].bytes,
+            ArraySource::Uvs(k) => &self.geometry.uvs[k],
+            ArraySource::Primitives(k) => &self.geometry.primitives[k].bytes,
             ArraySource::Large(k) => {
-                &self.primitives[k].bytes[..self.large[k] * PRIMITIVE_KINDS[k].layout.size]
+                &self.geometry.primitives[k].bytes
+                    [..self.geometry.large[k] * PRIMITIVE_KINDS[k].layout.size]
             }
             ArraySource::Lights(k) => &self.lights[k].bytes,
-            ArraySource::Normals(k) => &self.normals[k],
+            ArraySource::Normals(k) => &self.geometry.normals[k],
             ArraySource::LightTable(k, part) => {
                 let tables = self.light_tables[k]
                     .as_ref()
@@ -1164,7 +1233,8 @@ impl SceneData {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::layout::{Counters, PackedArray, Params};
+    use crate::abi::{Counters, Params};
+    use crate::kinds::PackedArray;
     use crate::kinds::{ErasedLayout, Lobe, Quad};
 
     /// `KernelConfig::for_scene` with a box filter, a buffer accumulator and no
@@ -1305,7 +1375,7 @@ mod tests {
             )),
             ..SceneData::default()
         };
-        data.primitives[0] = PackedArray {
+        data.geometry.primitives[0] = PackedArray {
             bytes: vec![0; size_of::<Quad>()],
             materials: vec![0],
         };
@@ -1444,7 +1514,7 @@ mod tests {
         // materials differ only by the texture's index in the flags.
         scene.materials[0].texture = None;
         let plain = SceneData::pack(&scene);
-        assert!(plain.textures.is_empty() && plain.uvs.iter().all(Vec::is_empty));
+        assert!(plain.textures.is_empty() && plain.geometry.uvs.iter().all(Vec::is_empty));
         let shift = crate::kinds::MATERIAL_TEXTURE_SHIFT;
         assert_eq!(data.materials[0].flags >> shift, 1);
         let mut untextured = data.materials.clone();
@@ -1657,10 +1727,10 @@ mod tests {
     fn large_primitives_and_few_lights_are_compiled_in_beside_a_bvh() {
         let scene = crate::bench::sphere_field(300);
         let mut data = SceneData::pack(&scene);
-        crate::accel::put_large_first(&mut data);
-        data.bvh = crate::accel::WideBvh::build(&mut data);
+        crate::accel::put_large_first(&mut data.geometry);
+        data.bvh = crate::accel::WideBvh::build(&mut data.geometry);
         let sphere = kind_index("sphere");
-        assert_eq!(data.large[sphere], 1);
+        assert_eq!(data.geometry.large[sphere], 1);
         let config_for = |data: &SceneData| {
             box_filtered_kernel(data, Strategy::NeeMis, &scene.render, SceneStorage::Bvh)
         };
@@ -1701,7 +1771,7 @@ mod tests {
                 materials: vec![Default::default()],
                 ..SceneData::default()
             };
-            data.primitives[0] = PackedArray {
+            data.geometry.primitives[0] = PackedArray {
                 bytes: vec![0; n * size_of::<Quad>()],
                 materials: vec![0; n],
             };
@@ -1711,7 +1781,7 @@ mod tests {
         assert_eq!(SceneStorage::auto(&quads(max)), SceneStorage::Baked);
         assert_eq!(SceneStorage::auto(&quads(max + 1)), SceneStorage::Bvh);
         let mut infinite = quads(1);
-        infinite.primitives[0].bytes[..4].copy_from_slice(&f32::INFINITY.to_ne_bytes());
+        infinite.geometry.primitives[0].bytes[..4].copy_from_slice(&f32::INFINITY.to_ne_bytes());
         assert_eq!(SceneStorage::auto(&infinite), SceneStorage::Buffers);
     }
 
@@ -1842,8 +1912,7 @@ mod tests {
     /// The kernel's constants are the Rust ones: naga reads them back.
     #[test]
     fn shared_constants_match_rust() {
-        use crate::gpu::accumulator::*;
-        use crate::gpu::pipeline::*;
+        use crate::abi::*;
         let module = validate(&KernelConfig::general(
             Strategy::NeeMis,
             AccumulatorKind::Buffer,
@@ -1871,7 +1940,7 @@ mod tests {
             .map(|(id, kind)| (kind.id_constant(), id as u32))
             .collect();
         expected.extend(ids.iter().map(|(name, id)| (name.as_str(), *id)));
-        expected.extend(crate::gpu::layout::MATERIAL_FLAGS.iter().copied());
+        expected.extend(crate::abi::MATERIAL_FLAGS.iter().copied());
         for (name, rust) in expected {
             assert_eq!(value(name), Some(rust), "{name}");
         }
@@ -2045,7 +2114,7 @@ mod tests {
     /// without replicates, and its structs are the host's.
     #[test]
     fn the_error_estimate_validates_and_matches_the_host() {
-        use crate::gpu::error_estimate::{ERROR_ENTRY_POINT, ErrorStrip, EstimateParams};
+        use crate::abi::{ERROR_ENTRY_POINT, ErrorStrip, EstimateParams};
         for sampler in [Sampler::Sobol, Sampler::Independent] {
             for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
                 let config = KernelConfig {

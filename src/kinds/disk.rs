@@ -3,7 +3,7 @@
 
 use super::quad::PlaneTerms;
 use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
-use crate::gpu::layout::gpu_struct;
+use crate::abi::gpu_struct;
 use crate::scene::Scene;
 use crate::shader::shader_module;
 

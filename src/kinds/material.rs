@@ -1,9 +1,9 @@
-//! Material kinds. Every material packs into one `gpu::layout::Material`;
+//! Material kinds. Every material packs into one `abi::Material`;
 //! [`pack_material`] says what each field holds for each kind, and a kind's
 //! description which BSDF lobes its WGSL module implements.
 
 use super::coat::CoatTables;
-use crate::gpu::layout::{Material, material_flag};
+use crate::abi::{Material, material_flag};
 use crate::scene::{self, Distribution};
 use crate::shader::{ShaderModule, shader_module};
 use std::sync::Mutex;

@@ -3,7 +3,7 @@
 //! A kind's description names its WGSL module and packed struct and says what it
 //! supports; the kernel's presence flags, modules, scene arrays, bindings, baked
 //! constants and generated WGSL glue (`kernel::glue`), the packed scene
-//! (`gpu::layout::SceneData`) and `pathmix info` are all derived from it. A new
+//! (`pack::SceneData`) and `pathmix info` are all derived from it. A new
 //! primitive kind is its WGSL file, a file here with its packed struct and
 //! description (listed in [`PRIMITIVE_KINDS`]), its scene type and parser
 //! (`scene`), and a test; a material kind is the same with [`MATERIAL_KINDS`].
@@ -26,7 +26,7 @@ pub use sphere::Sphere;
 pub use texture::{MATERIAL_TEXTURE_SHIFT, TEXTURE_CONSTANTS, TextureInfo, TextureTables};
 pub use triangle::{Triangle, TriangleNormals, TriangleUvs};
 
-use crate::gpu::layout::GpuLayout;
+use crate::abi::GpuLayout;
 use crate::scene::Scene;
 use crate::shader::ShaderModule;
 
@@ -181,6 +181,44 @@ impl PackedPrimitive {
             smooth: false,
             uvs: Vec::new(),
             light_group: None,
+        }
+    }
+}
+
+/// Packed elements of one scene array, as its storage buffer holds them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PackedArray {
+    pub bytes: Vec<u8>,
+    /// Each element's material index.
+    pub materials: Vec<u32>,
+}
+
+impl PackedArray {
+    pub fn len(&self) -> usize {
+        self.materials.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.materials.is_empty()
+    }
+
+    pub(crate) fn push(&mut self, primitive: &PackedPrimitive) {
+        self.bytes.extend_from_slice(&primitive.bytes);
+        self.materials.push(primitive.material);
+    }
+
+    /// Element `i`'s bytes, for a kind of element size `size`.
+    pub fn element(&self, i: usize, size: usize) -> &[u8] {
+        &self.bytes[i * size..(i + 1) * size]
+    }
+
+    /// Replaces the `u32` at byte `offset` of every element (of size `size`) by
+    /// `f` of it.
+    pub(crate) fn map_u32(&mut self, size: usize, offset: usize, f: impl Fn(u32) -> u32) {
+        for element in self.bytes.chunks_exact_mut(size) {
+            let field = &mut element[offset..offset + 4];
+            let value = f(bytemuck::pod_read_unaligned(field));
+            field.copy_from_slice(bytemuck::bytes_of(&value));
         }
     }
 }

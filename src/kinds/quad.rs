@@ -1,7 +1,7 @@
 //! Quads (parallelograms): `q + a u + b v` for `a, b` in [0, 1], normal `normalize(u x v)`.
 
 use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
-use crate::gpu::layout::gpu_struct;
+use crate::abi::gpu_struct;
 use crate::scene::Scene;
 use crate::shader::shader_module;
 

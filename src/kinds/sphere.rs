@@ -1,7 +1,7 @@
 //! Spheres, with outward normals.
 
 use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
-use crate::gpu::layout::gpu_struct;
+use crate::abi::gpu_struct;
 use crate::scene::Scene;
 use crate::shader::shader_module;
 

@@ -4,7 +4,7 @@
 //! (index + 1 above [`MATERIAL_TEXTURE_SHIFT`]; 0: none), so materials pack as
 //! before and untextured scenes are unchanged.
 
-use crate::gpu::layout::gpu_struct;
+use crate::abi::gpu_struct;
 use crate::scene::Texture;
 use crate::scene::texture::{TextureFilter, TextureKind, WrapMode};
 

@@ -1,7 +1,7 @@
 //! Triangles: the faces of meshes.
 
 use super::{ErasedLayout, NO_LIGHT, PackedPrimitive, PrimitiveKind};
-use crate::gpu::layout::gpu_struct;
+use crate::abi::gpu_struct;
 use crate::scene::Scene;
 use crate::shader::shader_module;
 use glam::Vec3;

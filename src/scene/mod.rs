@@ -91,7 +91,7 @@ impl fmt::Display for Strategy {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Sampler {
     /// Owen-scrambled Sobol points per pixel: each pair of dimensions is stratified
-    /// over the samples of each of `gpu::accumulator::REPLICATES` independently
+    /// over the samples of each of `abi::REPLICATES` independently
     /// scrambled replicates (interleaved). Unbiased, with far less noise at edges and
     /// in direct light; the default. The replicates' spread is the error estimate.
     Sobol,

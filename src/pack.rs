@@ -1,0 +1,267 @@
+//! The scene as arrays: `SceneData::pack` turns a validated `Scene` into the
+//! packed structs and tables the kernel reads (only what is present), with no
+//! device. What a kernel compiles in of them, and how they are bound, is the
+//! kernel's and the renderer's business.
+
+use crate::abi::{GpuLayout, Material, material_flag};
+use crate::accel::{PrimitiveArrays, WideBvh};
+use crate::environment::EnvironmentTables;
+use crate::kinds::{
+    KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT, PRIMITIVE_KINDS, PackedArray,
+    PrimitiveKind, TextureInfo, TextureTables, pack_material,
+};
+use crate::lights::{DeltaLight, LightBvh, LightTables, pack_delta_lights};
+use crate::scene::{Camera, MaterialKind, Scene};
+use glam::Vec3;
+use std::sync::Arc;
+
+/// The scene as the kernel sees it: only what is present, tightly packed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneData {
+    pub materials: Vec<Material>,
+    /// The materials' tables (`kinds::MaterialTables`), where a kind has them.
+    pub material_tables: Vec<f32>,
+    /// The primitives rays can hit, and the arrays indexed like them.
+    pub geometry: PrimitiveArrays,
+    /// Per kind: copies of the primitives in the light density.
+    pub lights: Vec<PackedArray>,
+    /// The materials' textures (`kinds::TextureTables`); empty without.
+    pub textures: Vec<TextureInfo>,
+    pub texture_texels: Vec<f32>,
+    /// Per kind with grouped lights: each light's group and area, as `lights`.
+    pub light_members: Vec<Vec<(u32, f32)>>,
+    /// Per kind with grouped lights that has some: their groups, alias tables
+    /// and BVH (`lights`), from `lights` and `light_members`.
+    pub light_tables: Vec<Option<LightTables>>,
+    /// Over `primitives` after the large ones, when the kernel traverses one.
+    pub bvh: Option<WideBvh>,
+    /// The environment map's texels and sampling tables (shared: a map is large).
+    pub environment: Option<Arc<EnvironmentTables>>,
+    /// Point and spot lights.
+    pub delta_lights: Vec<DeltaLight>,
+}
+
+impl Default for SceneData {
+    fn default() -> Self {
+        SceneData {
+            materials: Vec::new(),
+            material_tables: Vec::new(),
+            geometry: PrimitiveArrays::default(),
+            lights: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
+            textures: Vec::new(),
+            texture_texels: Vec::new(),
+            light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
+            light_tables: vec![None; PRIMITIVE_KINDS.len()],
+            bvh: None,
+            environment: None,
+            delta_lights: Vec::new(),
+        }
+    }
+}
+
+impl SceneData {
+    pub fn pack(scene: &Scene) -> SceneData {
+        let mut material_tables = MaterialTables::default();
+        let mut textures = TextureTables::default();
+        let materials = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let packed = pack_material(m, &mut material_tables);
+                match &m.texture {
+                    Some(texture) => Material {
+                        flags: packed.flags | (textures.add(texture) + 1) << MATERIAL_TEXTURE_SHIFT,
+                        ..packed
+                    },
+                    None => packed,
+                }
+            })
+            .collect();
+        // A dielectric of ior 1 bends and reflects nothing: it is left out of the
+        // geometry (it may still guide sampling if marked for importance).
+        let invisible = |material: u32| matches!(scene.materials[material as usize].kind, MaterialKind::Dielectric { ior } if ior == 1.0);
+        let mut data = SceneData {
+            materials,
+            material_tables: material_tables.values,
+            textures: textures.infos,
+            texture_texels: textures.texels,
+            environment: scene
+                .environment
+                .as_ref()
+                .map(|map| Arc::new(EnvironmentTables::build(map))),
+            delta_lights: pack_delta_lights(&scene.point_lights),
+            ..SceneData::default()
+        };
+        for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            let mut smooth = false;
+            for mut primitive in (kind.pack)(scene) {
+                let in_density = primitive.importance && kind.light_density;
+                if let Some(offset) = kind.light_field() {
+                    let light = match in_density {
+                        true => data.lights[k].len() as u32,
+                        false => NO_LIGHT,
+                    };
+                    primitive.bytes[offset..offset + 4].copy_from_slice(bytemuck::bytes_of(&light));
+                }
+                if !invisible(primitive.material) {
+                    data.geometry.primitives[k].push(&primitive);
+                    data.geometry.normals[k].extend_from_slice(&primitive.normals);
+                    if !data.textures.is_empty() {
+                        data.geometry.uvs[k].extend_from_slice(&primitive.uvs);
+                    }
+                    smooth |= primitive.smooth;
+                }
+                if in_density {
+                    data.lights[k].push(&primitive);
+                    data.light_members[k].extend(primitive.light_group);
+                }
+            }
+            if !smooth {
+                data.geometry.normals[k] = Vec::new();
+            }
+        }
+        data.build_light_tables();
+        data
+    }
+
+    /// Drops non-emitting objects from the light density.
+    pub fn keep_emitting_lights(&mut self) {
+        let emits = |material: u32| {
+            self.materials[material as usize]
+                .emit
+                .iter()
+                .any(|&e| e > 0.0)
+        };
+        let mut members = vec![Vec::new(); PRIMITIVE_KINDS.len()];
+        // Per kind, each light's index among those kept (`NO_LIGHT`: dropped).
+        let mut renumbered = vec![Vec::new(); PRIMITIVE_KINDS.len()];
+        let kept: Vec<PackedArray> = PRIMITIVE_KINDS
+            .iter()
+            .enumerate()
+            .map(|(k, kind)| {
+                let lights = &self.lights[k];
+                let mut kept = PackedArray::default();
+                for (i, &material) in lights.materials.iter().enumerate() {
+                    if emits(material) {
+                        renumbered[k].push(kept.len() as u32);
+                        kept.bytes
+                            .extend_from_slice(lights.element(i, kind.layout.size));
+                        kept.materials.push(material);
+                        members[k].extend(self.light_members[k].get(i));
+                    } else {
+                        renumbered[k].push(NO_LIGHT);
+                    }
+                }
+                kept
+            })
+            .collect();
+        for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            if let Some(offset) = kind.light_field() {
+                let renumber = |light: u32| match light {
+                    NO_LIGHT => NO_LIGHT,
+                    light => renumbered[k][light as usize],
+                };
+                self.geometry.primitives[k].map_u32(kind.layout.size, offset, renumber);
+            }
+        }
+        self.lights = kept;
+        self.light_members = members;
+        self.build_light_tables();
+    }
+
+    fn build_light_tables(&mut self) {
+        for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
+            let lights = &self.lights[k];
+            self.light_tables[k] = (kind.grouped_lights && !lights.is_empty()).then(|| {
+                let (groups, areas): (Vec<u32>, Vec<f32>) =
+                    self.light_members[k].iter().copied().unzip();
+                LightTables::build(lights, &groups, &areas, &self.materials)
+            });
+        }
+    }
+
+    /// The BVH over the lights of grouped kind `k` (which has some), built on
+    /// the first call: only a kernel that walks it needs it.
+    pub fn light_bvh(&self, k: usize) -> &LightBvh {
+        let tables = self.light_tables[k]
+            .as_ref()
+            .expect("a grouped kind with lights has their tables");
+        (tables.walk).get_or_init(|| LightBvh::build(k, &self.lights[k], &tables.picks))
+    }
+
+    /// Whether every float is finite (has a WGSL literal, so it can be baked).
+    pub fn is_finite(&self) -> bool {
+        let array_finite = |kind: &PrimitiveKind, array: &PackedArray| {
+            (0..array.len()).all(|i| (kind.layout.is_finite)(array.element(i, kind.layout.size)))
+        };
+        self.materials.iter().all(GpuLayout::is_finite)
+            && self.delta_lights.iter().all(GpuLayout::is_finite)
+            && PRIMITIVE_KINDS.iter().enumerate().all(|(k, kind)| {
+                array_finite(kind, &self.geometry.primitives[k])
+                    && array_finite(kind, &self.lights[k])
+            })
+    }
+
+    pub fn light_count(&self) -> usize {
+        self.lights.iter().map(PackedArray::len).sum()
+    }
+
+    /// The material kinds referenced by geometry the kernel sees.
+    pub fn material_kinds(&self) -> KindSet {
+        self.geometry
+            .primitives
+            .iter()
+            .flat_map(|array| &array.materials)
+            .map(|&m| self.materials[m as usize].kind as usize)
+            .collect()
+    }
+
+    /// Whether a material rays can hit is one-sided.
+    pub fn has_one_sided_materials(&self) -> bool {
+        self.geometry
+            .primitives
+            .iter()
+            .flat_map(|array| &array.materials)
+            .any(|&m| self.materials[m as usize].flags & material_flag("MATERIAL_ONE_SIDED") != 0)
+    }
+
+    /// The primitive kinds in the light density.
+    pub fn light_kinds(&self) -> KindSet {
+        (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| !self.lights[k].is_empty())
+            .collect()
+    }
+}
+
+/// Camera terms of `Params`: the book's camera, focus distance 1.
+pub struct CameraFrame {
+    pub origin: Vec3,
+    /// From `origin` to the centre of pixel (0, 0) on the image plane. Relative, not
+    /// a point: the image plane is 1 from the eye whatever the scene's scale, and
+    /// a point there, next to a large `origin`, would lose the pixel grid to
+    /// rounding (at `lookfrom` 8e6 the f32 spacing is 0.5, coarser than the pixels).
+    pub to_pixel00: Vec3,
+    pub delta_u: Vec3,
+    pub delta_v: Vec3,
+}
+
+impl CameraFrame {
+    pub fn new(camera: &Camera) -> CameraFrame {
+        let viewport_height = 2.0 * (camera.vfov_degrees.to_radians() / 2.0).tan();
+        let viewport_width = viewport_height * camera.width as f32 / camera.height as f32;
+        let w = (camera.lookfrom - camera.lookat).normalize();
+        let u = camera.vup.cross(w).normalize();
+        let v = w.cross(u);
+        let viewport_u = viewport_width * u;
+        let viewport_v = -viewport_height * v;
+        let delta_u = viewport_u / camera.width as f32;
+        let delta_v = viewport_v / camera.height as f32;
+        let to_upper_left = -w - viewport_u / 2.0 - viewport_v / 2.0;
+        CameraFrame {
+            origin: camera.lookfrom,
+            to_pixel00: to_upper_left + 0.5 * (delta_u + delta_v),
+            delta_u,
+            delta_v,
+        }
+    }
+}
