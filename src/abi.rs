@@ -79,15 +79,21 @@ impl<T: WgslValue, const N: usize> WgslValue for [T; N] {
     }
 }
 
+/// A `#[repr(C)]` struct with its `GpuLayout`: `pub struct Name { ... }` is
+/// the WGSL struct `Name`; `pub struct Name as Wgsl { ... }` the WGSL struct
+/// `Wgsl` (a host type named for what it packs, such as `PackedQuad`).
 macro_rules! gpu_struct {
-    ($(#[$meta:meta])* pub struct $name:ident { $($(#[$field_meta:meta])* pub $field:ident : $ty:ty,)* }) => {
+    ($(#[$meta:meta])* pub struct $name:ident { $($body:tt)* }) => {
+        $crate::abi::gpu_struct! { $(#[$meta])* pub struct $name as $name { $($body)* } }
+    };
+    ($(#[$meta:meta])* pub struct $name:ident as $wgsl:ident { $($(#[$field_meta:meta])* pub $field:ident : $ty:ty,)* }) => {
         $(#[$meta])*
         #[repr(C)]
         #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
         pub struct $name { $($(#[$field_meta])* pub $field: $ty,)* }
 
         impl $crate::abi::GpuLayout for $name {
-            const WGSL_NAME: &'static str = stringify!($name);
+            const WGSL_NAME: &'static str = stringify!($wgsl);
             fn fields() -> Vec<(&'static str, usize, String)> {
                 vec![$((
                     stringify!($field),
@@ -97,7 +103,7 @@ macro_rules! gpu_struct {
             }
             fn wgsl_value(&self) -> String {
                 let fields: Vec<String> = vec![$($crate::abi::WgslValue::wgsl_value(&self.$field),)*];
-                format!("{}({})", stringify!($name), fields.join(", "))
+                format!("{}({})", stringify!($wgsl), fields.join(", "))
             }
             fn is_finite(&self) -> bool {
                 true $(&& $crate::abi::WgslValue::is_finite(&self.$field))*
@@ -156,7 +162,7 @@ impl Counters {
 gpu_struct! {
     /// Every material kind packs into this; what each field holds for each kind
     /// is said once, in `kinds::material::pack_material`.
-    pub struct Material {
+    pub struct PackedMaterial as Material {
         pub albedo: [f32; 3],
         /// Index into `kinds::MATERIAL_KINDS`.
         pub kind: u32,

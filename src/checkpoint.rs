@@ -19,7 +19,9 @@
 use crate::adaptive::Choice;
 use crate::output::{self, OutputError};
 use crate::render::{AccumulatorState, AdaptiveState};
-use crate::scene::{Camera, Filter, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
+use crate::scene::{
+    Camera, Filter, RenderSettings, Sampler, Scene, SceneOverrides, Shapes, Strategy,
+};
 use std::fmt;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -106,10 +108,13 @@ impl SceneIdentity {
             camera,
             render,
             materials,
-            quads,
-            disks,
-            spheres,
-            triangles,
+            shapes:
+                Shapes {
+                    quads,
+                    spheres,
+                    triangles,
+                    disks,
+                },
             // Follows from the mesh files, whose faces are hashed.
             degenerate_triangles: _,
             point_lights,

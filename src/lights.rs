@@ -11,7 +11,7 @@
 //! Also the point and spot lights ([`DeltaLight`]), which are no part of the
 //! light density: the kernel sends them shadow rays of their own.
 
-use crate::abi::{Material, gpu_struct};
+use crate::abi::{PackedMaterial, gpu_struct};
 use crate::accel::PrimitiveArrays;
 use crate::accel::{Bvh, WideBvh};
 use crate::kinds::PackedArray;
@@ -199,7 +199,7 @@ impl LightTables {
         lights: &PackedArray,
         groups: &[u32],
         areas: &[f32],
-        materials: &[Material],
+        materials: &[PackedMaterial],
     ) -> LightTables {
         let mut tables = LightTables::default();
         let mut start = 0;

@@ -3,7 +3,7 @@
 //! device. What a kernel compiles in of them, and how they are bound, is the
 //! kernel's and the renderer's business.
 
-use crate::abi::{GpuLayout, Material, material_flag};
+use crate::abi::{GpuLayout, PackedMaterial, material_flag};
 use crate::accel::{PrimitiveArrays, WideBvh};
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
@@ -18,7 +18,7 @@ use std::sync::Arc;
 /// The scene as the kernel sees it: only what is present, tightly packed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneData {
-    pub materials: Vec<Material>,
+    pub materials: Vec<PackedMaterial>,
     /// The materials' tables (`kinds::MaterialTables`), where a kind has them.
     pub material_tables: Vec<f32>,
     /// The primitives rays can hit, and the arrays indexed like them.
@@ -69,7 +69,7 @@ impl SceneData {
             .map(|m| {
                 let packed = pack_material(m, &mut material_tables);
                 match &m.texture {
-                    Some(texture) => Material {
+                    Some(texture) => PackedMaterial {
                         flags: packed.flags | (textures.add(texture) + 1) << MATERIAL_TEXTURE_SHIFT,
                         ..packed
                     },
@@ -94,7 +94,7 @@ impl SceneData {
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
             let mut smooth = false;
-            for mut primitive in (kind.pack)(scene) {
+            for mut primitive in (kind.pack)(&scene.shapes) {
                 let in_density = primitive.importance && kind.light_density;
                 if let Some(offset) = kind.light_field() {
                     let light = match in_density {

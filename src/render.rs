@@ -338,7 +338,7 @@ impl<'a> Renderer<'a> {
                     }
                     // A scene without objects has no materials, and nothing reads one.
                     ArraySource::Materials if data.materials.is_empty() => {
-                        never_hit = vec![0; size_of::<crate::abi::Material>()];
+                        never_hit = vec![0; size_of::<crate::abi::PackedMaterial>()];
                         &never_hit[..]
                     }
                     // A light of no intensity: a general kernel's shadow rays find nothing.

@@ -10,7 +10,7 @@
 mod common;
 
 use glam::DVec3;
-use pathmix::abi::Material;
+use pathmix::abi::PackedMaterial;
 use pathmix::gpu::GpuContext;
 use pathmix::kernel::KernelConfig;
 use pathmix::kinds::{
@@ -60,7 +60,7 @@ fn probe(ctx: &GpuContext) -> &'static Probe {
 /// One material seen from one direction, in a frame whose normal is +z.
 #[derive(Clone, Copy, Debug)]
 struct Setup {
-    material: Material,
+    material: PackedMaterial,
     /// Its tables (`material_tables`): one material has at most one coat's.
     tables: [f32; ROUGH_TRANSMITTANCE_RES],
     wo: DVec3,

@@ -21,7 +21,7 @@ macro_rules! gpu_or_skip {
 /// emission 1, normals inward) with its walls as an OBJ mesh of 12 triangles,
 /// two per wall, sharing the walls' edges and corners.
 fn furnace_mesh(name: &str, strategy: Strategy, spp: u32, max_depth: u32) -> Scene {
-    let quads = common::scene_file("furnace.toml").quads;
+    let quads = common::scene_file("furnace.toml").shapes.quads;
     let mut obj = String::new();
     for (i, q) in quads.iter().enumerate() {
         for p in [q.q, q.q + q.u, q.q + q.u + q.v, q.q + q.v] {
@@ -41,7 +41,7 @@ fn furnace_mesh(name: &str, strategy: Strategy, spp: u32, max_depth: u32) -> Sce
          [[objects]]\ntype = \"mesh\"\nfile = {path:?}\nmaterial = \"wall\"\n"
     );
     let scene = Scene::parse(&text, "furnace-mesh.toml").unwrap();
-    assert_eq!(scene.triangles.len(), 12);
+    assert_eq!(scene.shapes.triangles.len(), 12);
     scene
 }
 
@@ -119,7 +119,7 @@ fn stanford_bunny_renders_through_the_bvh() {
     scene.camera.height = 32;
     scene.render.spp = 4;
     scene.render.max_depth = 6;
-    assert!(scene.triangles.len() + scene.degenerate_triangles == 69_451);
+    assert!(scene.shapes.triangles.len() + scene.degenerate_triangles == 69_451);
     let mut renderer = Renderer::new(ctx, &scene, &RenderOptions::default()).unwrap();
     assert_eq!(renderer.config().scene_storage(), SceneStorage::Bvh);
     while renderer.samples() < scene.render.spp {
@@ -301,9 +301,9 @@ fn tilted_floor(tilt_degrees: f32, object_keys: &str) -> Scene {
 fn shading_normals_from_the_file_light_a_floor_as_a_tilted_plane() {
     let ctx = gpu_or_skip!();
     let tilted = tilted_floor(60.0, "");
-    assert!(tilted.triangles.iter().all(|t| t.normals.is_some()));
+    assert!(tilted.shapes.triangles.iter().all(|t| t.normals.is_some()));
     let flat = tilted_floor(60.0, "smooth = false");
-    assert!(flat.triangles.iter().all(|t| t.normals.is_none()));
+    assert!(flat.shapes.triangles.iter().all(|t| t.normals.is_none()));
     let expected = 0.5 * (1.0 + 60f64.to_radians().cos()) / 2.0;
     for storage in [
         SceneStorage::Baked,
@@ -350,10 +350,10 @@ fn meshes_without_normals_get_angle_weighted_vertex_normals() {
         )
     };
     let scene = scene_beside_mesh("cube", "cube.obj", &obj, &scene_text(keys));
-    assert_eq!(scene.triangles.len(), 12);
+    assert_eq!(scene.shapes.triangles.len(), 12);
     // The cube spans [-2, 0] x [0, 2] x [0, 2] once rotated and scaled.
     let centre = glam::Vec3::new(-1.0, 1.0, 1.0);
-    for t in &scene.triangles {
+    for t in &scene.shapes.triangles {
         let normals = t.normals.expect("smooth by default");
         for (v, n) in t.vertices.iter().zip(normals) {
             let diagonal = (*v - centre).normalize();
@@ -364,7 +364,7 @@ fn meshes_without_normals_get_angle_weighted_vertex_normals() {
         }
     }
     let flat = scene_beside_mesh("cube", "cube.obj", &obj, &scene_text("smooth = false"));
-    assert!(flat.triangles.iter().all(|t| t.normals.is_none()));
+    assert!(flat.shapes.triangles.iter().all(|t| t.normals.is_none()));
 }
 
 /// The furnace's cube [-1, 1]^3 as one mesh of `2 * 6 * n * n` triangles of
@@ -423,7 +423,7 @@ fn subdivided_furnace(n: usize, strategy: Strategy, spp: u32) -> Scene {
         &obj,
         &text,
     );
-    assert_eq!(scene.triangles.len(), 12 * n * n);
+    assert_eq!(scene.shapes.triangles.len(), 12 * n * n);
     scene
 }
 
@@ -525,6 +525,7 @@ fn gltf_materials_map_to_the_nearest_pathmix_material() {
     );
     assert_eq!(glow.emit, glam::Vec3::new(4.0, 2.0, 1.0));
     let faces: Vec<(u32, bool)> = mapped
+        .shapes
         .triangles
         .iter()
         .map(|t| (t.material, t.importance))
@@ -541,6 +542,7 @@ fn gltf_materials_map_to_the_nearest_pathmix_material() {
     assert_eq!(overridden.materials.len(), 1);
     assert!(
         overridden
+            .shapes
             .triangles
             .iter()
             .all(|t| t.material == 0 && !t.importance)

@@ -55,8 +55,8 @@ fn material(scene: &Scene, name: &str) -> u32 {
 /// Index of the (only) quad made of the `light` material.
 fn light_quad(scene: &Scene) -> usize {
     let light = material(scene, "light");
-    let found: Vec<usize> = (0..scene.quads.len())
-        .filter(|&i| scene.quads[i].material == light)
+    let found: Vec<usize> = (0..scene.shapes.quads.len())
+        .filter(|&i| scene.shapes.quads[i].material == light)
         .collect();
     assert_eq!(found.len(), 1);
     found[0]
@@ -206,7 +206,7 @@ fn tiny_quad_light_with_the_same_power_is_unbiased() {
 
     let mut cornell = cornell_boxes(16, 16);
     let i = light_quad(&cornell);
-    let light = &mut cornell.quads[i];
+    let light = &mut cornell.shapes.quads[i];
     let centre = light.q + 0.5 * (light.u + light.v);
     light.u *= 0.01;
     light.v *= 0.01;
@@ -243,7 +243,7 @@ fn pin_point_sphere_light_is_unbiased() {
             "#
         ),
     );
-    let r = scene.spheres[0].radius as f64;
+    let r = scene.shapes.spheres[0].radius as f64;
     let expected = ALBEDO * emit * (r / h).powi(2);
     let measured = mean_and_error(ctx, &scene);
     assert_agree(
@@ -285,10 +285,13 @@ fn ceiling_filling_light_mixture_agrees_with_cosine() {
     let ctx = gpu_or_skip!();
     let mut scene = cornell_boxes(16, 1);
     let i = light_quad(&scene);
-    let area = scene.quads[i].u.cross(scene.quads[i].v).length();
-    scene.quads[i].q = Vec3::new(0.0, 554.0, 0.0);
-    scene.quads[i].u = Vec3::new(555.0, 0.0, 0.0);
-    scene.quads[i].v = Vec3::new(0.0, 0.0, 555.0);
+    let area = scene.shapes.quads[i]
+        .u
+        .cross(scene.shapes.quads[i].v)
+        .length();
+    scene.shapes.quads[i].q = Vec3::new(0.0, 554.0, 0.0);
+    scene.shapes.quads[i].u = Vec3::new(555.0, 0.0, 0.0);
+    scene.shapes.quads[i].v = Vec3::new(0.0, 0.0, 555.0);
     let m = material(&scene, "light") as usize;
     scene.materials[m].emit *= area / (555.0 * 555.0);
     mixture_agrees_with_cosine(ctx, "ceiling-filling light", &scene, (256, 256));
@@ -304,10 +307,13 @@ fn grazing_light_mixture_agrees_with_cosine() {
     let i = light_quad(&scene);
     let tilt = 0.01f32.to_radians();
     let (length, hinge_z) = (200.0, 280.0);
-    scene.quads[i].q = Vec3::new(213.0, 554.0, hinge_z);
-    scene.quads[i].u = Vec3::new(130.0, 0.0, 0.0);
-    scene.quads[i].v = length * Vec3::new(0.0, -tilt.cos(), tilt.sin());
-    let normal = scene.quads[i].u.cross(scene.quads[i].v).normalize();
+    scene.shapes.quads[i].q = Vec3::new(213.0, 554.0, hinge_z);
+    scene.shapes.quads[i].u = Vec3::new(130.0, 0.0, 0.0);
+    scene.shapes.quads[i].v = length * Vec3::new(0.0, -tilt.cos(), tilt.sin());
+    let normal = scene.shapes.quads[i]
+        .u
+        .cross(scene.shapes.quads[i].v)
+        .normalize();
     assert!(normal.z < -0.99 && normal.y < 0.0, "{normal}");
     mixture_agrees_with_cosine(ctx, "grazing light", &scene, (256, 256));
 }
@@ -319,7 +325,7 @@ fn light_facing_away_mixture_agrees_with_cosine() {
     let ctx = gpu_or_skip!();
     let mut scene = cornell_boxes(16, 1);
     let i = light_quad(&scene);
-    let quad = &mut scene.quads[i];
+    let quad = &mut scene.shapes.quads[i];
     quad.q.y = 400.0;
     std::mem::swap(&mut quad.u, &mut quad.v);
     assert!(quad.u.cross(quad.v).y > 0.0);
@@ -377,7 +383,7 @@ fn depth_zero_shows_only_the_light() {
         "a pixel that is not the light's grey"
     );
     assert!(mean.pixels.iter().any(|p| p[0] == 15.0));
-    let q = scene.quads[light_quad(&scene)];
+    let q = scene.shapes.quads[light_quad(&scene)];
     let expected = 15.0 * projected_fraction(&scene, [q.q, q.q + q.u, q.q + q.u + q.v, q.q + q.v]);
     eprintln!("depth 0: {lit} of {} pixels lit", mean.pixels.len());
     assert_agree(
@@ -605,11 +611,11 @@ fn dielectric_with_ior_one_is_invisible() {
     let glass = material(&scene, "glass") as usize;
     let mut index_matched = scene.clone();
     index_matched.materials[glass].kind = MaterialKind::Dielectric { ior: 1.0 };
-    assert!(index_matched.spheres[0].importance);
+    assert!(index_matched.shapes.spheres[0].importance);
     let mut without_sphere = scene.clone();
-    without_sphere.spheres.clear();
+    without_sphere.shapes.spheres.clear();
     let mut unmarked = index_matched.clone();
-    unmarked.spheres[0].importance = false;
+    unmarked.shapes.spheres[0].importance = false;
 
     let options = common::with_variance();
     let reference = common::render(ctx, &without_sphere, &options);

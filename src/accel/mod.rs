@@ -395,7 +395,7 @@ fn median_split(items: &mut [Item], axis: usize) -> usize {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::kinds::{Quad, Sphere};
+    use crate::kinds::{PackedQuad, PackedSphere};
 
     pub(crate) fn kind_index(name: &str) -> usize {
         PRIMITIVE_KINDS.iter().position(|k| k.name == name).unwrap()
@@ -407,11 +407,11 @@ pub(crate) mod tests {
         let mut data = PrimitiveArrays::default();
         let array = &mut data.primitives[kind_index("sphere")];
         for (i, &center) in centers.iter().enumerate() {
-            let sphere = Sphere {
+            let sphere = PackedSphere {
                 center,
                 radius: 0.5,
                 material: i as u32,
-                ..Sphere::default()
+                ..PackedSphere::default()
             };
             array.bytes.extend_from_slice(bytemuck::bytes_of(&sphere));
             array.materials.push(i as u32);
@@ -536,12 +536,12 @@ pub(crate) mod tests {
         let mut data = spheres(&centers);
         let quads = &mut data.primitives[kind_index("quad")];
         for (i, c) in centers.iter().enumerate() {
-            let quad = Quad {
+            let quad = PackedQuad {
                 q: *c,
                 u: [0.01, 0.0, 0.0],
                 v: [0.0, 0.01, 0.0],
                 material: i as u32,
-                ..Quad::default()
+                ..PackedQuad::default()
             };
             quads.bytes.extend_from_slice(bytemuck::bytes_of(&quad));
             quads.materials.push(i as u32);
@@ -562,7 +562,12 @@ pub(crate) mod tests {
         }
     }
 
-    pub(crate) fn sphere_t(sphere: &Sphere, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
+    pub(crate) fn sphere_t(
+        sphere: &PackedSphere,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+    ) -> Option<f32> {
         let to_center = Vec3::from(sphere.center) - origin;
         let along = dir.dot(to_center);
         let disc = sphere.radius * sphere.radius - (to_center - along * dir).length_squared();
@@ -583,8 +588,9 @@ pub(crate) mod tests {
         let centers = random_points(&mut random, 2000, 40.0);
         let (hierarchy, sorted) = build(&spheres(&centers));
         let array = &sorted.primitives[kind_index("sphere")];
-        let sphere =
-            |i: usize| -> Sphere { *bytemuck::from_bytes(array.element(i, size_of::<Sphere>())) };
+        let sphere = |i: usize| -> PackedSphere {
+            *bytemuck::from_bytes(array.element(i, size_of::<PackedSphere>()))
+        };
         let mut hits = 0;
         for _ in 0..2000 {
             let origin = Vec3::new(random(), random(), random()) * 40.0;
@@ -662,9 +668,9 @@ pub(crate) mod tests {
         let centers = random_points(&mut random, 500, 20.0);
         let mut data = spheres(&centers);
         let k = kind_index("sphere");
-        let size = size_of::<Sphere>();
+        let size = size_of::<PackedSphere>();
         for big in [100, 300] {
-            let sphere: &mut Sphere = bytemuck::from_bytes_mut(
+            let sphere: &mut PackedSphere = bytemuck::from_bytes_mut(
                 &mut data.primitives[k].bytes[big * size..(big + 1) * size],
             );
             sphere.radius = 6.0;
@@ -674,7 +680,7 @@ pub(crate) mod tests {
         assert_eq!(data.primitives[k].materials[..3], [100, 300, 0]);
         let (bvh, sorted) = build_checked(&data);
         let array = &sorted.primitives[k];
-        let sphere = |i: usize| -> Sphere { *bytemuck::from_bytes(array.element(i, size)) };
+        let sphere = |i: usize| -> PackedSphere { *bytemuck::from_bytes(array.element(i, size)) };
         let mut large_hits = 0;
         for _ in 0..2000 {
             let origin = Vec3::new(random(), random(), random()) * 20.0;

@@ -206,7 +206,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
             count * array.element_size(),
         );
     }
-    let triangles = scene.triangles.len();
+    let triangles = scene.shapes.triangles.len();
     if triangles > 0 {
         println!(
             "  in all {scene_bytes} B: {:.1} B per triangle; {} faces with no area dropped",

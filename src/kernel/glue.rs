@@ -1035,14 +1035,14 @@ fn dispatch(
 mod tests {
     use super::*;
     use crate::accel::WideBvhNode;
-    use crate::kinds::Triangle;
+    use crate::kinds::PackedTriangle;
     use crate::lights::LightRef;
     use std::collections::HashMap;
 
     #[test]
     fn structs_of_whole_words_are_read_as_words() {
         assert_eq!(
-            vector_words(ErasedLayout::of::<Triangle>(), 16).unwrap(),
+            vector_words(ErasedLayout::of::<PackedTriangle>(), 16).unwrap(),
             [
                 "bitcast<vec3<f32>>(w0.xyz)",
                 "w0.w",

@@ -6,7 +6,7 @@
 mod glue;
 
 use crate::abi::{
-    LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, Material, REPLICATES, replicate_layer,
+    LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, PackedMaterial, REPLICATES, replicate_layer,
 };
 use crate::accel::{self, WideBvh, WideBvhNode};
 use crate::environment::EnvironmentInfo;
@@ -216,7 +216,7 @@ impl ArraySource {
     /// they are `vec4<f32>` texels or `f32` tables).
     pub fn element_layout(self) -> Option<ErasedLayout> {
         match self {
-            ArraySource::Materials => Some(ErasedLayout::of::<Material>()),
+            ArraySource::Materials => Some(ErasedLayout::of::<PackedMaterial>()),
             ArraySource::Primitives(k) | ArraySource::Large(k) | ArraySource::Lights(k) => {
                 Some(PRIMITIVE_KINDS[k].layout)
             }
@@ -1235,7 +1235,7 @@ mod tests {
     use super::*;
     use crate::abi::{Counters, Params};
     use crate::kinds::PackedArray;
-    use crate::kinds::{ErasedLayout, Lobe, Quad};
+    use crate::kinds::{ErasedLayout, Lobe, PackedQuad};
 
     /// `KernelConfig::for_scene` with a box filter, a buffer accumulator and no
     /// variance, as the kernel tests take it.
@@ -1376,7 +1376,7 @@ mod tests {
             ..SceneData::default()
         };
         data.geometry.primitives[0] = PackedArray {
-            bytes: vec![0; size_of::<Quad>()],
+            bytes: vec![0; size_of::<PackedQuad>()],
             materials: vec![0],
         };
         let settings = crate::scene::RenderSettings {
@@ -1481,7 +1481,7 @@ mod tests {
             material = "checks"
         "#;
         let mut scene = crate::scene::Scene::parse(text, "textured.toml").unwrap();
-        scene.triangles.push(crate::scene::Triangle {
+        scene.shapes.triangles.push(crate::scene::Triangle {
             vertices: [glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
             normals: None,
             uvs: None,
@@ -1697,7 +1697,7 @@ mod tests {
                 .unwrap();
             for i in 0..faces {
                 let x = glam::Vec3::X * i as f32;
-                scene.triangles.push(crate::scene::Triangle {
+                scene.shapes.triangles.push(crate::scene::Triangle {
                     vertices: [x, x + glam::Vec3::X, x + glam::Vec3::Y],
                     normals: None,
                     uvs: None,
@@ -1772,7 +1772,7 @@ mod tests {
                 ..SceneData::default()
             };
             data.geometry.primitives[0] = PackedArray {
-                bytes: vec![0; n * size_of::<Quad>()],
+                bytes: vec![0; n * size_of::<PackedQuad>()],
                 materials: vec![0; n],
             };
             data
@@ -1800,7 +1800,7 @@ mod tests {
             0.65,
             1.0 / 3.0,
         ];
-        let material = |x: f32| Material {
+        let material = |x: f32| PackedMaterial {
             albedo: [x, -x, x * 0.5],
             param: x,
             ..Default::default()
@@ -2143,7 +2143,7 @@ mod tests {
         ));
         check_layout(&module, ErasedLayout::of::<Params>());
         check_layout(&module, ErasedLayout::of::<Counters>());
-        check_layout(&module, ErasedLayout::of::<Material>());
+        check_layout(&module, ErasedLayout::of::<PackedMaterial>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightGroup>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightPick>());
         check_layout(&module, ErasedLayout::of::<crate::lights::LightRef>());

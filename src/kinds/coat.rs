@@ -10,7 +10,7 @@
 //! left is the Fresnel term times the masking of the outgoing direction. The
 //! microfacet functions here are `shaders/microfacet.wgsl`'s, in f64.
 
-use crate::scene::Distribution;
+use super::Distribution;
 use glam::DVec3;
 use std::f64::consts::PI;
 

@@ -2,27 +2,55 @@
 //! `a^2 + b^2 <= 1`, normal `normalize(u x v)`.
 
 use super::quad::PlaneTerms;
-use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
+use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
-use crate::scene::Scene;
 use crate::shader::shader_module;
+use glam::Vec3;
+
+/// Points `center + a u + b v` with `a^2 + b^2 <= 1`: a disk of radius `|u|` when
+/// `u` and `v` are perpendicular and as long, an ellipse otherwise (a disk under an
+/// affine transform); normal `normalize(u x v)`. World space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disk {
+    pub center: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    pub material: u32,
+    pub importance: bool,
+}
+
+impl Shape for Disk {
+    fn importance(&self) -> bool {
+        self.importance
+    }
+
+    fn extent(&self) -> f32 {
+        // The parallelogram around the ellipse holds it.
+        let (u, v) = (self.u, self.v);
+        [u + v, u - v, v - u, -u - v]
+            .into_iter()
+            .fold(0.0, |extent, corner| {
+                extent.max((self.center + corner).abs().max_element())
+            })
+    }
+}
 
 pub const DISK: PrimitiveKind = PrimitiveKind {
     name: "disk",
     array: "disks",
     module: shader_module!("disk"),
-    layout: ErasedLayout::of::<Disk>(),
+    layout: ErasedLayout::of::<PackedDisk>(),
     light_density: true,
-    pack: |scene: &Scene| {
-        scene
+    pack: |shapes: &Shapes| {
+        shapes
             .disks
             .iter()
-            .map(|d| PackedPrimitive::new(&Disk::new(d), d.material, d.importance))
+            .map(|d| PackedPrimitive::new(&PackedDisk::new(d), d.material, d.importance))
             .collect()
     },
-    never_hit: || bytemuck::bytes_of(&Disk::never_hit()).to_vec(),
+    never_hit: || bytemuck::bytes_of(&PackedDisk::never_hit()).to_vec(),
     bounds: |bytes| {
-        let disk: Disk = bytemuck::pod_read_unaligned(bytes);
+        let disk: PackedDisk = bytemuck::pod_read_unaligned(bytes);
         let (c, u, v) = (
             glam::Vec3::from(disk.center),
             glam::Vec3::from(disk.u),
@@ -42,7 +70,7 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
 
 gpu_struct! {
     /// The plane and in-plane coordinate terms are precomputed here, once per disk.
-    pub struct Disk {
+    pub struct PackedDisk as Disk {
         pub center: [f32; 3],
         pub material: u32,
         pub u: [f32; 3],
@@ -56,10 +84,10 @@ gpu_struct! {
     }
 }
 
-impl Disk {
-    pub fn new(disk: &crate::scene::Disk) -> Disk {
+impl PackedDisk {
+    pub fn new(disk: &Disk) -> PackedDisk {
         let plane = PlaneTerms::new(disk.center, disk.u, disk.v);
-        Disk {
+        PackedDisk {
             center: disk.center.to_array(),
             material: disk.material,
             u: disk.u.to_array(),
@@ -68,14 +96,14 @@ impl Disk {
             area: std::f32::consts::PI * plane.span,
             normal: plane.normal.to_array(),
             w: plane.w.to_array(),
-            ..Disk::default()
+            ..PackedDisk::default()
         }
     }
 
     /// With NaN geometry every hit test fails.
-    pub fn never_hit() -> Disk {
+    pub fn never_hit() -> PackedDisk {
         let nan = [f32::NAN; 3];
-        Disk {
+        PackedDisk {
             center: nan,
             u: nan,
             plane_d: f32::NAN,
@@ -83,7 +111,7 @@ impl Disk {
             area: f32::NAN,
             normal: nan,
             w: nan,
-            ..Disk::default()
+            ..PackedDisk::default()
         }
     }
 }

@@ -1,11 +1,12 @@
-//! Material kinds. Every material packs into one `abi::Material`;
+//! Material kinds. Every material packs into one `abi::PackedMaterial`;
 //! [`pack_material`] says what each field holds for each kind, and a kind's
 //! description which BSDF lobes its WGSL module implements.
 
+use super::Texture;
 use super::coat::CoatTables;
-use crate::abi::{Material, material_flag};
-use crate::scene::{self, Distribution};
+use crate::abi::{PackedMaterial, material_flag};
 use crate::shader::{ShaderModule, shader_module};
+use glam::Vec3;
 use std::sync::Mutex;
 
 /// What a material kind's BSDF is made of (the interface is in materials.wgsl).
@@ -33,7 +34,7 @@ impl Lobe {
     }
 }
 
-pub struct MaterialKind {
+pub struct MaterialModel {
     /// Lower case, as in scene files: the module's name and its functions'
     /// prefix; the kernel's flag is `NAME` and its id constant `MATERIAL_NAME`.
     pub name: &'static str,
@@ -47,7 +48,7 @@ pub struct MaterialKind {
     pub tables: bool,
 }
 
-impl MaterialKind {
+impl MaterialModel {
     pub fn flag(&self) -> String {
         self.name.to_uppercase()
     }
@@ -58,19 +59,143 @@ impl MaterialKind {
     }
 }
 
+/// The material kinds. The book's (`Lambertian`, `Metal`, `Dielectric`, `Light`)
+/// keep the book's parameters; the others are Mitsuba 3's plugins of the same
+/// names, with Mitsuba's parameter names, meanings and defaults (so a Mitsuba
+/// scene maps onto them field for field).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MaterialKind {
+    Lambertian,
+    Metal {
+        fuzz: f32,
+    },
+    /// The book's glass: `ior` is the relative index (interior over exterior).
+    Dielectric {
+        ior: f32,
+    },
+    /// Emits `emit` on the side its normal faces; scatters nothing.
+    Light,
+    /// A perfectly smooth conductor: a mirror with the Fresnel reflectance of the
+    /// complex index `eta + i k` (per RGB channel), times `specular_reflectance`.
+    Conductor {
+        eta: Vec3,
+        k: Vec3,
+        specular_reflectance: Vec3,
+    },
+    /// A conductor with a microfacet surface (Cook-Torrance with Smith shadowing).
+    RoughConductor {
+        distribution: Distribution,
+        /// Roughness along the shading frame's two tangents (equal: isotropic).
+        alpha_u: f32,
+        alpha_v: f32,
+        eta: Vec3,
+        k: Vec3,
+        specular_reflectance: Vec3,
+    },
+    /// A rough interface between two dielectrics (Walter et al. 2007).
+    RoughDielectric {
+        distribution: Distribution,
+        alpha_u: f32,
+        alpha_v: f32,
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Vec3,
+        specular_transmittance: Vec3,
+    },
+    /// A thin slab of dielectric (two parallel interfaces): reflects with the
+    /// slab's reflectance summed over its internal bounces and lets the rest
+    /// through without bending it (Mitsuba's `thindielectric`).
+    ThinDielectric {
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Vec3,
+        specular_transmittance: Vec3,
+    },
+    /// A diffuse base under a smooth dielectric coat: a specular (delta) lobe and
+    /// a diffuse one.
+    Plastic {
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Vec3,
+        specular_reflectance: Vec3,
+        /// Mitsuba's `nonlinear`: account for the colour shift of light scattered
+        /// inside the coat several times.
+        nonlinear: bool,
+    },
+    /// A diffuse base under a rough dielectric coat (isotropic microfacets): a
+    /// glossy lobe and a diffuse one, both with densities.
+    RoughPlastic {
+        distribution: Distribution,
+        alpha: f32,
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Vec3,
+        specular_reflectance: Vec3,
+        nonlinear: bool,
+    },
+}
+
+/// A microfacet normal distribution (Mitsuba's `distribution`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Distribution {
+    Beckmann,
+    /// Trowbridge-Reitz.
+    Ggx,
+}
+
+impl Distribution {
+    pub const ALL: [Distribution; 2] = [Distribution::Beckmann, Distribution::Ggx];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Distribution::Beckmann => "beckmann",
+            Distribution::Ggx => "ggx",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Distribution> {
+        Distribution::ALL.into_iter().find(|d| d.name() == name)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub kind: MaterialKind,
+    /// The book's materials' reflectance (`lambertian`, `metal`); zero for the
+    /// others, whose colours are parameters of their kind.
+    pub albedo: Vec3,
+    /// Emitted radiance (one-sided, along the surface normal); zero for most materials.
+    pub emit: Vec3,
+    /// Scatters only on the side the normal faces, black from behind (Mitsuba's
+    /// BSDFs outside `twosided`); the book's materials scatter on both sides.
+    pub one_sided: bool,
+    /// A texture on the kind's colour that `kinds::pack_material` packs as
+    /// `albedo` (lambertian and metal `albedo`, conductors' and rough
+    /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
+    /// which then holds the texture's mean.
+    pub texture: Option<Texture>,
+}
+
+impl Material {
+    pub fn emits(&self) -> bool {
+        self.emit.max_element() > 0.0
+    }
+}
+
 pub const FRESNEL: ShaderModule = shader_module!("fresnel");
 pub const MICROFACET: ShaderModule = shader_module!("microfacet");
 
 /// Every material kind; a kind's id in the packed material is its index.
-pub const MATERIAL_KINDS: &[MaterialKind] = &[
-    MaterialKind {
+pub const MATERIAL_KINDS: &[MaterialModel] = &[
+    MaterialModel {
         name: "lambertian",
         module: Some(shader_module!("lambertian")),
         helpers: &[],
         lobe: Lobe::Smooth,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "metal",
         module: Some(shader_module!("metal")),
         helpers: &[],
@@ -78,56 +203,56 @@ pub const MATERIAL_KINDS: &[MaterialKind] = &[
         lobe: Lobe::Delta,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "dielectric",
         module: Some(shader_module!("dielectric")),
         helpers: &[],
         lobe: Lobe::Delta,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "light",
         module: None,
         helpers: &[],
         lobe: Lobe::Absorbing,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "conductor",
         module: Some(shader_module!("conductor")),
         helpers: &[FRESNEL],
         lobe: Lobe::Delta,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "roughconductor",
         module: Some(shader_module!("roughconductor")),
         helpers: &[FRESNEL, MICROFACET],
         lobe: Lobe::Smooth,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "roughdielectric",
         module: Some(shader_module!("roughdielectric")),
         helpers: &[FRESNEL, MICROFACET],
         lobe: Lobe::Smooth,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "plastic",
         module: Some(shader_module!("plastic")),
         helpers: &[FRESNEL],
         lobe: Lobe::SmoothAndDelta,
         tables: false,
     },
-    MaterialKind {
+    MaterialModel {
         name: "roughplastic",
         module: Some(shader_module!("roughplastic")),
         helpers: &[FRESNEL, MICROFACET],
         lobe: Lobe::Smooth,
         tables: true,
     },
-    MaterialKind {
+    MaterialModel {
         name: "thindielectric",
         module: Some(shader_module!("thindielectric")),
         helpers: &[FRESNEL],
@@ -154,7 +279,7 @@ fn beckmann_flag(distribution: Distribution) -> u32 {
 /// A coat's distribution, alpha and eta (as bits).
 type CoatKey = (Distribution, u32, u32);
 
-/// The tables of a scene's materials (`MaterialKind::tables`), one array of
+/// The tables of a scene's materials (`MaterialModel::tables`), one array of
 /// floats the kernel reads at the offset a packed material holds. Materials with
 /// the same coat share one table.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -229,32 +354,32 @@ fn nonlinear_flag(nonlinear: bool) -> u32 {
 ///   (`coat::CoatTables`), `param` = alpha, `param2` = the offset of its
 ///   transmittance table in `tables` (an integer, exact in f32), `flags` the
 ///   distribution and nonlinear.
-pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) -> Material {
-    use scene::MaterialKind as K;
+pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> PackedMaterial {
+    use MaterialKind as K;
     let (name, packed) = match material.kind {
-        K::Lambertian => ("lambertian", Material::default()),
+        K::Lambertian => ("lambertian", PackedMaterial::default()),
         K::Metal { fuzz } => (
             "metal",
-            Material {
+            PackedMaterial {
                 param: fuzz,
                 ..Default::default()
             },
         ),
         K::Dielectric { ior } => (
             "dielectric",
-            Material {
+            PackedMaterial {
                 param: ior,
                 ..Default::default()
             },
         ),
-        K::Light => ("light", Material::default()),
+        K::Light => ("light", PackedMaterial::default()),
         K::Conductor {
             eta,
             k,
             specular_reflectance,
         } => (
             "conductor",
-            Material {
+            PackedMaterial {
                 albedo: specular_reflectance.to_array(),
                 color2: eta.to_array(),
                 color3: k.to_array(),
@@ -270,7 +395,7 @@ pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) ->
             specular_reflectance,
         } => (
             "roughconductor",
-            Material {
+            PackedMaterial {
                 albedo: specular_reflectance.to_array(),
                 color2: eta.to_array(),
                 color3: k.to_array(),
@@ -290,7 +415,7 @@ pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) ->
             specular_transmittance,
         } => (
             "roughdielectric",
-            Material {
+            PackedMaterial {
                 albedo: specular_reflectance.to_array(),
                 color2: specular_transmittance.to_array(),
                 color3: [int_ior / ext_ior, 0.0, 0.0],
@@ -307,7 +432,7 @@ pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) ->
             specular_transmittance,
         } => (
             "thindielectric",
-            Material {
+            PackedMaterial {
                 albedo: specular_reflectance.to_array(),
                 color2: specular_transmittance.to_array(),
                 param: int_ior / ext_ior,
@@ -324,7 +449,7 @@ pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) ->
             let eta = int_ior / ext_ior;
             (
                 "plastic",
-                Material {
+                PackedMaterial {
                     albedo: diffuse_reflectance.to_array(),
                     color2: specular_reflectance.to_array(),
                     color3: [
@@ -350,7 +475,7 @@ pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) ->
             let (offset, internal_reflectance) = tables.coat(distribution, alpha, eta);
             (
                 "roughplastic",
-                Material {
+                PackedMaterial {
                     albedo: diffuse_reflectance.to_array(),
                     color2: specular_reflectance.to_array(),
                     color3: [
@@ -375,7 +500,7 @@ pub fn pack_material(material: &scene::Material, tables: &mut MaterialTables) ->
     } else {
         0
     };
-    Material {
+    PackedMaterial {
         albedo,
         kind: material_kind_id(name) as u32,
         emit: material.emit.to_array(),

@@ -17,27 +17,65 @@ mod texture;
 mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
-pub use disk::Disk;
+pub use disk::{Disk, PackedDisk};
 pub use material::{
-    Lobe, MATERIAL_KINDS, MaterialKind, MaterialTables, material_kind_id, pack_material,
+    Distribution, Lobe, MATERIAL_KINDS, Material, MaterialKind, MaterialModel, MaterialTables,
+    material_kind_id, pack_material,
 };
-pub use quad::Quad;
-pub use sphere::Sphere;
-pub use texture::{MATERIAL_TEXTURE_SHIFT, TEXTURE_CONSTANTS, TextureInfo, TextureTables};
-pub use triangle::{Triangle, TriangleNormals, TriangleUvs};
+pub use quad::{PackedQuad, Quad};
+pub use sphere::{PackedSphere, Sphere};
+pub use texture::{
+    Bitmap, MATERIAL_TEXTURE_SHIFT, TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo,
+    TextureKind, TextureTables, UvTransform, WrapMode,
+};
+pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 
 use crate::abi::GpuLayout;
-use crate::scene::Scene;
 use crate::shader::ShaderModule;
 
-/// Every primitive kind, in the order of the kernel's closest-hit test and light
-/// density (which fixes the order of floating-point sums: images depend on it).
-pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[
-    &quad::QUAD,
-    &sphere::SPHERE,
-    &triangle::TRIANGLE,
-    &disk::DISK,
-];
+/// What the scene needs of a shape of any kind.
+pub trait Shape {
+    /// In the light density (emitters always are; others when marked).
+    fn importance(&self) -> bool;
+    /// Its largest absolute coordinate, toward the scene's size (`Scene::extent`).
+    fn extent(&self) -> f32;
+}
+
+/// Registers the primitive kinds, each in one line `array: SceneType = KIND`:
+/// `PRIMITIVE_KINDS` lists the descriptions, and `Shapes` holds a scene's
+/// shapes of every kind in a field named as the kind's array.
+macro_rules! primitive_kinds {
+    ($($(#[$doc:meta])* $array:ident: $shape:ty = $kind:path,)*) => {
+        /// Every primitive kind, in the order of the kernel's closest-hit test and light
+        /// density (which fixes the order of floating-point sums: images depend on it).
+        pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[$(&$kind,)*];
+
+        /// A scene's shapes, world space: one list per primitive kind, in
+        /// scene order, named as the kind's array.
+        #[derive(Clone, Debug, Default, PartialEq)]
+        pub struct Shapes {
+            $($(#[$doc])* pub $array: Vec<$shape>,)*
+        }
+
+        impl Shapes {
+            /// Every shape of every kind, in kind order.
+            pub fn iter(&self) -> impl Iterator<Item = &dyn Shape> {
+                std::iter::empty()$(.chain(self.$array.iter().map(|s| s as &dyn Shape)))*
+            }
+        }
+
+        #[cfg(test)]
+        const SHAPE_ARRAYS: &[&str] = &[$(stringify!($array),)*];
+    };
+}
+
+primitive_kinds! {
+    quads: Quad = quad::QUAD,
+    spheres: Sphere = sphere::SPHERE,
+    /// Mesh faces, degenerate ones dropped.
+    triangles: Triangle = triangle::TRIANGLE,
+    disks: Disk = disk::DISK,
+}
 
 /// A kind of primitive: what the host packs and what its WGSL module defines.
 ///
@@ -77,7 +115,7 @@ pub struct PrimitiveKind {
     /// Whether the light density can sample it (emitters and `importance = true`).
     pub light_density: bool,
     /// The scene's primitives of this kind, packed, in scene order.
-    pub pack: fn(&Scene) -> Vec<PackedPrimitive>,
+    pub pack: fn(&Shapes) -> Vec<PackedPrimitive>,
     /// An element no ray hits: what a kernel that declares this kind binds when
     /// the scene has none (bindings cannot be empty).
     pub never_hit: fn() -> Vec<u8>,
@@ -292,5 +330,16 @@ impl KindSet {
 impl FromIterator<usize> for KindSet {
     fn from_iter<I: IntoIterator<Item = usize>>(iter: I) -> KindSet {
         iter.into_iter().fold(KindSet::default(), KindSet::with)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_kind_is_held_in_the_shapes_field_named_as_its_array() {
+        let arrays: Vec<&str> = PRIMITIVE_KINDS.iter().map(|kind| kind.array).collect();
+        assert_eq!(arrays, SHAPE_ARRAYS);
     }
 }

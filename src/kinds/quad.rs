@@ -1,26 +1,55 @@
 //! Quads (parallelograms): `q + a u + b v` for `a, b` in [0, 1], normal `normalize(u x v)`.
 
-use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
+use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
-use crate::scene::Scene;
 use crate::shader::shader_module;
+use glam::Vec3;
+
+/// Points `q + a u + b v`, `a, b` in [0, 1]; normal `normalize(u x v)`. World space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quad {
+    pub q: Vec3,
+    pub u: Vec3,
+    pub v: Vec3,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    /// Part of the light density (emitters always are; others when marked).
+    pub importance: bool,
+}
+
+impl Shape for Quad {
+    fn importance(&self) -> bool {
+        self.importance
+    }
+
+    fn extent(&self) -> f32 {
+        [
+            self.q,
+            self.q + self.u,
+            self.q + self.v,
+            self.q + self.u + self.v,
+        ]
+        .into_iter()
+        .fold(0.0, |extent, corner| extent.max(corner.abs().max_element()))
+    }
+}
 
 pub const QUAD: PrimitiveKind = PrimitiveKind {
     name: "quad",
     array: "quads",
     module: shader_module!("quad"),
-    layout: ErasedLayout::of::<Quad>(),
+    layout: ErasedLayout::of::<PackedQuad>(),
     light_density: true,
-    pack: |scene: &Scene| {
-        scene
+    pack: |shapes: &Shapes| {
+        shapes
             .quads
             .iter()
-            .map(|q| PackedPrimitive::new(&Quad::new(q), q.material, q.importance))
+            .map(|q| PackedPrimitive::new(&PackedQuad::new(q), q.material, q.importance))
             .collect()
     },
-    never_hit: || bytemuck::bytes_of(&Quad::never_hit()).to_vec(),
+    never_hit: || bytemuck::bytes_of(&PackedQuad::never_hit()).to_vec(),
     bounds: |bytes| {
-        let quad: Quad = bytemuck::pod_read_unaligned(bytes);
+        let quad: PackedQuad = bytemuck::pod_read_unaligned(bytes);
         let (q, u, v) = (
             quad.q.into(),
             glam::Vec3::from(quad.u),
@@ -43,7 +72,7 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
 
 gpu_struct! {
     /// Plane and barycentric terms are precomputed here, once per quad.
-    pub struct Quad {
+    pub struct PackedQuad as Quad {
         pub q: [f32; 3],
         pub material: u32,
         pub u: [f32; 3],
@@ -80,10 +109,10 @@ impl PlaneTerms {
     }
 }
 
-impl Quad {
-    pub fn new(quad: &crate::scene::Quad) -> Quad {
+impl PackedQuad {
+    pub fn new(quad: &Quad) -> PackedQuad {
         let plane = PlaneTerms::new(quad.q, quad.u, quad.v);
-        Quad {
+        PackedQuad {
             q: quad.q.to_array(),
             material: quad.material,
             u: quad.u.to_array(),
@@ -92,14 +121,14 @@ impl Quad {
             area: plane.span,
             normal: plane.normal.to_array(),
             w: plane.w.to_array(),
-            ..Quad::default()
+            ..PackedQuad::default()
         }
     }
 
     /// With NaN geometry every hit test fails.
-    pub fn never_hit() -> Quad {
+    pub fn never_hit() -> PackedQuad {
         let nan = [f32::NAN; 3];
-        Quad {
+        PackedQuad {
             q: nan,
             u: nan,
             plane_d: f32::NAN,
@@ -107,7 +136,7 @@ impl Quad {
             area: f32::NAN,
             normal: nan,
             w: nan,
-            ..Quad::default()
+            ..PackedQuad::default()
         }
     }
 }

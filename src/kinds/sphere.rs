@@ -1,41 +1,60 @@
 //! Spheres, with outward normals.
 
-use super::{ErasedLayout, PackedPrimitive, PrimitiveKind};
+use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
-use crate::scene::Scene;
 use crate::shader::shader_module;
+use glam::Vec3;
+
+/// World space; the normal points outwards.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub material: u32,
+    pub importance: bool,
+}
+
+impl Shape for Sphere {
+    fn importance(&self) -> bool {
+        self.importance
+    }
+
+    fn extent(&self) -> f32 {
+        self.center.abs().max_element() + self.radius
+    }
+}
 
 pub const SPHERE: PrimitiveKind = PrimitiveKind {
     name: "sphere",
     array: "spheres",
     module: shader_module!("sphere"),
-    layout: ErasedLayout::of::<Sphere>(),
+    layout: ErasedLayout::of::<PackedSphere>(),
     light_density: true,
-    pack: |scene: &Scene| {
-        scene
+    pack: |shapes: &Shapes| {
+        shapes
             .spheres
             .iter()
             .map(|s| {
-                let packed = Sphere {
+                let packed = PackedSphere {
                     center: s.center.to_array(),
                     radius: s.radius,
                     material: s.material,
-                    ..Sphere::default()
+                    ..PackedSphere::default()
                 };
                 PackedPrimitive::new(&packed, s.material, s.importance)
             })
             .collect()
     },
     never_hit: || {
-        let nan = Sphere {
+        let nan = PackedSphere {
             center: [f32::NAN; 3],
             radius: f32::NAN,
-            ..Sphere::default()
+            ..PackedSphere::default()
         };
         bytemuck::bytes_of(&nan).to_vec()
     },
     bounds: |bytes| {
-        let sphere: Sphere = bytemuck::pod_read_unaligned(bytes);
+        let sphere: PackedSphere = bytemuck::pod_read_unaligned(bytes);
         let center = glam::Vec3::from(sphere.center);
         (center - sphere.radius, center + sphere.radius)
     },
@@ -48,7 +67,7 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
 };
 
 gpu_struct! {
-    pub struct Sphere {
+    pub struct PackedSphere as Sphere {
         pub center: [f32; 3],
         pub radius: f32,
         pub material: u32,

@@ -1,19 +1,53 @@
 //! Triangles: the faces of meshes.
 
-use super::{ErasedLayout, NO_LIGHT, PackedPrimitive, PrimitiveKind};
+use super::{ErasedLayout, NO_LIGHT, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
-use crate::scene::Scene;
 use crate::shader::shader_module;
 use glam::Vec3;
+
+/// A mesh face, world space; normal `normalize((v1 - v0) x (v2 - v0))`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub vertices: [Vec3; 3],
+    /// Unit shading normals at the vertices, interpolated across the face (a
+    /// smooth mesh); `None`: shaded with the face normal.
+    pub normals: Option<[Vec3; 3]>,
+    /// Texture coordinates at the vertices (v down the image, as Mitsuba's);
+    /// `None`: Mitsuba's default, the barycentric (b1, b2).
+    pub uvs: Option<[glam::Vec2; 3]>,
+    pub material: u32,
+    pub importance: bool,
+    /// The index of the mesh object it belongs to: its group in the light density.
+    pub mesh: u32,
+}
+
+impl Triangle {
+    pub fn area(&self) -> f32 {
+        let [a, b, c] = self.vertices;
+        0.5 * (b - a).cross(c - a).length()
+    }
+}
+
+impl Shape for Triangle {
+    fn importance(&self) -> bool {
+        self.importance
+    }
+
+    fn extent(&self) -> f32 {
+        self.vertices
+            .into_iter()
+            .fold(0.0, |extent, v| extent.max(v.abs().max_element()))
+    }
+}
 
 pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     name: "triangle",
     array: "triangles",
     module: shader_module!("triangle"),
-    layout: ErasedLayout::of::<Triangle>(),
+    layout: ErasedLayout::of::<PackedTriangle>(),
     light_density: true,
-    pack: |scene: &Scene| {
-        scene
+    pack: |shapes: &Shapes| {
+        shapes
             .triangles
             .iter()
             .map(|t| PackedPrimitive {
@@ -21,22 +55,22 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
                 smooth: t.normals.is_some(),
                 uvs: bytemuck::bytes_of(&TriangleUvs::new(t)).to_vec(),
                 light_group: Some((t.mesh, t.area())),
-                ..PackedPrimitive::new(&Triangle::new(t), t.material, t.importance)
+                ..PackedPrimitive::new(&PackedTriangle::new(t), t.material, t.importance)
             })
             .collect()
     },
     never_hit: || {
         let nan = [f32::NAN; 3];
-        let never = Triangle {
+        let never = PackedTriangle {
             p0: nan,
             p1: nan,
             p2: nan,
-            ..Triangle::default()
+            ..PackedTriangle::default()
         };
         bytemuck::bytes_of(&never).to_vec()
     },
     bounds: |bytes| {
-        let t: Triangle = bytemuck::pod_read_unaligned(bytes);
+        let t: PackedTriangle = bytemuck::pod_read_unaligned(bytes);
         let [a, b, c] = [t.p0, t.p1, t.p2].map(Vec3::from);
         (a.min(b).min(c), a.max(b).max(c))
     },
@@ -57,7 +91,7 @@ gpu_struct! {
     /// lane by lane once per load instruction, whatever its width, and ten
     /// 4-byte loads (the 40-byte packing of `array<f32, 3>` vertices) cost more
     /// than the 8 bytes saved.
-    pub struct Triangle {
+    pub struct PackedTriangle as Triangle {
         pub p0: [f32; 3],
         pub material: u32,
         pub p1: [f32; 3],
@@ -68,16 +102,16 @@ gpu_struct! {
     }
 }
 
-impl Triangle {
-    pub fn new(triangle: &crate::scene::Triangle) -> Triangle {
+impl PackedTriangle {
+    pub fn new(triangle: &Triangle) -> PackedTriangle {
         let [p0, p1, p2] = triangle.vertices.map(|p| p.to_array());
-        Triangle {
+        PackedTriangle {
             p0,
             p1,
             p2,
             material: triangle.material,
             light: NO_LIGHT,
-            ..Triangle::default()
+            ..PackedTriangle::default()
         }
     }
 }
@@ -95,7 +129,7 @@ impl TriangleNormals {
     /// The vertex normals of `triangle`, or its face normal at every vertex if it
     /// is flat; a zero normal (a vertex of degenerate faces only, or one the file
     /// gives as zero) becomes the face normal.
-    fn new(triangle: &crate::scene::Triangle) -> TriangleNormals {
+    fn new(triangle: &Triangle) -> TriangleNormals {
         let [a, b, c] = triangle.vertices;
         let face = (b - a).cross(c - a).normalize();
         let normals = triangle.normals.unwrap_or([face; 3]);
@@ -116,7 +150,7 @@ gpu_struct! {
 impl TriangleUvs {
     /// The face's vertex uvs, or Mitsuba's default for a mesh without: (0, 0),
     /// (1, 0), (0, 1), which interpolate to the barycentric (b1, b2).
-    fn new(triangle: &crate::scene::Triangle) -> TriangleUvs {
+    fn new(triangle: &Triangle) -> TriangleUvs {
         let [uv0, uv1, uv2] = triangle
             .uvs
             .unwrap_or([glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y])

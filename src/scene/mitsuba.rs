@@ -2083,15 +2083,15 @@ mod tests {
                <transform name="to_world"><scale value="2"/><rotate z="1" angle="90"/>
                <translate x="3"/></transform><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>"#,
         );
-        assert_eq!(s.spheres[0].center, Vec3::new(3.0, 2.0, 0.0));
-        assert_eq!(s.spheres[0].radius, 2.0);
+        assert_eq!(s.shapes.spheres[0].center, Vec3::new(3.0, 2.0, 0.0));
+        assert_eq!(s.shapes.spheres[0].radius, 2.0);
         // A row-major matrix: translation in the last column.
         let s = scene(
             "matrix",
             r#"<shape type="obj"><string name="filename" value="quad.obj"/>
                <transform name="to_world"><matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/></transform></shape>"#,
         );
-        assert_eq!(s.triangles[0].vertices[0], Vec3::new(5.0, 6.0, 7.0));
+        assert_eq!(s.shapes.triangles[0].vertices[0], Vec3::new(5.0, 6.0, 7.0));
         // One number stands for all three (Mitsuba's `expand_value_to_xyz`).
         let s = scene(
             "one-value",
@@ -2099,12 +2099,13 @@ mod tests {
                <transform name="to_world"><translate value="2"/></transform>
                <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>"#,
         );
-        assert_eq!(s.spheres[0].center, Vec3::splat(3.0));
+        assert_eq!(s.shapes.spheres[0].center, Vec3::splat(3.0));
     }
 
     #[test]
     fn rectangles_and_cubes_keep_mitsubas_normals() {
-        let normal = |s: &Scene, i: usize| s.quads[i].u.cross(s.quads[i].v).normalize();
+        let normal =
+            |s: &Scene, i: usize| s.shapes.quads[i].u.cross(s.shapes.quads[i].v).normalize();
         let rect = |name: &str, extra: &str| {
             scene(
                 name,
@@ -2125,8 +2126,8 @@ mod tests {
         );
         assert_eq!(normal(&flipped, 0), -Vec3::Z);
         let cube = scene("cube", r#"<shape type="cube"/>"#);
-        assert_eq!(cube.quads.len(), 6);
-        for (i, q) in cube.quads.iter().enumerate() {
+        assert_eq!(cube.shapes.quads.len(), 6);
+        for (i, q) in cube.shapes.quads.iter().enumerate() {
             let centre = q.q + (q.u + q.v) / 2.0;
             assert_eq!(normal(&cube, i), centre, "face {i} faces outwards");
         }
@@ -2138,8 +2139,8 @@ mod tests {
     fn disks_keep_mitsubas_shape_and_normal() {
         let disk = |name: &str, body: &str| {
             let s = scene(name, &format!(r#"<shape type="disk">{body}</shape>"#));
-            assert_eq!(s.disks.len(), 1);
-            s.disks[0]
+            assert_eq!(s.shapes.disks.len(), 1);
+            s.shapes.disks[0]
         };
         let d = disk(
             "disk",
@@ -2224,12 +2225,12 @@ mod tests {
             &[],
         )
         .unwrap();
-        let m = &s.materials[s.quads[0].material as usize];
+        let m = &s.materials[s.shapes.quads[0].material as usize];
         assert_eq!(
             (m.albedo, m.emit),
             (Vec3::new(0.2, 0.4, 0.6), Vec3::splat(5.0))
         );
-        assert!(s.quads[0].importance);
+        assert!(s.shapes.quads[0].importance);
         // Outside a twosided, Mitsuba's diffuse is black from behind: one-sided.
         assert!(m.one_sided);
         assert!(
@@ -2244,7 +2245,7 @@ mod tests {
             &[],
         )
         .unwrap();
-        assert!(!s.materials[s.quads[0].material as usize].one_sided);
+        assert!(!s.materials[s.shapes.quads[0].material as usize].one_sided);
         // A diffuse defined at the top level and used only inside a twosided: two-sided too.
         let (s, _) = read(
             "twosided-ref",
@@ -2253,14 +2254,14 @@ mod tests {
             &[],
         )
         .unwrap();
-        assert!(!s.materials[s.quads[0].material as usize].one_sided);
+        assert!(!s.materials[s.shapes.quads[0].material as usize].one_sided);
         // Without a BSDF: Mitsuba's default, a one-sided diffuse 0.5, black on an emitter.
         let s = scene(
             "default-bsdf",
             r#"<shape type="rectangle"/>
                <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="3"/></emitter></shape>"#,
         );
-        let material = |i: usize| &s.materials[s.quads[i].material as usize];
+        let material = |i: usize| &s.materials[s.shapes.quads[i].material as usize];
         assert_eq!(
             (material(0).albedo, material(0).one_sided),
             (Vec3::splat(0.5), true)
@@ -2289,7 +2290,7 @@ mod tests {
                 r#"<shape type="sphere"><boolean name="flip_normals" value="true"/>{mirrored}</shape>"#
             ),
         );
-        assert_eq!(s.spheres[0].radius, 1.0);
+        assert_eq!(s.shapes.spheres[0].radius, 1.0);
         let s = scene(
             "constant",
             r#"<emitter type="constant"><rgb name="radiance" value="0.5, 1, 2"/></emitter>"#,
@@ -2311,7 +2312,7 @@ mod tests {
         let white = Vec3::new(1.204794, 0.948291, 0.908916);
         assert!(s.render.background.abs_diff_eq(2.0 * white, 1e-6));
         assert_eq!(s.point_lights[0].intensity, Vec3::splat(3.0));
-        let material = |i: usize| &s.materials[s.quads[i].material as usize];
+        let material = |i: usize| &s.materials[s.shapes.quads[i].material as usize];
         assert!(material(0).emit.abs_diff_eq(white, 1e-6));
         assert_eq!(material(1).albedo, Vec3::splat(0.5));
     }
@@ -2530,10 +2531,10 @@ mod tests {
             <shape type="sphere"><float name="radius" value="$r"/><ref id="later"/></shape>
             <bsdf type="diffuse" id="later"/>"#;
         let (s, _) = read("params", body, &[]).unwrap();
-        assert_eq!(s.spheres[0].radius, 2.0);
+        assert_eq!(s.shapes.spheres[0].radius, 2.0);
         let three = Define::from_str("r=3").unwrap();
         let (s, c) = read("params-d", body, &[three]).unwrap();
-        assert_eq!(s.spheres[0].radius, 3.0);
+        assert_eq!(s.shapes.spheres[0].radius, 3.0);
         assert!(c.warnings.iter().all(|w| !w.contains("-D")));
         let (_, c) = read("params-unused", body, &["q=1".parse().unwrap()]).unwrap();
         assert!(c.warnings.iter().any(|w| w.contains("-D q")));
@@ -2560,7 +2561,7 @@ mod tests {
         std::fs::create_dir_all(&parts).unwrap();
         std::fs::rename(path.with_file_name("shapes.xml"), parts.join("shapes.xml")).unwrap();
         let s = Scene::load(&path).unwrap();
-        assert_eq!(s.triangles.len(), 2);
+        assert_eq!(s.shapes.triangles.len(), 2);
     }
 
     #[test]
@@ -2668,7 +2669,7 @@ mod tests {
                </bsdf></shape>"#,
         );
         assert_eq!(
-            s.materials[s.quads[0].material as usize].kind,
+            s.materials[s.shapes.quads[0].material as usize].kind,
             MaterialKind::ThinDielectric {
                 int_ior: 1.33,
                 ext_ior: 1.000277,

@@ -12,6 +12,9 @@ use glam::Vec3;
 use std::fmt;
 use std::path::Path;
 
+pub use crate::kinds::{
+    Disk, Distribution, Material, MaterialKind, Quad, Shapes, Sphere, Triangle,
+};
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, SceneOverrides};
 pub use texture::Texture;
@@ -182,186 +185,6 @@ impl RenderSettings {
     }
 }
 
-/// The material kinds. The book's (`Lambertian`, `Metal`, `Dielectric`, `Light`)
-/// keep the book's parameters; the others are Mitsuba 3's plugins of the same
-/// names, with Mitsuba's parameter names, meanings and defaults (so a Mitsuba
-/// scene maps onto them field for field).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum MaterialKind {
-    Lambertian,
-    Metal {
-        fuzz: f32,
-    },
-    /// The book's glass: `ior` is the relative index (interior over exterior).
-    Dielectric {
-        ior: f32,
-    },
-    /// Emits `emit` on the side its normal faces; scatters nothing.
-    Light,
-    /// A perfectly smooth conductor: a mirror with the Fresnel reflectance of the
-    /// complex index `eta + i k` (per RGB channel), times `specular_reflectance`.
-    Conductor {
-        eta: Vec3,
-        k: Vec3,
-        specular_reflectance: Vec3,
-    },
-    /// A conductor with a microfacet surface (Cook-Torrance with Smith shadowing).
-    RoughConductor {
-        distribution: Distribution,
-        /// Roughness along the shading frame's two tangents (equal: isotropic).
-        alpha_u: f32,
-        alpha_v: f32,
-        eta: Vec3,
-        k: Vec3,
-        specular_reflectance: Vec3,
-    },
-    /// A rough interface between two dielectrics (Walter et al. 2007).
-    RoughDielectric {
-        distribution: Distribution,
-        alpha_u: f32,
-        alpha_v: f32,
-        int_ior: f32,
-        ext_ior: f32,
-        specular_reflectance: Vec3,
-        specular_transmittance: Vec3,
-    },
-    /// A thin slab of dielectric (two parallel interfaces): reflects with the
-    /// slab's reflectance summed over its internal bounces and lets the rest
-    /// through without bending it (Mitsuba's `thindielectric`).
-    ThinDielectric {
-        int_ior: f32,
-        ext_ior: f32,
-        specular_reflectance: Vec3,
-        specular_transmittance: Vec3,
-    },
-    /// A diffuse base under a smooth dielectric coat: a specular (delta) lobe and
-    /// a diffuse one.
-    Plastic {
-        int_ior: f32,
-        ext_ior: f32,
-        diffuse_reflectance: Vec3,
-        specular_reflectance: Vec3,
-        /// Mitsuba's `nonlinear`: account for the colour shift of light scattered
-        /// inside the coat several times.
-        nonlinear: bool,
-    },
-    /// A diffuse base under a rough dielectric coat (isotropic microfacets): a
-    /// glossy lobe and a diffuse one, both with densities.
-    RoughPlastic {
-        distribution: Distribution,
-        alpha: f32,
-        int_ior: f32,
-        ext_ior: f32,
-        diffuse_reflectance: Vec3,
-        specular_reflectance: Vec3,
-        nonlinear: bool,
-    },
-}
-
-/// A microfacet normal distribution (Mitsuba's `distribution`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Distribution {
-    Beckmann,
-    /// Trowbridge-Reitz.
-    Ggx,
-}
-
-impl Distribution {
-    pub const ALL: [Distribution; 2] = [Distribution::Beckmann, Distribution::Ggx];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Distribution::Beckmann => "beckmann",
-            Distribution::Ggx => "ggx",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Distribution> {
-        Distribution::ALL.into_iter().find(|d| d.name() == name)
-    }
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct Material {
-    pub name: String,
-    pub kind: MaterialKind,
-    /// The book's materials' reflectance (`lambertian`, `metal`); zero for the
-    /// others, whose colours are parameters of their kind.
-    pub albedo: Vec3,
-    /// Emitted radiance (one-sided, along the surface normal); zero for most materials.
-    pub emit: Vec3,
-    /// Scatters only on the side the normal faces, black from behind (Mitsuba's
-    /// BSDFs outside `twosided`); the book's materials scatter on both sides.
-    pub one_sided: bool,
-    /// A texture on the kind's colour that `kinds::pack_material` packs as
-    /// `albedo` (lambertian and metal `albedo`, conductors' and rough
-    /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
-    /// which then holds the texture's mean.
-    pub texture: Option<Texture>,
-}
-
-impl Material {
-    pub fn emits(&self) -> bool {
-        self.emit.max_element() > 0.0
-    }
-}
-
-/// Points `q + a u + b v`, `a, b` in [0, 1]; normal `normalize(u x v)`. World space.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Quad {
-    pub q: Vec3,
-    pub u: Vec3,
-    pub v: Vec3,
-    /// Index into `Scene::materials`.
-    pub material: u32,
-    /// Part of the light density (emitters always are; others when marked).
-    pub importance: bool,
-}
-
-/// Points `center + a u + b v` with `a^2 + b^2 <= 1`: a disk of radius `|u|` when
-/// `u` and `v` are perpendicular and as long, an ellipse otherwise (a disk under an
-/// affine transform); normal `normalize(u x v)`. World space.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Disk {
-    pub center: Vec3,
-    pub u: Vec3,
-    pub v: Vec3,
-    pub material: u32,
-    pub importance: bool,
-}
-
-/// World space; the normal points outwards.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sphere {
-    pub center: Vec3,
-    pub radius: f32,
-    pub material: u32,
-    pub importance: bool,
-}
-
-/// A mesh face, world space; normal `normalize((v1 - v0) x (v2 - v0))`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Triangle {
-    pub vertices: [Vec3; 3],
-    /// Unit shading normals at the vertices, interpolated across the face (a
-    /// smooth mesh); `None`: shaded with the face normal.
-    pub normals: Option<[Vec3; 3]>,
-    /// Texture coordinates at the vertices (v down the image, as Mitsuba's);
-    /// `None`: Mitsuba's default, the barycentric (b1, b2).
-    pub uvs: Option<[glam::Vec2; 3]>,
-    pub material: u32,
-    pub importance: bool,
-    /// The index of the mesh object it belongs to: its group in the light density.
-    pub mesh: u32,
-}
-
-impl Triangle {
-    pub fn area(&self) -> f32 {
-        let [a, b, c] = self.vertices;
-        0.5 * (b - a).cross(c - a).length()
-    }
-}
-
 /// A light at a point (Mitsuba's `point` and `spot` emitters): a delta light,
 /// which no sampled direction can hit, so every strategy estimates it by a
 /// shadow ray (next-event estimation) at each vertex with a smooth lobe.
@@ -396,11 +219,7 @@ pub struct Scene {
     pub camera: Camera,
     pub render: RenderSettings,
     pub materials: Vec<Material>,
-    pub quads: Vec<Quad>,
-    pub disks: Vec<Disk>,
-    pub spheres: Vec<Sphere>,
-    /// Mesh faces, degenerate ones dropped.
-    pub triangles: Vec<Triangle>,
+    pub shapes: Shapes,
     /// Mesh faces dropped for having no area.
     pub degenerate_triangles: usize,
     /// Point and spot lights (`[[lights]]`).
@@ -489,34 +308,15 @@ impl Scene {
 
     /// Objects in the light density.
     pub fn importance_count(&self) -> usize {
-        self.quads.iter().filter(|q| q.importance).count()
-            + self.disks.iter().filter(|d| d.importance).count()
-            + self.spheres.iter().filter(|s| s.importance).count()
-            + self.triangles.iter().filter(|t| t.importance).count()
+        self.shapes.iter().filter(|s| s.importance()).count()
     }
 
     /// Largest absolute coordinate of any geometry or the camera: the scene's size,
     /// from which ray offsets are derived (so the scene renders the same at any scale).
     pub fn extent(&self) -> f32 {
         let mut extent = self.camera.lookfrom.abs().max_element();
-        for q in &self.quads {
-            for corner in [q.q, q.q + q.u, q.q + q.v, q.q + q.u + q.v] {
-                extent = extent.max(corner.abs().max_element());
-            }
-        }
-        for d in &self.disks {
-            // The parallelogram around the ellipse holds it.
-            for corner in [d.u + d.v, d.u - d.v, d.v - d.u, -d.u - d.v] {
-                extent = extent.max((d.center + corner).abs().max_element());
-            }
-        }
-        for s in &self.spheres {
-            extent = extent.max(s.center.abs().max_element() + s.radius);
-        }
-        for t in &self.triangles {
-            for v in t.vertices {
-                extent = extent.max(v.abs().max_element());
-            }
+        for shape in self.shapes.iter() {
+            extent = extent.max(shape.extent());
         }
         for l in &self.point_lights {
             extent = extent.max(l.position.abs().max_element());

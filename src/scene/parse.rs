@@ -207,7 +207,7 @@ use super::texture::{
 };
 use super::{
     Camera, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
-    Roulette, Sampler, Scene, SceneError, Sphere, Spot, Strategy, Texture, Triangle,
+    Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle,
 };
 use std::path::Path;
 
@@ -379,10 +379,12 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         camera,
         render,
         materials,
-        quads: objects.quads,
-        disks: objects.disks,
-        spheres: objects.spheres,
-        triangles: objects.triangles,
+        shapes: Shapes {
+            quads: objects.quads,
+            spheres: objects.spheres,
+            triangles: objects.triangles,
+            disks: objects.disks,
+        },
         degenerate_triangles: objects.degenerate_triangles,
         point_lights,
         warnings: objects.warnings,
@@ -395,9 +397,9 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     // Re-check what the scale could break (overflow, underflow).
     let problem = camera_problem(&scene.camera)
         .map(|(_, p)| p)
-        .or_else(|| scene.quads.iter().find_map(quad_problem))
-        .or_else(|| scene.disks.iter().find_map(disk_problem))
-        .or_else(|| scene.spheres.iter().find_map(sphere_problem));
+        .or_else(|| scene.shapes.quads.iter().find_map(quad_problem))
+        .or_else(|| scene.shapes.disks.iter().find_map(disk_problem))
+        .or_else(|| scene.shapes.spheres.iter().find_map(sphere_problem));
     match problem {
         Some(p) => Err(top.err(
             "scene.scale",
@@ -478,21 +480,21 @@ impl Scene {
         let mut s = self.clone();
         s.camera.lookfrom *= factor;
         s.camera.lookat *= factor;
-        for q in &mut s.quads {
+        for q in &mut s.shapes.quads {
             q.q *= factor;
             q.u *= factor;
             q.v *= factor;
         }
-        for d in &mut s.disks {
+        for d in &mut s.shapes.disks {
             d.center *= factor;
             d.u *= factor;
             d.v *= factor;
         }
-        for sp in &mut s.spheres {
+        for sp in &mut s.shapes.spheres {
             sp.center *= factor;
             sp.radius *= factor;
         }
-        for t in &mut s.triangles {
+        for t in &mut s.shapes.triangles {
             for v in &mut t.vertices {
                 *v *= factor;
             }
@@ -2518,19 +2520,20 @@ material = "white"
         assert_eq!((s.camera.width, s.camera.height), (600, 600));
         assert_eq!(s.render, default_render());
         assert_eq!(s.materials.len(), 2);
-        assert_eq!((s.quads.len(), s.spheres.len()), (1, 1));
+        assert_eq!((s.shapes.quads.len(), s.shapes.spheres.len()), (1, 1));
         assert_eq!(s.importance_count(), 0);
     }
 
     #[test]
     fn cornell_parses() {
         let s = parse(CORNELL);
-        assert_eq!(s.quads.len(), 12);
-        assert_eq!(s.spheres.len(), 1);
+        assert_eq!(s.shapes.quads.len(), 12);
+        assert_eq!(s.shapes.spheres.len(), 1);
         assert_eq!(s.importance_count(), 2);
         let names: Vec<&str> = s.materials.iter().map(|m| m.name.as_str()).collect();
         assert_eq!(names, ["glass", "green", "light", "red", "white"]);
         let light = s
+            .shapes
             .quads
             .iter()
             .find(|q| s.materials[q.material as usize].emits())
@@ -2539,9 +2542,9 @@ material = "white"
         assert_eq!(light.q, Vec3::new(213.0, 554.0, 227.0));
         assert_eq!(normal(light), Vec3::NEG_Y, "the light must face down");
         assert_eq!(s.materials[light.material as usize].emit, Vec3::splat(15.0));
-        assert_eq!(s.quads.iter().filter(|q| q.importance).count(), 1);
+        assert_eq!(s.shapes.quads.iter().filter(|q| q.importance).count(), 1);
 
-        let sphere = s.spheres[0];
+        let sphere = s.shapes.spheres[0];
         assert!(sphere.importance);
         assert_eq!(
             (sphere.center, sphere.radius),
@@ -2561,7 +2564,7 @@ material = "white"
 
         // Every wall faces into the room (towards its centre).
         let centre = Vec3::splat(277.5);
-        for q in &s.quads[..5] {
+        for q in &s.shapes.quads[..5] {
             let mid = q.q + 0.5 * (q.u + q.v);
             assert!(normal(q).dot(centre - mid) > 0.0, "{q:?}");
         }
@@ -2578,7 +2581,7 @@ material = "white"
     #[test]
     fn box_rotation_matches_the_book() {
         let s = parse(CORNELL);
-        let tall = &s.quads[6..12];
+        let tall = &s.shapes.quads[6..12];
         // Right face: q = (max.x, min.y, max.z) = (165, 0, 165), u = -dz, v = dy.
         let right = tall[1];
         let expected = book_rotate_translate([165.0, 0.0, 165.0], 15.0, [265.0, 0.0, 295.0]);
@@ -2615,16 +2618,16 @@ material = "white"
         );
         let text = text.replace("center = [0, 0, 0]", "center = [1, 0, 0]");
         let s = parse(&text);
-        assert_eq!(s.spheres[0].center, Vec3::new(1.0, 2.0, 2.0));
+        assert_eq!(s.shapes.spheres[0].center, Vec3::new(1.0, 2.0, 2.0));
     }
 
     #[test]
     fn cornell_boxes_parses() {
         let s = parse(BOXES);
-        assert_eq!(s.quads.len(), 18, "5 walls + 1 light + 2 boxes of 6");
-        assert_eq!(s.spheres.len(), 0);
+        assert_eq!(s.shapes.quads.len(), 18, "5 walls + 1 light + 2 boxes of 6");
+        assert_eq!(s.shapes.spheres.len(), 0);
         assert_eq!(s.importance_count(), 1);
-        let short = &s.quads[12..18];
+        let short = &s.shapes.quads[12..18];
         let expected = book_rotate_translate([165.0, 0.0, 165.0], -18.0, [130.0, 0.0, 65.0]);
         assert!((short[1].q - expected).abs().max_element() < 1e-3);
         assert_eq!(s.camera, parse(CORNELL).camera);
@@ -2634,7 +2637,7 @@ material = "white"
     #[test]
     fn furnace_parses_with_inward_normals() {
         let s = parse(FURNACE);
-        assert_eq!(s.quads.len(), 6);
+        assert_eq!(s.shapes.quads.len(), 6);
         assert_eq!(
             s.importance_count(),
             6,
@@ -2649,7 +2652,7 @@ material = "white"
         let m = &s.materials[0];
         assert_eq!((m.albedo, m.emit), (Vec3::splat(0.5), Vec3::ONE));
         let mut axes = Vec::new();
-        for q in &s.quads {
+        for q in &s.shapes.quads {
             let n = normal(q);
             let mid = q.q + 0.5 * (q.u + q.v);
             assert_eq!(mid.abs().max_element(), 1.0, "{q:?} is not a cube face");
@@ -2765,7 +2768,11 @@ material = "white"
         // Zero objects and no materials are fine.
         let s = parse(&format!("objects = []\n{camera}"));
         assert_eq!(
-            (s.quads.len(), s.spheres.len(), s.materials.len()),
+            (
+                s.shapes.quads.len(),
+                s.shapes.spheres.len(),
+                s.materials.len()
+            ),
             (0, 0, 0)
         );
         // Integers are fine where floats are expected.
@@ -3361,9 +3368,12 @@ material = "white"
         assert_eq!(t.camera.lookfrom, s.camera.lookfrom * 1e-3);
         assert_eq!(t.camera.lookat, s.camera.lookat * 1e-3);
         assert_eq!(t.camera.vup, s.camera.vup);
-        assert_eq!(t.spheres[0].radius, 90.0 * 1e-3);
-        assert_eq!(t.spheres[0].center, s.spheres[0].center * 1e-3);
-        for (a, b) in s.quads.iter().zip(&t.quads) {
+        assert_eq!(t.shapes.spheres[0].radius, 90.0 * 1e-3);
+        assert_eq!(
+            t.shapes.spheres[0].center,
+            s.shapes.spheres[0].center * 1e-3
+        );
+        for (a, b) in s.shapes.quads.iter().zip(&t.shapes.quads) {
             assert_eq!((b.q, b.u, b.v), (a.q * 1e-3, a.u * 1e-3, a.v * 1e-3));
             assert_eq!((b.material, b.importance), (a.material, a.importance));
         }
@@ -3510,10 +3520,10 @@ material = "white"
             "file = \"mesh.obj\"\nscale = [2, 3, 4]\nrotate = { axis = [0, 0, 1], angle = 90 }\ntranslate = [10, 0, 0]",
         )
         .unwrap();
-        assert_eq!(s.triangles.len(), 1);
+        assert_eq!(s.shapes.triangles.len(), 1);
         // Scale, then rotate (x -> y, y -> -x), then translate.
         assert_eq!(
-            s.triangles[0].vertices,
+            s.shapes.triangles[0].vertices,
             [
                 Vec3::new(10.0, 0.0, 0.0),
                 Vec3::new(10.0, 2.0, 0.0),
@@ -3525,13 +3535,16 @@ material = "white"
             "file = \"mesh.obj\"\nmatrix = [0, -3, 0, 10,  2, 0, 0, 0,  0, 0, 4, 0,  0, 0, 0, 1]",
         )
         .unwrap();
-        assert_eq!(m.triangles, s.triangles, "the same transform as a matrix");
+        assert_eq!(
+            m.shapes.triangles, s.shapes.triangles,
+            "the same transform as a matrix"
+        );
     }
 
     #[test]
     fn mirroring_keeps_the_face_side() {
         let s = scene_with_mesh(TRIANGLE_OBJ, "file = \"mesh.obj\"\nscale = [-1, 1, 1]").unwrap();
-        let [a, b, c] = s.triangles[0].vertices;
+        let [a, b, c] = s.shapes.triangles[0].vertices;
         // The original faces +z; mirrored in x it still does.
         assert!((b - a).cross(c - a).z > 0.0);
     }
@@ -3544,7 +3557,7 @@ material = "white"
         let clockwise = "v 0 0 0\nv 0 1 0\nv 1 0 0\nvn 0 0 1\nf 1//1 2//1 3//1\n";
         let side = |keys: &str| {
             let s = scene_with_mesh(clockwise, &format!("file = \"mesh.obj\"\n{keys}")).unwrap();
-            let [a, b, c] = s.triangles[0].vertices;
+            let [a, b, c] = s.shapes.triangles[0].vertices;
             (b - a).cross(c - a).z
         };
         assert!(side("") > 0.0);
@@ -3556,7 +3569,7 @@ material = "white"
     fn degenerate_faces_are_dropped_and_counted() {
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n";
         let s = scene_with_mesh(obj, "file = \"mesh.obj\"").unwrap();
-        assert_eq!((s.triangles.len(), s.degenerate_triangles), (1, 1));
+        assert_eq!((s.shapes.triangles.len(), s.degenerate_triangles), (1, 1));
     }
 
     #[test]
@@ -3617,7 +3630,7 @@ material = "white"
             1,
         );
         let s = parse(&ok);
-        assert!((s.spheres[0].radius - 2.0).abs() < 1e-6);
+        assert!((s.shapes.spheres[0].radius - 2.0).abs() < 1e-6);
     }
 
     #[test]

@@ -22,16 +22,16 @@ impl Scene {
             materials,
             ..self.clone()
         };
-        for q in &mut scene.quads {
+        for q in &mut scene.shapes.quads {
             q.material = renumbered[q.material as usize];
         }
-        for d in &mut scene.disks {
+        for d in &mut scene.shapes.disks {
             d.material = renumbered[d.material as usize];
         }
-        for s in &mut scene.spheres {
+        for s in &mut scene.shapes.spheres {
             s.material = renumbered[s.material as usize];
         }
-        for t in &mut scene.triangles {
+        for t in &mut scene.shapes.triangles {
             t.material = renumbered[t.material as usize];
         }
         (scene, dropped)
@@ -41,12 +41,13 @@ impl Scene {
     pub fn used_materials(&self) -> Vec<bool> {
         let mut used = vec![false; self.materials.len()];
         let references = self
+            .shapes
             .quads
             .iter()
             .map(|q| q.material)
-            .chain(self.disks.iter().map(|d| d.material))
-            .chain(self.spheres.iter().map(|s| s.material))
-            .chain(self.triangles.iter().map(|t| t.material));
+            .chain(self.shapes.disks.iter().map(|d| d.material))
+            .chain(self.shapes.spheres.iter().map(|s| s.material))
+            .chain(self.shapes.triangles.iter().map(|t| t.material));
         for material in references {
             used[material as usize] = true;
         }
@@ -56,7 +57,7 @@ impl Scene {
 
 #[cfg(test)]
 mod tests {
-    use crate::scene::Scene;
+    use crate::scene::{Scene, Shapes};
 
     #[test]
     fn unused_materials_are_dropped_and_the_rest_renumbered() {
@@ -93,14 +94,13 @@ mod tests {
         let (pruned, dropped) = scene.without_unused_materials();
         assert_eq!(dropped, 2);
         let name = |i: u32| pruned.materials[i as usize].name.as_str();
-        assert_eq!(name(pruned.spheres[0].material), "glass");
-        assert_eq!(name(pruned.quads[0].material), "red");
+        assert_eq!(name(pruned.shapes.spheres[0].material), "glass");
+        assert_eq!(name(pruned.shapes.quads[0].material), "red");
         assert_eq!(pruned.materials.len(), 2);
         // Nothing left to drop, and a scene without objects keeps no material.
         assert_eq!(pruned.without_unused_materials(), (pruned.clone(), 0));
         let empty = Scene {
-            quads: Vec::new(),
-            spheres: Vec::new(),
+            shapes: Shapes::default(),
             ..scene
         };
         let (none, dropped) = empty.without_unused_materials();
