@@ -19,7 +19,7 @@ pub struct Accumulation {
     /// uniform continuation, `None`: every pixel has `samples`): each pixel's own
     /// sample count, a multiple of the replicate count (each replicate holds a
     /// quarter), from sample index 0. Replicate 0
-    /// decided the counts (`crate::adaptive`; `sum_sq` holds its squares alone), so
+    /// decided the counts (`crate::render::adaptive`; `sum_sq` holds its squares alone), so
     /// the mean and its error come from the other replicates: unbiased.
     pub counts: Option<Vec<u32>>,
     pub sum: Vec<[f64; 3]>,

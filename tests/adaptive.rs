@@ -4,9 +4,9 @@
 
 mod common;
 
-use pathmix::checkpoint;
 use pathmix::render::{self, AccumulatorState, RenderOptions, Renderer, StopReason, StopRule};
 use pathmix::scene::{Sampler, Scene, SceneOverrides};
+use pathmix::session::checkpoint;
 use pathmix::stats::Accumulation;
 
 fn adaptive() -> RenderOptions {

@@ -268,7 +268,7 @@ fn bench_writes_the_sphere_field_as_a_scene_file() {
     assert!(output.status.success(), "{}", stderr(&output));
     let text = String::from_utf8(output.stdout).unwrap();
     let scene = pathmix::scene::Scene::parse(&text, "sphere-field.toml").unwrap();
-    assert_eq!(scene, pathmix::bench::sphere_field(10));
+    assert_eq!(scene, pathmix::scene::sphere_field(10));
     // The ground, the lamp and the ten spheres.
     assert_eq!(text.matches("type = \"sphere\"").count(), 12, "{text}");
 }

@@ -2,12 +2,12 @@
 
 mod common;
 
-use pathmix::converge::{
+use pathmix::output::{self, Image};
+use pathmix::scene::{Sampler, SceneOverrides, Strategy};
+use pathmix::session::converge::{
     self, CSV_HEADER, ConvergeError, Event, ReferenceChoice, ReferenceSource, Study, Variant,
     Verdict,
 };
-use pathmix::output::{self, Image};
-use pathmix::scene::{Sampler, SceneOverrides, Strategy};
 use pathmix::stats;
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -3,11 +3,11 @@
 
 mod common;
 
-use pathmix::converge::{self, Variant};
 use pathmix::kernel::AccumulatorKind;
-use pathmix::pilot::{self, Pilot};
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopRule};
 use pathmix::scene::{Sampler, Scene, Strategy};
+use pathmix::session::converge::{self, Variant};
+use pathmix::session::pilot::{self, Pilot};
 use pathmix::stats;
 use std::path::Path;
 use std::process::{Command, Output};

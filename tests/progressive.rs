@@ -3,11 +3,11 @@
 
 mod common;
 
-use pathmix::checkpoint::{self, Checkpoint, SceneIdentity};
 use pathmix::kernel::AccumulatorKind;
 use pathmix::render::{AccumulatorState, RenderOptions, Renderer};
 use pathmix::scene::{Scene, SceneOverrides};
-use pathmix::shard::{self, Partial};
+use pathmix::session::checkpoint::{self, Checkpoint, SceneIdentity};
+use pathmix::session::shard::{self, Partial};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};

@@ -319,7 +319,7 @@ fn render_stored(ctx: &GpuContext, scene: &Scene, storage: SceneStorage) -> Accu
 
 /// The benchmark's field of `n` spheres, small.
 fn small_field(n: usize) -> Scene {
-    let mut scene = pathmix::bench::sphere_field(n);
+    let mut scene = pathmix::scene::sphere_field(n);
     scene
         .apply_overrides(&SceneOverrides {
             width: Some(24),

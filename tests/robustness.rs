@@ -247,7 +247,7 @@ fn read_only_outputs_are_refused_before_rendering() {
     ] {
         let file = dir.join(name);
         let content = if flag == "--checkpoint" {
-            pathmix::checkpoint::MAGIC.to_vec()
+            pathmix::session::checkpoint::MAGIC.to_vec()
         } else {
             b"an image".to_vec()
         };
@@ -502,7 +502,7 @@ fn an_empty_shard_is_a_valid_empty_part() {
         );
         assert!(output.status.success(), "{shard}: {}", text(&output.stderr));
     }
-    let empty = pathmix::shard::read_partial(&dir.join("e0.exr")).unwrap();
+    let empty = pathmix::session::shard::read_partial(&dir.join("e0.exr")).unwrap();
     assert_eq!(empty.range, 0..0);
     let merged = pathmix_in(&dir, &["merge", "e0.exr", "e1.exr", "-o", "m.png"]);
     assert!(merged.status.success(), "{}", text(&merged.stderr));
@@ -541,7 +541,7 @@ fn resource_limits_are_checked_before_the_device_is_asked() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    let mut scene = pathmix::bench::sphere_field(70_000);
+    let mut scene = pathmix::scene::sphere_field(70_000);
     scene.camera.width = 4;
     scene.camera.height = 4;
     let options = RenderOptions {

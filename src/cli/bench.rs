@@ -2,12 +2,12 @@
 
 use super::Failure;
 use clap::Args;
-use pathmix::bench::{self, Measurement};
 use pathmix::gpu::GpuContext;
 use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::pack::SceneData;
 use pathmix::render::RenderOptions;
-use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
+use pathmix::scene::{self, Sampler, Scene, SceneOverrides, Strategy};
+use pathmix::session::bench::{self, Measurement};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -72,7 +72,7 @@ const CASES: [Case; 4] = [
     },
 ];
 
-/// Sphere counts of the scale curve (`bench::sphere_field`).
+/// Sphere counts of the scale curve (`scene::sphere_field`).
 const FIELD_SIZES: [usize; 3] = [100, 1000, 4000];
 
 /// Paths/s of the sphere field against its sphere count, in the default storage
@@ -92,7 +92,7 @@ fn scale_curve(
     println!("|--:|---|---|--:|--:|");
     let mut first: Option<f64> = None;
     for n in FIELD_SIZES {
-        let scene = bench::sphere_field(n);
+        let scene = scene::sphere_field(n);
         let storage = SceneStorage::auto(&SceneData::pack(&scene));
         let memories = match storage {
             SceneStorage::Bvh => vec![default_memory, other_memory],
@@ -121,7 +121,7 @@ fn scenes_dir() -> PathBuf {
 
 pub fn bench(args: BenchArgs) -> Result<(), Failure> {
     if let Some(n) = args.write_sphere_field {
-        print!("{}", bench::sphere_field_toml(n));
+        print!("{}", scene::sphere_field_toml(n));
         return Ok(());
     }
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;

@@ -3,12 +3,12 @@
 use super::Failure;
 use super::progress::ProgressDisplay;
 use clap::Args;
-use pathmix::converge::{
-    self, ConvergeError, Event, ReferenceChoice, ReferenceSource, Study, Variant,
-};
 use pathmix::gpu::GpuContext;
 use pathmix::scene::mitsuba::{self, Converted};
 use pathmix::scene::{Scene, SceneOverrides};
+use pathmix::session::converge::{
+    self, ConvergeError, Event, ReferenceChoice, ReferenceSource, Study, Variant,
+};
 use std::path::PathBuf;
 
 /// Longest image side when neither --width nor --height is given.

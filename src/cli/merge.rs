@@ -4,7 +4,7 @@ use super::Failure;
 use clap::Args;
 use pathmix::output::{self, ImageFormat};
 use pathmix::paths::{self, PathUse};
-use pathmix::shard::{self, PartialError, describe_ranges};
+use pathmix::session::shard::{self, PartialError, describe_ranges};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]

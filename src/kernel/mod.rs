@@ -1231,7 +1231,7 @@ impl SceneData {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::abi::{Counters, Params};
     use crate::kinds::PackedArray;
@@ -1544,45 +1544,6 @@ mod tests {
         validate_source(&source, &"the BSDF probe");
     }
 
-    #[test]
-    fn every_shipped_scene_specialisation_validates() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-        let mut scenes = 0;
-        let paths = std::fs::read_dir(dir)
-            .unwrap()
-            .map(|entry| entry.unwrap().path())
-            .filter(|path| path.extension().is_some_and(|e| e == "toml"));
-        for path in paths {
-            let scene = crate::scene::Scene::load(&path).unwrap();
-            for strategy in Strategy::ALL {
-                for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
-                    for variance in [false, true] {
-                        let (data, strategy, _) =
-                            crate::render::prepare_scene(&scene, strategy).unwrap();
-                        for storage in [
-                            SceneStorage::Baked,
-                            SceneStorage::Buffers,
-                            SceneStorage::Bvh,
-                        ] {
-                            let config = KernelConfig::for_scene(
-                                &data,
-                                strategy,
-                                &scene.render,
-                                scene.camera.filter,
-                                accumulator,
-                                variance,
-                                storage,
-                            );
-                            validate(&config);
-                        }
-                    }
-                }
-            }
-            scenes += 1;
-        }
-        assert!(scenes >= 3);
-    }
-
     /// The 32-bit words of a constant expression, in declaration order.
     fn constant_words(module: &naga::Module, expr: naga::Handle<naga::Expression>) -> Vec<u32> {
         match &module.global_expressions[expr] {
@@ -1725,7 +1686,7 @@ mod tests {
     /// stays in buffers.
     #[test]
     fn large_primitives_and_few_lights_are_compiled_in_beside_a_bvh() {
-        let scene = crate::bench::sphere_field(300);
+        let scene = crate::scene::sphere_field(300);
         let mut data = SceneData::pack(&scene);
         crate::accel::put_large_first(&mut data.geometry);
         data.bvh = crate::accel::WideBvh::build(&mut data.geometry);

@@ -6,6 +6,7 @@ pub mod mesh;
 pub mod mitsuba;
 mod parse;
 mod prune;
+mod sphere_field;
 pub mod texture;
 
 use glam::Vec3;
@@ -17,6 +18,7 @@ pub use crate::kinds::{
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, SceneOverrides};
+pub use sphere_field::{sphere_field, sphere_field_toml};
 pub use texture::Texture;
 
 /// How a diffuse bounce picks its direction (see DESIGN.md).
@@ -159,7 +161,7 @@ pub struct RenderSettings {
     /// Maximum number of scattering events on a path; 0 shows emission only.
     pub max_depth: u32,
     pub strategy: Strategy,
-    /// `strategy = "auto"`: a pilot (`crate::pilot`) chooses `strategy` and
+    /// `strategy = "auto"`: a pilot (`crate::session::pilot`) chooses `strategy` and
     /// `light_weight` before the run, and until then they hold the defaults; a
     /// renderer refuses the scene while this is set. Setting a strategy clears it.
     pub auto_strategy: bool,
@@ -170,7 +172,7 @@ pub struct RenderSettings {
     pub seed: u32,
     pub rr_depth: Roulette,
     pub sampler: Sampler,
-    /// Adaptive sampling (`crate::adaptive`), as the command line's `--adaptive`.
+    /// Adaptive sampling (`crate::render::adaptive`), as the command line's `--adaptive`.
     pub adaptive: bool,
 }
 

@@ -14,12 +14,12 @@
 //! engine, this module prints nothing.
 
 use crate::abi::REPLICATES;
-use crate::adaptive;
-use crate::converge::{Variant, short_number};
 use crate::gpu::GpuContext;
 use crate::gpu::error_estimate::ErrorSums;
+use crate::render::adaptive;
 use crate::render::{self, RenderError, RenderOptions, Renderer, prepare_scene};
 use crate::scene::{Scene, Strategy};
+use crate::session::converge::{Variant, short_number};
 use std::fmt::Write as _;
 use std::time::Instant;
 

@@ -15,11 +15,11 @@
 
 mod plot;
 
-use crate::checkpoint::Fnv64;
 use crate::gpu::GpuContext;
 use crate::output::{self, Image, OutputError};
 use crate::render::{self, Progress, RenderError, RenderOptions, Renderer, StopRule};
 use crate::scene::{Scene, SceneOverrides, Strategy};
+use crate::session::checkpoint::Fnv64;
 use crate::stats;
 use std::fmt::{self, Write as _};
 use std::io::Write as _;
@@ -35,7 +35,7 @@ pub struct Variant {
     pub strategy: Strategy,
     /// The mixture's weight of the light density; `None` for the other strategies.
     pub light_weight: Option<f32>,
-    /// Adaptive sampling (`crate::adaptive`); its rungs are sample budgets.
+    /// Adaptive sampling (`crate::render::adaptive`); its rungs are sample budgets.
     pub adaptive: bool,
 }
 

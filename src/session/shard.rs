@@ -14,12 +14,12 @@ use crate::abi::{
     LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
     REPLICATES, replicate_layer,
 };
-use crate::checkpoint::{IdentityError, SceneIdentity};
 use crate::gpu::accumulator::compensated_sums;
 use crate::kernel::accumulator_layers;
 use crate::output::{self, OutputError};
 use crate::render::AccumulatorState;
 use crate::scene::Sampler;
+use crate::session::checkpoint::{IdentityError, SceneIdentity};
 use crate::stats::{Accumulation, Replicates};
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::{
@@ -249,7 +249,7 @@ impl Partial {
                 bytes.clear();
                 crc.update(channel_name(layer, c).as_bytes());
                 crc.update(&[0]);
-                crate::checkpoint::write_f32s(&mut bytes, &self.channel(layer, c))
+                crate::session::checkpoint::write_f32s(&mut bytes, &self.channel(layer, c))
                     .expect("writing to memory");
                 crc.update(&bytes);
             }
@@ -554,8 +554,8 @@ pub enum MergeError {
     },
     #[error(
         "`{part}` comes from a different scene than `{first}` (scene hash {} vs {}): {}",
-        crate::checkpoint::hex(*.hash),
-        crate::checkpoint::hex(*.first_hash),
+        crate::session::checkpoint::hex(*.hash),
+        crate::session::checkpoint::hex(*.first_hash),
         .differences.join("; ")
     )]
     SceneDiffers {

@@ -16,8 +16,8 @@
 //! | 4·M | ...each pixel's sample count, then the round's `[pixel, count at its start]` pairs |
 //! | 4 | CRC-32 (IEEE) of every byte before it |
 
-use crate::adaptive::Choice;
 use crate::output::{self, OutputError};
+use crate::render::adaptive::Choice;
 use crate::render::{AccumulatorState, AdaptiveState};
 use crate::scene::{
     Camera, Filter, RenderSettings, Sampler, Scene, SceneOverrides, Shapes, Strategy,

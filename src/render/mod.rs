@@ -1,12 +1,13 @@
 //! Progressive accumulation: dispatching samples in short submissions, reading
 //! the running sums back, and the rules that stop a run.
 
+pub mod adaptive;
+
 use crate::abi::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, Counters,
     LAYER_SQUARES, LAYER_SUM, Params, RAY_OFFSET_RELATIVE, REPLICATES, replicate_layer,
 };
 use crate::accel::{self, WideBvh};
-use crate::adaptive;
 use crate::gpu::accumulator::{Accumulator, compensated_sums, map_read};
 use crate::gpu::error_estimate::{ErrorEstimator, ErrorSums};
 use crate::gpu::pipeline::Kernel;
@@ -45,7 +46,7 @@ pub struct RenderOptions {
     /// Compile every primitive and material kind in, not only the scene's
     /// (`KernelConfig::generalized`): for benchmarks.
     pub general_kernel: bool,
-    /// Adaptive sampling (`crate::adaptive`): rounds over the pixels whose
+    /// Adaptive sampling (`crate::render::adaptive`): rounds over the pixels whose
     /// samples lower the error most. Accumulates the variance sums too.
     pub adaptive: bool,
     /// Adaptive: the rounds whatever the pilot predicts (`adaptive::choose`), to
@@ -85,7 +86,7 @@ pub enum RenderError {
     )]
     LightStrategyWithoutTargets { scene: String },
     #[error(
-        "{scene}: strategy `auto` must be resolved by the pilot (`pathmix::pilot::run`) \
+        "{scene}: strategy `auto` must be resolved by the pilot (`pathmix::session::pilot::run`) \
          before a renderer is built"
     )]
     StrategyNotChosen { scene: String },
@@ -1688,6 +1689,44 @@ fn eta(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_shipped_scene_specialisation_validates() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let mut scenes = 0;
+        let paths = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|entry| entry.unwrap().path())
+            .filter(|path| path.extension().is_some_and(|e| e == "toml"));
+        for path in paths {
+            let scene = Scene::load(&path).unwrap();
+            for strategy in Strategy::ALL {
+                for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
+                    for variance in [false, true] {
+                        let (data, strategy, _) = prepare_scene(&scene, strategy).unwrap();
+                        for storage in [
+                            SceneStorage::Baked,
+                            SceneStorage::Buffers,
+                            SceneStorage::Bvh,
+                        ] {
+                            let config = KernelConfig::for_scene(
+                                &data,
+                                strategy,
+                                &scene.render,
+                                scene.camera.filter,
+                                accumulator,
+                                variance,
+                                storage,
+                            );
+                            crate::kernel::tests::validate(&config);
+                        }
+                    }
+                }
+            }
+            scenes += 1;
+        }
+        assert!(scenes >= 3);
+    }
 
     #[test]
     fn submissions_take_whole_samples_of_the_image_within_the_budget() {

@@ -1,0 +1,10 @@
+//! What a run is beyond its samples: checkpoints to resume from (`checkpoint`),
+//! shards of a render farm and their merge (`shard`), the pilot that chooses a
+//! strategy for `strategy = "auto"` (`pilot`), the measurement of the
+//! strategies' speed/accuracy trade (`converge`) and benchmarks (`bench`).
+
+pub mod bench;
+pub mod checkpoint;
+pub mod converge;
+pub mod pilot;
+pub mod shard;
