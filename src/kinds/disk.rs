@@ -20,6 +20,14 @@ pub struct Disk {
 }
 
 impl Shape for Disk {
+    fn material_mut(&mut self) -> &mut u32 {
+        &mut self.material
+    }
+
+    fn material(&self) -> u32 {
+        self.material
+    }
+
     fn importance(&self) -> bool {
         self.importance
     }

@@ -35,6 +35,9 @@ use crate::shader::ShaderModule;
 
 /// What the scene needs of a shape of any kind.
 pub trait Shape {
+    /// Its index into the scene's materials.
+    fn material_mut(&mut self) -> &mut u32;
+    fn material(&self) -> u32;
     /// In the light density (emitters always are; others when marked).
     fn importance(&self) -> bool;
     /// Its largest absolute coordinate, toward the scene's size (`Scene::extent`).
@@ -61,6 +64,10 @@ macro_rules! primitive_kinds {
             /// Every shape of every kind, in kind order.
             pub fn iter(&self) -> impl Iterator<Item = &dyn Shape> {
                 std::iter::empty()$(.chain(self.$array.iter().map(|s| s as &dyn Shape)))*
+            }
+
+            pub fn iter_mut(&mut self) -> impl Iterator<Item = &mut dyn Shape> {
+                std::iter::empty()$(.chain(self.$array.iter_mut().map(|s| s as &mut dyn Shape)))*
             }
         }
 

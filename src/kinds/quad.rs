@@ -18,6 +18,14 @@ pub struct Quad {
 }
 
 impl Shape for Quad {
+    fn material_mut(&mut self) -> &mut u32 {
+        &mut self.material
+    }
+
+    fn material(&self) -> u32 {
+        self.material
+    }
+
     fn importance(&self) -> bool {
         self.importance
     }

@@ -15,6 +15,14 @@ pub struct Sphere {
 }
 
 impl Shape for Sphere {
+    fn material_mut(&mut self) -> &mut u32 {
+        &mut self.material
+    }
+
+    fn material(&self) -> u32 {
+        self.material
+    }
+
     fn importance(&self) -> bool {
         self.importance
     }

@@ -29,6 +29,14 @@ impl Triangle {
 }
 
 impl Shape for Triangle {
+    fn material_mut(&mut self) -> &mut u32 {
+        &mut self.material
+    }
+
+    fn material(&self) -> u32 {
+        self.material
+    }
+
     fn importance(&self) -> bool {
         self.importance
     }

@@ -22,17 +22,9 @@ impl Scene {
             materials,
             ..self.clone()
         };
-        for q in &mut scene.shapes.quads {
-            q.material = renumbered[q.material as usize];
-        }
-        for d in &mut scene.shapes.disks {
-            d.material = renumbered[d.material as usize];
-        }
-        for s in &mut scene.shapes.spheres {
-            s.material = renumbered[s.material as usize];
-        }
-        for t in &mut scene.shapes.triangles {
-            t.material = renumbered[t.material as usize];
+        for shape in scene.shapes.iter_mut() {
+            let material = shape.material_mut();
+            *material = renumbered[*material as usize];
         }
         (scene, dropped)
     }
@@ -40,14 +32,7 @@ impl Scene {
     /// Whether some object uses each material, by index.
     pub fn used_materials(&self) -> Vec<bool> {
         let mut used = vec![false; self.materials.len()];
-        let references = self
-            .shapes
-            .quads
-            .iter()
-            .map(|q| q.material)
-            .chain(self.shapes.disks.iter().map(|d| d.material))
-            .chain(self.shapes.spheres.iter().map(|s| s.material))
-            .chain(self.shapes.triangles.iter().map(|t| t.material));
+        let references = self.shapes.iter().map(|shape| shape.material());
         for material in references {
             used[material as usize] = true;
         }
