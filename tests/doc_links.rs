@@ -1,4 +1,4 @@
-//! Broken links in the documentation: README.md, ARCHITECTURE.md (when present) and
+//! Broken links in the documentation: README.md, ARCHITECTURE.md and
 //! every `docs/*.md`.
 //!
 //! Every markdown link or image whose target is relative (not `http://`, `https://`,
@@ -14,20 +14,13 @@ use std::collections::HashMap;
 use std::fs;
 use std::path::{Component, Path, PathBuf};
 
-/// Files that a link may name before they exist, because another branch writes
-/// them (issue 42). A link to one is checked like any other once the file is there.
-const NOT_YET_WRITTEN: &[&str] = &["ARCHITECTURE.md"];
-
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
 /// The markdown files whose links are checked, relative to the repository root.
 fn documents(root: &Path) -> Vec<PathBuf> {
-    let mut files = vec![PathBuf::from("README.md")];
-    if root.join("ARCHITECTURE.md").is_file() {
-        files.push(PathBuf::from("ARCHITECTURE.md"));
-    }
+    let mut files = vec![PathBuf::from("README.md"), PathBuf::from("ARCHITECTURE.md")];
     let mut pages: Vec<PathBuf> = fs::read_dir(root.join("docs"))
         .expect("docs/ can be listed")
         .map(|entry| entry.expect("a docs/ entry").path())
@@ -361,18 +354,6 @@ fn check_link(root: &Path, file: &Path, link: &Link) -> Option<String> {
     };
     let absolute = root.join(&linked);
     if !absolute.exists() {
-        if NOT_YET_WRITTEN
-            .iter()
-            .any(|pending| Path::new(pending) == linked)
-        {
-            eprintln!(
-                "note: {}:{}: `{target}` names {}, not written yet: allowed until it is",
-                file.display(),
-                link.line,
-                linked.display()
-            );
-            return None;
-        }
         return Some(format!("{} does not exist", linked.display()));
     }
     let anchor = anchor?;
@@ -523,7 +504,7 @@ fn broken_links_are_reported() {
         dir.join("README.md"),
         "# Top\n\n[ok](docs/page.md#a-heading) [self](#top) [gone](docs/missing.md)\n\
          [bad anchor](docs/page.md#no-such-heading) [bad self](#nowhere)\n\
-         [web](https://example.com/missing) [pending](ARCHITECTURE.md)\n",
+         [web](https://example.com/missing)\n",
     )
     .unwrap();
     fs::write(
