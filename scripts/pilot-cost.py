@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What `--strategy auto`'s pilot costs, per scene and seed (the README's table).
+"""What `--strategy auto`'s pilot costs, per scene and seed (the table in docs/benchmarks.md).
 
 Renders each scene at its own size with `--strategy auto --spp 256`, one whole
 process per seed, and prints the pilot's choice, its wall time, the run's, and:

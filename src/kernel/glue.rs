@@ -416,7 +416,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
 /// private array indexed by a per-lane depth in memory, each indexed store or
 /// load a loop over the SIMD lanes; the shifts are whole-vector `select`s.
 /// Against the array: 0.87-0.96x the CPU time on the BVH scenes measured
-/// (README, Speed), and faster at every size tried (6 to 48 entries).
+/// (docs/benchmarks.md), and faster at every size tried (6 to 48 entries).
 struct RegisterStack {
     name: &'static str,
     size: u32,

@@ -134,7 +134,7 @@ pub enum ArrayMemory {
     /// whole: without AVX-512 (LLVM's in-register insert) every such
     /// reload waits on a failed store forwarding. It fetches a texel per lane
     /// into registers. Measured with AVX2 code (`GALLIUM_OVERRIDE_CPU_CAPS=avx`,
-    /// as on AMD's Zen 2 and 3): README, Speed.
+    /// as on AMD's Zen 2 and 3): docs/benchmarks.md, "Arrays in textures".
     Textures,
 }
 
@@ -492,7 +492,7 @@ impl KernelConfig {
     /// Fewest grouped lights (mesh faces) whose density walks their BVH
     /// (`GroupedDensity::Walk`) rather than testing each. Measured under the
     /// mixture in Mitsuba's box with an emitting mesh beside its 2-face light
-    /// (README, "Emitting meshes"): testing each took 0.6-0.7x the CPU time
+    /// (docs/benchmarks.md, "Emitting meshes"): testing each took 0.6-0.7x the CPU time
     /// of the walk with 14 and 34 faces, 2.5x with 130.
     pub const LIGHT_WALK_MIN: usize = 48;
 
@@ -500,7 +500,7 @@ impl KernelConfig {
     /// by the point's density (`GroupedDensity::Points`). A sample of a face that the
     /// mesh hides from itself then counts nothing, where the line's density
     /// counted it through the face in front, so a small closed emitter, whose
-    /// walk is cheap, loses: measured (README, "Emitting meshes under
+    /// walk is cheap, loses: measured (docs/benchmarks.md, "Emitting meshes under
     /// `nee-mis`"), a lone 12-face cube 0.42x the efficiency and 1.08x in a
     /// Cornell box; 32 faces 0.85x and 1.51x; 512 faces 0.93x and 2.17x.
     pub const LIGHT_POINTS_MIN: usize = 32;

@@ -195,11 +195,11 @@ fn spreads(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
 /// mean of 3 of the 4 replicates, and the rounds cost readbacks and dispatches.
 /// Below this predicted RMSE ratio (adaptive over uniform, at equal time,
 /// `choose`) the run goes on adaptively; at or above it, uniformly. Chosen by
-/// measurement (README, "Adaptive sampling").
+/// measurement (docs/benchmarks.md, "Adaptive sampling").
 pub const ADAPTIVE_BELOW_RATIO: f64 = 0.5;
 
 /// The rounds' paths/s relative to a uniform run's (readbacks, decisions, the
-/// list dispatch, rounds of few pixels), measured on small images (README).
+/// list dispatch, rounds of few pixels), measured on small images (docs/benchmarks.md).
 pub const ROUNDS_THROUGHPUT: f64 = 0.8;
 
 /// The pilot's verdict: whether the rest of the run is adaptive, or uniform over
@@ -228,7 +228,7 @@ pub struct Choice {
 /// One decision for the whole image, from the pilot of every replicate, so
 /// neither continuation's image is unbiased by construction any more; but it is
 /// one bit from sums over every pixel, in each of which a pixel's samples weigh
-/// about `1 / P`: README argues the bias negligible, tests/adaptive.rs measures it.
+/// about `1 / P`: docs/rendering.md argues the bias negligible, tests/adaptive.rs measures it.
 pub fn choose(accumulation: &Accumulation, counts: &[u32]) -> Choice {
     let spreads = spreads(accumulation, counts);
     let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");

@@ -41,7 +41,7 @@ pub struct RenderOptions {
     /// and stop promptly, long enough to keep the device busy. Each dispatch waits
     /// for its slowest invocation, so more samples per invocation even out long
     /// paths: on the book's Cornell box (glass, 600x600) 1 s gave 1.40x the paths/s
-    /// of 0.25 s, and 2.5x with the variance sums (README, "Speed").
+    /// of 0.25 s, and 2.5x with the variance sums (docs/benchmarks.md).
     pub submission_seconds: f64,
     /// Compile every primitive and material kind in, not only the scene's
     /// (`KernelConfig::generalized`): for benchmarks.

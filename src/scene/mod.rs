@@ -21,7 +21,7 @@ pub use parse::{AUTO_STRATEGY, SceneOverrides};
 pub use sphere_field::{sphere_field, sphere_field_toml};
 pub use texture::Texture;
 
-/// How a diffuse bounce picks its direction (see DESIGN.md).
+/// How a diffuse bounce picks its direction (docs/estimator.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Strategy {
     /// `w * p_light + (1 - w) * p_bsdf`: unbiased, the default.
@@ -62,7 +62,7 @@ impl Strategy {
     }
 
     /// Russian roulette's start where the scene and the command line leave it
-    /// unset, chosen by measured efficiency (README, "Russian roulette"): from
+    /// unset, chosen by measured efficiency (docs/rendering.md, "Russian roulette"): from
     /// bounce 5 for `nee-mis` and `bsdf`, whose paths otherwise run to `max_depth`
     /// in a closed scene; off for the mixture and `light`, whose paths are short
     /// (half their directions aim at a light) and lose more to the roulette's

@@ -49,7 +49,7 @@ pub const RACE: f64 = 0.75;
 /// The mixture's light weight tried first, and those tried when it wins. 0.25 first:
 /// under `converge` at each scene's own size it is 0.82–1.23x the efficiency of 0.5
 /// on the shipped scenes, Veach's and the glossy teapot's (1.01x in geometric mean),
-/// and the sky's best, where 0.5 and `nee-mis` are at 0.81–0.82 of it (README).
+/// and the sky's best, where 0.5 and `nee-mis` are at 0.81–0.82 of it (docs/benchmarks.md, "The strategy pilot").
 pub const FIRST_WEIGHT: f32 = 0.25;
 pub const MORE_WEIGHTS: [f32; 2] = [0.5, 0.75];
 
