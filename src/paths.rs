@@ -15,29 +15,71 @@ pub enum Role {
     Output,
 }
 
-/// One path a command takes, with the flag that gave it (for messages).
+/// One path a command takes, with a label naming it in messages (its flag,
+/// or a setting's name).
 #[derive(Clone, Debug)]
-pub struct PathUse {
-    pub flag: String,
+pub struct PathUse<L> {
+    pub label: L,
     pub path: PathBuf,
     pub role: Role,
 }
 
-impl PathUse {
-    pub fn input(flag: impl Into<String>, path: &Path) -> PathUse {
+impl<L> PathUse<L> {
+    pub fn input(label: L, path: &Path) -> PathUse<L> {
         PathUse {
-            flag: flag.into(),
+            label,
             path: path.to_owned(),
             role: Role::Input,
         }
     }
 
-    pub fn output(flag: impl Into<String>, path: &Path) -> PathUse {
+    pub fn output(label: L, path: &Path) -> PathUse<L> {
         PathUse {
-            flag: flag.into(),
+            label,
             path: path.to_owned(),
             role: Role::Output,
         }
+    }
+}
+
+/// Two uses of one file, at least one of them written.
+#[derive(Clone, Debug)]
+pub struct Collision<L> {
+    pub first: PathUse<L>,
+    pub second: PathUse<L>,
+}
+
+impl<L> Collision<L> {
+    /// The same collision, its uses labelled by `relabel`.
+    pub fn relabel<M>(self, relabel: impl Fn(L) -> M) -> Collision<M> {
+        let relabel_use = |u: PathUse<L>| PathUse {
+            label: relabel(u.label),
+            path: u.path,
+            role: u.role,
+        };
+        Collision {
+            first: relabel_use(self.first),
+            second: relabel_use(self.second),
+        }
+    }
+}
+
+impl<L: std::fmt::Display> std::fmt::Display for Collision<L> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (a, b) = (&self.first, &self.second);
+        let what = match (a.role, b.role) {
+            (Role::Output, Role::Output) => "both would be written to it".to_string(),
+            (Role::Input, _) => format!("{} would overwrite what {} reads", b.label, a.label),
+            (_, Role::Input) => format!("{} would overwrite what {} reads", a.label, b.label),
+        };
+        write!(
+            f,
+            "{} `{}` and {} `{}` are the same file ({what}): give each its own path",
+            a.label,
+            a.path.display(),
+            b.label,
+            b.path.display()
+        )
     }
 }
 
@@ -90,9 +132,9 @@ fn inode(path: &Path, _metadata: &std::fs::Metadata) -> FileKey {
 }
 
 /// The first pair of `uses` that name one file where at least one of the two is
-/// written, as a message naming both flags. Paths that cannot be resolved (a
-/// missing folder) are left to the checks that report them.
-pub fn collision(uses: &[PathUse]) -> Option<String> {
+/// written. Paths that cannot be resolved (a missing folder) are left to the
+/// checks that report them.
+pub fn collision<L: Clone>(uses: &[PathUse<L>]) -> Option<Collision<L>> {
     let keys: Vec<Option<FileKey>> = uses.iter().map(|u| key(&u.path).ok()).collect();
     for (i, a) in uses.iter().enumerate() {
         for (j, b) in uses.iter().enumerate().skip(i + 1) {
@@ -100,18 +142,10 @@ pub fn collision(uses: &[PathUse]) -> Option<String> {
                 continue;
             }
             if keys[i].is_some() && keys[i] == keys[j] {
-                let what = match (a.role, b.role) {
-                    (Role::Output, Role::Output) => "both would be written to it".to_string(),
-                    (Role::Input, _) => format!("{} would overwrite what {} reads", b.flag, a.flag),
-                    (_, Role::Input) => format!("{} would overwrite what {} reads", a.flag, b.flag),
-                };
-                return Some(format!(
-                    "{} `{}` and {} `{}` are the same file ({what}): give each its own path",
-                    a.flag,
-                    a.path.display(),
-                    b.flag,
-                    b.path.display()
-                ));
+                return Some(Collision {
+                    first: a.clone(),
+                    second: b.clone(),
+                });
             }
         }
     }
@@ -150,7 +184,9 @@ mod tests {
                 PathUse::input("SCENE", &file),
                 PathUse::output("--exr", &other),
             ];
-            let message = collision(&uses).unwrap_or_else(|| panic!("{}", other.display()));
+            let message = collision(&uses)
+                .unwrap_or_else(|| panic!("{}", other.display()))
+                .to_string();
             assert!(
                 message.contains("SCENE") && message.contains("--exr"),
                 "{message}"
@@ -171,16 +207,15 @@ mod tests {
             .is_some()
         );
         // Distinct files, and two inputs of one file, are fine.
-        assert_eq!(
+        assert!(
             collision(&[
                 PathUse::output("-o", &dir.join("a.exr")),
                 PathUse::output("--exr", &dir.join("b.exr")),
-            ]),
-            None
+            ])
+            .is_none()
         );
-        assert_eq!(
-            collision(&[PathUse::input("PART", &file), PathUse::input("PART", &file)]),
-            None
+        assert!(
+            collision(&[PathUse::input("PART", &file), PathUse::input("PART", &file)]).is_none()
         );
     }
 }

@@ -32,7 +32,7 @@ pub struct MergeArgs {
 
 pub fn merge(args: MergeArgs) -> Result<(), Failure> {
     // No output may replace a part (or another output) before the parts are read.
-    let mut uses: Vec<PathUse> = args
+    let mut uses: Vec<PathUse<&str>> = args
         .parts
         .iter()
         .map(|part| PathUse::input("PART", part))
@@ -44,8 +44,8 @@ pub fn merge(args: MergeArgs) -> Result<(), Failure> {
             .as_deref()
             .map(|p| PathUse::output("--variance", p)),
     );
-    if let Some(message) = paths::collision(&uses) {
-        return Err(Failure::input(message));
+    if let Some(collision) = paths::collision(&uses) {
+        return Err(Failure::input(collision));
     }
     output::check_output_path(&args.output, ImageFormat::Png).map_err(Failure::input)?;
     for exr in [&args.exr, &args.variance].into_iter().flatten() {

@@ -4,25 +4,18 @@ use super::Failure;
 use super::progress::ProgressDisplay;
 use super::signals::Signals;
 use clap::{Args, ValueEnum};
-use pathmix::abi::LAYER_SQUARES_COMPENSATION;
 use pathmix::gpu::GpuContext;
 use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
-use pathmix::output::{self, ImageFormat};
-use pathmix::paths::{self, PathUse};
-use pathmix::render::adaptive;
-use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopReason, StopRule};
+use pathmix::render::{RenderError, RenderOptions, RunSummary, StopReason, StopRule};
 use pathmix::scene::mitsuba::Define;
-use pathmix::scene::{Sampler, Scene, SceneOverrides, Strategy};
-use pathmix::session::checkpoint::{self, Checkpoint, CheckpointLock, SceneIdentity};
+use pathmix::scene::{Sampler, SceneOverrides, Strategy};
+use pathmix::session::checkpoint;
 use pathmix::session::pilot::{self, Pilot};
-use pathmix::session::shard::{self, Partial};
+use pathmix::session::shard;
+use pathmix::session::{Outcome, Outputs, Request, Session, SessionError, Setting};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 use std::time::{Duration, Instant};
-
-/// How often `--checkpoint` saves when `--checkpoint-every` is not given.
-const DEFAULT_CHECKPOINT_EVERY: Duration = Duration::from_secs(60);
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -33,7 +26,7 @@ pub struct RenderArgs {
     /// Set the Mitsuba scene's `$NAME` parameter, as `mitsuba -D` (repeatable; a
     /// checkpoint records them, and --resume without -D uses those).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
-    pub define: Vec<pathmix::scene::mitsuba::Define>,
+    pub define: Vec<Define>,
     /// Output image: 8-bit sRGB PNG (linear radiance clamped to [0, 1], then the sRGB
     /// curve). Default: out.png, except with --partial (no PNG unless asked) and
     /// with --resume (the checkpoint's recorded outputs).
@@ -272,66 +265,113 @@ pub fn with_flag(e: &RenderError) -> String {
     format!("{e} ({flag})")
 }
 
-/// Where the results go.
-struct Outputs {
-    png: Option<PathBuf>,
-    exr: Option<PathBuf>,
-    variance: Option<PathBuf>,
-    sample_counts: Option<PathBuf>,
-    partial: Option<PathBuf>,
-}
-
-/// What this invocation does: the flags, and with --resume the checkpoint.
-struct Plan {
-    scene: Scene,
-    scene_path: PathBuf,
-    /// The Mitsuba scene's `-D` parameters.
-    defines: Vec<Define>,
-    /// Command-line settings over the scene file (without spp).
-    overrides: SceneOverrides,
-    /// The scene's identity, made when first asked for (`Plan::identity`): it
-    /// formats every triangle, and a render that writes no checkpoint or
-    /// partial result needs none (a 16² render of Mitsuba's box with the
-    /// bunny: 0.62 s of process time against 0.90 s made up front).
-    identity: OnceLock<SceneIdentity>,
-    outputs: Outputs,
-    checkpoint: Option<PathBuf>,
-    checkpoint_every: Duration,
-    preview_every: Option<Duration>,
-    /// `max_samples` counts the renderer's samples (saved ones included).
-    stop: StopRule,
-    variance: bool,
-    adaptive: bool,
-    first_sample: u32,
-    resume: Option<Checkpoint>,
-}
-
-impl Plan {
-    /// What checkpoints and partial results record of the scene.
-    fn identity(&self) -> &SceneIdentity {
-        self.identity.get_or_init(|| SceneIdentity::of(&self.scene))
-    }
-
-    /// The sample indices this run was asked for (a partial result records them):
-    /// `None` when a time budget or error target decides the end.
-    fn requested_range(&self) -> Option<Range<u32>> {
-        let open = self.stop.time_budget.is_some() || self.stop.target_error.is_some();
-        (self.stop.max_samples != u32::MAX && !open)
-            .then(|| self.first_sample..self.first_sample.saturating_add(self.stop.max_samples))
+/// A setting as this command line gives it: its flag.
+fn flag(setting: Setting) -> &'static str {
+    match setting {
+        Setting::Scene => "SCENE",
+        Setting::Output => "-o",
+        Setting::Exr => "--exr",
+        Setting::Variance => "--variance",
+        Setting::SampleCounts => "--sample-counts",
+        Setting::Partial => "--partial",
+        Setting::Checkpoint => "--checkpoint",
+        Setting::CheckpointEvery => "--checkpoint-every",
+        Setting::PreviewEvery => "--preview-every",
+        Setting::Resume => "--resume",
+        Setting::Adaptive => "--adaptive",
+        Setting::SampleRange => "--sample-range",
+        Setting::Shard => "--shard",
+        Setting::LightWeight => "--light-weight",
+        Setting::Strategy => "--strategy",
+        Setting::TargetError => "--target-error",
     }
 }
 
-fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
-    refuse_unrecordable_paths(args)?;
-    let resume = match &args.resume {
-        Some(path) => Some(
-            checkpoint::read(path).map_err(|e| Failure::input(format!("cannot resume: {e}")))?,
-        ),
-        None => None,
+/// The session's refusal in this command line's words: the flags that set
+/// what it names, and its exit code.
+fn failure(e: SessionError) -> Failure {
+    let auto = |requested: bool| match requested {
+        true => "--strategy auto",
+        false => "the scene's `strategy = \"auto\"`",
     };
-    let overrides = match &resume {
-        Some(c) => c.overrides.clone(),
-        None => SceneOverrides {
+    let message = match &e {
+        SessionError::PathNotUtf8 { setting, path } => format!(
+            "{} `{}`: the path is not UTF-8, and a checkpoint records its paths as text; rename \
+             it (or render without --checkpoint)",
+            flag(*setting),
+            path.display()
+        ),
+        SessionError::CheckpointEveryWithoutCheckpoint => {
+            "--checkpoint-every: give --checkpoint FILE to say where".into()
+        }
+        SessionError::SameFile(collision) => collision
+            .clone()
+            .relabel(|source| match source.recorded {
+                true => format!("{} (recorded in the checkpoint)", flag(source.setting)),
+                false => flag(source.setting).to_string(),
+            })
+            .to_string(),
+        SessionError::AutoWithParts { setting, requested } => format!(
+            "{}: with {} each part would run its own pilot and could choose another strategy \
+             than the others; give the strategy with --strategy (a render with --strategy auto \
+             prints its choice)",
+            flag(*setting),
+            auto(*requested)
+        ),
+        SessionError::AutoWithLightWeight { requested } => format!(
+            "--light-weight: with {} the pilot chooses the light weight; give --strategy \
+             mixture to set it",
+            auto(*requested)
+        ),
+        SessionError::ResumeUniformAdaptively { checkpoint } => format!(
+            "cannot resume from `{}` with --adaptive: it was a uniform run",
+            checkpoint.display()
+        ),
+        SessionError::AdaptiveWithParts { setting } => format!(
+            "{} with adaptive sampling: {}",
+            flag(*setting),
+            RenderError::AdaptiveShard
+        ),
+        SessionError::SampleCountsWithoutAdaptive => {
+            "--sample-counts: only an adaptive run (--adaptive) has per-pixel counts".into()
+        }
+        SessionError::ResumeWithoutSquares { checkpoint } => format!(
+            "cannot resume from `{}` with --variance or --target-error: it holds no sums of \
+             squares (the run had neither)",
+            checkpoint.display()
+        ),
+        SessionError::PreviewWithoutPng => {
+            "--preview-every rewrites the PNG output: give -o FILE.png".into()
+        }
+        SessionError::Output {
+            setting: Setting::Checkpoint,
+            source,
+        } => format!("--checkpoint: {source}"),
+        SessionError::Output { source, .. } => source.to_string(),
+        SessionError::Replace(message) => format!("--checkpoint: {message}"),
+        SessionError::ResumeState { checkpoint, source } => format!(
+            "cannot resume from `{}`: {}",
+            checkpoint.display(),
+            with_flag(source)
+        ),
+        SessionError::Refused(e) | SessionError::Failed(e) => with_flag(e),
+        SessionError::VarianceOfOneSample => {
+            "--variance: a standard error needs at least 2 samples per pixel".into()
+        }
+        _ => e.to_string(),
+    };
+    match e.is_input() {
+        true => Failure::input(message),
+        false => Failure::runtime(message),
+    }
+}
+
+/// What the flags ask for.
+fn request(args: &RenderArgs) -> Request {
+    Request {
+        scene: args.scene.clone(),
+        defines: args.define.clone(),
+        overrides: SceneOverrides {
             spp: None,
             width: args.width,
             height: args.height,
@@ -342,441 +382,35 @@ fn plan(args: &RenderArgs) -> Result<Plan, Failure> {
             rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
             sampler: args.sampler.map(Sampler::from),
         },
-    };
-    let scene_path = match (&args.scene, &resume) {
-        (Some(path), _) => path.clone(),
-        (None, Some(c)) => c.scene_path.clone(),
-        (None, None) => return Err(Failure::input("no scene file given")),
-    };
-    let recorded = |key: &str| resume.as_ref().and_then(|c| c.run.get(key));
-    let recorded_path = |key: &str| recorded(key).and_then(|v| v.as_str()).map(PathBuf::from);
-    let recorded_seconds = |key: &str| {
-        recorded(key)
-            .and_then(|v| v.as_float())
-            .map(|s| Duration::from_secs_f64(s.max(0.0)))
-    };
-
-    let outputs = Outputs {
-        png: args.output.clone().or_else(|| match &resume {
-            Some(_) => recorded_path("output"),
-            None if args.partial.is_some() => None,
-            None => Some(PathBuf::from("out.png")),
-        }),
-        exr: args.exr.clone().or_else(|| recorded_path("exr")),
-        variance: args.variance.clone().or_else(|| recorded_path("variance")),
-        sample_counts: args
-            .sample_counts
-            .clone()
-            .or_else(|| recorded_path("sample_counts")),
-        partial: args.partial.clone().or_else(|| recorded_path("partial")),
-    };
-    let checkpoint = args.checkpoint.clone().or_else(|| args.resume.clone());
-    if checkpoint.is_none() && args.checkpoint_every.is_some() {
-        return Err(Failure::input(
-            "--checkpoint-every: give --checkpoint FILE to say where",
-        ));
+        spp: args.spp,
+        auto_strategy: matches!(args.strategy, Some(StrategyArg::Auto)),
+        time_budget: args.time,
+        target_error: args.target_error,
+        adaptive: args.adaptive,
+        outputs: Outputs {
+            // A new whole render writes out.png unless told otherwise; a resume
+            // writes the recorded outputs.
+            png: args.output.clone().or_else(|| {
+                (args.resume.is_none() && args.partial.is_none()).then(|| PathBuf::from("out.png"))
+            }),
+            exr: args.exr.clone(),
+            variance: args.variance.clone(),
+            sample_counts: args.sample_counts.clone(),
+            partial: args.partial.clone(),
+        },
+        checkpoint: args.checkpoint.clone(),
+        checkpoint_every: args.checkpoint_every,
+        preview_every: args.preview_every,
+        resume: args.resume.clone(),
+        sample_range: args.sample_range.clone(),
+        shard: args.shard,
+        render: RenderOptions {
+            accumulator: args.accumulator.map(AccumulatorKind::from),
+            scene_storage: args.scene_storage.map(SceneStorage::from),
+            array_memory: args.array_memory.map(ArrayMemory::from),
+            ..Default::default()
+        },
     }
-    check_collisions(args, &scene_path, &outputs, checkpoint.as_deref())?;
-    // A resume without -D reads the scene with the parameters it was rendered with.
-    let defines = match (&resume, args.define.is_empty()) {
-        (Some(c), true) => recorded_defines(c)?,
-        _ => args.define.clone(),
-    };
-    let mut scene = super::load_scene(&scene_path, &defines)?;
-    scene
-        .apply_overrides(&SceneOverrides {
-            spp: args.spp,
-            ..overrides.clone()
-        })
-        .map_err(Failure::input)?;
-    if let Some(StrategyArg::Auto) = args.strategy {
-        scene.render.auto_strategy = true;
-    }
-    match &resume {
-        // A resumed run keeps the strategy it was rendered with: the checkpoint's own
-        // (its overrides set it after the pilot; this covers a scene file changed to auto).
-        Some(c) if scene.render.auto_strategy => {
-            scene.render.strategy = c.identity.strategy;
-            scene.render.light_weight = c.identity.light_weight;
-            scene.render.auto_strategy = false;
-        }
-        _ => refuse_auto_conflicts(args, &scene)?,
-    }
-    let identity = OnceLock::new();
-    let open_ended = args.time.is_some() || args.target_error.is_some();
-    let adaptive = match &resume {
-        Some(c) => {
-            let saved = c.state.adaptive.is_some();
-            if args.adaptive && !saved {
-                return Err(Failure::input(format!(
-                    "cannot resume from `{}` with --adaptive: it was a uniform run",
-                    args.resume.as_ref().unwrap().display()
-                )));
-            }
-            saved
-        }
-        None => args.adaptive || scene.render.adaptive,
-    };
-    if adaptive {
-        for (flag, given) in [
-            ("--sample-range", args.sample_range.is_some()),
-            ("--shard", args.shard.is_some()),
-            ("--partial", outputs.partial.is_some()),
-        ] {
-            if given {
-                return Err(Failure::input(format!(
-                    "{flag} with adaptive sampling: {}",
-                    RenderError::AdaptiveShard
-                )));
-            }
-        }
-    } else if outputs.sample_counts.is_some() {
-        return Err(Failure::input(
-            "--sample-counts: only an adaptive run (--adaptive) has per-pixel counts",
-        ));
-    }
-    let (first_sample, stop, variance) = match &resume {
-        Some(c) => {
-            let differences = SceneIdentity::differences(
-                (&c.identity, "in the checkpoint"),
-                (
-                    identity.get_or_init(|| SceneIdentity::of(&scene)),
-                    "in the scene now",
-                ),
-            );
-            if !differences.is_empty() {
-                return Err(Failure::input(format!(
-                    "cannot resume from `{}`: the scene `{}` is not the one the checkpoint was \
-                     rendered from: {}",
-                    args.resume.as_ref().unwrap().display(),
-                    scene_path.display(),
-                    differences.join("; ")
-                )));
-            }
-            if c.pathmix_version != env!("CARGO_PKG_VERSION") {
-                eprintln!(
-                    "pathmix: warning: the checkpoint was written by pathmix {}, this is {}: \
-                     if the kernel changed, the result is not the same as one uninterrupted run",
-                    c.pathmix_version,
-                    env!("CARGO_PKG_VERSION")
-                );
-            }
-            let stop = if args.spp.is_some() || open_ended {
-                StopRule {
-                    max_samples: args.spp.unwrap_or(u32::MAX),
-                    time_budget: args.time,
-                    target_error: args.target_error,
-                }
-            } else {
-                StopRule {
-                    max_samples: recorded("spp")
-                        .and_then(|v| v.as_integer())
-                        .and_then(|v| u32::try_from(v).ok())
-                        .unwrap_or(u32::MAX),
-                    time_budget: recorded_seconds("time_left_s"),
-                    target_error: recorded("target_error").and_then(|v| v.as_float()),
-                }
-            };
-            let variance = c.state.layers > LAYER_SQUARES_COMPENSATION;
-            if !variance && (args.variance.is_some() || stop.target_error.is_some()) {
-                return Err(Failure::input(format!(
-                    "cannot resume from `{}` with --variance or --target-error: it holds no sums \
-                     of squares (the run had neither)",
-                    args.resume.as_ref().unwrap().display()
-                )));
-            }
-            (c.state.first_sample, stop, variance)
-        }
-        None => {
-            // A shard may be empty (fewer samples than shards): a valid, empty part.
-            let range = match (&args.sample_range, args.shard) {
-                (Some(range), _) => Some(range.clone()),
-                (None, Some((index, count))) => {
-                    Some(shard::shard_range(index, count, scene.render.spp))
-                }
-                (None, None) => None,
-            };
-            let max_samples = match &range {
-                Some(range) => range.len() as u32,
-                None if args.spp.is_none() && open_ended => u32::MAX,
-                None => scene.render.spp,
-            };
-            let stop = StopRule {
-                max_samples,
-                time_budget: args.time,
-                target_error: args.target_error,
-            };
-            // Partial results carry the sums of squares, so a merge can estimate errors.
-            let variance =
-                args.variance.is_some() || args.target_error.is_some() || args.partial.is_some();
-            (range.map_or(0, |r| r.start), stop, variance)
-        }
-    };
-
-    let checkpoint_every = args
-        .checkpoint_every
-        .or_else(|| recorded_seconds("checkpoint_every_s"))
-        .unwrap_or(DEFAULT_CHECKPOINT_EVERY);
-    let preview_every = args
-        .preview_every
-        .or_else(|| recorded_seconds("preview_every_s"));
-    if preview_every.is_some() && outputs.png.is_none() {
-        return Err(Failure::input(
-            "--preview-every rewrites the PNG output: give -o FILE.png",
-        ));
-    }
-
-    check_collisions(args, &scene_path, &outputs, checkpoint.as_deref())?;
-    // Refuse unwritable outputs before spending the render time.
-    if let Some(png) = &outputs.png {
-        output::check_output_path(png, ImageFormat::Png).map_err(Failure::input)?;
-    }
-    for exr in [
-        &outputs.exr,
-        &outputs.variance,
-        &outputs.sample_counts,
-        &outputs.partial,
-    ]
-    .into_iter()
-    .flatten()
-    {
-        output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
-    }
-    if let Some(path) = &checkpoint {
-        output::check_writable(path).map_err(|e| Failure::input(format!("--checkpoint: {e}")))?;
-        checkpoint::check_replaceable(path)
-            .map_err(|e| Failure::input(format!("--checkpoint: {e}")))?;
-    }
-    // An adaptive pixel may take up to its cap; adaptive runs sum squares.
-    let most = match adaptive {
-        true => adaptive::pixel_cap(stop.max_samples),
-        false => stop.max_samples,
-    };
-    render::check_emission(&scene, most, variance || adaptive)
-        .map_err(|e| Failure::input(with_flag(&e)))?;
-    Ok(Plan {
-        scene,
-        scene_path,
-        defines,
-        overrides,
-        identity,
-        outputs,
-        checkpoint,
-        checkpoint_every,
-        preview_every,
-        stop,
-        variance,
-        adaptive,
-        first_sample,
-        resume,
-    })
-}
-
-/// `strategy = "auto"` chooses per run: shards merged into one image must share a
-/// strategy, and the pilot chooses the light weight.
-fn refuse_auto_conflicts(args: &RenderArgs, scene: &Scene) -> Result<(), Failure> {
-    if !scene.render.auto_strategy {
-        return Ok(());
-    }
-    let how = if args.strategy.is_some() {
-        "--strategy auto"
-    } else {
-        "the scene's `strategy = \"auto\"`"
-    };
-    let flag = [
-        ("--shard", args.shard.is_some()),
-        ("--sample-range", args.sample_range.is_some()),
-        ("--partial", args.partial.is_some()),
-    ]
-    .into_iter()
-    .find_map(|(flag, given)| given.then_some(flag));
-    if let Some(flag) = flag {
-        return Err(Failure::input(format!(
-            "{flag}: with {how} each part would run its own pilot and could choose another \
-             strategy than the others; give the strategy with --strategy (a render with \
-             --strategy auto prints its choice)"
-        )));
-    }
-    if args.light_weight.is_some() {
-        return Err(Failure::input(format!(
-            "--light-weight: with {how} the pilot chooses the light weight; give --strategy \
-             mixture to set it"
-        )));
-    }
-    Ok(())
-}
-
-/// A checkpoint records its scene and output paths as text (TOML): a path that is
-/// not UTF-8 could not be found again on resume, so it is refused at the start.
-fn refuse_unrecordable_paths(args: &RenderArgs) -> Result<(), Failure> {
-    if args.checkpoint.is_none() && args.resume.is_none() {
-        return Ok(());
-    }
-    let paths = [
-        ("SCENE", &args.scene),
-        ("-o", &args.output),
-        ("--exr", &args.exr),
-        ("--variance", &args.variance),
-        ("--sample-counts", &args.sample_counts),
-        ("--partial", &args.partial),
-        ("--checkpoint", &args.checkpoint),
-        ("--resume", &args.resume),
-    ];
-    for (flag, path) in paths {
-        if let Some(path) = path {
-            let absolute = absolute(path);
-            if absolute.to_str().is_none() {
-                return Err(Failure::input(format!(
-                    "{flag} `{}`: the path is not UTF-8, and a checkpoint records its paths as \
-                     text; rename it (or render without --checkpoint)",
-                    path.display()
-                )));
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Every path this render reads or writes, compared with every other before any
-/// work: no output may replace an input or another output.
-fn check_collisions(
-    args: &RenderArgs,
-    scene_path: &Path,
-    outputs: &Outputs,
-    checkpoint: Option<&Path>,
-) -> Result<(), Failure> {
-    let recorded = |flag: &str, given: &Option<PathBuf>| match given {
-        Some(_) => flag.to_string(),
-        None => format!("{flag} (recorded in the checkpoint)"),
-    };
-    let scene_flag = if args.scene.is_some() {
-        "SCENE"
-    } else {
-        "SCENE (recorded in the checkpoint)"
-    };
-    let mut uses = vec![PathUse::input(scene_flag, scene_path)];
-    match (&args.resume, checkpoint) {
-        // Resuming saves to the checkpoint it read, as it was meant to.
-        (Some(resume), Some(to))
-            if paths::collision(&[
-                PathUse::input("--resume", resume),
-                PathUse::output("--checkpoint", to),
-            ])
-            .is_some() =>
-        {
-            uses.push(PathUse::output("--resume", resume));
-        }
-        (resume, to) => {
-            uses.extend(resume.as_deref().map(|r| PathUse::input("--resume", r)));
-            uses.extend(to.map(|c| PathUse::output("--checkpoint", c)));
-        }
-    }
-    for (flag, path, given) in [
-        ("-o", &outputs.png, &args.output),
-        ("--exr", &outputs.exr, &args.exr),
-        ("--variance", &outputs.variance, &args.variance),
-        (
-            "--sample-counts",
-            &outputs.sample_counts,
-            &args.sample_counts,
-        ),
-        ("--partial", &outputs.partial, &args.partial),
-    ] {
-        if let Some(path) = path {
-            uses.push(PathUse::output(recorded(flag, given), path));
-        }
-    }
-    match paths::collision(&uses) {
-        Some(message) => Err(Failure::input(message)),
-        None => Ok(()),
-    }
-}
-
-fn absolute(path: &Path) -> PathBuf {
-    std::path::absolute(path).unwrap_or_else(|_| path.to_owned())
-}
-
-/// The flags a resume needs besides the state: stopping rule and outputs.
-fn run_table(plan: &Plan, elapsed: Duration) -> toml::Table {
-    let mut run = toml::Table::new();
-    if plan.stop.max_samples != u32::MAX {
-        run.insert(
-            "spp".into(),
-            toml::Value::Integer(plan.stop.max_samples.into()),
-        );
-    }
-    if let Some(budget) = plan.stop.time_budget {
-        let left = budget.saturating_sub(elapsed).as_secs_f64();
-        run.insert("time_left_s".into(), left.into());
-    }
-    if let Some(target) = plan.stop.target_error {
-        run.insert("target_error".into(), target.into());
-    }
-    let outputs = &plan.outputs;
-    for (key, path) in [
-        ("output", &outputs.png),
-        ("exr", &outputs.exr),
-        ("variance", &outputs.variance),
-        ("sample_counts", &outputs.sample_counts),
-        ("partial", &outputs.partial),
-    ] {
-        if let Some(path) = path {
-            let path = absolute(path).to_string_lossy().into_owned();
-            run.insert(key.into(), path.into());
-        }
-    }
-    run.insert(
-        "checkpoint_every_s".into(),
-        plan.checkpoint_every.as_secs_f64().into(),
-    );
-    if let Some(every) = plan.preview_every {
-        run.insert("preview_every_s".into(), every.as_secs_f64().into());
-    }
-    if !plan.defines.is_empty() {
-        let defines = plan
-            .defines
-            .iter()
-            .map(|d| format!("{}={}", d.name, d.value));
-        run.insert("define".into(), defines.collect::<Vec<_>>().into());
-    }
-    run
-}
-
-/// The `-D` parameters a checkpoint's run was given.
-fn recorded_defines(c: &Checkpoint) -> Result<Vec<Define>, Failure> {
-    let Some(recorded) = c.run.get("define") else {
-        return Ok(Vec::new());
-    };
-    let bad = || {
-        Failure::input("cannot resume: the checkpoint's `run.define` is not a list of NAME=VALUE")
-    };
-    recorded
-        .as_array()
-        .ok_or_else(bad)?
-        .iter()
-        .map(|v| v.as_str().and_then(|s| s.parse().ok()).ok_or_else(bad))
-        .collect()
-}
-
-fn save_checkpoint(
-    plan: &Plan,
-    path: &Path,
-    renderer: &Renderer,
-    discarded: u64,
-    elapsed: Duration,
-) -> Result<(), Failure> {
-    let scene_path =
-        std::fs::canonicalize(&plan.scene_path).unwrap_or_else(|_| absolute(&plan.scene_path));
-    let checkpoint = Checkpoint {
-        pathmix_version: env!("CARGO_PKG_VERSION").to_string(),
-        scene_path,
-        overrides: plan.overrides.clone(),
-        identity: plan.identity().clone(),
-        discarded,
-        run: run_table(plan, elapsed),
-        state: renderer.export_state(),
-    };
-    checkpoint::write(path, &checkpoint).map_err(Failure::runtime)
 }
 
 pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
@@ -787,164 +421,84 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             )));
         }
     }
-    let mut plan = plan(&args)?;
+    let mut session = Session::plan(&request(&args)).map_err(failure)?;
+    super::print_approximations(&session.scene_path, &session.approximations);
+    for warning in &session.warnings {
+        eprintln!("pathmix: warning: {warning}");
+    }
     // From here on a signal stops the run cleanly (during the kernel's build too).
     let signals = Signals::install().map_err(Failure::runtime)?;
-    // Held to the end: a second run saving to the same checkpoint is refused.
-    let _lock = match &plan.checkpoint {
-        Some(path) => Some(CheckpointLock::acquire(path).map_err(Failure::input)?),
-        None => None,
-    };
+    session.lock_checkpoint().map_err(failure)?;
     let quiet = args.quiet;
 
     let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
-    let options = RenderOptions {
-        accumulator: args.accumulator.map(AccumulatorKind::from),
-        variance: plan.variance,
-        scene_storage: args.scene_storage.map(SceneStorage::from),
-        array_memory: args.array_memory.map(ArrayMemory::from),
-        adaptive: plan.adaptive,
-        ..Default::default()
-    };
-    let mut pilot = match plan.scene.render.auto_strategy {
-        true => Some(choose_strategy(&ctx, &mut plan, &options, quiet)?),
-        false => None,
-    };
-    // The chosen candidate's samples, moved into the run's sums.
-    let pilot_samples = pilot.as_mut().and_then(|p| p.samples.take());
-    let pilot_discarded = pilot_samples.as_ref().map(|s| s.discarded);
-    let plan = plan;
-    let scene = &plan.scene;
-    let stop = plan.stop;
-    let mut renderer =
-        Renderer::new(&ctx, scene, &options).map_err(|e| Failure::input(with_flag(&e)))?;
-    match &plan.resume {
-        Some(c) => renderer.import_state(&c.state).map_err(|e| {
-            Failure::input(format!(
-                "cannot resume from `{}`: {e}",
-                args.resume.as_ref().unwrap().display()
-            ))
-        })?,
-        None => match pilot_samples {
-            Some(samples) => renderer
-                .start_from(&samples.renderer)
-                .map_err(Failure::runtime)?,
-            None => renderer.set_first_sample(plan.first_sample)?,
-        },
+    let mut pilot = session.choose_strategy(&ctx).map_err(failure)?;
+    if let (Some(pilot), false) = (&pilot, quiet) {
+        report_pilot(pilot);
     }
-    for warning in &renderer.warnings {
+    let mut run = session.start(&ctx, pilot.as_mut()).map_err(failure)?;
+    for warning in &run.renderer.warnings {
         eprintln!("pathmix: warning: {warning}");
     }
-    let (width, height) = renderer.size();
+    let session = &run.session;
+    let (width, height) = run.renderer.size();
     if !quiet {
         eprintln!("adapter: {}", ctx.describe());
         eprintln!(
             "scene: {}  {width}x{height}  strategy {}  {} sampler  max depth {}  stop: {}",
-            scene.source,
-            renderer.config().strategy,
-            renderer.config().sampler,
-            scene.render.max_depth,
-            describe_stop(&stop),
+            session.scene.source,
+            run.renderer.config().strategy,
+            run.renderer.config().sampler,
+            session.scene.render.max_depth,
+            describe_stop(&session.stop),
         );
     }
-    if let (Some(c), false) = (&plan.resume, quiet) {
+    if let (Some((path, c)), false) = (&session.resume, quiet) {
         eprintln!(
             "resuming from {} at {} spp",
-            args.resume.as_ref().unwrap().display(),
+            path.display(),
             c.state.samples
         );
     }
-    if !quiet && (plan.first_sample > 0 || args.sample_range.is_some() || args.shard.is_some()) {
+    if !quiet && (session.first_sample > 0 || session.is_part) {
         eprintln!(
             "sample indices from {} (scene hash {})",
-            plan.first_sample,
-            checkpoint::hex(plan.identity().hash())
+            session.first_sample,
+            checkpoint::hex(session.identity().hash())
         );
     }
-    // Samples already in the sums (a resumed run's, or the pilot's) and discarded there.
-    let saved_discarded = match (&plan.resume, pilot_discarded) {
-        (Some(c), _) => c.discarded,
-        (None, Some(discarded)) => discarded,
-        (None, None) => 0,
-    };
     let mut display = ProgressDisplay::new(args.quiet);
     let mut first_sample = None;
-    let (mut last_checkpoint, mut last_preview) = (Instant::now(), Instant::now());
-    let summary = render::run_with(&mut renderer, stop, &signals.stop, |p, r| {
+    let summary = run.render(&signals.stop, |p| {
         first_sample.get_or_insert_with(|| process_start.elapsed());
         display.update(p);
-        if let Some(path) = &plan.checkpoint {
-            if last_checkpoint.elapsed() >= plan.checkpoint_every {
-                let discarded = saved_discarded + r.counters().discarded as u64;
-                save_checkpoint(&plan, path, r, discarded, p.elapsed)?;
-                last_checkpoint = Instant::now();
-            }
-        }
-        if let (Some(every), Some(png)) = (plan.preview_every, &plan.outputs.png) {
-            if last_preview.elapsed() >= every {
-                output::write_png(png, &r.accumulation().mean(), 0.0).map_err(Failure::runtime)?;
-                last_preview = Instant::now();
-            }
-        }
-        Ok::<(), Failure>(())
     });
     display.finish();
-    let summary = summary?;
-    let discarded = saved_discarded + summary.discarded;
-    let interrupted = summary.reason == StopReason::Interrupted;
+    let summary = summary.map_err(failure)?;
     let (signal, signal_code) = signals.received().unwrap_or(("an interrupt", 130));
-    if interrupted && summary.samples == 0 {
+    if summary.reason == StopReason::Interrupted && summary.samples == 0 {
         // Nothing rendered: writing would only replace earlier files with black.
         return Err(Failure {
             message: format!("interrupted by {signal} before the first sample; nothing written"),
             code: signal_code,
         });
     }
-    let accumulation = renderer.accumulation();
-    render::check_sums_finite(&accumulation)?;
-
-    // The state first: once it is saved, nothing of the run can be lost.
-    if let Some(path) = &plan.checkpoint {
-        save_checkpoint(&plan, path, &renderer, discarded, summary.elapsed)?;
+    let outcome = run.finish(summary).map_err(failure)?;
+    let summary = &outcome.summary;
+    let session = &run.session;
+    if outcome.discarded > 0 {
+        eprintln!(
+            "pathmix: warning: {} samples were NaN or infinite and counted as zero",
+            outcome.discarded
+        );
     }
-    let mean = accumulation.mean();
-    let outputs = &plan.outputs;
-    if let Some(png) = &outputs.png {
-        output::write_png(png, &mean, 0.0).map_err(Failure::runtime)?;
-    }
-    if let Some(exr) = &outputs.exr {
-        output::write_exr(exr, &mean, &[]).map_err(Failure::runtime)?;
-    }
-    if let Some(path) = &outputs.partial {
-        let partial = Partial::from_state(
-            plan.identity().clone(),
-            plan.scene_path.display().to_string(),
-            discarded,
-            renderer.export_state(),
-        )
-        .asked_for(plan.requested_range(), interrupted);
-        shard::write_partial(path, &partial).map_err(Failure::runtime)?;
-    }
-    if let Some(path) = &outputs.variance {
-        let error = accumulation.standard_error().ok_or_else(|| {
-            Failure::runtime("--variance: a standard error needs at least 2 samples per pixel")
-        })?;
-        output::write_exr(path, &error, &[]).map_err(Failure::runtime)?;
-    }
-    // The renderer's counts: a uniform continuation's image has none of its own.
-    if let (Some(path), Some(counts)) = (&outputs.sample_counts, renderer.sample_counts()) {
-        let image = output::Image {
-            width,
-            height,
-            pixels: counts.iter().map(|&n| [n as f32; 3]).collect(),
-        };
-        output::write_exr(path, &image, &[]).map_err(Failure::runtime)?;
-    }
-    if discarded > 0 {
-        eprintln!("pathmix: warning: {discarded} samples were NaN or infinite and counted as zero");
-    }
-    if interrupted {
-        return Err(interruption(&plan, &summary, signal, signal_code));
+    if outcome.interrupted() {
+        return Err(interruption(
+            session.checkpoint.as_deref(),
+            summary,
+            signal,
+            signal_code,
+        ));
     }
     let stopped = match summary.reason {
         StopReason::Samples => "sample count reached".to_string(),
@@ -958,7 +512,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         summary.elapsed.as_secs_f64(),
         summary.paths_per_second / 1e6
     );
-    if let Some(choice) = renderer.adaptive_choice() {
+    if let Some(choice) = run.adaptive_choice() {
         let went_on = match choice.uniform {
             true => "went on uniformly, the image the mean of every sample",
             false => "went on adaptively",
@@ -977,11 +531,11 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             pilot.seconds
         );
     }
-    if plan.first_sample > 0 || outputs.partial.is_some() {
+    if session.first_sample > 0 || session.outputs.partial.is_some() {
         println!(
             "sample indices {}..{}",
-            renderer.first_sample(),
-            renderer.first_sample() + renderer.samples()
+            run.renderer.first_sample(),
+            run.renderer.first_sample() + run.renderer.samples()
         );
     }
     if let Some(error) = summary.relative_error {
@@ -993,82 +547,67 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             first.as_secs_f64() * 1e3
         );
     }
-    for path in [
-        outputs.png.as_ref(),
-        outputs.exr.as_ref(),
-        outputs.variance.as_ref(),
-        outputs.sample_counts.as_ref(),
-        outputs.partial.as_ref(),
-        plan.checkpoint.as_ref(),
-    ]
-    .into_iter()
-    .flatten()
-    {
+    for path in written_in_report_order(session, &outcome) {
         println!("wrote {}", path.display());
     }
     Ok(())
 }
 
-/// Runs the pilot (`strategy = "auto"`) and makes its choice the run's: the scene's
-/// strategy and light weight, the overrides a checkpoint records (so that a resume
-/// renders with it, without a pilot) and the scene identity.
-fn choose_strategy<'a>(
-    ctx: &'a GpuContext,
-    plan: &mut Plan,
-    options: &RenderOptions,
-    quiet: bool,
-) -> Result<Pilot<'a>, Failure> {
-    let input = |e: RenderError| Failure::input(with_flag(&e));
-    let pilot = pilot::run(ctx, &plan.scene, options, plan.stop.max_samples).map_err(input)?;
-    if !quiet {
-        match pilot.rows.len() {
-            0 => eprintln!(
-                "strategy auto: {} (the only candidate: nothing to aim at)",
-                pilot.choice
-            ),
-            n => eprintln!(
-                "strategy auto: pilot of {n} candidate{} at {}x{}, {} spp each, {} for those \
-                 within {} of the best, {:.2} s in all \
-                 (efficiency = 1 / (estimated relative MSE x seconds)):\n{}chose {}",
-                plural(n),
-                pilot.width,
-                pilot.height,
-                pilot::first_half(pilot.spp),
-                pilot.spp,
-                pilot::RACE,
-                pilot.seconds,
-                pilot::table(&pilot),
-                pilot.choice
-            ),
-        }
-        if let Some(samples) = &pilot.samples {
-            eprintln!(
-                "the pilot's {} spp of {} are the run's first samples",
-                samples.renderer.samples(),
-                pilot.choice
-            );
-        }
-        if !pilot.skipped.is_empty() {
-            let names: Vec<String> = pilot.skipped.iter().map(|v| v.name()).collect();
-            eprintln!(
-                "not measured: {} (the pilot had spent {:.0}% of the run's estimated time)",
-                names.join(", "),
-                pilot::BUDGET * 100.0
-            );
-        }
+/// The files written, outputs first and the checkpoint last, as the report lists them.
+fn written_in_report_order<'a>(session: &'a Session, outcome: &Outcome) -> Vec<&'a Path> {
+    let outputs = &session.outputs;
+    [
+        outputs.png.as_ref(),
+        outputs.exr.as_ref(),
+        outputs.variance.as_ref(),
+        outputs.sample_counts.as_ref(),
+        outputs.partial.as_ref(),
+        session.checkpoint.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    .filter(|path| outcome.written.contains(path))
+    .map(PathBuf::as_path)
+    .collect()
+}
+
+/// What the pilot of `strategy = "auto"` measured and chose.
+fn report_pilot(pilot: &Pilot) {
+    match pilot.rows.len() {
+        0 => eprintln!(
+            "strategy auto: {} (the only candidate: nothing to aim at)",
+            pilot.choice
+        ),
+        n => eprintln!(
+            "strategy auto: pilot of {n} candidate{} at {}x{}, {} spp each, {} for those \
+             within {} of the best, {:.2} s in all \
+             (efficiency = 1 / (estimated relative MSE x seconds)):\n{}chose {}",
+            plural(n),
+            pilot.width,
+            pilot.height,
+            pilot::first_half(pilot.spp),
+            pilot.spp,
+            pilot::RACE,
+            pilot.seconds,
+            pilot::table(pilot),
+            pilot.choice
+        ),
     }
-    let choice = pilot.choice;
-    let (render, overrides) = (&mut plan.scene.render, &mut plan.overrides);
-    render.strategy = choice.strategy;
-    render.auto_strategy = false;
-    overrides.strategy = Some(choice.strategy);
-    if let Some(weight) = choice.light_weight {
-        render.light_weight = weight;
-        overrides.light_weight = Some(weight);
+    if let Some(samples) = &pilot.samples {
+        eprintln!(
+            "the pilot's {} spp of {} are the run's first samples",
+            samples.renderer.samples(),
+            pilot.choice
+        );
     }
-    plan.identity = OnceLock::new();
-    render::check_emission(&plan.scene, plan.stop.max_samples, plan.variance).map_err(input)?;
-    Ok(pilot)
+    if !pilot.skipped.is_empty() {
+        let names: Vec<String> = pilot.skipped.iter().map(|v| v.name()).collect();
+        eprintln!(
+            "not measured: {} (the pilot had spent {:.0}% of the run's estimated time)",
+            names.join(", "),
+            pilot::BUDGET * 100.0
+        );
+    }
 }
 
 fn plural(count: usize) -> &'static str {
@@ -1077,8 +616,13 @@ fn plural(count: usize) -> &'static str {
 
 /// What an interrupted run tells the user (what was saved, how to go on) and its
 /// exit: 130 for SIGINT, 143 for SIGTERM.
-fn interruption(plan: &Plan, summary: &render::RunSummary, signal: &str, code: u8) -> Failure {
-    match &plan.checkpoint {
+fn interruption(
+    checkpoint: Option<&Path>,
+    summary: &RunSummary,
+    signal: &str,
+    code: u8,
+) -> Failure {
+    match checkpoint {
         Some(path) => {
             eprintln!(
                 "pathmix: {signal}: saved {} samples per pixel in {}",

@@ -1,0 +1,128 @@
+//! The render session as a library caller uses it (`pathmix::session`): a
+//! `Request` planned, rendered and written with no command line, refusals as
+//! typed errors naming settings, and a run cut in two through its checkpoint
+//! giving the same sums as one uninterrupted run.
+
+mod common;
+
+use pathmix::session::checkpoint;
+use pathmix::session::{Outputs, Request, Session, SessionError, Setting};
+use pathmix::stats::Accumulation;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+fn cornell() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.toml")
+}
+
+/// A small render of the Cornell box with `spp` samples.
+fn request(spp: u32) -> Request {
+    let mut request = Request {
+        scene: Some(cornell()),
+        spp: Some(spp),
+        ..Request::default()
+    };
+    request.overrides.width = Some(16);
+    request.overrides.height = Some(12);
+    request
+}
+
+/// Plans, renders and writes `request`, returning the run's sums.
+fn render(ctx: &pathmix::gpu::GpuContext, request: &Request) -> (Accumulation, Vec<PathBuf>) {
+    let session = Session::plan(request).unwrap();
+    let mut run = session.start(ctx, None).unwrap();
+    let summary = run.render(&AtomicBool::new(false), |_| {}).unwrap();
+    let outcome = run.finish(summary).unwrap();
+    (run.renderer.accumulation(), outcome.written)
+}
+
+#[test]
+fn refusals_name_settings() {
+    let dir = common::TempDir::new("session", "refusals");
+    let every = Request {
+        checkpoint_every: Some(std::time::Duration::from_secs(5)),
+        ..request(4)
+    };
+    assert!(matches!(
+        Session::plan(&every),
+        Err(SessionError::CheckpointEveryWithoutCheckpoint)
+    ));
+    let same = dir.join("same.exr");
+    let collision = Request {
+        outputs: Outputs {
+            exr: Some(same.clone()),
+            variance: Some(same),
+            ..Outputs::default()
+        },
+        ..request(4)
+    };
+    match Session::plan(&collision) {
+        Err(SessionError::SameFile(c)) => {
+            assert_eq!(
+                (c.first.label.setting, c.second.label.setting),
+                (Setting::Exr, Setting::Variance)
+            );
+            let message = SessionError::SameFile(c).to_string();
+            assert!(
+                message.contains("exr") && message.contains("variance"),
+                "{message}"
+            );
+        }
+        other => panic!("expected a collision, got {:?}", other.err()),
+    }
+    let counts = Request {
+        outputs: Outputs {
+            sample_counts: Some(dir.join("counts.exr")),
+            ..Outputs::default()
+        },
+        ..request(4)
+    };
+    assert!(matches!(
+        Session::plan(&counts),
+        Err(SessionError::SampleCountsWithoutAdaptive)
+    ));
+    let missing = Request {
+        scene: Some(dir.join("missing.toml")),
+        ..request(4)
+    };
+    let error = Session::plan(&missing).err().unwrap();
+    assert!(error.is_input() && error.to_string().contains("missing.toml"));
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "nothing written"
+    );
+}
+
+#[test]
+fn a_run_resumed_from_its_checkpoint_gives_the_uninterrupted_sums() {
+    let ctx = gpu_or_skip!();
+    let dir = common::TempDir::new("session", "resume");
+    let (whole, _) = render(ctx, &request(8));
+
+    let checkpoint = dir.join("run.ckpt");
+    let png = dir.join("first.png");
+    let first = Request {
+        checkpoint: Some(checkpoint.clone()),
+        outputs: Outputs {
+            png: Some(png.clone()),
+            ..Outputs::default()
+        },
+        ..request(3)
+    };
+    let (_, written) = render(ctx, &first);
+    assert_eq!(written, [checkpoint.clone(), png], "the checkpoint first");
+    assert_eq!(checkpoint::read(&checkpoint).unwrap().state.samples, 3);
+
+    let resumed = Request {
+        resume: Some(checkpoint.clone()),
+        spp: Some(8),
+        ..Request::default()
+    };
+    let session = Session::plan(&resumed).unwrap();
+    let recorded = std::fs::canonicalize(cornell()).unwrap();
+    assert_eq!(session.scene_path, recorded, "the recorded scene");
+    let (sums, _) = render(ctx, &resumed);
+    assert_eq!(sums.samples, 8);
+    assert_eq!(sums, whole, "bit-identical to one run of 8 samples");
+}
