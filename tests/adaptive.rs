@@ -314,13 +314,8 @@ fn a_target_error_stops_an_adaptive_run() {
 /// below its own at 64. Skipped without the shared scenes.
 #[test]
 fn a_target_error_stops_sooner_where_the_rounds_win() {
+    let path = shared_or_skip!("mitsuba-scenes/veach/veach-mis.xml");
     let ctx = gpu_or_skip!();
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/mitsuba-scenes/veach/veach-mis.xml");
-    if !path.exists() {
-        eprintln!("skipped: {} is not there", path.display());
-        return;
-    }
     let mut scene = Scene::load(&path).unwrap();
     (scene.apply_overrides(&SceneOverrides {
         width: Some(128),

@@ -205,10 +205,15 @@ fn info_shows_what_the_kernel_contains() {
 /// through their BVH, or weighed by the points hit under `nee-mis`.
 #[test]
 fn info_says_how_emitting_mesh_faces_are_weighed() {
+    let dir = common::TempDir::new("info", "mesh-lights");
+    let Some(mitsuba_box) =
+        common::fixture_reading_shared("tests/fixtures/mitsuba-cbox-bunny.toml", &dir)
+    else {
+        return;
+    };
     if common::gpu().is_none() {
         return;
     }
-    let dir = common::TempDir::new("info", "mesh-lights");
     let knot = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/meshes/knot.obj");
     let glowing_knot = dir.join("knot.toml");
     std::fs::write(
@@ -222,8 +227,6 @@ fn info_says_how_emitting_mesh_faces_are_weighed() {
         ),
     )
     .unwrap();
-    let mitsuba_box =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/mitsuba-cbox-bunny.toml");
     for (scene, strategy, expected) in [
         (mitsuba_box.as_path(), "mixture", "each tested"),
         (mitsuba_box.as_path(), "nee-mis", "each tested"),

@@ -91,18 +91,13 @@ fn emissive_triangles_are_sampled_without_bias() {
     }
 }
 
-/// Mitsuba's Stanford bunny (69 451 triangles, binary PLY) from `../shared/`,
+/// Mitsuba's Stanford bunny (69 451 triangles, binary PLY) from the shared data,
 /// in the book's Cornell box: it loads, goes through the BVH, and renders a
 /// finite image whose every invocation finishes.
 #[test]
 fn stanford_bunny_renders_through_the_bvh() {
+    let bunny = shared_or_skip!("mitsuba-scenes/meshes/bunny.ply");
     let ctx = gpu_or_skip!();
-    let bunny = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/mitsuba-scenes/meshes/bunny.ply");
-    if !bunny.exists() {
-        eprintln!("skipped: {} is not there", bunny.display());
-        return;
-    }
     let mut text = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml"),
     )
@@ -560,7 +555,7 @@ fn gltf_materials_map_to_the_nearest_pathmix_material() {
 }
 
 /// pathmix against Mitsuba 3 on Mitsuba's own Cornell box (its OBJ meshes,
-/// materials and light) with the Stanford bunny, both from `../shared/`:
+/// materials and light) with the Stanford bunny, both from the shared data:
 /// `tests/fixtures/mitsuba-cbox-bunny-64.exr` is Mitsuba's `path` integrator at
 /// 64x64 and 65 536 spp (independent sampler, max_depth 8; made by
 /// `scripts/compare-mitsuba.py --mitsuba-reference-only`). pathmix (`nee-mis`,
@@ -569,18 +564,17 @@ fn gltf_materials_map_to_the_nearest_pathmix_material() {
 /// pathmix's noise plus 1% (the reference's own noise and f32 rounding).
 #[test]
 fn cornell_box_meshes_and_bunny_match_mitsuba() {
+    let dir = common::TempDir::new("meshes", "mitsuba-cbox-bunny");
+    let Some(scene_file) =
+        common::fixture_reading_shared("tests/fixtures/mitsuba-cbox-bunny.toml", &dir)
+    else {
+        return;
+    };
     let ctx = gpu_or_skip!();
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    if !root
-        .join("../shared/mitsuba-scenes/meshes/bunny.ply")
-        .exists()
-    {
-        eprintln!("skipped: ../shared/mitsuba-scenes is not there");
-        return;
-    }
     let reference =
         pathmix::output::read_exr(&root.join("tests/fixtures/mitsuba-cbox-bunny-64.exr")).unwrap();
-    let mut scene = Scene::load(&root.join("tests/fixtures/mitsuba-cbox-bunny.toml")).unwrap();
+    let mut scene = Scene::load(&scene_file).unwrap();
     let size = reference.width / 2;
     (scene.camera.width, scene.camera.height) = (size, size);
     scene.render.spp = 256;

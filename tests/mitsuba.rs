@@ -15,16 +15,6 @@ fn repo(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
 }
 
-fn cbox_xml() -> Option<PathBuf> {
-    let path = repo("../shared/mitsuba-scenes/cbox/cbox-rgb.xml");
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!("skipped: {} is not there", path.display());
-        None
-    }
-}
-
 fn defines(pairs: &[(&str, &str)]) -> Vec<Define> {
     pairs
         .iter()
@@ -140,7 +130,7 @@ fn against_reference(
 /// bounce fewer (Mitsuba's max_depth 5) does not, so the check can tell.
 #[test]
 fn cornell_box_matches_mitsuba() {
-    let Some(xml) = cbox_xml() else { return };
+    let xml = shared_or_skip!("mitsuba-scenes/cbox/cbox-rgb.xml");
     if common::gpu().is_none() {
         return;
     }
@@ -293,24 +283,30 @@ fn textured_scene_matches_mitsuba() {
 const GLOSSY_TEAPOT_REFERENCE: &str = "tests/data/teapot-sky-glossy-mitsuba-64.exr";
 const GLOSSY_TEAPOT_REFERENCE_SPP: f64 = 16384.0;
 
-/// A rough copper teapot (the PLY from ../shared, GGX) on a diffuse ground under
+/// A rough copper teapot (the PLY from the shared data, GGX) on a diffuse ground under
 /// the shipped sky map with its one-texel sun agrees with Mitsuba's image; the
 /// same scene with the copper twice as rough, or with the sky turned 30 degrees
 /// further (the sun's highlight and shadow move), does not.
 #[test]
 fn glossy_teapot_under_the_sky_matches_mitsuba() {
     let xml = repo("tests/data/teapot-sky-glossy.xml");
-    if !repo("../shared/mitsuba-scenes/meshes/teapot.ply").exists() {
-        eprintln!("skipped: ../shared/mitsuba-scenes is not there");
-        return;
-    }
+    shared_or_skip!("mitsuba-scenes/meshes/teapot.ply");
     if common::gpu().is_none() {
         return;
     }
     let reference = read_exr(&repo(GLOSSY_TEAPOT_REFERENCE)).unwrap();
-    let scene = Scene::load_with(&xml, &defines(&[("res", "64"), ("spp", "256")]))
-        .unwrap()
-        .scene;
+    // The XML's own default for the folder is relative to it (for scripts and Mitsuba).
+    let mitsuba_scenes = common::shared_dir().join("mitsuba-scenes");
+    let scene = Scene::load_with(
+        &xml,
+        &defines(&[
+            ("res", "64"),
+            ("spp", "256"),
+            ("mitsuba_scenes", mitsuba_scenes.to_str().unwrap()),
+        ]),
+    )
+    .unwrap()
+    .scene;
     assert_eq!(scene.render.sampler, Sampler::Independent);
     let agreed = against_reference(&scene, &reference, GLOSSY_TEAPOT_REFERENCE_SPP);
     assert!(agreed.is_ok(), "{agreed:?}");
@@ -466,7 +462,7 @@ fn resume_keeps_the_mitsuba_parameters() {
 /// `convert` writes TOML that reads back as the very scene the XML is.
 #[test]
 fn convert_round_trips_to_the_same_scene() {
-    let Some(xml) = cbox_xml() else { return };
+    let xml = shared_or_skip!("mitsuba-scenes/cbox/cbox-rgb.xml");
     let dir = common::TempDir::new("mitsuba", "convert");
     let out = dir.join("nested/cbox.toml");
     std::fs::create_dir_all(out.parent().unwrap()).unwrap();

@@ -1,11 +1,13 @@
-//! Shared by the GPU test files: one device per test process, and small helpers.
+//! Shared by the integration test files: one device per test process, the test
+//! data kept outside the repository, temporary folders, and small helpers.
 #![allow(dead_code)] // each test file uses a different subset
 
 use pathmix::gpu::GpuContext;
 use pathmix::render::{RenderOptions, Renderer};
 use pathmix::scene::{Sampler, Scene, SceneOverrides};
 use pathmix::stats::Accumulation;
-use std::path::Path;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// The device shared by every test of this process, or `None` (test skipped)
@@ -35,6 +37,89 @@ macro_rules! gpu_or_skip {
             None => return,
         }
     };
+}
+
+/// The folder of the test data too large for the repository (`mitsuba-scenes/`,
+/// `scenes-bitterli/`): the one `PATHMIX_SHARED` names when set (the only place
+/// looked then; relative to the package root, where tests run), else `../shared`
+/// beside the repository.
+pub fn shared_dir() -> PathBuf {
+    match std::env::var_os("PATHMIX_SHARED").filter(|dir| !dir.is_empty()) {
+        // Absolute, so that scene files written elsewhere can name files in it.
+        Some(dir) => std::env::current_dir().unwrap().join(dir),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared"),
+    }
+}
+
+/// The file (or folder) `relative` under `shared_dir()`, or `None` when it is
+/// missing: the test is then skipped, saying so in one line on stderr, or, when
+/// `PATHMIX_REQUIRE_SHARED` is `1` (as in CI), fails, so that a run meant to
+/// use the data cannot pass without it.
+pub fn shared_file(relative: &str) -> Option<PathBuf> {
+    let path = shared_dir().join(relative);
+    if path.exists() {
+        return Some(path);
+    }
+    // libtest runs each test on a thread named after it.
+    let test = std::thread::current()
+        .name()
+        .unwrap_or("a test")
+        .to_string();
+    let how = "put the shared test data in ../shared beside the repository, \
+               or name its folder in PATHMIX_SHARED";
+    if std::env::var("PATHMIX_REQUIRE_SHARED").as_deref() == Ok("1") {
+        panic!(
+            "PATHMIX_REQUIRE_SHARED=1 but {} is missing ({how})",
+            path.display()
+        );
+    }
+    let line = format!(
+        "skipped {test}: {} is missing ({how}; PATHMIX_REQUIRE_SHARED=1 makes this a failure)\n",
+        path.display()
+    );
+    // Straight to stderr rather than by eprintln!, which the test harness captures
+    // and hides for a passing test: the skip shows in a plain `cargo test` run. One
+    // write, so that the line stays whole among other tests' output.
+    std::io::Write::write_all(&mut std::io::stderr(), line.as_bytes()).unwrap();
+    None
+}
+
+/// The shared data file `relative` (see `shared_file`), or returns from the test
+/// (skipping it) when it is missing.
+#[macro_export]
+macro_rules! shared_or_skip {
+    ($relative:expr) => {
+        match common::shared_file($relative) {
+            Some(path) => path,
+            None => return,
+        }
+    };
+}
+
+/// A copy in `dir` of the repository's scene file `fixture`, its paths into the
+/// shared data (written `"../../../shared/..."`, relative to the fixture, for the
+/// scripts and people that read it beside a checkout) replaced by the files
+/// `shared_file` finds, so that a test reads the data wherever `PATHMIX_SHARED`
+/// puts it. `None` (the test skipped, as by `shared_file`) when one is missing.
+/// The fixture must name no other relative path: the copy is elsewhere.
+pub fn fixture_reading_shared(fixture: &str, dir: &Path) -> Option<PathBuf> {
+    const SHARED: &str = "\"../../../shared/";
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join(fixture);
+    let text = std::fs::read_to_string(&source).unwrap();
+    let mut copy = String::with_capacity(text.len());
+    let mut rest = text.as_str();
+    while let Some(at) = rest.find(SHARED) {
+        copy.push_str(&rest[..at]);
+        let after = &rest[at + SHARED.len()..];
+        let end = after.find('"').expect("a quoted path");
+        let path = shared_file(&after[..end])?;
+        write!(copy, "{:?}", path.to_str().unwrap()).unwrap();
+        rest = &after[end + 1..];
+    }
+    copy.push_str(rest);
+    let path = dir.join(source.file_name().unwrap());
+    std::fs::write(&path, copy).unwrap();
+    Some(path)
 }
 
 pub fn scene_file(name: &str) -> Scene {
