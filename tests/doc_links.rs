@@ -10,6 +10,8 @@
 //!
 //! No device, no dependency: it reads the files and looks at the file system.
 
+mod common;
+
 use std::collections::HashMap;
 use std::fs;
 use std::path::{Component, Path, PathBuf};
@@ -497,8 +499,7 @@ fn external_links_are_not_checked() {
 
 #[test]
 fn broken_links_are_reported() {
-    let dir = std::env::temp_dir().join(format!("pathmix-doc-links-{}", std::process::id()));
-    let _ = fs::remove_dir_all(&dir);
+    let dir = common::TempDir::new("doc-links", "broken");
     fs::create_dir_all(dir.join("docs")).unwrap();
     fs::write(
         dir.join("README.md"),
@@ -514,7 +515,6 @@ fn broken_links_are_reported() {
     .unwrap();
     let files = [PathBuf::from("README.md"), PathBuf::from("docs/page.md")];
     let problems = broken_links(&dir, &files);
-    let _ = fs::remove_dir_all(&dir);
     assert_eq!(problems.len(), 4, "{problems:#?}");
     assert!(
         problems[0].starts_with("README.md:3: link `docs/missing.md`: "),
