@@ -133,7 +133,7 @@ pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
             sampler: args.sampler.map(Into::into),
             ..Default::default()
         })
-        .map_err(Failure::input)?;
+        .map_err(|e| super::override_failure(&e))?;
     // Checked before the device starts.
     let reference = match &args.reference {
         Some(path) => {

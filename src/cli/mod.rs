@@ -11,8 +11,8 @@ mod render;
 mod signals;
 
 use clap::{Parser, Subcommand};
-use pathmix::scene::Scene;
 use pathmix::scene::mitsuba::Define;
+use pathmix::scene::{OverrideError, Scene};
 use std::path::Path;
 use std::time::Instant;
 
@@ -83,6 +83,21 @@ pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
         Command::Compare(args) => compare::compare(args),
         Command::Convert(args) => convert::convert(args),
     }
+}
+
+/// An override refused, in this command line's words: the flag that gave it.
+pub fn override_failure(e: &OverrideError) -> Failure {
+    let flag = match e.field {
+        "render.spp" => "--spp",
+        "camera.width" => "--width",
+        "camera.height" => "--height",
+        "render.max_depth" => "--max-depth",
+        "render.seed" => "--seed",
+        "render.rr_depth" => "--rr-depth",
+        "render.light_weight" => "--light-weight",
+        field => field,
+    };
+    Failure::input(format!("command line: {flag}: {}", e.message))
 }
 
 /// Reads a scene file (TOML or Mitsuba XML with its `-D` parameters), warning once

@@ -355,6 +355,7 @@ fn failure(e: SessionError) -> Failure {
             with_flag(source)
         ),
         SessionError::Refused(e) | SessionError::Failed(e) => with_flag(e),
+        SessionError::Override(e) => return super::override_failure(e),
         SessionError::VarianceOfOneSample => {
             "--variance: a standard error needs at least 2 samples per pixel".into()
         }

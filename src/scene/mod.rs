@@ -17,7 +17,7 @@ pub use crate::kinds::{
     Disk, Distribution, Material, MaterialKind, Quad, Shapes, Sphere, Triangle,
 };
 pub use envmap::EnvironmentMap;
-pub use parse::{AUTO_STRATEGY, SceneOverrides};
+pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
 pub use sphere_field::{sphere_field, sphere_field_toml};
 pub use texture::Texture;
 

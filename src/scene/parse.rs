@@ -22,8 +22,8 @@ use super::{
 };
 use std::path::Path;
 
-/// Command-line overrides of scene settings, validated like the file's values by
-/// [`Scene::apply_overrides`].
+/// Settings given over the scene file's (a command line's), validated like the
+/// file's values by [`Scene::apply_overrides`].
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneOverrides {
     pub spp: Option<u32>,
@@ -223,33 +223,43 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     }
 }
 
+/// An override that breaks the scene file's rules: the field it overrides
+/// (`camera.width`), and why.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{field}: {message}")]
+pub struct OverrideError {
+    pub field: &'static str,
+    pub message: String,
+}
+
 impl Scene {
-    /// Applies command-line overrides, validated with the same rules as the file.
-    /// Nothing is changed when any override is invalid.
-    pub fn apply_overrides(&mut self, o: &SceneOverrides) -> Result<()> {
-        let err = |flag: &str, message: String| SceneError {
-            file: "command line".to_string(),
-            location: flag.to_string(),
-            message,
-        };
-        let int = |flag: &str, v: Option<u32>, range: (i64, i64)| -> Result<Option<u32>> {
-            v.map(|v| check_int(i64::from(v), range).map_err(|m| err(flag, m)))
+    /// Applies overrides, validated with the same rules as the file. Nothing
+    /// is changed when any override is invalid.
+    pub fn apply_overrides(
+        &mut self,
+        o: &SceneOverrides,
+    ) -> std::result::Result<(), OverrideError> {
+        let err = |field: &'static str, message: String| OverrideError { field, message };
+        let int = |field: &'static str, v: Option<u32>, range: (i64, i64)| {
+            v.map(|v| check_int(i64::from(v), range).map_err(|m| err(field, m)))
                 .transpose()
         };
-        let spp = int("--spp", o.spp, SPP)?;
-        let width = int("--width", o.width, IMAGE_SIDE)?;
-        let height = int("--height", o.height, IMAGE_SIDE)?;
-        let max_depth = int("--max-depth", o.max_depth, MAX_DEPTH)?;
-        let seed = int("--seed", o.seed, SEED)?;
+        let spp = int("render.spp", o.spp, SPP)?;
+        let width = int("camera.width", o.width, IMAGE_SIDE)?;
+        let height = int("camera.height", o.height, IMAGE_SIDE)?;
+        let max_depth = int("render.max_depth", o.max_depth, MAX_DEPTH)?;
+        let seed = int("render.seed", o.seed, SEED)?;
         let rr_depth = match o.rr_depth {
-            Some(Some(depth)) => int("--rr-depth", Some(depth), MAX_DEPTH)?.map(Roulette::From),
+            Some(Some(depth)) => {
+                int("render.rr_depth", Some(depth), MAX_DEPTH)?.map(Roulette::From)
+            }
             Some(None) => Some(Roulette::Off),
             None => None,
         };
         if let Some(w) = o.light_weight {
             check_finite(w)
                 .and_then(|()| check_unit(w))
-                .map_err(|m| err("--light-weight", m))?;
+                .map_err(|m| err("render.light_weight", m))?;
         }
 
         if let Some(v) = spp {
@@ -3105,19 +3115,12 @@ material = "white"
         assert_eq!(s.render.spp, 16);
 
         let before = s.clone();
-        let bad = |o: SceneOverrides, flag: &str, part: &str| {
+        let bad = |o: SceneOverrides, field: &str, part: &str| {
             let mut t = before.clone();
             let e = t.apply_overrides(&o).unwrap_err();
-            assert_eq!(
-                (e.file.as_str(), e.location.as_str()),
-                ("command line", flag),
-                "{e}"
-            );
+            assert_eq!(e.field, field, "{e}");
             assert!(e.message.contains(part), "{e}");
-            assert!(
-                e.to_string()
-                    .starts_with(&format!("command line: {flag}: "))
-            );
+            assert!(e.to_string().starts_with(&format!("{field}: ")));
             assert_eq!(t, before, "nothing changes on error");
         };
         let d = SceneOverrides::default;
@@ -3127,7 +3130,7 @@ material = "white"
                 spp: Some(3),
                 ..d()
             },
-            "--width",
+            "camera.width",
             "between 1 and 65536, got 0",
         );
         bad(
@@ -3135,7 +3138,7 @@ material = "white"
                 height: Some(70000),
                 ..d()
             },
-            "--height",
+            "camera.height",
             "got 70000",
         );
         bad(
@@ -3143,7 +3146,7 @@ material = "white"
                 spp: Some(0),
                 ..d()
             },
-            "--spp",
+            "render.spp",
             "must be >= 1",
         );
         bad(
@@ -3151,7 +3154,7 @@ material = "white"
                 max_depth: Some(100_001),
                 ..d()
             },
-            "--max-depth",
+            "render.max_depth",
             "100000",
         );
         bad(
@@ -3159,7 +3162,7 @@ material = "white"
                 light_weight: Some(1.5),
                 ..d()
             },
-            "--light-weight",
+            "render.light_weight",
             "[0, 1]",
         );
         bad(
@@ -3167,7 +3170,7 @@ material = "white"
                 light_weight: Some(f32::NAN),
                 ..d()
             },
-            "--light-weight",
+            "render.light_weight",
             "finite",
         );
     }

@@ -20,7 +20,7 @@ use crate::render::{
     self, Progress, RenderError, RenderOptions, Renderer, RunSummary, StopReason, StopRule,
 };
 use crate::scene::mitsuba::Define;
-use crate::scene::{LoadedScene, Scene, SceneError, SceneOverrides};
+use crate::scene::{LoadedScene, OverrideError, Scene, SceneError, SceneOverrides};
 use crate::session::checkpoint::{
     self, Checkpoint, CheckpointError, CheckpointLock, LockError, SceneIdentity,
 };
@@ -155,6 +155,8 @@ pub struct Request {
 pub enum SessionError {
     #[error(transparent)]
     Scene(#[from] SceneError),
+    #[error(transparent)]
+    Override(#[from] OverrideError),
     #[error("cannot resume: {0}")]
     Resume(CheckpointError),
     #[error("no scene file given")]
