@@ -124,7 +124,7 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
         print!("{}", scene::sphere_field_toml(n));
         return Ok(());
     }
-    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
+    let ctx = super::open_gpu(args.adapter.as_deref())?;
     let repetitions = if args.quick {
         1
     } else {

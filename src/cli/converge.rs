@@ -3,7 +3,6 @@
 use super::Failure;
 use super::progress::ProgressDisplay;
 use clap::Args;
-use pathmix::gpu::GpuContext;
 use pathmix::scene::mitsuba::{self, Converted};
 use pathmix::scene::{Scene, SceneOverrides};
 use pathmix::session::converge::{
@@ -152,7 +151,7 @@ pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
         );
     }
 
-    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
+    let ctx = super::open_gpu(args.adapter.as_deref())?;
     eprintln!("adapter: {}", ctx.describe());
     eprintln!(
         "scene: {}  {width}x{height}{size_note}  max depth {}  seed {}  ladder {:?}",

@@ -3,7 +3,6 @@
 use super::Failure;
 use super::render::StrategyArg;
 use clap::Args;
-use pathmix::gpu::GpuContext;
 use pathmix::kernel::{ArrayMemory, SceneStorage};
 use pathmix::kinds::PackedArray;
 use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
@@ -43,7 +42,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     let auto = std::mem::take(&mut scene.render.auto_strategy);
     let strategy = scene.render.strategy;
     let (width, height) = (scene.camera.width, scene.camera.height);
-    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
+    let ctx = super::open_gpu(args.adapter.as_deref())?;
     let options = RenderOptions {
         variance: args.variance,
         ..RenderOptions::default()

@@ -11,6 +11,7 @@ mod render;
 mod signals;
 
 use clap::{Parser, Subcommand};
+use pathmix::gpu::{GpuContext, GpuError};
 use pathmix::scene::mitsuba::Define;
 use pathmix::scene::{OverrideError, Scene};
 use std::path::Path;
@@ -83,6 +84,18 @@ pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
         Command::Compare(args) => compare::compare(args),
         Command::Convert(args) => convert::convert(args),
     }
+}
+
+/// The device: the adapter `--adapter` names, or the best one.
+pub fn open_gpu(adapter: Option<&str>) -> Result<GpuContext, Failure> {
+    GpuContext::new(adapter).map_err(|e| match e {
+        GpuError::NoMatchingAdapter { wanted, available } => Failure::runtime(format!(
+            "no adapter's name contains `{wanted}` (from --adapter or PATHMIX_ADAPTER); \
+             available: {}",
+            available.join("; ")
+        )),
+        e => Failure::runtime(e),
+    })
 }
 
 /// An override refused, in this command line's words: the flag that gave it.

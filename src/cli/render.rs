@@ -4,7 +4,6 @@ use super::Failure;
 use super::progress::ProgressDisplay;
 use super::signals::Signals;
 use clap::{Args, ValueEnum};
-use pathmix::gpu::GpuContext;
 use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::{RenderError, RenderOptions, RunSummary, StopReason, StopRule};
 use pathmix::scene::mitsuba::Define;
@@ -432,7 +431,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     session.lock_checkpoint().map_err(failure)?;
     let quiet = args.quiet;
 
-    let ctx = GpuContext::new(args.adapter.as_deref()).map_err(Failure::runtime)?;
+    let ctx = super::open_gpu(args.adapter.as_deref())?;
     let mut pilot = session.choose_strategy(&ctx).map_err(failure)?;
     if let (Some(pilot), false) = (&pilot, quiet) {
         report_pilot(pilot);

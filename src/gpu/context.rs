@@ -1,40 +1,27 @@
 //! Adapter choice and the device.
 
-use std::fmt;
-
 /// Why no device could be had, in words a user can act on.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum GpuError {
+    #[error(
+        "no GPU adapter found (pathmix needs Vulkan, Metal or DirectX 12). Without a GPU, \
+         install Mesa's software Vulkan driver (lavapipe): \
+         `sudo apt-get install mesa-vulkan-drivers libvulkan1` on Debian/Ubuntu, \
+         `sudo dnf install mesa-vulkan-drivers` on Fedora"
+    )]
     NoAdapter,
+    #[error(
+        "no adapter's name contains `{wanted}` (the adapter filter, or PATHMIX_ADAPTER); \
+         available: {}",
+        .available.join("; ")
+    )]
     NoMatchingAdapter {
         wanted: String,
         available: Vec<String>,
     },
-    Device(String),
+    #[error("could not open the GPU device: {0}")]
+    Device(#[from] wgpu::RequestDeviceError),
 }
-
-impl fmt::Display for GpuError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            GpuError::NoAdapter => write!(
-                f,
-                "no GPU adapter found (pathmix needs Vulkan, Metal or DirectX 12). Without a GPU, \
-                 install Mesa's software Vulkan driver (lavapipe): \
-                 `sudo apt-get install mesa-vulkan-drivers libvulkan1` on Debian/Ubuntu, \
-                 `sudo dnf install mesa-vulkan-drivers` on Fedora"
-            ),
-            GpuError::NoMatchingAdapter { wanted, available } => write!(
-                f,
-                "no adapter's name contains `{wanted}` (from --adapter or PATHMIX_ADAPTER); \
-                 available: {}",
-                available.join("; ")
-            ),
-            GpuError::Device(message) => write!(f, "could not open the GPU device: {message}"),
-        }
-    }
-}
-
-impl std::error::Error for GpuError {}
 
 /// An open device and what the renderer needs to know about it.
 pub struct GpuContext {
@@ -108,14 +95,14 @@ impl GpuContext {
         if storage_texture_accumulator {
             required_features |= adapter_specific;
         }
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("pathmix"),
-            required_features,
-            // Large images need the adapter's full buffer and texture limits.
-            required_limits: adapter.limits(),
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::Device(e.to_string()))?;
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some("pathmix"),
+                required_features,
+                // Large images need the adapter's full buffer and texture limits.
+                required_limits: adapter.limits(),
+                ..Default::default()
+            }))?;
         let textures_read_faster =
             info.device_type == wgpu::DeviceType::Cpu && !cpu_driver_avx512();
         Ok(GpuContext {

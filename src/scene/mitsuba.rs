@@ -106,7 +106,7 @@ impl Converted {
         for define in defines {
             if !reader.used_params.contains(&define.name) {
                 builder.warn(format!(
-                    "-D {}: the scene has no `${}`",
+                    "parameter `{}` given, but the scene has no `${}`",
                     define.name, define.name
                 ));
             }
@@ -394,8 +394,8 @@ impl Reader {
                 Some(v) => out.push_str(v),
                 None => {
                     return Err(origin.error(format!(
-                        "`${name}` has no value: give `-D {name}=VALUE` or a \
-                         <default name=\"{name}\" value=\"...\"/>"
+                        "`${name}` has no value: give the parameter `{name}` a value, or the \
+                         scene a <default name=\"{name}\" value=\"...\"/>"
                     )));
                 }
             }
@@ -2535,9 +2535,9 @@ mod tests {
         let three = Define::from_str("r=3").unwrap();
         let (s, c) = read("params-d", body, &[three]).unwrap();
         assert_eq!(s.shapes.spheres[0].radius, 3.0);
-        assert!(c.warnings.iter().all(|w| !w.contains("-D")));
+        assert!(c.warnings.iter().all(|w| !w.contains("parameter")));
         let (_, c) = read("params-unused", body, &["q=1".parse().unwrap()]).unwrap();
-        assert!(c.warnings.iter().any(|w| w.contains("-D q")));
+        assert!(c.warnings.iter().any(|w| w.contains("parameter `q`")));
         assert!(Define::from_str("no-equals").is_err());
     }
 

@@ -292,7 +292,7 @@ impl Scene {
                 file,
                 location: String::new(),
                 message: format!(
-                    "-D {}=...: parameters apply to Mitsuba XML scenes only",
+                    "parameter `{}`: parameters apply to Mitsuba XML scenes only",
                     define.name
                 ),
             });
