@@ -2,6 +2,8 @@
 //! primitives. Knows nothing of devices or runs.
 
 pub mod envmap;
+#[cfg(test)]
+mod format_doc;
 pub mod mesh;
 pub mod mitsuba;
 mod parse;

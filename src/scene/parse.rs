@@ -50,7 +50,7 @@ const SEED: (i64, i64) = (0, U32_MAX);
 /// `|u x v| <= DEGENERATE |u| |v|`: a quad (or camera basis) with no area.
 const DEGENERATE: f64 = 1e-6;
 
-const TOP_KEYS: &[&str] = &[
+pub(super) const TOP_KEYS: &[&str] = &[
     "scene",
     "camera",
     "render",
@@ -59,13 +59,13 @@ const TOP_KEYS: &[&str] = &[
     "environment",
     "lights",
 ];
-const ENVIRONMENT_KEYS: &[&str] = &["file", "scale", "rotate_y", "rotate", "matrix"];
-const SCENE_KEYS: &[&str] = &["scale"];
-const CAMERA_KEYS: &[&str] = &[
+pub(super) const ENVIRONMENT_KEYS: &[&str] = &["file", "scale", "rotate_y", "rotate", "matrix"];
+pub(super) const SCENE_KEYS: &[&str] = &["scale"];
+pub(super) const CAMERA_KEYS: &[&str] = &[
     "lookfrom", "lookat", "vup", "vfov", "width", "height", "filter",
 ];
-const FILTER_TYPES: &[&str] = &["box", "gaussian"];
-const RENDER_KEYS: &[&str] = &[
+pub(super) const FILTER_TYPES: &[&str] = &["box", "gaussian"];
+pub(super) const RENDER_KEYS: &[&str] = &[
     "spp",
     "max_depth",
     "strategy",
@@ -76,7 +76,7 @@ const RENDER_KEYS: &[&str] = &[
     "sampler",
     "adaptive",
 ];
-const MATERIAL_TYPES: &[&str] = &[
+pub(super) const MATERIAL_TYPES: &[&str] = &[
     "lambertian",
     "metal",
     "dielectric",
@@ -88,7 +88,7 @@ const MATERIAL_TYPES: &[&str] = &[
     "plastic",
     "roughplastic",
 ];
-const ALL_MATERIAL_KEYS: &[&str] = &[
+pub(super) const ALL_MATERIAL_KEYS: &[&str] = &[
     "type",
     "albedo",
     "emit",
@@ -109,8 +109,8 @@ const ALL_MATERIAL_KEYS: &[&str] = &[
     "nonlinear",
     "one_sided",
 ];
-const LIGHT_TYPES: &[&str] = &["point", "spot"];
-const ALL_LIGHT_KEYS: &[&str] = &[
+pub(super) const LIGHT_TYPES: &[&str] = &["point", "spot"];
+pub(super) const ALL_LIGHT_KEYS: &[&str] = &[
     "type",
     "position",
     "intensity",
@@ -118,9 +118,9 @@ const ALL_LIGHT_KEYS: &[&str] = &[
     "cutoff_angle",
     "beam_width",
 ];
-const OBJECT_TYPES: &[&str] = &["sphere", "quad", "disk", "box", "mesh"];
-const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
-const ALL_OBJECT_KEYS: &[&str] = &[
+pub(super) const OBJECT_TYPES: &[&str] = &["sphere", "quad", "disk", "box", "mesh"];
+pub(super) const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
+pub(super) const ALL_OBJECT_KEYS: &[&str] = &[
     "type",
     "material",
     "scale",
@@ -956,33 +956,31 @@ fn texturable(
 pub const MAX_TEXTURE_TEXELS: u64 = (128 << 20) / 12;
 
 /// `{ type = "checkerboard" | "bitmap", ... }` (`scene::texture`).
+pub(super) const TEXTURE_TYPES: &[&str] = &["checkerboard", "bitmap"];
+pub(super) const CHECKERBOARD_KEYS: &[&str] = &["type", "color0", "color1", "to_uv"];
+pub(super) const BITMAP_KEYS: &[&str] =
+    &["type", "file", "wrap_mode", "filter_type", "raw", "to_uv"];
+
 fn parse_texture(s: &Tab) -> Result<Texture> {
-    const TYPES: &[&str] = &["checkerboard", "bitmap"];
     let Some(ty) = s.string("type")? else {
         return Err(s.err(
             s.here(),
             format!(
                 "missing required key `type` for a texture (expected one of {})",
-                list(TYPES)
+                list(TEXTURE_TYPES)
             ),
         ));
     };
     let kind = match ty {
         "checkerboard" => {
-            s.check_keys(
-                &["type", "color0", "color1", "to_uv"],
-                Some("a checkerboard texture"),
-            )?;
+            s.check_keys(CHECKERBOARD_KEYS, Some("a checkerboard texture"))?;
             TextureKind::Checkerboard {
                 color0: reflectance(s, "color0", 0.4)?,
                 color1: reflectance(s, "color1", 0.2)?,
             }
         }
         "bitmap" => {
-            s.check_keys(
-                &["type", "file", "wrap_mode", "filter_type", "raw", "to_uv"],
-                Some("a bitmap texture"),
-            )?;
+            s.check_keys(BITMAP_KEYS, Some("a bitmap texture"))?;
             let file = s.require("file", s.string("file")?)?;
             let raw = s.boolean("raw")?.unwrap_or(false);
             let wrap = named(
@@ -1027,7 +1025,10 @@ fn parse_texture(s: &Tab) -> Result<Texture> {
             })
         }
         other => {
-            return Err(s.err(s.at("type"), unknown_name("texture type", other, TYPES)));
+            return Err(s.err(
+                s.at("type"),
+                unknown_name("texture type", other, TEXTURE_TYPES),
+            ));
         }
     };
     let to_uv = match s.sub("to_uv")? {

@@ -1,0 +1,102 @@
+//! docs/scene-format.md against the parser: every table, type and key the
+//! TOML reader accepts is documented there. A kind or key added to the
+//! parser without its documentation fails here.
+
+use super::parse::{
+    ALL_LIGHT_KEYS, ALL_MATERIAL_KEYS, ALL_OBJECT_KEYS, BITMAP_KEYS, CAMERA_KEYS,
+    CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, FILTER_TYPES, LIGHT_TYPES, MATERIAL_TYPES, OBJECT_TYPES,
+    RENDER_KEYS, SCENE_KEYS, TEXTURE_TYPES, TOP_KEYS, TRANSFORM_KEYS,
+};
+use crate::kinds::MATERIAL_KINDS;
+
+fn document() -> String {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scene-format.md");
+    std::fs::read_to_string(path).expect("docs/scene-format.md")
+}
+
+/// The names of `names` that `document` does not show as `shown(name)`.
+fn undocumented<'a>(
+    document: &str,
+    names: &[&'a str],
+    shown: impl Fn(&str) -> Vec<String>,
+) -> Vec<&'a str> {
+    names
+        .iter()
+        .copied()
+        .filter(|name| !shown(name).iter().any(|form| document.contains(form)))
+        .collect()
+}
+
+#[test]
+fn every_table_type_and_key_is_documented() {
+    let document = document();
+    let table = |name: &str| {
+        vec![
+            format!("`[{name}]"),
+            format!("`[{name}."),
+            format!("`[[{name}]]`"),
+        ]
+    };
+    let type_name = |name: &str| vec![format!("`\"{name}\"`"), format!("`type = \"{name}\"`")];
+    let key = |name: &str| vec![format!("`{name}`")];
+    let mut missing = Vec::new();
+    missing.extend(
+        undocumented(&document, TOP_KEYS, table)
+            .into_iter()
+            .map(|n| format!("table [{n}]")),
+    );
+    for types in [
+        FILTER_TYPES,
+        MATERIAL_TYPES,
+        LIGHT_TYPES,
+        OBJECT_TYPES,
+        TEXTURE_TYPES,
+    ] {
+        missing.extend(
+            undocumented(&document, types, type_name)
+                .into_iter()
+                .map(|n| format!("type \"{n}\"")),
+        );
+    }
+    for keys in [
+        SCENE_KEYS,
+        CAMERA_KEYS,
+        RENDER_KEYS,
+        ENVIRONMENT_KEYS,
+        ALL_MATERIAL_KEYS,
+        ALL_LIGHT_KEYS,
+        ALL_OBJECT_KEYS,
+        TRANSFORM_KEYS,
+        CHECKERBOARD_KEYS,
+        BITMAP_KEYS,
+    ] {
+        missing.extend(
+            undocumented(&document, keys, key)
+                .into_iter()
+                .map(|n| format!("key `{n}`")),
+        );
+    }
+    assert!(
+        missing.is_empty(),
+        "docs/scene-format.md does not document: {}",
+        missing.join(", ")
+    );
+}
+
+/// Every material kind the kernel has is a type scene files can name.
+#[test]
+fn every_material_kind_has_a_scene_type() {
+    for kind in MATERIAL_KINDS {
+        assert!(MATERIAL_TYPES.contains(&kind.name), "{}", kind.name);
+    }
+}
+
+/// The check can fail: a name the document lacks is found missing.
+#[test]
+fn an_undocumented_name_is_found() {
+    let key = |name: &str| vec![format!("`{name}`")];
+    assert_eq!(
+        undocumented("`spp` and `seed`", &["spp", "seed", "zz"], key),
+        ["zz"]
+    );
+}
