@@ -164,6 +164,11 @@ impl Accumulation {
         })
     }
 
+    /// Whether every sample so far was zero (black in every pixel).
+    pub fn is_black(&self) -> bool {
+        self.sum.iter().all(|s| *s == [0.0; 3])
+    }
+
     /// The image's relative standard error, defined as
     ///
     /// `sqrt( (1/P) Σ_p Y(SE_p)² ) / ( (1/P) Σ_p Y(mean_p) )`

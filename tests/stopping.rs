@@ -93,6 +93,35 @@ fn noise_target_stops_with_the_estimate_below_the_target() {
     }
 }
 
+/// Toward an error target, a black image (nothing visible, a black background)
+/// has no relative error: the run stops at `BLACK_IMAGE_SAMPLES` and says so,
+/// where it used to run on toward 2^32 samples.
+#[test]
+fn a_black_image_stops_a_run_toward_an_error_target() {
+    let ctx = gpu_or_skip!();
+    let scene = common::scene_text(
+        r#"
+        [camera]
+        lookfrom = [0, 0, 0]
+        lookat = [0, 0, 1]
+        width = 8
+        height = 8
+        [render]
+        background = [0, 0, 0]
+        "#,
+    );
+    let mut renderer = Renderer::new(ctx, &scene, &common::with_variance()).unwrap();
+    let stop = StopRule {
+        max_samples: u32::MAX,
+        time_budget: None,
+        target_error: Some(0.01),
+    };
+    let summary = render::run(&mut renderer, stop, |_| {}).unwrap();
+    assert_eq!(summary.reason, StopReason::BlackImage);
+    assert!(summary.samples >= render::BLACK_IMAGE_SAMPLES && summary.samples < 4096);
+    assert!(renderer.accumulation().is_black());
+}
+
 /// Under the Sobol sampler a run estimates its error from the spread of its
 /// replicates' means, which follows the measured error, where the per-pixel sample
 /// variance overstates it several times: on the Cornell boxes at 32×32 and 500 spp

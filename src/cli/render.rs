@@ -505,6 +505,11 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         StopReason::TimeBudget => "time budget spent".to_string(),
         StopReason::TargetError => "target error reached".to_string(),
         StopReason::Interrupted => "interrupted".to_string(),
+        StopReason::BlackImage => format!(
+            "the image is black after {} spp: its relative error is undefined, so no \
+             --target-error can be reached",
+            summary.samples
+        ),
     };
     println!(
         "rendered {width}x{height} at {} spp in {:.2} s: {:.2} M paths/s ({stopped})",

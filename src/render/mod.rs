@@ -1509,7 +1509,17 @@ pub enum StopReason {
     TargetError,
     /// The caller asked the run to stop (`run_with`'s flag).
     Interrupted,
+    /// Toward an error target, the image was still black after
+    /// [`BLACK_IMAGE_SAMPLES`]: its relative error is 0/0, so no target can
+    /// be reached, and without a sample count or time budget the run would
+    /// never end.
+    BlackImage,
 }
+
+/// Samples per pixel after which a run toward an error target whose image is
+/// black everywhere stops (`StopReason::BlackImage`): far beyond where a
+/// scene with any light reachable by the camera shows some.
+pub const BLACK_IMAGE_SAMPLES: u32 = 256;
 
 /// Most submissions `Renderer::warm_up` runs.
 const WARM_UP_MAX_SUBMISSIONS: usize = 10;
@@ -1588,6 +1598,8 @@ pub fn run_with<E: From<RenderError>>(
     // overshoots by at most twice the samples (checks once a second alone let a
     // fast Sobol run stop at 3x the samples it needed).
     let mut checked_at = 0u32;
+    // At the last error check, toward a target: every sum was zero.
+    let mut black = false;
     let reason = loop {
         if stop_requested.load(Ordering::SeqCst) {
             break StopReason::Interrupted;
@@ -1608,6 +1620,9 @@ pub fn run_with<E: From<RenderError>>(
                 break StopReason::TargetError;
             }
         }
+        if black && renderer.samples() >= BLACK_IMAGE_SAMPLES {
+            break StopReason::BlackImage;
+        }
         let samples = renderer.samples();
         let next_check = MIN_SAMPLES_FOR_ERROR.max(checked_at.saturating_mul(2));
         let to_next_check = match stop.target_error {
@@ -1623,7 +1638,9 @@ pub fn run_with<E: From<RenderError>>(
         let due = last_error_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL)
             || (stop.target_error.is_some() && renderer.samples() >= next_check);
         if wants_error && due {
-            relative_error = renderer.accumulation().relative_error();
+            let accumulation = renderer.accumulation();
+            relative_error = accumulation.relative_error();
+            black = stop.target_error.is_some() && accumulation.is_black();
             last_error_check = Some(Instant::now());
             checked_at = renderer.samples();
         }
