@@ -1593,6 +1593,7 @@ pub fn run_with<E: From<RenderError>>(
     };
     let mut relative_error = None;
     let mut last_error_check: Option<Instant> = None;
+    let mut last_counter_check: Option<Instant> = None;
     // Samples at the last error check. Toward a target the error is also checked
     // when the samples have doubled since, and submissions stop there, so a run
     // overshoots by at most twice the samples (checks once a second alone let a
@@ -1632,6 +1633,12 @@ pub fn run_with<E: From<RenderError>>(
         if renderer.advance_toward(stop.max_samples - samples, to_next_check) == 0 {
             // Adaptive: every pixel is at its cap.
             break StopReason::Samples;
+        }
+        // An invocation cut short makes the sums wrong: fail within a second,
+        // not after the whole run.
+        if last_counter_check.is_none_or(|t| t.elapsed() >= ERROR_CHECK_INTERVAL) {
+            renderer.check_counters()?;
+            last_counter_check = Some(Instant::now());
         }
         let elapsed = started.elapsed();
         let wants_error = renderer.config().variance && renderer.samples() >= MIN_SAMPLES_FOR_ERROR;

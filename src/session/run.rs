@@ -673,7 +673,8 @@ impl Run<'_> {
             on_progress(p);
             if let Some(path) = &session.checkpoint {
                 if last_checkpoint.elapsed() >= session.checkpoint_every {
-                    let discarded = saved_discarded + r.counters().discarded as u64;
+                    // Never save sums an invocation cut short has made wrong.
+                    let discarded = saved_discarded + r.check_counters()?.discarded as u64;
                     save_checkpoint(session, path, r, discarded, p.elapsed)?;
                     last_checkpoint = Instant::now();
                 }
