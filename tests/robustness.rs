@@ -563,3 +563,18 @@ fn resource_limits_are_checked_before_the_device_is_asked() {
     };
     assert!(render::plan_kernel(ctx, &scene, &bvh).is_ok());
 }
+
+/// `convert` never replaces its input: a Mitsuba scene in a file named `.toml`
+/// converted onto itself is refused, the file unchanged (issue 47, item 16).
+#[test]
+fn convert_onto_its_own_scene_is_refused() {
+    let dir = common::TempDir::new("robustness", "convert-self");
+    let scene = dir.join("scene.toml");
+    let xml = r#"<scene version="3.0.0"><shape type="sphere"/></scene>"#;
+    std::fs::write(&scene, xml).unwrap();
+    let output = pathmix_in(&dir, &["convert", "scene.toml", "-o", "./scene.toml"]);
+    let stderr = text(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("same file"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), xml);
+}

@@ -4,6 +4,7 @@
 use super::Failure;
 use clap::Args;
 use pathmix::output;
+use pathmix::paths::{self, PathUse};
 use pathmix::scene::Scene;
 use pathmix::scene::mitsuba::{self, Converted, Define};
 use std::io::Write;
@@ -22,6 +23,14 @@ pub struct ConvertArgs {
 }
 
 pub fn convert(args: ConvertArgs) -> Result<(), Failure> {
+    // The output must not replace the scene it is converted from.
+    let uses = [
+        PathUse::input("SCENE", &args.scene),
+        PathUse::output("-o", &args.output),
+    ];
+    if let Some(collision) = paths::collision(&uses) {
+        return Err(Failure::input(collision));
+    }
     let text = std::fs::read_to_string(&args.scene).map_err(|e| {
         Failure::input(format!(
             "{}: cannot read the scene file: {e}",
