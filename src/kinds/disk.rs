@@ -6,11 +6,12 @@ use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
+use serde::Serialize;
 
 /// Points `center + a u + b v` with `a^2 + b^2 <= 1`: a disk of radius `|u|` when
 /// `u` and `v` are perpendicular and as long, an ellipse otherwise (a disk under an
 /// affine transform); normal `normalize(u x v)`. World space.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Disk {
     pub center: Vec3,
     pub u: Vec3,

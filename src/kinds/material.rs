@@ -7,6 +7,7 @@ use super::coat::CoatTables;
 use crate::abi::{PackedMaterial, material_flag};
 use crate::shader::{ShaderModule, shader_module};
 use glam::Vec3;
+use serde::Serialize;
 use std::sync::Mutex;
 
 /// What a material kind's BSDF is made of (the interface is in materials.wgsl).
@@ -63,7 +64,7 @@ impl MaterialModel {
 /// keep the book's parameters; the others are Mitsuba 3's plugins of the same
 /// names, with Mitsuba's parameter names, meanings and defaults (so a Mitsuba
 /// scene maps onto them field for field).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum MaterialKind {
     Lambertian,
     Metal {
@@ -136,7 +137,7 @@ pub enum MaterialKind {
 }
 
 /// A microfacet normal distribution (Mitsuba's `distribution`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 pub enum Distribution {
     Beckmann,
     /// Trowbridge-Reitz.
@@ -158,7 +159,7 @@ impl Distribution {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Material {
     pub name: String,
     pub kind: MaterialKind,

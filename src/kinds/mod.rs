@@ -26,7 +26,7 @@ pub use quad::{PackedQuad, Quad};
 pub use sphere::{PackedSphere, Sphere};
 pub use texture::{
     Bitmap, MATERIAL_TEXTURE_SHIFT, TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo,
-    TextureKind, TextureTables, UvTransform, WrapMode,
+    TextureKind, TextureTables, UvTransform, WrapMode, serialize_texels,
 };
 pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 
@@ -54,8 +54,9 @@ macro_rules! primitive_kinds {
         pub const PRIMITIVE_KINDS: &[&PrimitiveKind] = &[$(&$kind,)*];
 
         /// A scene's shapes, world space: one list per primitive kind, in
-        /// scene order, named as the kind's array.
-        #[derive(Clone, Debug, Default, PartialEq)]
+        /// scene order, named as the kind's array. It serializes (for the scene
+        /// identity) every kind's list in turn: a new kind is covered by construction.
+        #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
         pub struct Shapes {
             $($(#[$doc])* pub $array: Vec<$shape>,)*
         }
@@ -68,6 +69,11 @@ macro_rules! primitive_kinds {
 
             pub fn iter_mut(&mut self) -> impl Iterator<Item = &mut dyn Shape> {
                 std::iter::empty()$(.chain(self.$array.iter_mut().map(|s| s as &mut dyn Shape)))*
+            }
+
+            /// How many shapes of each kind, in the order of [`PRIMITIVE_KINDS`].
+            pub fn counts(&self) -> Vec<usize> {
+                vec![$(self.$array.len(),)*]
             }
         }
 

@@ -4,9 +4,10 @@ use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
+use serde::Serialize;
 
 /// Points `q + a u + b v`, `a, b` in [0, 1]; normal `normalize(u x v)`. World space.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Quad {
     pub q: Vec3,
     pub u: Vec3,

@@ -4,9 +4,10 @@ use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
+use serde::Serialize;
 
 /// World space; the normal points outwards.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Sphere {
     pub center: Vec3,
     pub radius: f32,

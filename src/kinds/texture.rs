@@ -18,11 +18,12 @@
 
 use crate::abi::gpu_struct;
 use glam::{Vec2, Vec3};
+use serde::{Serialize, Serializer};
 use std::fmt;
 use std::sync::Arc;
 
 /// u' = m[0] . (u, v, 1), v' = m[1] . (u, v, 1).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct UvTransform(pub [[f32; 3]; 2]);
 
 impl UvTransform {
@@ -37,7 +38,7 @@ impl UvTransform {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 pub enum WrapMode {
     Repeat,
     Mirror,
@@ -73,7 +74,7 @@ impl WrapMode {
 }
 
 /// Mitsuba's `filter_type`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 pub enum TextureFilter {
     Bilinear,
     Nearest,
@@ -95,12 +96,13 @@ impl TextureFilter {
 }
 
 /// A decoded image: linear RGB, row-major from the top row; finite, >= 0.
-#[derive(Clone, PartialEq)]
+#[derive(Clone, PartialEq, Serialize)]
 pub struct Bitmap {
     /// The image file as the scene names it (relative to the scene file).
     pub file: String,
     pub width: u32,
     pub height: u32,
+    #[serde(serialize_with = "serialize_texels")]
     pub texels: Arc<Vec<[f32; 3]>>,
     /// The file's values as they are, without the sRGB decoding.
     pub raw: bool,
@@ -120,13 +122,29 @@ impl fmt::Debug for Bitmap {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
+/// Texels as one run of bytes (each f32 little-endian), for an encoding that
+/// keeps every bit of an image without a number per texel (the scene identity
+/// hashes it).
+pub fn serialize_texels<S: Serializer>(
+    texels: &[[f32; 3]],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    let values: &[f32] = bytemuck::cast_slice(texels);
+    if cfg!(target_endian = "little") {
+        serializer.serialize_bytes(bytemuck::cast_slice(values))
+    } else {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        serializer.serialize_bytes(&bytes)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub enum TextureKind {
     Checkerboard { color0: Vec3, color1: Vec3 },
     Bitmap(Bitmap),
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Texture {
     pub kind: TextureKind,
     pub to_uv: UvTransform,

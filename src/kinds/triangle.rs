@@ -4,9 +4,10 @@ use super::{ErasedLayout, NO_LIGHT, PackedPrimitive, PrimitiveKind, Shape, Shape
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
+use serde::Serialize;
 
 /// A mesh face, world space; normal `normalize((v1 - v0) x (v2 - v0))`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Triangle {
     pub vertices: [Vec3; 3],
     /// Unit shading normals at the vertices, interpolated across the face (a

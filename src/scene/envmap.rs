@@ -8,19 +8,22 @@
 //! 1)` (the first and last rows sit on the poles). The radiance is interpolated
 //! bilinearly between those centres, as Mitsuba does (`shaders/environment.wgsl`).
 
+use crate::kinds::serialize_texels;
 use glam::Mat3;
+use serde::Serialize;
 use std::fmt;
 use std::path::Path;
 use std::sync::Arc;
 
 /// A validated environment map.
-#[derive(Clone, PartialEq)]
+#[derive(Clone, PartialEq, Serialize)]
 pub struct EnvironmentMap {
     /// The image file as the scene names it (relative to the scene file).
     pub file: String,
     pub width: u32,
     pub height: u32,
     /// Linear RGB, row-major, row 0 at `v = 0` (map-space +y); finite, >= 0.
+    #[serde(serialize_with = "serialize_texels")]
     pub texels: Arc<Vec<[f32; 3]>>,
     /// Radiance multiplier.
     pub scale: f32,

@@ -12,6 +12,7 @@ mod sphere_field;
 pub mod texture;
 
 use glam::Vec3;
+use serde::Serialize;
 use std::fmt;
 use std::path::Path;
 
@@ -24,7 +25,7 @@ pub use sphere_field::{sphere_field, sphere_field_toml};
 pub use texture::Texture;
 
 /// How a diffuse bounce picks its direction (docs/estimator.md).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 pub enum Strategy {
     /// `w * p_light + (1 - w) * p_bsdf`: unbiased, the default.
     Mixture,
@@ -95,7 +96,7 @@ impl fmt::Display for Strategy {
 }
 
 /// Where a path's random numbers come from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 pub enum Sampler {
     /// Owen-scrambled Sobol points per pixel: each pair of dimensions is stratified
     /// over the samples of each of `abi::REPLICATES` independently
@@ -129,7 +130,7 @@ impl fmt::Display for Sampler {
 }
 
 /// The book's pinhole camera (right-handed; `vfov` is vertical, in degrees).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Camera {
     pub lookfrom: Vec3,
     pub lookat: Vec3,
@@ -143,7 +144,7 @@ pub struct Camera {
 /// The pixel reconstruction filter, applied by filter importance sampling: each
 /// camera ray's offset from the pixel centre is drawn from the filter itself, so
 /// every sample stays in its own pixel (unbiased, no splatting).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum Filter {
     /// Uniform over the pixel (offsets in [-0.5, 0.5) per axis): the default.
     Box,
@@ -192,7 +193,7 @@ impl RenderSettings {
 /// A light at a point (Mitsuba's `point` and `spot` emitters): a delta light,
 /// which no sampled direction can hit, so every strategy estimates it by a
 /// shadow ray (next-event estimation) at each vertex with a smooth lobe.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct PointLight {
     pub position: Vec3,
     /// Radiant intensity (W/sr) per RGB channel; irradiance at distance d,
@@ -205,7 +206,7 @@ pub struct PointLight {
 /// A spot light's cone, with Mitsuba's smooth falloff: full intensity within
 /// `beam_width` of the axis, none beyond `cutoff_angle`, linear in the angle
 /// between them.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Spot {
     /// The cone's axis, unit length, pointing away from the light.
     pub direction: Vec3,

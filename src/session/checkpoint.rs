@@ -16,13 +16,12 @@
 //! | 4·M | ...each pixel's sample count, then the round's `[pixel, count at its start]` pairs |
 //! | 4 | CRC-32 (IEEE) of every byte before it |
 
+use crate::kinds::PRIMITIVE_KINDS;
 use crate::output::{self, OutputError};
 use crate::render::adaptive::Choice;
 use crate::render::{AccumulatorState, AdaptiveState};
-use crate::scene::{
-    Camera, Filter, RenderSettings, Sampler, Scene, SceneOverrides, Shapes, Strategy,
-};
-use std::fmt;
+use crate::scene::{RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
+use serde::Serialize;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
@@ -32,7 +31,9 @@ pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
 /// variance adds as layers.
 /// 4: adaptive runs' per-pixel counts and round follow the texels.
 /// 5: adaptive runs record the pilot's choice (adaptive, or uniform on).
-pub const VERSION: u32 = 5;
+/// 6: the scene hashes come from a stable encoding of the scene's parts
+/// (`encoding_hash`), no longer from their `Debug` text.
+pub const VERSION: u32 = 6;
 
 /// FNV-1a, 64 bits: the scene identity's hash function (stable across platforms).
 #[derive(Clone, Copy, Debug)]
@@ -60,11 +61,6 @@ impl Fnv64 {
         self.bytes(&v.to_le_bytes())
     }
 
-    /// Length-prefixed, so that consecutive strings cannot run together.
-    pub fn str(&mut self, s: &str) -> &mut Self {
-        self.u64(s.len() as u64).bytes(s.as_bytes())
-    }
-
     pub fn finish(&self) -> u64 {
         self.0
     }
@@ -77,9 +73,11 @@ impl Fnv64 {
 pub struct SceneIdentity {
     /// Position, direction, up, field of view, image size and filter.
     pub camera_hash: u64,
-    /// Every material, each whole (name, kind with its parameters, colours).
+    /// Every material, each whole (name, kind with its parameters, colours,
+    /// texture with its texels).
     pub materials_hash: u64,
-    /// Quads and spheres, each whole (with its material and importance mark).
+    /// Every shape of every kind, each whole (with its material and importance
+    /// mark), and the point lights.
     pub geometry_hash: u64,
     /// Seed, depth, strategy, light weight, background, Russian roulette depth, sampler,
     /// environment map (its settings and texels).
@@ -94,8 +92,9 @@ pub struct SceneIdentity {
     pub rr_depth: Option<u32>,
     pub sampler: Sampler,
     pub materials: u32,
-    pub quads: u32,
-    pub spheres: u32,
+    /// How many shapes of each kind, in the order of `kinds::PRIMITIVE_KINDS`.
+    pub shapes: Vec<u32>,
+    pub point_lights: u32,
 }
 
 impl SceneIdentity {
@@ -108,13 +107,7 @@ impl SceneIdentity {
             camera,
             render,
             materials,
-            shapes:
-                Shapes {
-                    quads,
-                    spheres,
-                    triangles,
-                    disks,
-                },
+            shapes,
             // Follows from the mesh files, whose faces are hashed.
             degenerate_triangles: _,
             point_lights,
@@ -122,15 +115,6 @@ impl SceneIdentity {
             warnings: _,
             environment,
         } = scene;
-        let Camera {
-            lookfrom,
-            lookat,
-            vup,
-            vfov_degrees,
-            width,
-            height,
-            filter,
-        } = camera;
         let RenderSettings {
             // Only says when to stop: a resume or a shard may ask for more.
             spp: _,
@@ -141,7 +125,8 @@ impl SceneIdentity {
             light_weight,
             background,
             seed,
-            // Hashed as resolved, as before the strategy chose the default.
+            // Hashed as resolved (`roulette_depth`): the strategy's default and
+            // the same depth given are the same run.
             rr_depth: _,
             sampler,
             // How the run samples, not what it estimates; the state says whether
@@ -150,43 +135,21 @@ impl SceneIdentity {
         } = render;
         let rr_depth = render.roulette_depth();
         SceneIdentity {
-            // The box filter hashes as before filters existed, so older checkpoints resume.
-            camera_hash: match filter {
-                Filter::Box => debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height)),
-                _ => debug_hash(&(lookfrom, lookat, vup, vfov_degrees, width, height, filter)),
-            },
-            materials_hash: debug_hash(materials),
-            // Without disks or point lights the geometry hashes as before they existed.
-            geometry_hash: match (disks.is_empty(), point_lights.is_empty()) {
-                (true, true) => debug_hash(&(quads, spheres, triangles)),
-                (false, true) => debug_hash(&(quads, disks, spheres, triangles)),
-                _ => debug_hash(&(quads, disks, spheres, triangles, point_lights)),
-            },
-            // Without an environment map the settings hash as before maps existed.
-            settings_hash: match environment {
-                None => debug_hash(&(
-                    max_depth,
-                    strategy,
-                    light_weight,
-                    background,
-                    seed,
-                    rr_depth,
-                    sampler,
-                )),
-                Some(map) => debug_hash(&(
-                    max_depth,
-                    strategy,
-                    light_weight,
-                    background,
-                    seed,
-                    rr_depth,
-                    sampler,
-                    map,
-                    crc32fast::hash(bytemuck::cast_slice(&map.texels)),
-                )),
-            },
-            width: *width,
-            height: *height,
+            camera_hash: encoding_hash(camera),
+            materials_hash: encoding_hash(materials),
+            geometry_hash: encoding_hash(&(shapes, point_lights)),
+            settings_hash: encoding_hash(&(
+                max_depth,
+                strategy,
+                light_weight,
+                background,
+                seed,
+                rr_depth,
+                sampler,
+                environment,
+            )),
+            width: camera.width,
+            height: camera.height,
             seed: *seed,
             max_depth: *max_depth,
             strategy: *strategy,
@@ -194,8 +157,8 @@ impl SceneIdentity {
             rr_depth,
             sampler: *sampler,
             materials: materials.len() as u32,
-            quads: quads.len() as u32,
-            spheres: spheres.len() as u32,
+            shapes: shapes.counts().into_iter().map(|n| n as u32).collect(),
+            point_lights: point_lights.len() as u32,
         }
     }
 
@@ -238,17 +201,20 @@ impl SceneIdentity {
                     saved.materials, now.materials
                 )
             } else {
-                "the materials differ (names, kinds, colours or parameters)".into()
+                "the materials differ (names, kinds, colours, parameters or textures)".into()
             });
         }
         if saved.geometry_hash != now.geometry_hash {
-            out.push(if (saved.quads, saved.spheres) != (now.quads, now.spheres) {
-                format!(
-                    "the geometry differs: {} quads and {} spheres {a_label}, {} and {} {b_label}",
-                    saved.quads, saved.spheres, now.quads, now.spheres
-                )
+            let counts: Vec<String> = (saved.counts().zip(now.counts()))
+                .filter(|((_, a), (_, b))| a != b)
+                .map(|((name, a), (_, b))| format!("{name} {a} {a_label}, {b} {b_label}"))
+                .collect();
+            out.push(if counts.is_empty() {
+                "the geometry differs (object positions, sizes, materials or importance, or \
+                 point lights)"
+                    .into()
             } else {
-                "the geometry differs (object positions, sizes, materials or importance)".into()
+                format!("the geometry differs: {}", counts.join(", "))
             });
         }
         if saved.settings_hash != now.settings_hash {
@@ -288,6 +254,12 @@ impl SceneIdentity {
         out
     }
 
+    /// How many shapes of each kind and point lights, each with its name.
+    fn counts(&self) -> impl Iterator<Item = (&'static str, u32)> {
+        let names = PRIMITIVE_KINDS.iter().map(|kind| kind.array);
+        (names.zip(self.shapes.iter().copied())).chain([("point lights", self.point_lights)])
+    }
+
     /// As text pairs, for file headers (checkpoints, partial results).
     pub fn to_pairs(&self) -> Vec<(&'static str, String)> {
         vec![
@@ -305,9 +277,16 @@ impl SceneIdentity {
             ("rr_depth", rr_text(self.rr_depth)),
             ("sampler", self.sampler.to_string()),
             ("materials", self.materials.to_string()),
-            ("quads", self.quads.to_string()),
-            ("spheres", self.spheres.to_string()),
         ]
+        .into_iter()
+        .chain(
+            PRIMITIVE_KINDS
+                .iter()
+                .map(|kind| kind.array)
+                .zip(self.shapes.iter().map(u32::to_string)),
+        )
+        .chain([("point_lights", self.point_lights.to_string())])
+        .collect()
     }
 
     /// Reads what `to_pairs` wrote; `get` looks a key up. Checks the combined hash.
@@ -350,8 +329,10 @@ impl SceneIdentity {
             sampler: Sampler::from_name(&sampler)
                 .ok_or(IdentityError::UnknownSampler { name: sampler })?,
             materials: number("materials")?,
-            quads: number("quads")?,
-            spheres: number("spheres")?,
+            shapes: (PRIMITIVE_KINDS.iter())
+                .map(|kind| number(kind.array))
+                .collect::<Result<_, _>>()?,
+            point_lights: number("point_lights")?,
         };
         if hash("hash")? != identity.hash() {
             return Err(IdentityError::HashMismatch);
@@ -360,12 +341,36 @@ impl SceneIdentity {
     }
 }
 
-/// FNV-1a of a value's derived `Debug` text: every field, nested, with floats in
-/// shortest round-trip form, so equal text means equal values. The text follows
-/// the field names and the standard library's formatting; should either change,
-/// old files are refused as a different scene, never silently accepted.
-fn debug_hash(value: &impl fmt::Debug) -> u64 {
-    Fnv64::default().str(&format!("{value:?}")).finish()
+/// FNV-1a of a value's postcard encoding: every field, nested, in declaration
+/// order, with integers as varints, floats as their bits and images' texels as
+/// their bytes (`kinds::serialize_texels`); field names are not encoded. Only
+/// the values and the types' fields and variants (their order) shape it, and the
+/// golden test below fails when the encoding changes: then [`VERSION`] goes up,
+/// so that old files are refused as older, never as a different scene.
+fn encoding_hash(value: &impl Serialize) -> u64 {
+    postcard::serialize_with_flavor(value, Hashing(Fnv64::default()))
+        .expect("the scene's types serialize (no sequence of unknown length)")
+}
+
+/// A postcard output that hashes the bytes instead of keeping them.
+struct Hashing(Fnv64);
+
+impl postcard::ser_flavors::Flavor for Hashing {
+    type Output = u64;
+
+    fn try_extend(&mut self, bytes: &[u8]) -> postcard::Result<()> {
+        self.0.bytes(bytes);
+        Ok(())
+    }
+
+    fn try_push(&mut self, byte: u8) -> postcard::Result<()> {
+        self.0.bytes(&[byte]);
+        Ok(())
+    }
+
+    fn finalize(self) -> postcard::Result<u64> {
+        Ok(self.0.finish())
+    }
 }
 
 /// Recorded scene identity pairs that do not make one.
@@ -416,15 +421,6 @@ pub enum CheckpointError {
     Format { path: PathBuf, source: FormatError },
 }
 
-/// How a file's format version compares with this pathmix's, for messages.
-fn older_or_newer(version: &u32) -> &'static str {
-    if *version < VERSION {
-        "an older"
-    } else {
-        "a newer"
-    }
-}
-
 /// What is wrong with a checkpoint file's bytes.
 #[derive(Debug, PartialEq, thiserror::Error)]
 pub enum FormatError {
@@ -432,13 +428,21 @@ pub enum FormatError {
     Truncated { len: usize },
     #[error("not a pathmix checkpoint (wrong magic bytes)")]
     WrongMagic,
+    /// This pathmix reads no older format, so it cannot check the scene a run
+    /// was rendered from (before version 6 the scene hashes were of `Debug` text).
     #[error(
-        "written by {} pathmix (checkpoint format version {version}; this pathmix ({}) \
-         reads version {VERSION}): resume with the pathmix that wrote it, or start again",
-        older_or_newer(.version),
+        "written by an older pathmix (checkpoint format version {version}; this pathmix ({}) \
+         reads version {VERSION}), whose scene identity this pathmix cannot check: start the \
+         run again (without --resume; its --checkpoint may replace this file)",
         env!("CARGO_PKG_VERSION")
     )]
-    Version { version: u32 },
+    Older { version: u32 },
+    #[error(
+        "written by a newer pathmix (checkpoint format version {version}; this pathmix ({}) \
+         reads version {VERSION}): resume with the pathmix that wrote it, or start the run again",
+        env!("CARGO_PKG_VERSION")
+    )]
+    Newer { version: u32 },
     #[error("truncated or corrupted: the file has {len} bytes, its layout says {expected}")]
     LengthMismatch { len: usize, expected: u128 },
     #[error("corrupted: the checksum does not match the contents")]
@@ -662,8 +666,11 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, FormatError> {
     }
     let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
     let version = u32_at(8);
-    if version != VERSION {
-        return Err(FormatError::Version { version });
+    if version < VERSION {
+        return Err(FormatError::Older { version });
+    }
+    if version > VERSION {
+        return Err(FormatError::Newer { version });
     }
     let header_len = u32_at(12) as usize;
     let count_at = 16 + header_len;
@@ -1014,6 +1021,13 @@ impl Drop for CheckpointLock {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinds::{Bitmap, Texture, TextureFilter, TextureKind, UvTransform, WrapMode};
+    use crate::scene::{
+        Camera, Disk, Distribution, EnvironmentMap, Filter, Material, MaterialKind, PointLight,
+        Quad, Roulette, Shapes, Sphere, Spot, Triangle,
+    };
+    use glam::{Mat3, Vec2, Vec3};
+    use std::sync::Arc;
 
     #[test]
     fn fnv64_matches_published_vectors() {
@@ -1173,19 +1187,276 @@ mod tests {
         assert_eq!(base, more);
     }
 
+    /// Version 5 hashed the scene's `Debug` text: its identity cannot be checked.
     #[test]
-    fn older_checkpoints_are_refused_as_older() {
-        let mut bytes = to_bytes(&sample());
-        bytes[8..12].copy_from_slice(&(VERSION - 1).to_le_bytes());
-        let e = from_bytes(&bytes).unwrap_err().to_string();
+    fn older_checkpoints_are_refused_as_older_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("run.ckpt");
+        let with_version = |version: u32| {
+            let mut bytes = to_bytes(&sample());
+            bytes[8..12].copy_from_slice(&version.to_le_bytes());
+            std::fs::write(&path, bytes).unwrap();
+            read(&path).unwrap_err().to_string()
+        };
+        let e = with_version(5);
         assert!(
-            e.contains("written by an older pathmix")
-                && e.contains(&format!("version {}", VERSION - 1)),
+            e.contains(&format!("checkpoint `{}`", path.display()))
+                && e.contains("written by an older pathmix")
+                && e.contains("version 5")
+                && e.contains("scene identity this pathmix cannot check")
+                && e.contains("start the run again"),
             "{e}"
         );
-        bytes[8..12].copy_from_slice(&(VERSION + 1).to_le_bytes());
-        let e = from_bytes(&bytes).unwrap_err().to_string();
+        let e = with_version(VERSION + 1);
         assert!(e.contains("written by a newer pathmix"), "{e}");
+    }
+
+    /// A small scene with a part of every kind the identity covers: each shape
+    /// kind, a textured material, a point and a spot light, an environment map.
+    fn small_scene() -> Scene {
+        let material = |name: &str, kind| Material {
+            name: name.into(),
+            kind,
+            albedo: Vec3::ZERO,
+            emit: Vec3::ZERO,
+            one_sided: false,
+            texture: None,
+        };
+        Scene {
+            source: "small.toml".into(),
+            camera: Camera {
+                lookfrom: Vec3::new(0.0, 1.0, -5.0),
+                lookat: Vec3::new(0.0, 0.5, 0.0),
+                vup: Vec3::Y,
+                vfov_degrees: 40.0,
+                width: 8,
+                height: 6,
+                filter: Filter::Gaussian { stddev: 0.5 },
+            },
+            render: RenderSettings {
+                spp: 16,
+                max_depth: 7,
+                strategy: Strategy::NeeMis,
+                auto_strategy: false,
+                light_weight: 0.5,
+                background: Vec3::new(0.1, 0.2, 0.3),
+                seed: 3,
+                rr_depth: Roulette::StrategyDefault,
+                sampler: Sampler::Sobol,
+                adaptive: false,
+            },
+            materials: vec![
+                Material {
+                    albedo: Vec3::splat(0.5),
+                    texture: Some(Texture {
+                        kind: TextureKind::Bitmap(Bitmap {
+                            file: "wood.png".into(),
+                            width: 2,
+                            height: 1,
+                            texels: Arc::new(vec![[0.25, 0.5, 0.75], [1.0, 0.0, 0.125]]),
+                            raw: false,
+                            wrap: WrapMode::Repeat,
+                            filter: TextureFilter::Bilinear,
+                        }),
+                        to_uv: UvTransform::IDENTITY,
+                    }),
+                    ..material("wood", MaterialKind::Lambertian)
+                },
+                material(
+                    "steel",
+                    MaterialKind::RoughConductor {
+                        distribution: Distribution::Ggx,
+                        alpha_u: 0.2,
+                        alpha_v: 0.2,
+                        eta: Vec3::new(2.9, 2.9, 2.6),
+                        k: Vec3::new(3.1, 2.9, 2.8),
+                        specular_reflectance: Vec3::ONE,
+                    },
+                ),
+                Material {
+                    emit: Vec3::splat(4.0),
+                    ..material("lamp", MaterialKind::Light)
+                },
+            ],
+            shapes: Shapes {
+                quads: vec![Quad {
+                    q: Vec3::new(-1.0, 2.0, -1.0),
+                    u: Vec3::X * 2.0,
+                    v: Vec3::Z * 2.0,
+                    material: 2,
+                    importance: true,
+                }],
+                spheres: vec![Sphere {
+                    center: Vec3::new(0.5, 0.5, 0.0),
+                    radius: 0.5,
+                    material: 1,
+                    importance: false,
+                }],
+                triangles: vec![Triangle {
+                    vertices: [Vec3::ZERO, Vec3::X, Vec3::Y],
+                    normals: Some([Vec3::NEG_Z; 3]),
+                    uvs: Some([Vec2::ZERO, Vec2::X, Vec2::Y]),
+                    material: 0,
+                    importance: false,
+                    mesh: 0,
+                }],
+                disks: vec![Disk {
+                    center: Vec3::new(0.0, 0.0, 1.0),
+                    u: Vec3::X * 0.75,
+                    v: Vec3::Y * 0.75,
+                    material: 0,
+                    importance: false,
+                }],
+            },
+            degenerate_triangles: 0,
+            point_lights: vec![
+                PointLight {
+                    position: Vec3::new(0.0, 3.0, 0.0),
+                    intensity: Vec3::splat(10.0),
+                    spot: None,
+                },
+                PointLight {
+                    position: Vec3::new(2.0, 3.0, 0.0),
+                    intensity: Vec3::splat(5.0),
+                    spot: Some(Spot {
+                        direction: Vec3::NEG_Y,
+                        cutoff_angle: 30.0,
+                        beam_width: 20.0,
+                    }),
+                },
+            ],
+            environment: Some(EnvironmentMap {
+                file: "sky.exr".into(),
+                width: 2,
+                height: 2,
+                texels: Arc::new(vec![
+                    [1.0, 1.0, 1.0],
+                    [0.5, 0.5, 0.5],
+                    [0.0, 0.0, 0.0],
+                    [2.0; 3],
+                ]),
+                scale: 1.0,
+                to_world: Mat3::IDENTITY,
+            }),
+            warnings: Vec::new(),
+        }
+    }
+
+    /// The identity of `small_scene`, fixed: an accidental change of the encoding
+    /// (a field or variant added, removed or reordered in a scene type, another
+    /// postcard) fails here. Changing these values means bumping [`VERSION`] (and
+    /// the partial results' `shard::FORMAT`), so that older files are refused as
+    /// older rather than as another scene.
+    #[test]
+    fn identity_of_a_fixed_scene_is_golden() {
+        let identity = SceneIdentity::of(&small_scene());
+        let hashes = [
+            identity.camera_hash,
+            identity.materials_hash,
+            identity.geometry_hash,
+            identity.settings_hash,
+            identity.hash(),
+        ];
+        assert_eq!(hashes.map(hex), GOLDEN);
+        // The camera's encoding by hand: floats as their bits (little-endian),
+        // integers as varints, the filter's variant index before its field.
+        let mut camera = Fnv64::default();
+        for v in [0.0, 1.0, -5.0, 0.0, 0.5, 0.0, 0.0, 1.0, 0.0, 40.0f32] {
+            camera.u32(v.to_bits());
+        }
+        camera.bytes(&[8, 6, 1]).u32(0.5f32.to_bits());
+        assert_eq!(identity.camera_hash, camera.finish());
+        assert_eq!((identity.shapes, identity.point_lights), (vec![1; 4], 2));
+    }
+
+    /// Camera, materials, geometry, settings, and the scene hash.
+    const GOLDEN: [&str; 5] = [
+        "6acd00696624b086",
+        "8440c1a36c58edb7",
+        "753ba0cdad987ceb",
+        "e50b9993ee433292",
+        "17854b8165197a77",
+    ];
+
+    /// A change of one field of any part changes that part's hash (and the scene
+    /// hash), and only that one.
+    #[test]
+    fn each_part_changes_with_a_field_in_it() {
+        type Change = fn(&mut Scene);
+        let changes: [(&str, &str, Change); 11] = [
+            ("camera", "filter", |s| {
+                s.camera.filter = Filter::Gaussian { stddev: 0.6 }
+            }),
+            ("geometry", "quad corner", |s| s.shapes.quads[0].q.x = -0.5),
+            ("geometry", "sphere radius", |s| {
+                s.shapes.spheres[0].radius = 0.25
+            }),
+            ("geometry", "disk radius", |s| {
+                let disk = &mut s.shapes.disks[0];
+                (disk.u, disk.v) = (disk.u * 1.5, disk.v * 1.5);
+            }),
+            ("geometry", "triangle vertex", |s| {
+                s.shapes.triangles[0].vertices[2].z = 0.25
+            }),
+            ("geometry", "point light intensity", |s| {
+                s.point_lights[0].intensity.y = 11.0
+            }),
+            ("geometry", "spot cutoff", |s| {
+                s.point_lights[1].spot.as_mut().unwrap().cutoff_angle = 35.0
+            }),
+            ("materials", "roughness", |s| {
+                let MaterialKind::RoughConductor { alpha_u, .. } = &mut s.materials[1].kind else {
+                    unreachable!()
+                };
+                *alpha_u = 0.3;
+            }),
+            ("materials", "texture texel", |s| {
+                let Some(TextureKind::Bitmap(bitmap)) =
+                    s.materials[0].texture.as_mut().map(|t| &mut t.kind)
+                else {
+                    unreachable!()
+                };
+                Arc::make_mut(&mut bitmap.texels)[1][2] = 0.25;
+            }),
+            ("settings", "environment texel", |s| {
+                let map = s.environment.as_mut().unwrap();
+                Arc::make_mut(&mut map.texels)[3][0] = 2.5;
+            }),
+            ("settings", "light weight", |s| s.render.light_weight = 0.25),
+        ];
+        let base = SceneIdentity::of(&small_scene());
+        let parts = |i: &SceneIdentity| {
+            [
+                ("camera", i.camera_hash),
+                ("materials", i.materials_hash),
+                ("geometry", i.geometry_hash),
+                ("settings", i.settings_hash),
+            ]
+        };
+        for (part, what, change) in changes {
+            let mut scene = small_scene();
+            change(&mut scene);
+            let changed = SceneIdentity::of(&scene);
+            for ((name, a), (_, b)) in parts(&base).into_iter().zip(parts(&changed)) {
+                assert_eq!(name == part, a != b, "{what}: the {name} hash");
+            }
+            assert_ne!(base.hash(), changed.hash(), "{what}");
+            let d = SceneIdentity::differences((&base, "before"), (&changed, "now"));
+            assert!(d.len() == 1 && d[0].contains(part), "{what}: {d:?}");
+        }
+    }
+
+    #[test]
+    fn geometry_differences_count_every_kind_and_the_point_lights() {
+        let base = SceneIdentity::of(&small_scene());
+        let mut scene = small_scene();
+        scene.shapes.disks.push(scene.shapes.disks[0]);
+        scene.point_lights.pop();
+        let d = SceneIdentity::differences((&base, "before"), (&SceneIdentity::of(&scene), "now"));
+        assert_eq!(
+            d,
+            ["the geometry differs: disks 1 before, 2 now, point lights 2 before, 1 now"]
+        );
     }
 
     /// Sets every optional key, and the ones no shipped scene has (scale, seed,

@@ -44,7 +44,9 @@ const PREFIX: &str = "pathmix.";
 /// `pathmix.interrupted`), so that a merge can tell a part cut short.
 /// 4: Sobol samples come from interleaved replicates (other images), whose sums
 /// variance adds (`replicate1.R`, ...).
-const FORMAT: u32 = 4;
+/// 5: the scene hashes come from a stable encoding of the scene's parts (as
+/// checkpoints' version 6), no longer from their `Debug` text.
+const FORMAT: u32 = 5;
 
 /// A sample range or shard given as text that does not make one.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -340,17 +342,21 @@ pub enum PartialError {
         .path.display()
     )]
     UnknownFormat { path: PathBuf, format: String },
+    /// This pathmix reads no older format, so it cannot check the part's scene
+    /// against the others' (before format 5 the scene hashes were of `Debug` text).
     #[error(
-        "`{}` was written by {} pathmix (partial result format `{format}`; this one reads \
-         `partial {FORMAT}`): merge it with that pathmix, or render the part again",
-        .path.display(),
-        if *.version < FORMAT { "an older" } else { "a newer" }
+        "`{}` was written by an older pathmix (partial result format `{format}`; this one \
+         reads `partial {FORMAT}`), whose scene identity this pathmix cannot check: render \
+         the part again, or merge every part with the pathmix that wrote them",
+        .path.display()
     )]
-    OtherVersion {
-        path: PathBuf,
-        format: String,
-        version: u32,
-    },
+    Older { path: PathBuf, format: String },
+    #[error(
+        "`{}` was written by a newer pathmix (partial result format `{format}`; this one \
+         reads `partial {FORMAT}`): merge it with that pathmix, or render the part again",
+        .path.display()
+    )]
+    Newer { path: PathBuf, format: String },
     #[error("`{}` is corrupted: {problem}", .path.display())]
     Corrupted { path: PathBuf, problem: Corruption },
 }
@@ -421,10 +427,13 @@ pub fn read_partial(path: &Path) -> Result<Partial, PartialError> {
         .and_then(|v| v.parse::<u32>().ok());
     if version != Some(FORMAT) {
         return Err(match version {
-            Some(version) => PartialError::OtherVersion {
+            Some(version) if version < FORMAT => PartialError::Older {
                 path: path_buf(),
                 format,
-                version,
+            },
+            Some(_) => PartialError::Newer {
+                path: path_buf(),
+                format,
             },
             None => PartialError::UnknownFormat {
                 path: path_buf(),
@@ -931,8 +940,12 @@ mod tests {
         std::fs::write(&path, b).unwrap();
         let e = read_partial(&path).unwrap_err().to_string();
         assert!(
-            e.contains("written by an older pathmix")
-                && e.contains(&format!("`partial {}`", FORMAT - 1)),
+            e.contains(&format!(
+                "`{}` was written by an older pathmix",
+                path.display()
+            )) && e.contains(&format!("`partial {}`", FORMAT - 1))
+                && e.contains("scene identity this pathmix cannot check")
+                && e.contains("render the part again"),
             "{e}"
         );
     }
