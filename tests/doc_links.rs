@@ -41,9 +41,9 @@ struct Link {
     line: usize,
 }
 
-/// The lines of `text` outside fenced code blocks, with inline code spans blanked,
-/// each with its line number (from 1).
-fn prose_lines(text: &str) -> Vec<(usize, String)> {
+/// The lines of `text` outside fenced code blocks, each with its line number
+/// (from 1).
+fn outside_fences(text: &str) -> Vec<(usize, &str)> {
     let mut lines = Vec::new();
     let mut fence: Option<String> = None;
     for (index, line) in text.lines().enumerate() {
@@ -58,9 +58,18 @@ fn prose_lines(text: &str) -> Vec<(usize, String)> {
             fence = Some(marker);
             continue;
         }
-        lines.push((index + 1, blank_code_spans(line)));
+        lines.push((index + 1, line));
     }
     lines
+}
+
+/// The lines of `text` outside fenced code blocks, with inline code spans blanked,
+/// each with its line number (from 1).
+fn prose_lines(text: &str) -> Vec<(usize, String)> {
+    outside_fences(text)
+        .into_iter()
+        .map(|(number, line)| (number, blank_code_spans(line)))
+        .collect()
 }
 
 /// The run of backticks or tildes that opens a fenced code block, if `trimmed` (a
@@ -293,19 +302,8 @@ fn strip_inline_links(text: &str) -> String {
 fn anchors(text: &str) -> Vec<String> {
     let mut seen: HashMap<String, usize> = HashMap::new();
     let mut out = Vec::new();
-    let mut fence: Option<String> = None;
-    for line in text.lines() {
+    for (_, line) in outside_fences(text) {
         let trimmed = line.trim_start();
-        if let Some(open) = &fence {
-            if trimmed.starts_with(open.as_str()) {
-                fence = None;
-            }
-            continue;
-        }
-        if let Some(marker) = fence_marker(trimmed) {
-            fence = Some(marker);
-            continue;
-        }
         // Headings start at the margin (up to three spaces); indented ones are code.
         if line.len() - trimmed.len() > 3 {
             continue;
