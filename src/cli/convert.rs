@@ -22,7 +22,7 @@ pub struct ConvertArgs {
 }
 
 pub fn convert(args: ConvertArgs) -> Result<(), Failure> {
-    let text = std::fs::read_to_string(&args.scene).map_err(|e| {
+    let text = pathmix::paths::read_input_text(&args.scene).map_err(|e| {
         Failure::input(format!(
             "{}: cannot read the scene file: {e}",
             args.scene.display()

@@ -273,7 +273,7 @@ impl Scene {
     /// a `<scene version=...>` root) with its `-D name=value` parameters.
     pub fn load_with(path: &Path, defines: &[mitsuba::Define]) -> Result<LoadedScene, SceneError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        let text = crate::paths::read_input_text(path).map_err(|e| SceneError {
             file: file.clone(),
             location: String::new(),
             message: format!("cannot read the scene file: {e}"),
