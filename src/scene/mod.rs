@@ -2,6 +2,7 @@
 //! primitives. Knows nothing of devices or runs.
 
 pub mod envmap;
+mod gltf_data;
 pub mod mesh;
 pub mod mitsuba;
 mod parse;
@@ -262,6 +263,25 @@ impl fmt::Display for SceneError {
 }
 
 impl std::error::Error for SceneError {}
+
+/// The longest text a message quotes from a file, in characters.
+const EXCERPT_CHARS: usize = 64;
+
+/// `text` as a message quotes it: whole, or its first `EXCERPT_CHARS`
+/// characters and `…` (a file's value may be megabytes long).
+pub fn excerpt(text: &str) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(EXCERPT_CHARS) {
+        None => text.into(),
+        Some((end, _)) => format!("{}…", &text[..end]).into(),
+    }
+}
+
+/// A reading crate's message, which may quote a file's text, with each word
+/// (white space between) as [`excerpt`] quotes it.
+pub fn excerpt_words(message: &str) -> String {
+    let words: Vec<_> = message.split_whitespace().map(excerpt).collect();
+    words.join(" ")
+}
 
 impl Scene {
     /// Reads, parses and validates a scene file (TOML or Mitsuba XML).
