@@ -19,6 +19,7 @@ use super::texture::{
 use super::{
     Camera, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
     Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle,
+    excerpt,
 };
 use std::path::Path;
 
@@ -43,7 +44,7 @@ type Result<T> = std::result::Result<T, SceneError>;
 /// The `render.strategy` that asks for a pilot's choice.
 pub const AUTO_STRATEGY: &str = "auto";
 const U32_MAX: i64 = u32::MAX as i64;
-const IMAGE_SIDE: (i64, i64) = (1, 65536);
+pub(super) const IMAGE_SIDE: (i64, i64) = (1, 65536);
 const SPP: (i64, i64) = (1, U32_MAX);
 const MAX_DEPTH: (i64, i64) = (0, 100_000);
 const SEED: (i64, i64) = (0, U32_MAX);
@@ -1315,7 +1316,8 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                     let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
                     let message = if names.is_empty() {
                         format!(
-                            "unknown material `{name}` (no `[materials.NAME]` tables are defined)"
+                            "unknown material `{}` (no `[materials.NAME]` tables are defined)",
+                            excerpt(name)
                         )
                     } else {
                         unknown_name("material", name, &names)
@@ -1934,7 +1936,8 @@ impl<'a> Tab<'a> {
                 continue;
             }
             let for_what = what.map(|w| format!(" for {w}")).unwrap_or_default();
-            let message = match suggest(key, known.iter().copied()) {
+            let key = excerpt(key);
+            let message = match suggest(&key, known.iter().copied()) {
                 Some(s) => format!("unknown key `{key}`{for_what} (did you mean `{s}`?)"),
                 None => format!(
                     "unknown key `{key}`{for_what} (expected one of {})",
@@ -2145,7 +2148,8 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 
 /// `unknown <what> `name` (did you mean `x`?)` or a list of the valid names.
 fn unknown_name(what: &str, name: &str, valid: &[&str]) -> String {
-    match suggest(name, valid.iter().copied()) {
+    let name = excerpt(name);
+    match suggest(&name, valid.iter().copied()) {
         Some(s) => format!(
             "unknown {what} `{name}` (did you mean `{s}`?); expected one of {}",
             list(valid)
