@@ -6,6 +6,7 @@
 //! the field path and the problem, e.g.
 //! `scenes/x.toml: objects[3].radius: must be > 0, got -1`.
 
+use std::collections::BTreeMap;
 use std::fmt::{Display, LowerExp};
 
 use glam::{DMat3, DVec3, Vec3};
@@ -205,13 +206,14 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     if scale == 1.0 {
         return Ok(scene);
     }
-    let scene = scene.scaled(scale);
+    let mut scene = scene.scaled(scale);
     // Re-check what the scale could break (overflow, underflow).
     let problem = camera_problem(&scene.camera)
         .map(|(_, p)| p)
         .or_else(|| scene.shapes.quads.iter().find_map(quad_problem))
         .or_else(|| scene.shapes.disks.iter().find_map(disk_problem))
-        .or_else(|| scene.shapes.spheres.iter().find_map(sphere_problem));
+        .or_else(|| scene.shapes.spheres.iter().find_map(sphere_problem))
+        .or_else(|| drop_scaled_out_faces(&mut scene, file));
     match problem {
         Some(p) => Err(top.err(
             "scene.scale",
@@ -1457,10 +1459,12 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                         faces
                     }
                 };
+                let faces_in_file = faces.len();
+                let mut dropped = 0;
                 for (face, (material, importance)) in faces.into_iter().zip(face_materials) {
                     let vertices = face.map(|i| world[i as usize]);
                     if triangle_is_degenerate(vertices) {
-                        *degenerate_triangles += 1;
+                        dropped += 1;
                         continue;
                     }
                     triangles.push(Triangle {
@@ -1472,6 +1476,20 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                         mesh: i as u32,
                     });
                 }
+                // As a quad that 32-bit floats cannot hold is refused, so is a
+                // mesh none of whose faces they can.
+                if let Some(message) = dropped_faces_problem(dropped, faces_in_file) {
+                    return Err(t.err(t.here(), message));
+                }
+                if dropped > 0 {
+                    warnings.push(dropped_faces_warning(
+                        t.file,
+                        &t.here(),
+                        dropped,
+                        faces_in_file,
+                    ));
+                }
+                *degenerate_triangles += dropped;
             }
             _ => {
                 let min = t.require("min", t.vec3("min", ok)?)?;
@@ -1550,6 +1568,26 @@ fn file_materials(t: &Tab, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Ma
         .collect()
 }
 
+/// Why a mesh object is refused when `dropped` of its `faces` have no usable
+/// area: all of them (nothing of it would render).
+fn dropped_faces_problem(dropped: usize, faces: usize) -> Option<String> {
+    (dropped == faces).then(|| {
+        format!(
+            "none of the mesh's {faces} faces has an area 32-bit floats can hold (each is \
+             degenerate, or the transform or scale makes its size overflow or vanish): \
+             nothing of it would render"
+        )
+    })
+}
+
+/// The warning for a mesh object some of whose faces were dropped.
+fn dropped_faces_warning(file: &str, object: &str, dropped: usize, faces: usize) -> String {
+    format!(
+        "{file}: {object}: {dropped} of the mesh's {faces} faces dropped: they have no area \
+         32-bit floats can hold (degenerate, or too large or small at this scale)"
+    )
+}
+
 /// A face with no usable area in 32-bit floats (collinear or coincident
 /// vertices): it can be neither hit nor sampled, so it is dropped and counted.
 fn triangle_is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
@@ -1577,6 +1615,31 @@ fn box_faces(a: DVec3, b: DVec3) -> [(&'static str, DVec3, DVec3, DVec3); 6] {
 /// `rotate_y` then `translate`, object to world, evaluated in double precision.
 /// Object to world: `linear` (scale, then rotation) then `translate`, in f64 so
 /// that composing and applying it rounds once, to f32, at the end.
+/// Drops the mesh faces a `[scene] scale` left with no usable area, with a
+/// warning per object that lost some; the problem if one lost them all.
+fn drop_scaled_out_faces(scene: &mut Scene, file: &str) -> Option<String> {
+    // Per object (`Triangle::mesh`): faces before, and dropped.
+    let mut counts: BTreeMap<u32, (usize, usize)> = BTreeMap::new();
+    scene.shapes.triangles.retain(|t| {
+        let count = counts.entry(t.mesh).or_default();
+        count.0 += 1;
+        let degenerate = triangle_is_degenerate(t.vertices);
+        count.1 += usize::from(degenerate);
+        !degenerate
+    });
+    for (&object, &(faces, dropped)) in &counts {
+        let object = format!("objects[{object}]");
+        if let Some(problem) = dropped_faces_problem(dropped, faces) {
+            return Some(format!("{object}: {problem}"));
+        }
+        if dropped > 0 {
+            scene.degenerate_triangles += dropped;
+            (scene.warnings).push(dropped_faces_warning(file, &object, dropped, faces));
+        }
+    }
+    None
+}
+
 struct Transform {
     linear: DMat3,
     translate: DVec3,
