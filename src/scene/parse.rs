@@ -670,6 +670,19 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                 let distribution = distribution(&t)?;
                 let (alpha_u, alpha_v) = roughness(&t)?;
                 let (int_ior, ext_ior) = iors(&t, IOR_BK7)?;
+                let eta = int_ior / ext_ior;
+                if (eta - 1.0).abs() < MIN_ROUGH_IOR_CONTRAST {
+                    return Err(t.err(
+                        t.here(),
+                        format!(
+                            "`int_ior` / `ext_ior` = {} is within {MIN_ROUGH_IOR_CONTRAST} of 1: \
+                             a rough interface so nearly index-matched refracts into a lobe \
+                             too narrow for 32-bit floats (use ratios further from 1, or no \
+                             interface)",
+                            fmt_num(eta)
+                        ),
+                    ));
+                }
                 let kind = MaterialKind::RoughDielectric {
                     distribution,
                     alpha_u,
@@ -864,6 +877,11 @@ pub(super) const NAMED_CONDUCTORS: &[(&str, [f32; 3], [f32; 3])] = &[
     ("none", [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]),
 ];
 const IOR_AIR: f32 = 1.000277;
+
+/// How far from 1 a `roughdielectric`'s `int_ior / ext_ior` must be: nearer,
+/// the refracted lobe's Jacobian divides by a difference that rounds to zero
+/// in 32-bit floats, and samples turn NaN.
+pub const MIN_ROUGH_IOR_CONTRAST: f32 = 1e-3;
 const IOR_BK7: f32 = 1.5046;
 const IOR_POLYPROPYLENE: f32 = 1.49;
 
