@@ -41,14 +41,17 @@ impl fmt::Debug for EnvironmentMap {
 }
 
 impl EnvironmentMap {
-    /// The largest radiance of any texel, scaled.
-    pub fn max_radiance(&self) -> f32 {
-        let max = self
-            .texels
-            .iter()
-            .flat_map(|t| t.iter().copied())
-            .fold(0.0f32, f32::max);
-        max * self.scale
+    /// The texel of the largest value (of any channel), and that value, unscaled.
+    pub fn brightest_texel(&self) -> (u32, u32, f32) {
+        let (index, value) = (self.texels.iter().enumerate())
+            .map(|(i, t)| (i, t.iter().copied().fold(0.0f32, f32::max)))
+            .fold((0, 0.0f32), |best, texel| match texel.1 > best.1 {
+                true => texel,
+                false => best,
+            });
+        // The texel count fits u32: `load_image` reads at most `MAX_IMAGE_TEXELS`.
+        let index = index as u32;
+        (index % self.width, index / self.width, value)
     }
 }
 
