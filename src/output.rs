@@ -414,11 +414,12 @@ pub fn open_image(path: &Path) -> Result<ImageInput, ImageReadError> {
         let texels = sizes.map(|s| s.area() as u64).sum();
         (largest.width() as u64, largest.height() as u64, texels)
     } else {
-        let (width, height) = image::ImageReader::new(io::BufReader::new(&file))
+        let mut reader = image::ImageReader::new(io::BufReader::new(&file))
             .with_guessed_format()
-            .map_err(|e| format(&e))?
-            .into_dimensions()
             .map_err(|e| format(&e))?;
+        // The header alone is read here; the decoder's own limits apply to the decoding.
+        reader.no_limits();
+        let (width, height) = reader.into_dimensions().map_err(|e| format(&e))?;
         let (width, height) = (u64::from(width), u64::from(height));
         (width, height, width * height)
     };
@@ -437,17 +438,15 @@ impl ImageInput {
     /// Decodes a PNG, JPEG or Radiance HDR image (an EXR is read by
     /// [`ImageInput::read_exr`]).
     pub fn decode(self) -> Result<image::DynamicImage, ImageReadError> {
-        let format = |e: image::ImageError| ImageReadError::Format(e.to_string());
+        let format = |e: &dyn fmt::Display| ImageReadError::Format(e.to_string());
         if self.exr {
-            return Err(ImageReadError::Format(
-                "an OpenEXR image is read as EXR".into(),
-            ));
+            return Err(format(&"an OpenEXR image is read as EXR"));
         }
         image::ImageReader::new(io::BufReader::new(self.file))
             .with_guessed_format()
-            .map_err(|e| ImageReadError::Format(e.to_string()))?
+            .map_err(|e| format(&e))?
             .decode()
-            .map_err(format)
+            .map_err(|e| format(&e))
     }
 
     /// The R, G, B channels (f32, f16 or u32, converted to f32) of the first

@@ -1,6 +1,7 @@
 //! Mesh files for `type = "mesh"` objects: Wavefront OBJ (read by `tobj`), PLY,
-//! ASCII or binary (read by `ply-rs-bw`), and glTF 2.0, `.gltf` or `.glb` (read by
-//! `gltf`), each into one indexed triangle mesh.
+//! ASCII or binary (read by `ply-rs-bw`), and glTF 2.0, `.gltf` or `.glb` (parsed by
+//! `gltf`, its buffers and accessors read by `gltf_data`), each into one indexed
+//! triangle mesh. Every file is opened by `paths::open_input` (regular files only).
 //! Every problem is a [`MeshError`] that names the file and, where the reader
 //! knows it, the line or the element; no input makes these readers panic.
 
@@ -782,8 +783,9 @@ fn check_gltf_nodes(nodes: &[gltf::json::Node]) -> Result<(), String> {
         }
         if let Some(gltf::json::scene::UnitQuaternion(q)) = node.rotation {
             let length = q.iter().map(|c| c * c).sum::<f32>().sqrt();
-            // Exporters round; a quaternion this far from unit length is no rotation.
-            if !((length - 1.0).abs() <= 1e-3) {
+            // Exporters round; a quaternion further from unit length (or NaN) is no rotation.
+            let unit = (length - 1.0).abs() <= 1e-3;
+            if !unit {
                 return Err(format!(
                     "node {i}: rotation [{}, {}, {}, {}] is not a unit quaternion (length {length})",
                     q[0], q[1], q[2], q[3]
@@ -830,7 +832,7 @@ fn add_primitive(
     ) {
         return Ok(());
     }
-    // An attribute's values as f32 vectors of `N`, every one finite.
+    // An attribute's values (its type's components per vertex), every one finite, or `None` without it.
     let attribute = |semantic: Semantic, name: &str| -> Result<Option<Vec<Vec<f32>>>, MeshError> {
         let Some(accessor) = primitive.get(&semantic) else {
             return Ok(None);

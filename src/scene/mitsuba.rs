@@ -482,7 +482,7 @@ fn check_version(version: &str) -> std::result::Result<(), String> {
         )),
         _ => Err(format!(
             "version `{}` is not MAJOR.MINOR.PATCH (such as 3.0.0)",
-            super::excerpt(version)
+            excerpt(version)
         )),
     }
 }
@@ -877,7 +877,9 @@ fn transform(e: &Elem) -> Result<DMat4> {
             }
             other => {
                 return Err(op.origin.error(format!(
-                    "unknown transform `{other}` (supported: translate, rotate, scale, matrix, lookat)", other = excerpt(other))));
+                    "unknown transform `{other}` (supported: translate, rotate, scale, matrix, lookat)",
+                    other = excerpt(other)
+                )));
             }
         };
         m = step * m;
@@ -1861,23 +1863,24 @@ impl<'a> Builder<'a> {
                 let spp = props.integer("sample_count")?.unwrap_or(4);
                 let seed = props.integer("seed")?.unwrap_or(0);
                 props.finish()?;
-                let kind =
-                    match s.ty() {
-                        "independent" => "independent",
-                        "stratified" | "multijitter" | "orthogonal" | "ldsampler" => {
-                            self.warn(format!(
+                let kind = match s.ty() {
+                    "independent" => "independent",
+                    "stratified" | "multijitter" | "orthogonal" | "ldsampler" => {
+                        self.warn(format!(
                             "the `{}` sampler is pathmix's Owen-scrambled Sobol sampler (another \
                              stratification, the same expected image)",
                             s.ty()
                         ));
-                            "sobol"
-                        }
-                        other => {
-                            return Err(s.origin.error(format!(
+                        "sobol"
+                    }
+                    other => {
+                        return Err(s.origin.error(format!(
                             "sampler `{other}`: not supported (supported: independent, stratified, \
-                             multijitter, orthogonal, ldsampler)", other = excerpt(other))));
-                        }
-                    };
+                             multijitter, orthogonal, ldsampler)",
+                            other = excerpt(other)
+                        )));
+                    }
+                };
                 (spp, seed, kind)
             }
             None => (4, 0, "independent"),
