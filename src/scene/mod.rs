@@ -223,7 +223,7 @@ pub struct Scene {
     pub render: RenderSettings,
     pub materials: Vec<Material>,
     pub shapes: Shapes,
-    /// Mesh faces dropped for having no area.
+    /// Mesh faces dropped for having no area in 32-bit floats.
     pub degenerate_triangles: usize,
     /// Point and spot lights (`[[lights]]`).
     pub point_lights: Vec<PointLight>,
@@ -231,7 +231,7 @@ pub struct Scene {
     /// a scene with one has no `background`.
     pub environment: Option<EnvironmentMap>,
     /// What the user should know about how the file was read (glTF materials
-    /// mapped to pathmix's).
+    /// mapped to pathmix's, mesh faces dropped).
     pub warnings: Vec<String>,
 }
 
