@@ -361,6 +361,147 @@ pub fn write_exr(
     })
 }
 
+/// The most texels pathmix reads from one image file (16384 x 16384, the
+/// largest texture side of common adapters, squared): an image's size is read
+/// from its header and checked against this before any texel is allocated, so
+/// that a small file claiming a huge size is refused instead of exhausting
+/// memory.
+pub const MAX_IMAGE_TEXELS: u64 = 1 << 28;
+
+/// An image file opened to be read: a regular file (`paths::open_input`) whose
+/// header says a size within [`MAX_IMAGE_TEXELS`]. Every image pathmix reads
+/// (environment maps, textures, `compare`'s and `converge`'s EXRs) is opened
+/// by [`open_image`], its one checked way in.
+pub struct ImageInput {
+    file: File,
+    exr: bool,
+}
+
+/// Why an image could not be read; the caller names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageReadError {
+    /// The file could not be opened, or is no regular file.
+    #[error("{0}")]
+    Open(io::Error),
+    /// The bytes are no image of the format, or one cut short.
+    #[error("{0}")]
+    Format(String),
+    #[error(
+        "its header says {width}x{height} ({texels} texels), more than the \
+         {MAX_IMAGE_TEXELS} pathmix reads from an image"
+    )]
+    TooLarge {
+        width: u64,
+        height: u64,
+        texels: u64,
+    },
+}
+
+/// Opens an image (OpenEXR by the `.exr` extension; PNG, JPEG or Radiance HDR
+/// by its content) and reads its size from the header alone, refusing one of
+/// more than [`MAX_IMAGE_TEXELS`] texels (for an EXR, its layers' in all).
+pub fn open_image(path: &Path) -> Result<ImageInput, ImageReadError> {
+    let format = |e: &dyn fmt::Display| ImageReadError::Format(e.to_string());
+    let (mut file, _) = crate::paths::open_input(path).map_err(ImageReadError::Open)?;
+    let exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let (width, height, texels) = if exr {
+        let meta = exr::meta::MetaData::read_from_buffered(io::BufReader::new(&file), false)
+            .map_err(|e| format(&e))?;
+        let sizes = meta.headers.iter().map(|h| h.layer_size);
+        let largest = sizes.clone().max_by_key(|s| s.area()).unwrap_or_default();
+        let texels = sizes.map(|s| s.area() as u64).sum();
+        (largest.width() as u64, largest.height() as u64, texels)
+    } else {
+        let mut reader = image::ImageReader::new(io::BufReader::new(&file))
+            .with_guessed_format()
+            .map_err(|e| format(&e))?;
+        // The header alone is read here; the decoder's own limits apply to the decoding.
+        reader.no_limits();
+        let (width, height) = reader.into_dimensions().map_err(|e| format(&e))?;
+        let (width, height) = (u64::from(width), u64::from(height));
+        (width, height, width * height)
+    };
+    if texels > MAX_IMAGE_TEXELS {
+        return Err(ImageReadError::TooLarge {
+            width,
+            height,
+            texels,
+        });
+    }
+    io::Seek::rewind(&mut file).map_err(ImageReadError::Open)?;
+    Ok(ImageInput { file, exr })
+}
+
+impl ImageInput {
+    /// Decodes a PNG, JPEG or Radiance HDR image (an EXR is read by
+    /// [`ImageInput::read_exr`]).
+    pub fn decode(self) -> Result<image::DynamicImage, ImageReadError> {
+        let format = |e: &dyn fmt::Display| ImageReadError::Format(e.to_string());
+        if self.exr {
+            return Err(format(&"an OpenEXR image is read as EXR"));
+        }
+        image::ImageReader::new(io::BufReader::new(self.file))
+            .with_guessed_format()
+            .map_err(|e| format(&e))?
+            .decode()
+            .map_err(|e| format(&e))
+    }
+
+    /// The R, G, B channels (f32, f16 or u32, converted to f32) of the first
+    /// layer of an EXR, and the file's text attributes (custom and standard
+    /// ones such as `software`), sorted by name.
+    pub fn read_exr(self) -> Result<(Image, Vec<(String, String)>), ImageReadError> {
+        let mut exr_image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .specific_channels()
+            .required("R")
+            .required("G")
+            .required("B")
+            .collect_pixels(
+                // EXR sizes come from i32 bounds, so they fit in u32.
+                |size: Vec2<usize>, _| Image::new(size.width() as u32, size.height() as u32),
+                |image: &mut Image, position: Vec2<usize>, (r, g, b): (f32, f32, f32)| {
+                    let index = position.y() * image.width as usize + position.x();
+                    image.pixels[index] = [r, g, b];
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(io::BufReader::new(&self.file))
+            .map_err(|e| {
+                ImageReadError::Format(match exr_file_is_truncated(&self.file) {
+                    true => "the file is truncated (shorter than its EXR header says)".into(),
+                    false => e.to_string(),
+                })
+            })?;
+
+        let layer = &mut exr_image.layer_data;
+        let mut attributes: Vec<(String, String)> = STANDARD_TEXT_ATTRIBUTES
+            .iter()
+            .filter_map(|&name| {
+                let value = standard_text_attribute(&mut layer.attributes, name)?.take()?;
+                Some((name.to_owned(), value.to_string()))
+            })
+            .collect();
+        for (name, value) in exr_image
+            .attributes
+            .other
+            .iter()
+            .chain(&layer.attributes.other)
+        {
+            if let AttributeValue::Text(value) = value {
+                attributes.push((name.to_string(), value.to_string()));
+            }
+        }
+        attributes.sort();
+        let image = std::mem::replace(&mut layer.channel_data.pixels, Image::new(0, 0));
+        Ok((image, attributes))
+    }
+}
+
 /// Reads the R, G, B channels (f32, f16 or u32, converted to f32) of the first layer.
 pub fn read_exr(path: &Path) -> Result<Image, OutputError> {
     read_exr_with_attributes(path).map(|(image, _)| image)
@@ -371,62 +512,18 @@ pub fn read_exr(path: &Path) -> Result<Image, OutputError> {
 pub fn read_exr_with_attributes(
     path: &Path,
 ) -> Result<(Image, Vec<(String, String)>), OutputError> {
-    let mut exr_image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .specific_channels()
-        .required("R")
-        .required("G")
-        .required("B")
-        .collect_pixels(
-            // EXR sizes come from i32 bounds, so they fit in u32.
-            |size: Vec2<usize>, _| Image::new(size.width() as u32, size.height() as u32),
-            |image: &mut Image, position: Vec2<usize>, (r, g, b): (f32, f32, f32)| {
-                let index = position.y() * image.width as usize + position.x();
-                image.pixels[index] = [r, g, b];
-            },
-        )
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| match exr_file_is_truncated(path) {
-            true => OutputError::reading(
-                path,
-                "the file is truncated (shorter than its EXR header says)",
-            ),
-            false => OutputError::reading(path, e),
-        })?;
-
-    let layer = &mut exr_image.layer_data;
-    let mut attributes: Vec<(String, String)> = STANDARD_TEXT_ATTRIBUTES
-        .iter()
-        .filter_map(|&name| {
-            let value = standard_text_attribute(&mut layer.attributes, name)?.take()?;
-            Some((name.to_owned(), value.to_string()))
-        })
-        .collect();
-    for (name, value) in exr_image
-        .attributes
-        .other
-        .iter()
-        .chain(&layer.attributes.other)
-    {
-        if let AttributeValue::Text(value) = value {
-            attributes.push((name.to_string(), value.to_string()));
-        }
-    }
-    attributes.sort();
-    let image = std::mem::replace(&mut layer.channel_data.pixels, Image::new(0, 0));
-    Ok((image, attributes))
+    open_image(path)
+        .and_then(ImageInput::read_exr)
+        .map_err(|e| OutputError::reading(path, e))
 }
 
-/// Whether the EXR file at `path` ends before its header or one of its chunks
-/// does (the exr crate reports that as missing bytes, or as no layer matching).
-fn exr_file_is_truncated(path: &Path) -> bool {
+/// Whether an EXR file ends before its header or one of its chunks does (the
+/// exr crate reports that as missing bytes, or as no layer matching).
+fn exr_file_is_truncated(mut file: &File) -> bool {
     let missing = |e: &exr::error::Error| matches!(e, exr::error::Error::Invalid(message) if message.contains("missing bytes"));
-    let Ok(file) = File::open(path) else {
+    if io::Seek::rewind(&mut file).is_err() {
         return false;
-    };
+    }
     let chunks = match exr::block::read(io::BufReader::new(file), false)
         .and_then(|reader| reader.all_chunks(false))
     {

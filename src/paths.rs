@@ -1,12 +1,85 @@
 //! Which of a command's paths name the same file: checked before any work, so
-//! that no output overwrites an input or another output.
+//! that no output overwrites an input or another output; and how every file a
+//! command or a scene names is opened for reading ([`open_input`]).
 //!
 //! Two paths are the same file when they resolve to one device and inode
 //! (symlinks followed, hard links included), or, for a file that does not exist
 //! yet, to the same file name in the same canonical folder.
 
-use std::io;
+use std::fs::File;
+use std::io::{self, Read};
 use std::path::{Path, PathBuf};
+
+/// Opens a file to read: only a regular file (symlinks followed). A FIFO would
+/// block forever waiting for a writer, and a device such as `/dev/zero` never
+/// ends, so neither is opened as a scene, a mesh, an image or any file they
+/// name. Returns the file and its length when opened.
+pub fn open_input(path: &Path) -> io::Result<(File, u64)> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    // Without a writer, opening a FIFO blocks; non-blocking, it opens at once
+    // and is refused below (a regular file reads the same either way).
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NONBLOCK);
+    let file = options.open(path)?;
+    let metadata = file.metadata()?;
+    if !metadata.is_file() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("not a regular file ({})", file_kind(&metadata)),
+        ));
+    }
+    Ok((file, metadata.len()))
+}
+
+/// The whole of a regular file (see [`open_input`]), at most as long as it was
+/// when opened.
+pub fn read_input(path: &Path) -> io::Result<Vec<u8>> {
+    let (file, length) = open_input(path)?;
+    read_at_most(file, length)
+}
+
+/// At most the first `limit` bytes of a regular file (see [`open_input`]): what
+/// a format declares, never more, however long the file.
+pub fn read_input_prefix(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
+    let (file, length) = open_input(path)?;
+    read_at_most(file, length.min(limit))
+}
+
+/// A regular file's text (see [`open_input`]), which must be UTF-8.
+pub fn read_input_text(path: &Path) -> io::Result<String> {
+    String::from_utf8(read_input(path)?)
+        .map_err(|_| io::Error::new(io::ErrorKind::InvalidData, "the file is not UTF-8 text"))
+}
+
+fn read_at_most(file: File, limit: u64) -> io::Result<Vec<u8>> {
+    let mut bytes = Vec::with_capacity(usize::try_from(limit).unwrap_or(0));
+    file.take(limit).read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// What a file that is not a regular file is, for a message.
+fn file_kind(metadata: &std::fs::Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let kind = metadata.file_type();
+        if kind.is_fifo() {
+            return "a named pipe";
+        }
+        if kind.is_char_device() || kind.is_block_device() {
+            return "a device";
+        }
+        if kind.is_socket() {
+            return "a socket";
+        }
+    }
+    if metadata.is_dir() {
+        "a folder"
+    } else {
+        "not a file that can be read to its end"
+    }
+}
 
 /// Whether a command reads or writes a path.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

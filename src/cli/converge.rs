@@ -101,7 +101,7 @@ fn failure(e: ConvergeError) -> Failure {
 }
 
 pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
-    let mut scene_bytes = std::fs::read(&args.scene)
+    let mut scene_bytes = pathmix::paths::read_input(&args.scene)
         .map_err(|e| Failure::input(format!("{}: {e}", args.scene.display())))?;
     // A Mitsuba scene is keyed by the document it means: its includes and `-D`
     // parameters change the scene as much as its own text does.

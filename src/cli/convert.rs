@@ -31,7 +31,7 @@ pub fn convert(args: ConvertArgs) -> Result<(), Failure> {
     if let Some(collision) = paths::collision(&uses) {
         return Err(Failure::input(collision));
     }
-    let text = std::fs::read_to_string(&args.scene).map_err(|e| {
+    let text = paths::read_input_text(&args.scene).map_err(|e| {
         Failure::input(format!(
             "{}: cannot read the scene file: {e}",
             args.scene.display()

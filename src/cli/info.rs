@@ -206,13 +206,17 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         );
     }
     let triangles = scene.shapes.triangles.len();
-    if triangles > 0 {
-        println!(
-            "  in all {scene_bytes} B: {:.1} B per triangle; {} faces with no area dropped",
-            scene_bytes as f64 / triangles as f64,
-            scene.degenerate_triangles
-        );
-    }
+    let per_triangle = match triangles {
+        0 => String::new(),
+        _ => format!(
+            ": {:.1} B per triangle",
+            scene_bytes as f64 / triangles as f64
+        ),
+    };
+    println!(
+        "  in all {scene_bytes} B{per_triangle}; {} mesh faces with no area dropped",
+        scene.degenerate_triangles
+    );
     let accumulator = config.accumulator;
     let layers = config.accumulator_layers() as u64;
     println!(

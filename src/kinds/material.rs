@@ -338,12 +338,29 @@ fn nonlinear_flag(nonlinear: bool) -> u32 {
     }
 }
 
+/// The smallest roughness the kernel evaluates (Mitsuba 3 and pbrt-v4 clamp
+/// alike): below it a microfacet lobe is narrower than 32-bit floats can
+/// evaluate (its density and slopes overflow into NaN), and it already
+/// behaves as a mirror. Scenes keep the alpha they give.
+pub const MIN_ALPHA: f32 = 1e-4;
+
+/// The largest conductor index (`eta`, `k`) the kernel evaluates: the Fresnel
+/// formula takes fourth powers, which overflow f32 past about 1e9, and at 1e6
+/// the reflectance is already 1 within 4e-6.
+pub const MAX_CONDUCTOR_INDEX: f32 = 1e6;
+
+/// A conductor's `eta` or `k` as the kernel evaluates it (`MAX_CONDUCTOR_INDEX`).
+fn conductor_index(index: Vec3) -> [f32; 3] {
+    index.min(Vec3::splat(MAX_CONDUCTOR_INDEX)).to_array()
+}
+
 /// The packed material. Per kind (the WGSL modules read the same fields):
 /// - lambertian: `albedo`; metal: `albedo`, `param` = fuzz; dielectric:
 ///   `param` = ior; every kind: `emit`;
 /// - conductor: `albedo` = specular_reflectance, `color2` = eta, `color3` = k;
 ///   roughconductor: the same, `param`/`param2` = alpha_u/alpha_v, `flags`
-///   the distribution;
+///   the distribution (eta and k at most `MAX_CONDUCTOR_INDEX`, every alpha at
+///   least `MIN_ALPHA`);
 /// - roughdielectric: `albedo` = specular_reflectance, `color2` =
 ///   specular_transmittance, `color3.x` = eta (int_ior / ext_ior), `param`/`param2`
 ///   = alpha_u/alpha_v, `flags` the distribution;
@@ -382,8 +399,8 @@ pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> Packed
             "conductor",
             PackedMaterial {
                 albedo: specular_reflectance.to_array(),
-                color2: eta.to_array(),
-                color3: k.to_array(),
+                color2: conductor_index(eta),
+                color3: conductor_index(k),
                 ..Default::default()
             },
         ),
@@ -398,10 +415,10 @@ pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> Packed
             "roughconductor",
             PackedMaterial {
                 albedo: specular_reflectance.to_array(),
-                color2: eta.to_array(),
-                color3: k.to_array(),
-                param: alpha_u,
-                param2: alpha_v,
+                color2: conductor_index(eta),
+                color3: conductor_index(k),
+                param: alpha_u.max(MIN_ALPHA),
+                param2: alpha_v.max(MIN_ALPHA),
                 flags: beckmann_flag(distribution),
                 ..Default::default()
             },
@@ -420,8 +437,8 @@ pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> Packed
                 albedo: specular_reflectance.to_array(),
                 color2: specular_transmittance.to_array(),
                 color3: [int_ior / ext_ior, 0.0, 0.0],
-                param: alpha_u,
-                param2: alpha_v,
+                param: alpha_u.max(MIN_ALPHA),
+                param2: alpha_v.max(MIN_ALPHA),
                 flags: beckmann_flag(distribution),
                 ..Default::default()
             },
@@ -473,6 +490,7 @@ pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> Packed
             nonlinear,
         } => {
             let eta = int_ior / ext_ior;
+            let alpha = alpha.max(MIN_ALPHA);
             let (offset, internal_reflectance) = tables.coat(distribution, alpha, eta);
             (
                 "roughplastic",

@@ -22,6 +22,7 @@ use crate::scene::{Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
 use crate::stats::{Accumulation, Replicates};
 use std::cell::OnceCell;
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
@@ -171,7 +172,7 @@ pub enum RenderError {
         limit: String,
     },
     #[error(
-        "{scene}: emission (or background) up to {radiance:e} could make the f32 sums \
+        "{scene}: {emitter} up to {radiance:e} could make the f32 sums \
          overflow in {samples} samples per pixel (a path can meet an emitter {hits} times; \
          the largest f32 is {max:e}){squares}: scale the emission down (the image scales \
          with it), or render fewer samples per pixel",
@@ -180,6 +181,8 @@ pub enum RenderError {
     )]
     EmissionTooBright {
         scene: String,
+        /// The brightest emitter, as the scene names it.
+        emitter: String,
         radiance: f32,
         samples: u32,
         hits: u32,
@@ -1111,6 +1114,20 @@ fn check_scene_limits(
     // One path vertex past the driver's limit is cut short whatever the path does.
     let per_vertex = loop_iterations_per_vertex(data, config);
     if per_vertex > DRIVER_LOOP_LIMIT {
+        let advice = match (config.scene_storage(), &data.bvh) {
+            (SceneStorage::Bvh, Some(bvh)) => format!(
+                "; the BVH's walk is allowed {} steps a ray, {BVH_MEAN_STEPS_MARGIN} times its \
+                 mean of {:.0}: its boxes overlap much, as a soup of large crossing triangles \
+                 makes them{}: simplify or split such meshes",
+                bvh_walk_allowance(bvh),
+                bvh.expected_steps(),
+                largest_meshes(scene)
+            ),
+            (SceneStorage::Buffers, _) => {
+                " (the BVH, --scene-storage bvh, needs far fewer)".to_string()
+            }
+            _ => String::new(),
+        };
         return Err(limit(
             format!(
                 "one path vertex over {} objects and {} lights (scene storage {:?})",
@@ -1120,12 +1137,29 @@ fn check_scene_limits(
             ),
             format!("{per_vertex} loop iterations"),
             format!(
-                "the {DRIVER_LOOP_LIMIT} loop iterations lavapipe allows an invocation \
-                 (the BVH, --scene-storage bvh, needs far fewer)"
+                "the {DRIVER_LOOP_LIMIT} loop iterations lavapipe allows an invocation{advice}"
             ),
         ));
     }
     Ok(())
+}
+
+/// The scene's largest mesh objects by faces, for a message: `; the largest
+/// meshes: objects[2] (200000 faces), ...`, or nothing without meshes.
+fn largest_meshes(scene: &Scene) -> String {
+    let mut faces: BTreeMap<u32, usize> = BTreeMap::new();
+    for triangle in &scene.shapes.triangles {
+        *faces.entry(triangle.mesh).or_default() += 1;
+    }
+    let mut largest: Vec<(u32, usize)> = faces.into_iter().collect();
+    largest.sort_by_key(|&(object, count)| (std::cmp::Reverse(count), object));
+    let named: Vec<String> = (largest.iter().take(3))
+        .map(|(object, count)| format!("objects[{object}] ({count} faces)"))
+        .collect();
+    match named.is_empty() {
+        true => String::new(),
+        false => format!("; the largest meshes: {}", named.join(", ")),
+    }
 }
 
 /// Whether saved sums fit a render of `width` x `height` with `layers` layers:
@@ -1438,17 +1472,7 @@ fn check_size(
 /// too. Paths whose throughput grows past 1 are caught after the run by
 /// [`check_sums_finite`].
 pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result<(), RenderError> {
-    // Only the materials objects use: an unused one is dropped before packing.
-    let used = scene.used_materials();
-    let radiance = scene
-        .materials
-        .iter()
-        .zip(used)
-        .filter(|&(_, used)| used)
-        .map(|(m, _)| m.emit.max_element())
-        .chain([scene.render.background.max_element()])
-        .chain(scene.environment.as_ref().map(|map| map.max_radiance()))
-        .fold(0.0f32, f32::max);
+    let (radiance, emitter) = brightest_emission(scene);
     let depth = scene.render.max_depth.saturating_add(1);
     let hits = match scene.render.strategy {
         Strategy::NeeMis => depth.saturating_mul(2),
@@ -1462,6 +1486,7 @@ pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result
     if overflows {
         return Err(RenderError::EmissionTooBright {
             scene: scene.source.clone(),
+            emitter,
             radiance,
             samples: max_samples,
             hits,
@@ -1469,6 +1494,38 @@ pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result
         });
     }
     Ok(())
+}
+
+/// The scene's brightest radiance and, for a message, what gives it: a
+/// material's `emit`, `render.background` or an environment map's texel.
+fn brightest_emission(scene: &Scene) -> (f32, String) {
+    // Only the materials objects use: an unused one is dropped before packing.
+    let used = scene.used_materials();
+    let materials = (scene.materials.iter().zip(used))
+        .filter(|&(_, used)| used)
+        .map(|(m, _)| {
+            let field = format!("material `{}` (its `emit`)", m.name);
+            (m.emit.max_element(), field)
+        });
+    let background = (
+        scene.render.background.max_element(),
+        "`render.background`".to_string(),
+    );
+    let environment = scene.environment.as_ref().map(|map| {
+        let (x, y, value) = map.brightest_texel();
+        let texel = format!(
+            "environment map `{}` (texel ({x}, {y}), times `scale` {})",
+            map.file, map.scale
+        );
+        (value * map.scale, texel)
+    });
+    (materials.chain([background]).chain(environment)).fold(
+        (0.0, "emission".to_string()),
+        |brightest, candidate| match candidate.0 > brightest.0 {
+            true => candidate,
+            false => brightest,
+        },
+    )
 }
 
 /// Refuses sums that overflowed (infinite or NaN): whatever the emission, an

@@ -9,6 +9,7 @@
 //! bilinearly between those centres, as Mitsuba does (`shaders/environment.wgsl`).
 
 use crate::kinds::serialize_texels;
+use crate::output::{self, ImageReadError};
 use glam::Mat3;
 use serde::Serialize;
 use std::fmt;
@@ -43,14 +44,17 @@ impl fmt::Debug for EnvironmentMap {
 }
 
 impl EnvironmentMap {
-    /// The largest radiance of any texel, scaled.
-    pub fn max_radiance(&self) -> f32 {
-        let max = self
-            .texels
-            .iter()
-            .flat_map(|t| t.iter().copied())
-            .fold(0.0f32, f32::max);
-        max * self.scale
+    /// The texel of the largest value (of any channel), and that value, unscaled.
+    pub fn brightest_texel(&self) -> (u32, u32, f32) {
+        let (index, value) = (self.texels.iter().enumerate())
+            .map(|(i, t)| (i, t.iter().copied().fold(0.0f32, f32::max)))
+            .fold((0, 0.0f32), |best, texel| match texel.1 > best.1 {
+                true => texel,
+                false => best,
+            });
+        // The texel count fits u32: `load_image` reads at most `MAX_IMAGE_TEXELS`.
+        let index = index as u32;
+        (index % self.width, index / self.width, value)
     }
 }
 
@@ -76,56 +80,34 @@ pub fn load_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let (width, height, texels) = match extension.as_str() {
-        "exr" => {
-            let image = exr::prelude::read_first_rgba_layer_from_file(
-                path,
-                |size, _| {
-                    (
-                        vec![[0.0f32; 3]; size.width() * size.height()],
-                        size.width(),
-                    )
-                },
-                |(texels, width), position, (r, g, b, _a): (f32, f32, f32, f32)| {
-                    texels[position.y() * *width + position.x()] = [r, g, b];
-                },
-            )
-            .map_err(|e| format!("{shown}: cannot read the OpenEXR image: {e}"))?;
-            let size = image.layer_data.size;
-            let (texels, _) = image.layer_data.channel_data.pixels;
-            (size.width(), size.height(), texels)
-        }
-        "hdr" => {
-            let image = image::ImageReader::open(path)
-                .map_err(|e| format!("{shown}: cannot read the image file: {e}"))?
-                .with_guessed_format()
-                .map_err(|e| format!("{shown}: cannot read the image file: {e}"))?
-                .decode()
-                .map_err(|e| format!("{shown}: cannot read the Radiance HDR image: {e}"))?
-                .into_rgb32f();
-            let (width, height) = image.dimensions();
-            let texels = image.pixels().map(|p| p.0).collect::<Vec<[f32; 3]>>();
-            (width as usize, height as usize, texels)
-        }
+    let format_name = match extension.as_str() {
+        "exr" => "OpenEXR",
+        "hdr" => "Radiance HDR",
         _ => {
             return Err(format!(
                 "{shown}: unknown environment map format {extension:?} (supported: .exr, .hdr)"
             ));
         }
     };
+    let unreadable = |e: ImageReadError| match e {
+        ImageReadError::Open(e) => format!("{shown}: cannot read the image file: {e}"),
+        ImageReadError::Format(e) => format!("{shown}: cannot read the {format_name} image: {e}"),
+        e => format!("{shown}: {e}"),
+    };
+    let input = output::open_image(path).map_err(unreadable)?;
+    let (width, height, texels) = if extension == "exr" {
+        let (image, _) = input.read_exr().map_err(unreadable)?;
+        (image.width, image.height, image.pixels)
+    } else {
+        let image = input.decode().map_err(unreadable)?.into_rgb32f();
+        let (width, height) = image.dimensions();
+        (width, height, image.pixels().map(|p| p.0).collect())
+    };
     if width == 0 || height == 0 {
         return Err(format!(
             "{shown}: the image has no texels ({width}x{height})"
         ));
     }
-    let (width, height) = match (u32::try_from(width), u32::try_from(height)) {
-        (Ok(w), Ok(h)) => (w, h),
-        _ => {
-            return Err(format!(
-                "{shown}: the image is too large ({width}x{height})"
-            ));
-        }
-    };
     if let Some((i, texel)) = texels
         .iter()
         .enumerate()

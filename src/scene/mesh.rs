@@ -1,12 +1,14 @@
 //! Mesh files for `type = "mesh"` objects: Wavefront OBJ (read by `tobj`), PLY,
-//! ASCII or binary (read by `ply-rs-bw`), and glTF 2.0, `.gltf` or `.glb` (read by
-//! `gltf`), each into one indexed triangle mesh.
+//! ASCII or binary (read by `ply-rs-bw`), and glTF 2.0, `.gltf` or `.glb` (parsed by
+//! `gltf`, its buffers and accessors read by `gltf_data`), each into one indexed
+//! triangle mesh. Every file is opened by `paths::open_input` (regular files only).
 //! Every problem is a [`MeshError`] that names the file and, where the reader
 //! knows it, the line or the element; no input makes these readers panic.
 
+use super::gltf_data::{self, Use};
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::Semantic;
-use gltf::accessor::{DataType, Dimensions, Item, Iter};
+use gltf::json::accessor::Type;
 use gltf::mesh::Mode;
 use ply_rs_bw::parser::{ParseError, Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Property, PropertyType};
@@ -207,7 +209,7 @@ fn read_error(path: &Path) -> impl FnOnce(io::Error) -> MeshError + '_ {
 }
 
 fn load_obj(path: &Path) -> Result<Mesh, MeshError> {
-    let bytes = std::fs::read(path).map_err(read_error(path))?;
+    let bytes = crate::paths::read_input(path).map_err(read_error(path))?;
     let text = surface_lines(&String::from_utf8_lossy(&bytes));
     check_obj(path, &text)?;
 
@@ -377,7 +379,7 @@ fn ply_message(e: &ParseError) -> String {
     let text = text.replace("\n'", "'");
     let text = text.split("\n\tError:").next().unwrap_or_default();
     let text = text.split(": Parse").next().unwrap_or_default();
-    text.split_whitespace().collect::<Vec<_>>().join(" ")
+    super::excerpt_words(text)
 }
 
 /// The names of the texture coordinates PLY writers use, by pairs (pbrt-v4's).
@@ -389,7 +391,7 @@ const UV_NAMES: [[&str; 2]; 4] = [
 ];
 
 fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
-    let file = std::fs::File::open(path).map_err(read_error(path))?;
+    let (file, _) = crate::paths::open_input(path).map_err(read_error(path))?;
     let mut reader = Reader::new(BufReader::new(file));
     let parser = Parser::<DefaultElement>::new();
     let header = parser
@@ -399,6 +401,17 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
             at: e.line().map_or(Location::File, Location::Line),
             message: ply_message(&e),
         })?;
+    // PLY has one version; a later one could mean something else.
+    if (header.version.major, header.version.minor) != (1, 0) {
+        return Err(MeshError::Malformed {
+            path: path.into(),
+            at: Location::File,
+            message: format!(
+                "format version {}.{}: pathmix reads PLY 1.0",
+                header.version.major, header.version.minor
+            ),
+        });
+    }
 
     let vertex_def = header.elements.get("vertex");
     let has = |name: &str| vertex_def.is_some_and(|d| d.properties.contains_key(name));
@@ -538,7 +551,19 @@ fn load_ply(path: &Path) -> Result<Mesh, MeshError> {
         return Err(MeshError::Malformed {
             path: path.into(),
             at: Location::Line(line),
-            message: format!("`{word}` after the last element the header declares"),
+            message: format!(
+                "`{}` after the last element the header declares",
+                super::excerpt(word)
+            ),
+        });
+    }
+    let trailing = reader.get_mut().fill_buf().map_err(read_error(path))?;
+    if header.encoding != Encoding::Ascii && !trailing.is_empty() {
+        return Err(MeshError::Malformed {
+            path: path.into(),
+            at: Location::File,
+            message: "data after the last element the header declares (a count that is wrong)"
+                .into(),
         });
     }
     Ok(mesh)
@@ -626,12 +651,13 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
         at: Location::File,
         message,
     };
-    let bytes = std::fs::read(path).map_err(read_error(path))?;
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| malformed(e.to_string()))?;
+    let bytes = crate::paths::read_input(path).map_err(read_error(path))?;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| malformed(super::excerpt_words(&e.to_string())))?;
     // gltf-json's validation looks up each POSITION accessor before it checks the
     // index, and panics on one out of range: check that first.
     let mut json = document.into_json();
+    check_gltf_version(&json.asset).map_err(malformed)?;
     // Read here: integer positions, normals and texture coordinates (`attribute`).
     json.extensions_required
         .retain(|extension| extension != "KHR_mesh_quantization");
@@ -654,7 +680,8 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
         }
     }
     let gltf = gltf::Document::from_json(json).map_err(|e| malformed(e.to_string()))?;
-    let buffers = gltf_buffers(path, &gltf, blob)?;
+    check_gltf_nodes(&gltf.as_json().nodes).map_err(malformed)?;
+    let buffers = gltf_data::buffers(path, gltf.as_json(), blob).map_err(malformed)?;
     let mut mesh = Mesh {
         positions: Vec::new(),
         triangles: Vec::new(),
@@ -691,7 +718,8 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
                     primitive: primitive.index(),
                 };
                 let triangles_before = mesh.triangles.len();
-                add_primitive(path, &mut mesh, &primitive, &buffers, transform, at)?;
+                let data = (gltf.as_json(), &buffers[..]);
+                add_primitive(path, &mut mesh, &primitive, data, transform, at)?;
                 let added = mesh.triangles.len() - triangles_before;
                 if added == 0 {
                     continue;
@@ -719,39 +747,53 @@ fn load_gltf(path: &Path) -> Result<Mesh, MeshError> {
     Ok(mesh)
 }
 
-/// The data of each of the document's buffers: the GLB's binary chunk (`blob`),
-/// a data URI, or a file beside the glTF file (as glTF resolves them). An error
-/// names the buffer.
-fn gltf_buffers(
-    path: &Path,
-    gltf: &gltf::Document,
-    mut blob: Option<Vec<u8>>,
-) -> Result<Vec<gltf::buffer::Data>, MeshError> {
-    let mut buffers = Vec::new();
-    for buffer in gltf.buffers() {
-        let which = match buffer.source() {
-            gltf::buffer::Source::Bin => "the GLB's binary chunk".to_string(),
-            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => "a data URI".into(),
-            gltf::buffer::Source::Uri(uri) => format!("`{uri}`"),
-        };
-        let malformed = |message: String| MeshError::Malformed {
-            path: path.into(),
-            at: Location::File,
-            message: format!("buffer {} ({which}): {message}", buffer.index()),
-        };
-        let data =
-            gltf::buffer::Data::from_source_and_blob(buffer.source(), path.parent(), &mut blob)
-                .map_err(|e| malformed(e.to_string()))?;
-        if data.len() < buffer.length() {
-            return Err(malformed(format!(
-                "{} bytes, fewer than its byteLength {}",
-                data.len(),
-                buffer.length()
-            )));
-        }
-        buffers.push(data);
+/// Refuses a glTF file of another major version than 2 (or one that needs a
+/// later minor version): its meaning could differ from what is read.
+fn check_gltf_version(asset: &gltf::json::Asset) -> Result<(), String> {
+    let major = asset.version.split('.').next().unwrap_or_default();
+    if major != "2" {
+        return Err(format!(
+            "asset.version `{}`: pathmix reads glTF 2.x",
+            super::excerpt(&asset.version)
+        ));
     }
-    Ok(buffers)
+    match asset.min_version.as_deref() {
+        Some(min) if min != "2.0" => Err(format!(
+            "asset.minVersion `{}`: pathmix reads glTF 2.0",
+            super::excerpt(min)
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Refuses node transforms that are no affine transform: a `matrix` whose last
+/// row is not (0, 0, 0, 1) (projective, as Mitsuba's reader refuses too) and a
+/// `rotation` that is no unit quaternion (a zero one would silently be the
+/// identity; glTF requires unit length).
+fn check_gltf_nodes(nodes: &[gltf::json::Node]) -> Result<(), String> {
+    for (i, node) in nodes.iter().enumerate() {
+        // Column-major: the last row is elements 3, 7, 11 and 15.
+        if let Some(m) = node.matrix
+            && [m[3], m[7], m[11], m[15]] != [0.0, 0.0, 0.0, 1.0]
+        {
+            return Err(format!(
+                "node {i}: matrix must be affine: its last row must be [0, 0, 0, 1], got [{}, {}, {}, {}]",
+                m[3], m[7], m[11], m[15]
+            ));
+        }
+        if let Some(gltf::json::scene::UnitQuaternion(q)) = node.rotation {
+            let length = q.iter().map(|c| c * c).sum::<f32>().sqrt();
+            // Exporters round; a quaternion further from unit length (or NaN) is no rotation.
+            let unit = (length - 1.0).abs() <= 1e-3;
+            if !unit {
+                return Err(format!(
+                    "node {i}: rotation [{}, {}, {}, {}] is not a unit quaternion (length {length})",
+                    q[0], q[1], q[2], q[3]
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn mesh_material(material: &gltf::Material, index: usize) -> MeshMaterial {
@@ -768,19 +810,20 @@ fn mesh_material(material: &gltf::Material, index: usize) -> MeshMaterial {
 
 /// Appends one glTF primitive to `mesh`, transformed into the scene's
 /// coordinates: its triangles, whether a list, a strip or a fan; points and
-/// lines are no surface, and add nothing (as `p` and `l` in OBJ).
+/// lines are no surface, and add nothing (as `p` and `l` in OBJ). `data` is the
+/// document and its buffers, which `gltf_data` reads the accessors from.
 fn add_primitive(
     path: &Path,
     mesh: &mut Mesh,
     primitive: &gltf::Primitive,
-    buffers: &[gltf::buffer::Data],
+    (root, buffers): (&gltf::json::Root, &[Vec<u8>]),
     transform: Mat4,
     at: Location,
 ) -> Result<(), MeshError> {
-    let malformed = |message: &str| MeshError::Malformed {
+    let malformed = |message: String| MeshError::Malformed {
         path: path.into(),
         at: at.clone(),
-        message: message.into(),
+        message,
     };
     let mode = primitive.mode();
     if !matches!(
@@ -789,13 +832,37 @@ fn add_primitive(
     ) {
         return Ok(());
     }
-    let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|data| &data[..]));
-    let positions: Vec<Vec3> = primitive
-        .get(&Semantic::Positions)
-        .and_then(|accessor| attribute::<3>(accessor, buffers))
-        .ok_or_else(|| malformed("no readable POSITION accessor"))?
+    // An attribute's values (its type's components per vertex), every one finite, or `None` without it.
+    let attribute = |semantic: Semantic, name: &str| -> Result<Option<Vec<Vec<f32>>>, MeshError> {
+        let Some(accessor) = primitive.get(&semantic) else {
+            return Ok(None);
+        };
+        let ty = match semantic {
+            Semantic::TexCoords(_) => Type::Vec2,
+            _ => Type::Vec3,
+        };
+        let values = gltf_data::read(root, buffers, accessor.index(), Use::Attribute, ty)
+            .map_err(|e| malformed(format!("{name}: {e}")))?;
+        if let Some(&value) = values.iter().find(|v| !v.is_finite()) {
+            return Err(MeshError::NonFinite {
+                path: path.into(),
+                at: at.clone(),
+                what: name.into(),
+                value: value as f32,
+            });
+        }
+        let n = ty.multiplicity();
+        Ok(Some(
+            values
+                .chunks_exact(n)
+                .map(|v| v.iter().map(|&c| c as f32).collect())
+                .collect(),
+        ))
+    };
+    let positions: Vec<Vec3> = attribute(Semantic::Positions, "POSITION")?
+        .ok_or_else(|| malformed("no POSITION accessor".into()))?
         .into_iter()
-        .map(|p| transform.transform_point3(Vec3::from(p)))
+        .map(|p| transform.transform_point3(Vec3::from_slice(&p)))
         .collect();
     if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
         let value = p
@@ -811,13 +878,20 @@ fn add_primitive(
         });
     }
     let count = positions.len();
-    let indices: Vec<u32> = match reader.read_indices() {
-        Some(indices) => indices.into_u32().collect(),
+    let indices: Vec<u32> = match primitive.indices() {
+        // Unsigned integers of at most 32 bits, as `gltf_data::read` checked.
+        Some(accessor) => {
+            gltf_data::read(root, buffers, accessor.index(), Use::Indices, Type::Scalar)
+                .map_err(|e| malformed(format!("indices: {e}")))?
+                .into_iter()
+                .map(|i| i as u32)
+                .collect()
+        }
         // Unindexed triangles take the vertices in order; count fits u32 as glTF's indices do.
         None => (0..count as u32).collect(),
     };
     if mode == Mode::Triangles && indices.len() % 3 != 0 {
-        return Err(malformed(&format!(
+        return Err(malformed(format!(
             "{} triangle indices, not a multiple of 3",
             indices.len()
         )));
@@ -831,6 +905,19 @@ fn add_primitive(
             of: "vertices in the primitive",
         });
     }
+    // Every attribute describes every vertex (glTF 2.0, 3.7.2.1).
+    let per_vertex = |values: Option<Vec<Vec<f32>>>, name: &str| match values {
+        Some(values) if values.len() != count => Err(malformed(format!(
+            "{name} has {} elements, POSITION {count}",
+            values.len()
+        ))),
+        values => Ok(values),
+    };
+    let normals = per_vertex(attribute(Semantic::Normals, "NORMAL")?, "NORMAL")?;
+    let uvs = per_vertex(
+        attribute(Semantic::TexCoords(0), "TEXCOORD_0")?,
+        "TEXCOORD_0",
+    )?;
 
     // glTF 2.0, 3.7.2.1: a strip's triangle i is (i, i + 1 + i % 2, i + 2 - i % 2),
     // so that each keeps the first's winding, and a fan's is (i + 1, i + 2, 0).
@@ -861,83 +948,19 @@ fn add_primitive(
     // Normals turn by the inverse transpose, so that they stay perpendicular
     // under non-uniform scale.
     let normal_matrix = Mat3::from_mat4(transform).inverse().transpose();
-    let normals = (primitive.get(&Semantic::Normals)).and_then(|a| attribute::<3>(a, buffers));
-    mesh.normals = mesh
-        .normals
-        .take()
-        .zip(normals)
-        .and_then(|(mut all, normals)| {
-            (normals.len() == count).then(|| {
-                all.extend(
-                    normals
-                        .into_iter()
-                        .map(|n| (normal_matrix * Vec3::from(n)).normalize_or_zero()),
-                );
-                all
-            })
-        });
-    let uvs = (primitive.get(&Semantic::TexCoords(0))).and_then(|a| attribute::<2>(a, buffers));
-    mesh.uvs = mesh.uvs.take().zip(uvs).and_then(|(mut all, uvs)| {
-        (uvs.len() == count).then(|| {
-            all.extend(uvs.into_iter().map(Vec2::from));
-            all
-        })
+    mesh.normals = mesh.normals.take().zip(normals).map(|(mut all, normals)| {
+        all.extend(
+            normals
+                .iter()
+                .map(|n| (normal_matrix * Vec3::from_slice(n)).normalize_or_zero()),
+        );
+        all
+    });
+    mesh.uvs = mesh.uvs.take().zip(uvs).map(|(mut all, uvs)| {
+        all.extend(uvs.iter().map(|t| Vec2::from_slice(t)));
+        all
     });
     Ok(())
-}
-
-/// A vertex attribute's values, `N` floats each, whatever their component type
-/// (as `KHR_mesh_quantization` allows for positions, normals and texture
-/// coordinates): floats as they are, integers as their values or, where
-/// `normalized`, mapped to [0, 1] (unsigned) or [-1, 1] (signed), as glTF
-/// says. `None` for an accessor of other dimensions, of 32-bit integers
-/// (no attribute's type) or outside its buffer.
-fn attribute<const N: usize>(
-    accessor: gltf::Accessor<'_>,
-    buffers: &[gltf::buffer::Data],
-) -> Option<Vec<[f32; N]>>
-where
-    [f32; N]: Item,
-    [i8; N]: Item,
-    [u8; N]: Item,
-    [i16; N]: Item,
-    [u16; N]: Item,
-{
-    fn each<T: Copy, const N: usize>(
-        values: impl Iterator<Item = [T; N]>,
-        to_f32: impl Fn(T) -> f32,
-    ) -> Vec<[f32; N]> {
-        values.map(|v| v.map(&to_f32)).collect()
-    }
-    let dimensions = match N {
-        2 => Dimensions::Vec2,
-        _ => Dimensions::Vec3,
-    };
-    if accessor.dimensions() != dimensions {
-        return None;
-    }
-    let normalized = accessor.normalized();
-    let data = |buffer: gltf::Buffer<'_>| buffers.get(buffer.index()).map(|data| &data[..]);
-    let unit = |value: f32, max: f32| match normalized {
-        true => (value / max).max(-1.0),
-        false => value,
-    };
-    Some(match accessor.data_type() {
-        DataType::F32 => Iter::<[f32; N]>::new(accessor, data)?.collect(),
-        DataType::I8 => each(Iter::<[i8; N]>::new(accessor, data)?, |v| {
-            unit(v.into(), 127.0)
-        }),
-        DataType::U8 => each(Iter::<[u8; N]>::new(accessor, data)?, |v| {
-            unit(v.into(), 255.0)
-        }),
-        DataType::I16 => each(Iter::<[i16; N]>::new(accessor, data)?, |v| {
-            unit(v.into(), 32767.0)
-        }),
-        DataType::U16 => each(Iter::<[u16; N]>::new(accessor, data)?, |v| {
-            unit(v.into(), 65535.0)
-        }),
-        DataType::U32 => return None,
-    })
 }
 
 #[cfg(test)]

@@ -21,13 +21,30 @@ use std::str::FromStr;
 use glam::{DMat4, DVec3, DVec4};
 use toml::{Table, Value};
 
-use super::SceneError;
-use super::parse::{NAMED_IORS, sin_cos_degrees};
+use super::parse::{IMAGE_SIDE, NAMED_IORS, sin_cos_degrees};
+use super::{SceneError, excerpt};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 /// pathmix's largest `max_depth`, for Mitsuba's unbounded `max_depth = -1`.
 const UNBOUNDED_DEPTH: i64 = 100_000;
+
+/// The deepest elements may nest: far beyond any real scene (a handful of
+/// levels), and shallow enough that reading them, which recurses, cannot
+/// overflow the stack.
+pub const MAX_NESTING: usize = 1_000;
+
+/// The most elements a scene and the files it includes may hold in all, each
+/// inclusion counted again: files that each include the next twice would
+/// otherwise expand exponentially.
+pub const MAX_ELEMENTS: usize = 1_000_000;
+
+/// The most text a scene and its inclusions may read in all (256 MiB).
+pub const MAX_TEXT_BYTES: usize = 256 << 20;
+
+/// The Mitsuba versions whose format pathmix reads: 2.x.y and 3.x.y (0.x
+/// scenes use other names, which Mitsuba 3 upgrades on reading).
+const VERSIONS: [u32; 2] = [2, 3];
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
                                thindielectric, plastic, roughplastic, twosided";
@@ -100,6 +117,8 @@ impl Converted {
             used_params: HashSet::new(),
             search: vec![top_dir],
             includes: Vec::new(),
+            elements: 0,
+            text_bytes: 0,
         };
         let elements = reader.read_file(path, None)?;
         let mut builder = Builder::new(path, &reader.search, &elements)?;
@@ -246,7 +265,8 @@ impl Elem {
         {
             Some((n, _)) => Err(self.origin.error(format!(
                 "unknown attribute `{n}` (expected {})",
-                allowed.join(", ")
+                allowed.join(", "),
+                n = excerpt(n)
             ))),
             None => Ok(()),
         }
@@ -260,6 +280,10 @@ struct Reader {
     search: Vec<PathBuf>,
     /// The include chain, for cycles.
     includes: Vec<PathBuf>,
+    /// Elements read so far, each inclusion counted again (`MAX_ELEMENTS`).
+    elements: usize,
+    /// Text read so far, each inclusion counted again (`MAX_TEXT_BYTES`).
+    text_bytes: usize,
 }
 
 impl Reader {
@@ -274,8 +298,15 @@ impl Reader {
                 message,
             },
         };
-        let text = std::fs::read_to_string(path)
+        let text = crate::paths::read_input_text(path)
             .map_err(|e| whole_file(format!("cannot read `{file}`: {e}")))?;
+        self.text_bytes += text.len();
+        if self.text_bytes > MAX_TEXT_BYTES {
+            return Err(whole_file(format!(
+                "more than {MAX_TEXT_BYTES} bytes of XML in the scene and the files it \
+                 includes, each inclusion counted (are files included many times over?)"
+            )));
+        }
         let document = roxmltree::Document::parse(&text).map_err(|e| {
             let pos = e.pos();
             SceneError {
@@ -286,17 +317,31 @@ impl Reader {
         })?;
         let root = document.root_element();
         let root_origin = origin_of(&file, &document, root);
-        if root.tag_name().name() != "scene" || root.attribute("version").is_none() {
+        let Some(version) = root
+            .attribute("version")
+            .filter(|_| root.tag_name().name() == "scene")
+        else {
             return Err(root_origin
                 .error("not a Mitsuba scene: the root element must be <scene version=\"...\">"));
+        };
+        check_version(version).map_err(|message| root_origin.error(message))?;
+        // Before `element` recurses into them.
+        if let Some(node) = nested_too_deep(&document) {
+            return Err(origin_of(&file, &document, node).error(format!(
+                "elements nested more than {MAX_NESTING} deep (pathmix reads at most \
+                 {MAX_NESTING} levels)"
+            )));
         }
+        self.count_element(&root_origin)?;
         let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
         self.includes.push(canonical);
         let mut out = Vec::new();
         for node in root.children() {
             if let Some(text) = node.text().filter(|_| node.is_text()) {
                 if !text.trim().is_empty() {
-                    return Err(root_origin.error(format!("unexpected text `{}`", text.trim())));
+                    return Err(
+                        root_origin.error(format!("unexpected text `{}`", excerpt(text.trim())))
+                    );
                 }
             }
             if !node.is_element() {
@@ -325,8 +370,10 @@ impl Reader {
                     elem.check_attrs(&["filename"])?;
                     let name = elem.require("filename")?;
                     let included = resolve(&self.search, name).ok_or_else(|| {
-                        elem.origin
-                            .error(format!("cannot find the included file `{name}`"))
+                        elem.origin.error(format!(
+                            "cannot find the included file `{name}`",
+                            name = excerpt(name)
+                        ))
                     })?;
                     let canonical = included.canonicalize().unwrap_or_else(|_| included.clone());
                     if self.includes.contains(&canonical) {
@@ -352,6 +399,7 @@ impl Reader {
         node: roxmltree::Node,
     ) -> Result<Elem> {
         let origin = origin_of(file, document, node);
+        self.count_element(&origin)?;
         let mut attrs = Vec::new();
         for a in node.attributes() {
             attrs.push((a.name().to_string(), self.substitute(a.value(), &origin)?));
@@ -376,6 +424,18 @@ impl Reader {
         })
     }
 
+    /// Counts one more element read (`MAX_ELEMENTS`).
+    fn count_element(&mut self, origin: &Origin) -> Result<()> {
+        self.elements += 1;
+        if self.elements > MAX_ELEMENTS {
+            return Err(origin.error(format!(
+                "more than {MAX_ELEMENTS} elements in the scene and the files it includes, \
+                 each inclusion counted (are files included many times over?)"
+            )));
+        }
+        Ok(())
+    }
+
     /// `value` with every `$name` replaced by its `-D` or `<default>` value.
     fn substitute(&mut self, value: &str, origin: &Origin) -> Result<String> {
         let mut out = String::with_capacity(value.len());
@@ -388,7 +448,10 @@ impl Reader {
                 .unwrap_or(after.len());
             let name = &after[..end];
             if name.is_empty() {
-                return Err(origin.error(format!("`$` without a parameter name in `{value}`")));
+                return Err(origin.error(format!(
+                    "`$` without a parameter name in `{}`",
+                    excerpt(value)
+                )));
             }
             match self.params.get(name) {
                 Some(v) => out.push_str(v),
@@ -407,6 +470,39 @@ impl Reader {
     }
 }
 
+/// A `<scene version="...">` pathmix reads: `MAJOR.MINOR.PATCH`, of a major
+/// version in `VERSIONS`.
+fn check_version(version: &str) -> std::result::Result<(), String> {
+    let numbers: Option<Vec<u32>> = version.trim().split('.').map(|n| n.parse().ok()).collect();
+    match numbers.as_deref() {
+        Some(&[major, _, _]) if VERSIONS.contains(&major) => Ok(()),
+        Some(&[major, _, _]) => Err(format!(
+            "version `{version}`: a Mitsuba {major} scene, whose format pathmix does not read \
+             (it reads Mitsuba 2 and 3 scenes, versions 2.x.y and 3.x.y)"
+        )),
+        _ => Err(format!(
+            "version `{}` is not MAJOR.MINOR.PATCH (such as 3.0.0)",
+            excerpt(version)
+        )),
+    }
+}
+
+/// The first node nested more than `MAX_NESTING` deep, found without recursing.
+fn nested_too_deep<'a, 'input>(
+    document: &'a roxmltree::Document<'input>,
+) -> Option<roxmltree::Node<'a, 'input>> {
+    // Nodes come in document order, each after its parent.
+    let mut depths = vec![0usize; document.descendants().count()];
+    for node in document.descendants() {
+        let depth = node.parent().map_or(0, |p| depths[p.id().get_usize()] + 1);
+        if depth > MAX_NESTING {
+            return Some(node);
+        }
+        depths[node.id().get_usize()] = depth;
+    }
+    None
+}
+
 fn origin_of(file: &str, document: &roxmltree::Document, node: roxmltree::Node) -> Origin {
     let pos = document.text_pos_at(node.range().start);
     let attrs: Vec<(String, String)> = node
@@ -423,10 +519,10 @@ fn origin_of(file: &str, document: &roxmltree::Document, node: roxmltree::Node) 
 
 /// `<shape type="obj">`: the element's tag with its `type`, `name` or `id`.
 fn describe(tag: &str, attrs: &[(String, String)]) -> String {
-    let mut s = format!("<{tag}");
+    let mut s = format!("<{}", excerpt(tag));
     for key in ["type", "name", "id"] {
         if let Some((_, v)) = attrs.iter().find(|(n, _)| n == key) {
-            let _ = write!(s, " {key}=\"{v}\"");
+            let _ = write!(s, " {key}=\"{}\"", excerpt(v));
         }
     }
     s + ">"
@@ -518,10 +614,10 @@ impl<'e> Props<'e> {
         };
         e.check_attrs(&["name", "value"])?;
         let v = e.require("value")?;
-        v.trim()
-            .parse()
-            .map(Some)
-            .map_err(|_| e.origin.error(format!("`value=\"{v}\"` is not an integer")))
+        v.trim().parse().map(Some).map_err(|_| {
+            e.origin
+                .error(format!("`value=\"{}\"` is not an integer", excerpt(v)))
+        })
     }
 
     fn boolean(&mut self, name: &str) -> Result<Option<bool>> {
@@ -532,9 +628,10 @@ impl<'e> Props<'e> {
         match e.require("value")?.trim() {
             "true" => Ok(Some(true)),
             "false" => Ok(Some(false)),
-            v => Err(e
-                .origin
-                .error(format!("`value=\"{v}\"` is not `true` or `false`"))),
+            v => Err(e.origin.error(format!(
+                "`value=\"{}\"` is not `true` or `false`",
+                excerpt(v)
+            ))),
         }
     }
 
@@ -643,7 +740,7 @@ fn number(e: &Elem, text: &str) -> Result<f64> {
         Ok(x) if x.is_finite() => Ok(x),
         _ => Err(e
             .origin
-            .error(format!("`{}` is not a finite number", text.trim()))),
+            .error(format!("`{}` is not a finite number", excerpt(text.trim())))),
     }
 }
 
@@ -669,8 +766,9 @@ fn three(e: &Elem, text: &str) -> Result<DVec3> {
     match numbers(e, text)?[..] {
         [x, y, z] => Ok(DVec3::new(x, y, z)),
         ref other => Err(e.origin.error(format!(
-            "expected 3 numbers, got {} in `{text}`",
-            other.len()
+            "expected 3 numbers, got {} in `{}`",
+            other.len(),
+            excerpt(text)
         ))),
     }
 }
@@ -684,8 +782,9 @@ fn vector_of(e: &Elem, default: f64) -> Result<DVec3> {
             [x] => Ok(DVec3::splat(x)),
             [x, y, z] => Ok(DVec3::new(x, y, z)),
             ref other => Err(e.origin.error(format!(
-                "expected 1 or 3 numbers, got {} in `{v}`",
-                other.len()
+                "expected 1 or 3 numbers, got {} in `{}`",
+                other.len(),
+                excerpt(v)
             ))),
         };
     }
@@ -778,7 +877,8 @@ fn transform(e: &Elem) -> Result<DMat4> {
             }
             other => {
                 return Err(op.origin.error(format!(
-                    "unknown transform `{other}` (supported: translate, rotate, scale, matrix, lookat)"
+                    "unknown transform `{other}` (supported: translate, rotate, scale, matrix, lookat)",
+                    other = excerpt(other)
                 )));
             }
         };
@@ -863,7 +963,8 @@ struct Builder<'a> {
     warnings: Vec<String>,
     integrator: Option<&'a Elem>,
     sensor: Option<&'a Elem>,
-    background: Option<[f64; 3]>,
+    /// `render.background`, from a `constant` emitter, and where it was.
+    background: Option<([f64; 3], Origin)>,
     /// `[environment]`, from an `envmap` emitter, and where it was.
     environment: Option<(Table, Origin)>,
     materials: Table,
@@ -883,7 +984,10 @@ impl<'a> Builder<'a> {
                     if let Some(before) = ids.insert(id, e) {
                         return Err(e.origin.error(format!(
                             "the id `{id}` is already used at {}:{}:{}",
-                            before.origin.file, before.origin.line, before.origin.col
+                            before.origin.file,
+                            before.origin.line,
+                            before.origin.col,
+                            id = excerpt(id)
                         )));
                     }
                 }
@@ -923,10 +1027,10 @@ impl<'a> Builder<'a> {
         }
         e.check_attrs(&["id", "name"])?;
         let id = e.require("id")?;
-        self.ids
-            .get(id)
-            .copied()
-            .ok_or_else(|| e.origin.error(format!("no element has the id `{id}`")))
+        self.ids.get(id).copied().ok_or_else(|| {
+            e.origin
+                .error(format!("no element has the id `{id}`", id = excerpt(id)))
+        })
     }
 
     fn top_level(&mut self, e: &'a Elem) -> Result<()> {
@@ -965,7 +1069,10 @@ impl<'a> Builder<'a> {
                     let mut props = Props::new(e);
                     let radiance = props.emitted("radiance")?.unwrap_or([1.0; 3]);
                     props.finish()?;
-                    self.background = Some(radiance);
+                    // Where the value is, for the TOML parser's checks of it.
+                    let at = e.children.iter().find(|c| c.name() == Some("radiance"));
+                    let origin = at.map_or(&e.origin, |c| &c.origin).clone();
+                    self.background = Some((radiance, origin));
                     Ok(())
                 }
                 "envmap" => self.envmap(e),
@@ -1055,8 +1162,10 @@ impl<'a> Builder<'a> {
             .string("filename")?
             .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
         let path = resolve(self.search, name).ok_or_else(|| {
-            at.origin
-                .error(format!("cannot find the environment map `{name}`"))
+            at.origin.error(format!(
+                "cannot find the environment map `{name}`",
+                name = excerpt(name)
+            ))
         })?;
         let path = path.canonicalize().unwrap_or(path);
         let mut environment = Table::new();
@@ -1149,7 +1258,8 @@ impl<'a> Builder<'a> {
                 if target.tag != "texture" {
                     return Err(e.origin.error(format!(
                         "`{name}` refers to a <{}>, not a <texture>",
-                        target.tag
+                        target.tag,
+                        name = excerpt(name)
                     )));
                 }
                 self.texture(target).map(Some)
@@ -1172,8 +1282,10 @@ impl<'a> Builder<'a> {
                     .string("filename")?
                     .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
                 let path = resolve(self.search, name).ok_or_else(|| {
-                    at.origin
-                        .error(format!("cannot find the texture image `{name}`"))
+                    at.origin.error(format!(
+                        "cannot find the texture image `{name}`",
+                        name = excerpt(name)
+                    ))
                 })?;
                 let path = path.canonicalize().unwrap_or(path);
                 table.insert(
@@ -1275,7 +1387,7 @@ impl<'a> Builder<'a> {
                 if em.ty() != "area" {
                     return Err(em.origin.error(format!(
                         "emitter `{}` inside a shape: only `area` emitters go on shapes",
-                        em.ty()
+                        excerpt(em.ty())
                     )));
                 }
                 Some((self.name_of(em), self.radiance(em)?))
@@ -1396,8 +1508,10 @@ impl<'a> Builder<'a> {
                     .string("filename")?
                     .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
                 let path = resolve(self.search, name).ok_or_else(|| {
-                    at.origin
-                        .error(format!("cannot find the mesh file `{name}`"))
+                    at.origin.error(format!(
+                        "cannot find the mesh file `{name}`",
+                        name = excerpt(name)
+                    ))
                 })?;
                 let path = path.canonicalize().unwrap_or(path);
                 // Mitsuba's meshes, like pathmix's, are smooth unless told otherwise:
@@ -1524,8 +1638,14 @@ impl<'a> Builder<'a> {
         let (camera, sensor_render) = self.camera(sensor)?;
         let mut render = self.integrator_settings()?;
         render.extend(sensor_render);
-        if let Some(background) = self.background {
+        if let Some((background, origin)) = self.background.take() {
             render.insert("background".into(), color_value(background));
+            self.origins.push(("render.background".into(), origin));
+        }
+        if let Some(integrator) = self.integrator {
+            for field in ["render.max_depth", "render.rr_depth"] {
+                self.origins.push((field.into(), integrator.origin.clone()));
+            }
         }
         let mut document = Table::new();
         document.insert("camera".into(), Value::Table(camera));
@@ -1596,7 +1716,8 @@ impl<'a> Builder<'a> {
                     }
                     other => {
                         return Err(e.origin.error(format!(
-                            "integrator `{other}`: not supported (supported: path, direct)"
+                            "integrator `{other}`: not supported (supported: path, direct)",
+                            other = excerpt(other)
                         )));
                     }
                 };
@@ -1615,8 +1736,14 @@ impl<'a> Builder<'a> {
                 "max_depth -1 (unbounded) is pathmix's largest, {UNBOUNDED_DEPTH} bounces"
             ));
             UNBOUNDED_DEPTH
+        } else if max_depth - 1 > UNBOUNDED_DEPTH {
+            self.warn(format!(
+                "max_depth {max_depth} is more than pathmix's largest, {UNBOUNDED_DEPTH} bounces, \
+                 which it renders"
+            ));
+            UNBOUNDED_DEPTH
         } else {
-            (max_depth - 1).min(UNBOUNDED_DEPTH)
+            max_depth - 1
         };
         render.insert("max_depth".into(), Value::Integer(max_depth));
         // Mitsuba's `direct` has no roulette (nor would pathmix's default at depth 1).
@@ -1633,7 +1760,7 @@ impl<'a> Builder<'a> {
         if e.ty() != "perspective" {
             return Err(e.origin.error(format!(
                 "sensor `{}`: not supported (supported: perspective)",
-                e.ty()
+                excerpt(e.ty())
             )));
         }
         let mut props = Props::new(e);
@@ -1702,7 +1829,8 @@ impl<'a> Builder<'a> {
             other => {
                 let at = axis.map_or(e, |(_, at)| at);
                 return Err(at.origin.error(format!(
-                    "unknown fov_axis `{other}` (expected x, y, smaller, larger or diagonal)"
+                    "unknown fov_axis `{other}` (expected x, y, smaller, larger or diagonal)",
+                    other = excerpt(other)
                 )));
             }
         };
@@ -1748,7 +1876,8 @@ impl<'a> Builder<'a> {
                     other => {
                         return Err(s.origin.error(format!(
                             "sampler `{other}`: not supported (supported: independent, stratified, \
-                             multijitter, orthogonal, ldsampler)"
+                             multijitter, orthogonal, ldsampler)",
+                            other = excerpt(other)
                         )));
                     }
                 };
@@ -1767,16 +1896,29 @@ impl<'a> Builder<'a> {
         if e.ty() != "hdrfilm" {
             return Err(e.origin.error(format!(
                 "film `{}`: not supported (supported: hdrfilm)",
-                e.ty()
+                excerpt(e.ty())
             )));
         }
         let mut props = Props::new(e);
         let width = props.integer("width")?.unwrap_or(768);
         let height = props.integer("height")?.unwrap_or(576);
+        // Here, at the <integer>: the field of view is derived from the aspect
+        // ratio, which a side of 0 would make meaningless before the TOML
+        // parser saw the side itself.
+        for (name, side) in [("width", width), ("height", height)] {
+            let (lo, hi) = IMAGE_SIDE;
+            if !(lo..=hi).contains(&side) {
+                let at = e.children.iter().find(|c| c.name() == Some(name));
+                return Err(at
+                    .map_or(&e.origin, |c| &c.origin)
+                    .error(format!("{name} must be between {lo} and {hi}, got {side}")));
+            }
+        }
         if let Some((format, at)) = props.string("pixel_format")? {
             if !matches!(format, "rgb" | "rgba") {
                 return Err(at.origin.error(format!(
-                    "pixel_format `{format}`: not supported (supported: rgb, rgba)"
+                    "pixel_format `{format}`: not supported (supported: rgb, rgba)",
+                    format = excerpt(format)
                 )));
             }
         }
@@ -1794,7 +1936,8 @@ impl<'a> Builder<'a> {
                     "gaussian" => gaussian_filter(props.float("stddev")?.unwrap_or(0.5)),
                     other => {
                         return Err(f.origin.error(format!(
-                            "rfilter `{other}`: not supported (supported: box, gaussian)"
+                            "rfilter `{other}`: not supported (supported: box, gaussian)",
+                            other = excerpt(other)
                         )));
                     }
                 };
@@ -1894,7 +2037,8 @@ fn ior(props: &mut Props, name: &str, default: f64) -> Result<f64> {
                     let names: Vec<&str> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
                     return Err(e.origin.error(format!(
                         "unknown material `{value}` (Mitsuba's names: {})",
-                        names.join(", ")
+                        names.join(", "),
+                        value = excerpt(value)
                     )));
                 }
             },

@@ -4,6 +4,7 @@
 pub mod envmap;
 #[cfg(test)]
 mod format_doc;
+mod gltf_data;
 pub mod mesh;
 pub mod mitsuba;
 mod parse;
@@ -225,7 +226,7 @@ pub struct Scene {
     pub render: RenderSettings,
     pub materials: Vec<Material>,
     pub shapes: Shapes,
-    /// Mesh faces dropped for having no area.
+    /// Mesh faces dropped for having no area in 32-bit floats.
     pub degenerate_triangles: usize,
     /// Point and spot lights (`[[lights]]`).
     pub point_lights: Vec<PointLight>,
@@ -233,7 +234,7 @@ pub struct Scene {
     /// a scene with one has no `background`.
     pub environment: Option<EnvironmentMap>,
     /// What the user should know about how the file was read (glTF materials
-    /// mapped to pathmix's).
+    /// mapped to pathmix's, mesh faces dropped).
     pub warnings: Vec<String>,
 }
 
@@ -266,6 +267,25 @@ impl fmt::Display for SceneError {
 
 impl std::error::Error for SceneError {}
 
+/// The longest text a message quotes from a file, in characters.
+const EXCERPT_CHARS: usize = 64;
+
+/// `text` as a message quotes it: whole, or its first `EXCERPT_CHARS`
+/// characters and `…` (a file's value may be megabytes long).
+pub fn excerpt(text: &str) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(EXCERPT_CHARS) {
+        None => text.into(),
+        Some((end, _)) => format!("{}…", &text[..end]).into(),
+    }
+}
+
+/// A reading crate's message, which may quote a file's text, with each word
+/// (white space between) as [`excerpt`] quotes it.
+pub fn excerpt_words(message: &str) -> String {
+    let words: Vec<_> = message.split_whitespace().map(excerpt).collect();
+    words.join(" ")
+}
+
 impl Scene {
     /// Reads, parses and validates a scene file (TOML or Mitsuba XML).
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
@@ -276,7 +296,7 @@ impl Scene {
     /// a `<scene version=...>` root) with its `-D name=value` parameters.
     pub fn load_with(path: &Path, defines: &[mitsuba::Define]) -> Result<LoadedScene, SceneError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+        let text = crate::paths::read_input_text(path).map_err(|e| SceneError {
             file: file.clone(),
             location: String::new(),
             message: format!("cannot read the scene file: {e}"),

@@ -6,6 +6,7 @@
 //! the field path and the problem, e.g.
 //! `scenes/x.toml: objects[3].radius: must be > 0, got -1`.
 
+use std::collections::BTreeMap;
 use std::fmt::{Display, LowerExp};
 
 use glam::{DMat3, DVec3, Vec3};
@@ -19,6 +20,7 @@ use super::texture::{
 use super::{
     Camera, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
     Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle,
+    excerpt,
 };
 use std::path::Path;
 
@@ -43,7 +45,7 @@ type Result<T> = std::result::Result<T, SceneError>;
 /// The `render.strategy` that asks for a pilot's choice.
 pub const AUTO_STRATEGY: &str = "auto";
 const U32_MAX: i64 = u32::MAX as i64;
-const IMAGE_SIDE: (i64, i64) = (1, 65536);
+pub(super) const IMAGE_SIDE: (i64, i64) = (1, 65536);
 const SPP: (i64, i64) = (1, U32_MAX);
 const MAX_DEPTH: (i64, i64) = (0, 100_000);
 const SEED: (i64, i64) = (0, U32_MAX);
@@ -204,13 +206,14 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     if scale == 1.0 {
         return Ok(scene);
     }
-    let scene = scene.scaled(scale);
+    let mut scene = scene.scaled(scale);
     // Re-check what the scale could break (overflow, underflow).
     let problem = camera_problem(&scene.camera)
         .map(|(_, p)| p)
         .or_else(|| scene.shapes.quads.iter().find_map(quad_problem))
         .or_else(|| scene.shapes.disks.iter().find_map(disk_problem))
-        .or_else(|| scene.shapes.spheres.iter().find_map(sphere_problem));
+        .or_else(|| scene.shapes.spheres.iter().find_map(sphere_problem))
+        .or_else(|| drop_scaled_out_faces(&mut scene, file));
     match problem {
         Some(p) => Err(top.err(
             "scene.scale",
@@ -677,6 +680,19 @@ fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
                 let distribution = distribution(&t)?;
                 let (alpha_u, alpha_v) = roughness(&t)?;
                 let (int_ior, ext_ior) = iors(&t, IOR_BK7)?;
+                let eta = int_ior / ext_ior;
+                if (eta - 1.0).abs() < MIN_ROUGH_IOR_CONTRAST {
+                    return Err(t.err(
+                        t.here(),
+                        format!(
+                            "`int_ior` / `ext_ior` = {} is within {MIN_ROUGH_IOR_CONTRAST} of 1: \
+                             a rough interface so nearly index-matched refracts into a lobe \
+                             too narrow for 32-bit floats (use ratios further from 1, or no \
+                             interface)",
+                            fmt_num(eta)
+                        ),
+                    ));
+                }
                 let kind = MaterialKind::RoughDielectric {
                     distribution,
                     alpha_u,
@@ -871,6 +887,11 @@ pub(super) const NAMED_CONDUCTORS: &[(&str, [f32; 3], [f32; 3])] = &[
     ("none", [0.0, 0.0, 0.0], [1.0, 1.0, 1.0]),
 ];
 const IOR_AIR: f32 = 1.000277;
+
+/// How far from 1 a `roughdielectric`'s `int_ior / ext_ior` must be: nearer,
+/// the refracted lobe's Jacobian divides by a difference that rounds to zero
+/// in 32-bit floats, and samples turn NaN.
+pub const MIN_ROUGH_IOR_CONTRAST: f32 = 1e-3;
 const IOR_BK7: f32 = 1.5046;
 const IOR_POLYPROPYLENE: f32 = 1.49;
 
@@ -1326,7 +1347,8 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                     let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
                     let message = if names.is_empty() {
                         format!(
-                            "unknown material `{name}` (no `[materials.NAME]` tables are defined)"
+                            "unknown material `{}` (no `[materials.NAME]` tables are defined)",
+                            excerpt(name)
                         )
                     } else {
                         unknown_name("material", name, &names)
@@ -1466,10 +1488,12 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                         faces
                     }
                 };
+                let faces_in_file = faces.len();
+                let mut dropped = 0;
                 for (face, (material, importance)) in faces.into_iter().zip(face_materials) {
                     let vertices = face.map(|i| world[i as usize]);
                     if triangle_is_degenerate(vertices) {
-                        *degenerate_triangles += 1;
+                        dropped += 1;
                         continue;
                     }
                     triangles.push(Triangle {
@@ -1481,6 +1505,20 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
                         mesh: i as u32,
                     });
                 }
+                // As a quad that 32-bit floats cannot hold is refused, so is a
+                // mesh none of whose faces they can.
+                if let Some(message) = dropped_faces_problem(dropped, faces_in_file) {
+                    return Err(t.err(t.here(), message));
+                }
+                if dropped > 0 {
+                    warnings.push(dropped_faces_warning(
+                        t.file,
+                        &t.here(),
+                        dropped,
+                        faces_in_file,
+                    ));
+                }
+                *degenerate_triangles += dropped;
             }
             _ => {
                 let min = t.require("min", t.vec3("min", ok)?)?;
@@ -1559,6 +1597,26 @@ fn file_materials(t: &Tab, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Ma
         .collect()
 }
 
+/// Why a mesh object is refused when `dropped` of its `faces` have no usable
+/// area: all of them (nothing of it would render).
+fn dropped_faces_problem(dropped: usize, faces: usize) -> Option<String> {
+    (dropped == faces).then(|| {
+        format!(
+            "none of the mesh's {faces} faces has an area 32-bit floats can hold (each is \
+             degenerate, or the transform or scale makes its size overflow or vanish): \
+             nothing of it would render"
+        )
+    })
+}
+
+/// The warning for a mesh object some of whose faces were dropped.
+fn dropped_faces_warning(file: &str, object: &str, dropped: usize, faces: usize) -> String {
+    format!(
+        "{file}: {object}: {dropped} of the mesh's {faces} faces dropped: they have no area \
+         32-bit floats can hold (degenerate, or too large or small at this scale)"
+    )
+}
+
 /// A face with no usable area in 32-bit floats (collinear or coincident
 /// vertices): it can be neither hit nor sampled, so it is dropped and counted.
 fn triangle_is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
@@ -1586,6 +1644,31 @@ fn box_faces(a: DVec3, b: DVec3) -> [(&'static str, DVec3, DVec3, DVec3); 6] {
 /// `rotate_y` then `translate`, object to world, evaluated in double precision.
 /// Object to world: `linear` (scale, then rotation) then `translate`, in f64 so
 /// that composing and applying it rounds once, to f32, at the end.
+/// Drops the mesh faces a `[scene] scale` left with no usable area, with a
+/// warning per object that lost some; the problem if one lost them all.
+fn drop_scaled_out_faces(scene: &mut Scene, file: &str) -> Option<String> {
+    // Per object (`Triangle::mesh`): faces before, and dropped.
+    let mut counts: BTreeMap<u32, (usize, usize)> = BTreeMap::new();
+    scene.shapes.triangles.retain(|t| {
+        let count = counts.entry(t.mesh).or_default();
+        count.0 += 1;
+        let degenerate = triangle_is_degenerate(t.vertices);
+        count.1 += usize::from(degenerate);
+        !degenerate
+    });
+    for (&object, &(faces, dropped)) in &counts {
+        let object = format!("objects[{object}]");
+        if let Some(problem) = dropped_faces_problem(dropped, faces) {
+            return Some(format!("{object}: {problem}"));
+        }
+        if dropped > 0 {
+            scene.degenerate_triangles += dropped;
+            (scene.warnings).push(dropped_faces_warning(file, &object, dropped, faces));
+        }
+    }
+    None
+}
+
 struct Transform {
     linear: DMat3,
     translate: DVec3,
@@ -1945,7 +2028,8 @@ impl<'a> Tab<'a> {
                 continue;
             }
             let for_what = what.map(|w| format!(" for {w}")).unwrap_or_default();
-            let message = match suggest(key, known.iter().copied()) {
+            let key = excerpt(key);
+            let message = match suggest(&key, known.iter().copied()) {
                 Some(s) => format!("unknown key `{key}`{for_what} (did you mean `{s}`?)"),
                 None => format!(
                     "unknown key `{key}`{for_what} (expected one of {})",
@@ -2156,7 +2240,8 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 
 /// `unknown <what> `name` (did you mean `x`?)` or a list of the valid names.
 fn unknown_name(what: &str, name: &str, valid: &[&str]) -> String {
-    match suggest(name, valid.iter().copied()) {
+    let name = excerpt(name);
+    match suggest(&name, valid.iter().copied()) {
         Some(s) => format!(
             "unknown {what} `{name}` (did you mean `{s}`?); expected one of {}",
             list(valid)

@@ -3,7 +3,15 @@
 //! `kinds::texture`'s.
 
 pub use crate::kinds::{Bitmap, Texture, TextureFilter, TextureKind, UvTransform, WrapMode};
+use crate::output::{self, ImageReadError};
 use std::path::Path;
+
+/// The largest texel value of a texture, which scales the light a surface
+/// sends on: a reflectance, which Mitsuba lets exceed 1 (a surface that adds
+/// energy), but no real texture comes near 1e6, and the product of a path's
+/// few such factors then stays far inside f32 instead of overflowing to
+/// infinity and NaN.
+pub const MAX_TEXEL_VALUE: f32 = 1e6;
 
 /// The sRGB transfer function's inverse (IEC 61966-2-1): an 8-bit code's
 /// linear value.
@@ -19,7 +27,8 @@ pub fn srgb_to_linear(code: u8) -> f32 {
 
 /// Reads a texture image: `.exr` and `.hdr` through `envmap::load_image`
 /// (linear), `.png`, `.jpg`/`.jpeg` as 8- or 16-bit RGB, sRGB-decoded unless
-/// `raw` (16-bit PNGs too, as Mitsuba treats them). The error names the file.
+/// `raw` (16-bit PNGs too, as Mitsuba treats them); no texel above
+/// [`MAX_TEXEL_VALUE`]. The error names the file.
 pub fn load_texture_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
     let shown = path.display();
     let extension = path
@@ -27,14 +36,27 @@ pub fn load_texture_image(path: &Path, raw: bool) -> Result<(u32, u32, Vec<[f32;
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     match extension.as_str() {
-        "exr" | "hdr" => super::envmap::load_image(path),
+        "exr" | "hdr" => {
+            let (width, height, texels) = super::envmap::load_image(path)?;
+            let values = texels.iter().flatten();
+            if let Some((i, value)) = values.enumerate().find(|&(_, &c)| c > MAX_TEXEL_VALUE) {
+                let texel = (i / 3) as u32;
+                let (x, y) = (texel % width, texel / width);
+                return Err(format!(
+                    "{shown}: texel ({x}, {y}) holds {value:e}: a texture's values must be at \
+                     most {MAX_TEXEL_VALUE:e} (they scale the light a surface reflects)"
+                ));
+            }
+            Ok((width, height, texels))
+        }
         "png" | "jpg" | "jpeg" => {
-            let image = image::ImageReader::open(path)
-                .map_err(|e| format!("{shown}: cannot read the image file: {e}"))?
-                .with_guessed_format()
-                .map_err(|e| format!("{shown}: cannot read the image file: {e}"))?
-                .decode()
-                .map_err(|e| format!("{shown}: cannot decode the image: {e}"))?;
+            let image = output::open_image(path)
+                .and_then(output::ImageInput::decode)
+                .map_err(|e| match e {
+                    ImageReadError::Open(e) => format!("{shown}: cannot read the image file: {e}"),
+                    ImageReadError::Format(e) => format!("{shown}: cannot decode the image: {e}"),
+                    e => format!("{shown}: {e}"),
+                })?;
             let (width, height) = (image.width(), image.height());
             if width == 0 || height == 0 {
                 return Err(format!(
