@@ -570,11 +570,80 @@ fn resource_limits_are_checked_before_the_device_is_asked() {
 fn convert_onto_its_own_scene_is_refused() {
     let dir = common::TempDir::new("robustness", "convert-self");
     let scene = dir.join("scene.toml");
-    let xml = r#"<scene version="3.0.0"><shape type="sphere"/></scene>"#;
+    let xml = r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor><shape type="sphere"/></scene>"#;
     std::fs::write(&scene, xml).unwrap();
     let output = pathmix_in(&dir, &["convert", "scene.toml", "-o", "./scene.toml"]);
     let stderr = text(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("same file"), "{stderr}");
     assert_eq!(std::fs::read_to_string(&scene).unwrap(), xml);
+}
+
+/// Every file a scene reads is an input of the path check, as the scene file
+/// is: an output naming its environment map, its bitmap texture or an XML file
+/// it includes is refused, and the file is left as it was (issue 47, item 15).
+#[test]
+fn outputs_never_replace_a_file_the_scene_reads() {
+    let dir = common::TempDir::new("robustness", "scene-inputs");
+    common::write_exr(&dir.join("env.exr"), 4, 2, |x, _| [x as f32 * 0.25; 3]);
+    common::write_exr(&dir.join("tex.exr"), 2, 2, |x, y| {
+        [0.2 + 0.1 * (x + y) as f32; 3]
+    });
+    std::fs::write(
+        dir.join("scene.toml"),
+        r#"
+        [camera]
+        lookfrom = [0, 1, 4]
+        lookat = [0, 0, 0]
+        width = 8
+        height = 8
+        [render]
+        spp = 1
+        [environment]
+        file = "env.exr"
+        [materials.floor]
+        type = "lambertian"
+        albedo = { type = "bitmap", file = "tex.exr" }
+        [[objects]]
+        type = "quad"
+        q = [-1, 0, -1]
+        u = [2, 0, 0]
+        v = [0, 0, 2]
+        material = "floor"
+        "#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("part.toml"),
+        r#"<scene version="3.0.0"><shape type="sphere"/></scene>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("main.xml"),
+        r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor><include filename="part.toml"/></scene>"#,
+    )
+    .unwrap();
+    let cases: [&[&str]; 5] = [
+        &["render", "scene.toml", "--exr", "env.exr"],
+        &["render", "scene.toml", "--variance", "./env.exr"],
+        &["render", "scene.toml", "--exr", "tex.exr"],
+        &["render", "main.xml", "--exr", "part.toml"],
+        &["convert", "main.xml", "-o", "part.toml"],
+    ];
+    let before = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| {
+            let path = e.unwrap().path();
+            (path.clone(), std::fs::read(path).unwrap())
+        })
+        .collect::<BTreeMap<_, _>>();
+    for args in cases {
+        let output = pathmix_in(&dir, args);
+        let stderr = text(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains("same file"), "{args:?}: {stderr}");
+    }
+    for (path, bytes) in before {
+        assert_eq!(std::fs::read(&path).unwrap(), bytes, "{}", path.display());
+    }
 }

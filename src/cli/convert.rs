@@ -23,14 +23,6 @@ pub struct ConvertArgs {
 }
 
 pub fn convert(args: ConvertArgs) -> Result<(), Failure> {
-    // The output must not replace the scene it is converted from.
-    let uses = [
-        PathUse::input("SCENE", &args.scene),
-        PathUse::output("-o", &args.output),
-    ];
-    if let Some(collision) = paths::collision(&uses) {
-        return Err(Failure::input(collision));
-    }
     let text = paths::read_input_text(&args.scene).map_err(|e| {
         Failure::input(format!(
             "{}: cannot read the scene file: {e}",
@@ -61,8 +53,18 @@ pub fn convert(args: ConvertArgs) -> Result<(), Failure> {
     let converted = Converted::read(&args.scene, &args.define).map_err(Failure::input)?;
     let toml = converted.to_toml(&folder, &args.scene);
     // What is written must read back as the scene `render` would render.
-    Scene::parse(&toml, &args.output.display().to_string())
+    let scene = Scene::parse(&toml, &args.output.display().to_string())
         .map_err(|e| Failure::input(converted.locate(e)))?;
+    // The output must replace none of the files it is converted from.
+    let inputs = [args.scene.as_path()]
+        .into_iter()
+        .chain(converted.includes.iter().map(PathBuf::as_path))
+        .chain(scene.inputs.iter().map(PathBuf::as_path));
+    let mut uses: Vec<PathUse<&str>> = inputs.map(|p| PathUse::input("SCENE", p)).collect();
+    uses.push(PathUse::output("-o", &args.output));
+    if let Some(collision) = paths::collision(&uses) {
+        return Err(Failure::input(collision));
+    }
     output::write_atomically(&args.output, |w| w.write_all(toml.as_bytes()))
         .map_err(Failure::runtime)?;
     super::print_approximations(&args.scene, &converted.warnings);

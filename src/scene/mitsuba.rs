@@ -97,6 +97,8 @@ pub fn is_mitsuba(path: &Path, text: &str) -> bool {
 pub struct Converted {
     /// The pathmix scene; mesh paths are absolute.
     pub document: Table,
+    /// The files the scene includes (`<include>`), each as often as included.
+    pub includes: Vec<PathBuf>,
     /// Each approximation made, once.
     pub warnings: Vec<String>,
     /// The element each object (`objects[i]`) and material came from, for messages.
@@ -117,6 +119,7 @@ impl Converted {
             used_params: HashSet::new(),
             search: vec![top_dir],
             includes: Vec::new(),
+            files: Vec::new(),
             elements: 0,
             text_bytes: 0,
         };
@@ -133,7 +136,9 @@ impl Converted {
         for element in &elements {
             builder.top_level(element)?;
         }
-        builder.finish()
+        let mut converted = builder.finish()?;
+        converted.includes = reader.files.split_off(1);
+        Ok(converted)
     }
 
     /// A parse error of the TOML document, placed at the XML element it came from.
@@ -280,6 +285,8 @@ struct Reader {
     search: Vec<PathBuf>,
     /// The include chain, for cycles.
     includes: Vec<PathBuf>,
+    /// Every file read, the scene's own first.
+    files: Vec<PathBuf>,
     /// Elements read so far, each inclusion counted again (`MAX_ELEMENTS`).
     elements: usize,
     /// Text read so far, each inclusion counted again (`MAX_TEXT_BYTES`).
@@ -300,6 +307,7 @@ impl Reader {
         };
         let text = crate::paths::read_input_text(path)
             .map_err(|e| whole_file(format!("cannot read `{file}`: {e}")))?;
+        self.files.push(path.to_path_buf());
         self.text_bytes += text.len();
         if self.text_bytes > MAX_TEXT_BYTES {
             return Err(whole_file(format!(
@@ -1670,6 +1678,7 @@ impl<'a> Builder<'a> {
         }
         Ok(Converted {
             document,
+            includes: Vec::new(),
             warnings: self.warnings,
             origins: self.origins,
             sensor: sensor.origin.clone(),

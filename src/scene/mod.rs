@@ -15,7 +15,7 @@ pub mod texture;
 use glam::Vec3;
 use serde::Serialize;
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
     Disk, Distribution, Material, MaterialKind, Quad, Shapes, Sphere, Triangle,
@@ -236,6 +236,9 @@ pub struct Scene {
     /// What the user should know about how the file was read (glTF materials
     /// mapped to pathmix's, mesh faces dropped).
     pub warnings: Vec<String>,
+    /// The files read besides the scene file (meshes, images, included XML),
+    /// as they were opened: no output may replace one.
+    pub inputs: Vec<PathBuf>,
 }
 
 /// A scene as read, with the approximations made reading it (Mitsuba scenes).
@@ -304,7 +307,8 @@ impl Scene {
         if mitsuba::is_mitsuba(path, &text) {
             let converted = mitsuba::Converted::read(path, defines)?;
             let toml = toml::to_string(&converted.document).expect("a TOML table serializes");
-            let scene = Scene::parse(&toml, &file).map_err(|e| converted.locate(e))?;
+            let mut scene = Scene::parse(&toml, &file).map_err(|e| converted.locate(e))?;
+            scene.inputs.extend(converted.includes);
             return Ok(LoadedScene {
                 scene,
                 warnings: converted.warnings,

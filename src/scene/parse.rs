@@ -22,7 +22,8 @@ use super::{
     Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle,
     excerpt,
 };
-use std::path::Path;
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
 
 /// Settings given over the scene file's (a command line's), validated like the
 /// file's values by [`Scene::apply_overrides`].
@@ -146,10 +147,12 @@ pub(super) const ALL_OBJECT_KEYS: &[&str] = &[
 
 pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     let root: Table = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
+    let inputs = RefCell::new(Vec::new());
     let top = Tab {
         file,
         table: &root,
         path: String::new(),
+        inputs: &inputs,
     };
     top.check_keys(TOP_KEYS, None)?;
 
@@ -202,6 +205,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         point_lights,
         warnings: objects.warnings,
         environment,
+        inputs: inputs.take(),
     };
     if scale == 1.0 {
         return Ok(scene);
@@ -370,6 +374,7 @@ fn parse_filter(t: &Tab) -> Result<Filter> {
                 file: t.file,
                 table: t.table,
                 path: t.at("filter"),
+                inputs: t.inputs,
             },
             name,
             None,
@@ -496,10 +501,7 @@ fn parse_environment(t: &Tab) -> Result<EnvironmentMap> {
     } else {
         rotation(t)?
     };
-    let path = Path::new(t.file)
-        .parent()
-        .unwrap_or(Path::new(""))
-        .join(file);
+    let path = t.input(file);
     let (width, height, texels) = load_image(&path).map_err(|m| t.err(t.at("file"), m))?;
     Ok(EnvironmentMap {
         file: file.to_string(),
@@ -1020,10 +1022,7 @@ fn parse_texture(s: &Tab) -> Result<Texture> {
                 TextureFilter::from_name,
             )?
             .unwrap_or(TextureFilter::Bilinear);
-            let path = Path::new(s.file)
-                .parent()
-                .unwrap_or(Path::new(""))
-                .join(file);
+            let path = s.input(file);
             let (width, height, texels) =
                 load_texture_image(&path, raw).map_err(|m| s.err(s.at("file"), m))?;
             if width as u64 * height as u64 > MAX_TEXTURE_TEXELS {
@@ -1219,6 +1218,7 @@ fn typed_tables<'a, 'b>(
             file: top.file,
             table,
             path,
+            inputs: top.inputs,
         };
         let Some(ty) = t.string("type")? else {
             t.check_keys(all_keys, None)?;
@@ -1425,11 +1425,7 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
             }
             "mesh" => {
                 let name = t.require("file", t.string("file")?)?;
-                // Relative to the scene file, as every path in it.
-                let path = Path::new(top.file)
-                    .parent()
-                    .unwrap_or(Path::new(""))
-                    .join(name);
+                let path = t.input(name);
                 let smooth = t.boolean("smooth")?.unwrap_or(true);
                 let mesh = load_mesh(&path).map_err(|e| t.err(t.at("file"), e.to_string()))?;
                 let world: Vec<Vec3> = mesh
@@ -1991,9 +1987,22 @@ struct Tab<'a> {
     table: &'a Table,
     /// Empty at the top level.
     path: String,
+    /// The files the scene reads, as `input` resolves them (`Scene::inputs`).
+    inputs: &'a RefCell<Vec<PathBuf>>,
 }
 
 impl<'a> Tab<'a> {
+    /// The file `name` names, relative to the scene file as every path in it,
+    /// recorded as one of the scene's inputs.
+    fn input(&self, name: &str) -> PathBuf {
+        let path = Path::new(self.file)
+            .parent()
+            .unwrap_or(Path::new(""))
+            .join(name);
+        self.inputs.borrow_mut().push(path.clone());
+        path
+    }
+
     fn err(&self, location: impl Into<String>, message: impl Into<String>) -> SceneError {
         SceneError {
             file: self.file.to_string(),
@@ -2053,6 +2062,7 @@ impl<'a> Tab<'a> {
                 file: self.file,
                 table,
                 path: self.at(key),
+                inputs: self.inputs,
             })),
             Some(other) => Err(self.err(
                 self.at(key),

@@ -114,6 +114,8 @@ impl SceneIdentity {
             // Messages only: what they describe is in the materials.
             warnings: _,
             environment,
+            // Where the meshes and images came from: what they hold is hashed.
+            inputs: _,
         } = scene;
         let RenderSettings {
             // Only says when to stop: a resume or a shard may ask for more.
@@ -1339,6 +1341,7 @@ mod tests {
                 to_world: Mat3::IDENTITY,
             }),
             warnings: Vec::new(),
+            inputs: Vec::new(),
         }
     }
 

@@ -340,7 +340,9 @@ impl Session {
         if checkpoint.is_none() && request.checkpoint_every.is_some() {
             return Err(SessionError::CheckpointEveryWithoutCheckpoint);
         }
-        check_collisions(request, &scene_path, &outputs, checkpoint.as_deref())?;
+        // Before the scene is read (an output may name it), and again with the
+        // files it reads.
+        check_collisions(request, &scene_path, &[], &outputs, checkpoint.as_deref())?;
         // A resume without parameters reads the scene with those it was rendered with.
         let defines = match (saved, request.defines.is_empty()) {
             (Some(c), true) => recorded_defines(c)?,
@@ -350,6 +352,13 @@ impl Session {
             mut scene,
             warnings: approximations,
         } = Scene::load_with(&scene_path, &defines)?;
+        check_collisions(
+            request,
+            &scene_path,
+            &scene.inputs,
+            &outputs,
+            checkpoint.as_deref(),
+        )?;
         scene.apply_overrides(&SceneOverrides {
             spp: request.spp,
             ..overrides.clone()
@@ -808,10 +817,12 @@ fn refuse_unrecordable_paths(request: &Request) -> Result<(), SessionError> {
 }
 
 /// Every path this session reads or writes, compared with every other before
-/// any work: no output may replace an input or another output.
+/// any work: no output may replace an input (the scene file, the files it
+/// reads, the checkpoint resumed) or another output.
 fn check_collisions(
     request: &Request,
     scene_path: &Path,
+    scene_inputs: &[PathBuf],
     outputs: &Outputs,
     checkpoint: Option<&Path>,
 ) -> Result<(), SessionError> {
@@ -819,10 +830,13 @@ fn check_collisions(
         setting,
         recorded: !given,
     };
-    let mut uses = vec![PathUse::input(
-        source(Setting::Scene, request.scene.is_some()),
-        scene_path,
-    )];
+    let scene = source(Setting::Scene, request.scene.is_some());
+    let mut uses = vec![PathUse::input(scene, scene_path)];
+    uses.extend(
+        scene_inputs
+            .iter()
+            .map(|input| PathUse::input(scene, input)),
+    );
     let resume = source(Setting::Resume, true);
     match (&request.resume, checkpoint) {
         // Resuming saves to the checkpoint it read, as it was meant to.
