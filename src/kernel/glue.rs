@@ -8,12 +8,12 @@ use crate::abi::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_ERROR_STRIPS,
     BINDING_PARAMS, ERROR_STRIP_PIXELS, ERROR_WORKGROUP_SIZE, GpuLayout, LAYER_REPLICATES,
     LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION, MATERIAL_FLAGS,
-    REPLICATES, TEXTURE_ARRAY_WIDTH,
+    REPLICATES, TEXTURE_ARRAY_WIDTH, WgslValue,
 };
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
-    ErasedLayout, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT, NO_LIGHT, PRIMITIVE_KINDS,
-    PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
+    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT,
+    NO_LIGHT, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -58,6 +58,16 @@ pub fn shared_constants() -> String {
     constant("TEXTURE_ARRAY_WIDTH", TEXTURE_ARRAY_WIDTH);
     constant("NO_LIGHT", NO_LIGHT);
     out
+}
+
+/// A tabulated pixel filter's quantiles (`shaders/filter.wgsl`), bit for bit
+/// the host's.
+pub fn filter_table(table: &FilterTable) -> String {
+    format!(
+        "const FILTER_TABLE_BINS: u32 = {FILTER_TABLE_BINS}u;\nconst FILTER_QUANTILES: {} = {};\n",
+        <[f32; FILTER_TABLE_BINS + 1]>::wgsl_type(),
+        table.quantiles.wgsl_value()
+    )
 }
 
 /// The scene's arrays, the closest-hit query over the primitive kinds present
