@@ -947,8 +947,9 @@ impl KernelConfig {
         config.compose(&modules)
     }
 
-    /// A compute shader running the pixel filter's offset sampler on its own,
-    /// with independent random numbers: the entry point `probe_filter` of
+    /// A compute shader running the offset sampler of a pixel filter other than
+    /// the box (which `camera_ray` draws itself) on its own, with independent
+    /// random numbers: the entry point `probe_filter` of
     /// `shaders/filter_probe.wgsl`, whose override constants are `filter.constants()`.
     pub fn filter_probe_source(filter: Filter) -> Result<String, ComposeError> {
         let config = KernelConfig {
