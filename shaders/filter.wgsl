@@ -73,9 +73,10 @@ fn filter_eval(x: f32) -> f32 {
 #endif
 
 #if FILTER_TABLE
-// Generated (`FilterTable` in src/kinds/filter.rs): FILTER_TABLE_BINS and
-// FILTER_QUANTILES, the points of [0, r] below which |f| holds 0, 1/N, ..., 1
-// of its mass; FILTER_TABLE_SCALE is N / (integral of f over [0, r]).
+// Generated (`glue::filter_table`, from `FilterTable` in src/kinds/filter.rs):
+// FILTER_TABLE_BINS (N) and `filter_bins_at(j)`, the bounds (q_j, q_j+1) of bin
+// j, the quantiles of |f| over [0, r] (|f| holds j / N of its mass below q_j);
+// FILTER_TABLE_SCALE is N / (integral of f over [0, r]).
 override FILTER_TABLE_SCALE: f32;
 
 // One axis of a filter with negative lobes, drawn from |f|: the side from the
@@ -86,9 +87,9 @@ fn filter_table_axis(u: f32) -> vec2<f32> {
     let v = 2.0 * u - 1.0;
     let scaled = abs(v) * f32(FILTER_TABLE_BINS);
     let bin = min(u32(scaled), FILTER_TABLE_BINS - 1u);
-    let low = FILTER_QUANTILES[bin];
-    let width = FILTER_QUANTILES[bin + 1u] - low;
-    let x = low + (scaled - f32(bin)) * width;
+    let bounds = filter_bins_at(bin);
+    let width = bounds.y - bounds.x;
+    let x = bounds.x + (scaled - f32(bin)) * width;
     return vec2<f32>(select(x, -x, v < 0.0), filter_eval(x) * width * FILTER_TABLE_SCALE);
 }
 

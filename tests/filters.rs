@@ -372,7 +372,7 @@ fn a_constant_scene_renders_its_constant() {
             height = 4
             filter = {}
             [render]
-            spp = 4096
+            spp = 65536
             max_depth = 0
             background = [1, 1, 1]
             sampler = "independent"
@@ -429,7 +429,7 @@ fn a_light_edge_is_the_filters_integral() {
             height = 1
             filter = {}
             [render]
-            spp = 8192
+            spp = 65536
             max_depth = 0
             sampler = "independent"
             [materials.glow]

@@ -1828,7 +1828,7 @@ pub(crate) mod tests {
                 let source = config.source().unwrap();
                 assert_eq!(source.contains("fn filter_offset"), filter != Filter::Box);
                 assert_eq!(
-                    source.contains("FILTER_QUANTILES"),
+                    source.contains("fn filter_bins_at"),
                     filter.table().is_some(),
                     "{what}"
                 );
