@@ -51,32 +51,10 @@ struct CameraRay {
     weight: f32,
 }
 
-#if FILTER_GAUSSIAN
-// Terms computed on the host (`GaussianFilterTerms` in src/kernel/mod.rs).
-override FILTER_STDDEV: f32;
-override FILTER_RADIUS: f32;
-override FILTER_ERF_RADIUS: f32;
-override FILTER_FLOOR: f32;
-override FILTER_WEIGHT_SCALE: f32;
-
-// Offsets (in pixels) drawn from the Gaussian truncated to [-r, r] by inverting its
-// CDF per axis, and the weight f/g * Z_g/Z_f that makes the estimate the one of the
-// filter f = g - g(r) (mean weight 1).
-fn gaussian_filter_offset(u: vec2<f32>) -> vec3<f32> {
-    let x = clamp(
-        FILTER_STDDEV * 1.41421356 * vec2<f32>(erfinv((2.0 * u.x - 1.0) * FILTER_ERF_RADIUS), erfinv((2.0 * u.y - 1.0) * FILTER_ERF_RADIUS)),
-        vec2<f32>(-FILTER_RADIUS),
-        vec2<f32>(FILTER_RADIUS),
-    );
-    let g = exp(-0.5 * (x / FILTER_STDDEV) * (x / FILTER_STDDEV));
-    let weight = max(g - FILTER_FLOOR, vec2<f32>(0.0)) / g * FILTER_WEIGHT_SCALE;
-    return vec3<f32>(x, weight.x * weight.y);
-}
-#endif
-
 fn camera_ray(pixel: vec2<u32>) -> CameraRay {
-#if FILTER_GAUSSIAN
-    let offset = gaussian_filter_offset(sample_2d());
+#if FILTER_OFFSET
+    // The scene's filter (`shaders/filter.wgsl`).
+    let offset = filter_offset(sample_2d());
     let to_film = params.to_pixel00
         + (f32(pixel.x) + offset.x) * params.delta_u
         + (f32(pixel.y) + offset.y) * params.delta_v;

@@ -691,6 +691,21 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             "the scene has no <sensor>",
         ),
         (
+            "rfilter-radius",
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><film type=\"hdrfilm\">\n<rfilter type=\"tent\"><float name=\"radius\" value=\"0\"/></rfilter></film></sensor>\n</scene>",
+            ":3:1: <rfilter type=\"tent\">: must be > 0, got 0 (pathmix field `camera.filter.radius`)",
+        ),
+        (
+            "rfilter-lobes",
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><film type=\"hdrfilm\">\n<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"0\"/></rfilter></film></sensor>\n</scene>",
+            ":3:1: <rfilter type=\"lanczos\">: must be between 1 and 64, got 0",
+        ),
+        (
+            "rfilter-type",
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><film type=\"hdrfilm\">\n<rfilter type=\"bilinear\"/></film></sensor>\n</scene>",
+            ":3:1: <rfilter type=\"bilinear\">: rfilter `bilinear`: not supported",
+        ),
+        (
             "mirrored-camera",
             "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"40\"/><transform name=\"to_world\"><scale x=\"-1\"/></transform></sensor>\n</scene>",
             "a mirroring sensor to_world is not supported",

@@ -11,7 +11,8 @@ use crate::abi::{
 use crate::accel::{self, WideBvh, WideBvhNode};
 use crate::environment::EnvironmentInfo;
 use crate::kinds::{
-    ErasedLayout, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS, PackedArray, TextureInfo,
+    ErasedLayout, FILTER_FLAGS, FILTER_MODULE, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS,
+    PackedArray, TextureInfo,
 };
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::pack::SceneData;
@@ -32,6 +33,7 @@ pub const KERNEL: ShaderModule = shader_module!("kernel");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
+pub const FILTER_PROBE: ShaderModule = shader_module!("filter_probe");
 pub const DELTA_LIGHTS: ShaderModule = shader_module!("delta_lights");
 pub const TEXTURES: ShaderModule = shader_module!("textures");
 pub const ERROR_ESTIMATE: ShaderModule = shader_module!("error_estimate");
@@ -49,7 +51,6 @@ const FEATURE_FLAGS: &[&str] = &[
     "SAMPLER_SOBOL",
     "BVH",
     "SHADING_NORMALS",
-    "FILTER_GAUSSIAN",
     "ONE_SIDED",
     "ENVIRONMENT",
     "LIGHT_ENVIRONMENT",
@@ -58,7 +59,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "TEXTURES",
 ];
 
-/// Every flag a module may test: the features and each kind's presence flags.
+/// Every flag a module may test: the features, the filters' and each kind's presence flags.
 pub fn known_flags() -> Vec<String> {
     let primitives = PRIMITIVE_KINDS.iter().flat_map(|kind| {
         let normals = kind.shading_normals.is_some().then(|| kind.normals_flag());
@@ -67,6 +68,7 @@ pub fn known_flags() -> Vec<String> {
     let materials = MATERIAL_KINDS.iter().map(|kind| kind.flag());
     FEATURE_FLAGS
         .iter()
+        .chain(FILTER_FLAGS)
         .map(|flag| flag.to_string())
         .chain(primitives)
         .chain(materials)
@@ -736,10 +738,6 @@ impl KernelConfig {
             ("BVH", self.bvh()),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
             ("ONE_SIDED", self.one_sided),
-            (
-                "FILTER_GAUSSIAN",
-                matches!(self.filter, Filter::Gaussian { .. }),
-            ),
             ("ENVIRONMENT", self.environment),
             ("LIGHT_ENVIRONMENT", self.light_environment),
             ("DELTA_LIGHTS", self.delta_lights),
@@ -754,6 +752,7 @@ impl KernelConfig {
                 flags.insert(flag.to_string());
             }
         }
+        flags.extend(self.filter.flags().iter().map(|flag| flag.to_string()));
         flags
     }
 
@@ -791,8 +790,22 @@ impl KernelConfig {
         }
         modules.push(STRATEGY);
         modules.push(self.accumulate_module());
+        modules.extend(self.filter_modules());
         modules.push(KERNEL);
         modules
+    }
+
+    /// The pixel filter's sampler and, for a tabulated filter, its table;
+    /// nothing for the box filter, which `camera_ray` draws itself.
+    fn filter_modules(&self) -> Vec<ShaderModule> {
+        let table = self.filter.table().map(|table| ShaderModule {
+            name: "filter_table",
+            source: glue::filter_table(&table).into(),
+        });
+        match self.filter {
+            Filter::Box => vec![],
+            _ => table.into_iter().chain([FILTER_MODULE]).collect(),
+        }
     }
 
     /// The error estimate's shader over this kernel's accumulator
@@ -931,6 +944,30 @@ impl KernelConfig {
             ENVIRONMENT,
             ENVIRONMENT_PROBE,
         ];
+        config.compose(&modules)
+    }
+
+    /// A compute shader running the offset sampler of a pixel filter other than
+    /// the box (which `camera_ray` draws itself) on its own, with independent
+    /// random numbers: the entry point `probe_filter` of
+    /// `shaders/filter_probe.wgsl`, whose override constants are `filter.constants()`.
+    pub fn filter_probe_source(filter: Filter) -> Result<String, ComposeError> {
+        let config = KernelConfig {
+            sampler: Sampler::Independent,
+            filter,
+            ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+        };
+        let mut modules = vec![
+            ShaderModule {
+                name: "constants",
+                source: glue::shared_constants().into(),
+            },
+            COMMON,
+            RNG,
+            SAMPLING,
+        ];
+        modules.extend(config.filter_modules());
+        modules.push(FILTER_PROBE);
         config.compose(&modules)
     }
 
@@ -1107,16 +1144,7 @@ impl KernelConfig {
             ("LIGHT_WEIGHT", self.light_weight as f64),
             ("RR_DEPTH", self.rr_depth.unwrap_or(u32::MAX) as f64),
         ];
-        if let Filter::Gaussian { stddev } = self.filter {
-            let g = GaussianFilterTerms::new(stddev.into());
-            constants.extend([
-                ("FILTER_STDDEV", g.stddev),
-                ("FILTER_RADIUS", g.radius),
-                ("FILTER_ERF_RADIUS", g.erf_radius),
-                ("FILTER_FLOOR", g.floor),
-                ("FILTER_WEIGHT_SCALE", g.weight_scale),
-            ]);
-        }
+        constants.extend(self.filter.constants());
         constants
     }
 
@@ -1143,40 +1171,6 @@ pub fn accumulator_layers(variance: bool, sampler: Sampler) -> u32 {
         (false, _) => LAYER_SUM_COMPENSATION + 1,
         (true, Sampler::Independent) => LAYER_SQUARES_COMPENSATION + 1,
         (true, Sampler::Sobol) => replicate_layer(REPLICATES - 1) + 2,
-    }
-}
-
-/// The host-side terms of the Gaussian filter's sampling (`shaders/kernel.wgsl`).
-/// Per axis the filter is `f(x) = g(x) - g(r)` on `[-r, r]`, `g(x) = exp(-x^2 / 2s^2)`,
-/// `r = 4s`. The kernel draws `x` from the truncated Gaussian `g / Z_g` exactly, by
-/// inverting its CDF, and weights the sample by `f(x) / g(x) * Z_g / Z_f`, whose mean
-/// is 1: the estimate is `integral f L / integral f`, unbiased.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GaussianFilterTerms {
-    pub stddev: f64,
-    pub radius: f64,
-    /// `erf(r / (s sqrt 2))`: the CDF's range to invert into.
-    pub erf_radius: f64,
-    /// `g(r)`, subtracted so the filter reaches zero at its radius.
-    pub floor: f64,
-    /// `Z_g / Z_f`, with `Z_g = s sqrt(2 pi) erf(r / (s sqrt 2))` and `Z_f = Z_g - 2 r g(r)`.
-    pub weight_scale: f64,
-}
-
-impl GaussianFilterTerms {
-    pub fn new(stddev: f64) -> GaussianFilterTerms {
-        let radius = 4.0 * stddev;
-        let erf_radius = libm::erf(radius / (stddev * std::f64::consts::SQRT_2));
-        let floor = (-radius * radius / (2.0 * stddev * stddev)).exp();
-        let z_g = stddev * (2.0 * std::f64::consts::PI).sqrt() * erf_radius;
-        let z_f = z_g - 2.0 * radius * floor;
-        GaussianFilterTerms {
-            stddev,
-            radius,
-            erf_radius,
-            floor,
-            weight_scale: z_g / z_f,
-        }
     }
 }
 
@@ -1790,49 +1784,61 @@ pub(crate) mod tests {
         primitive.or_else(material).unwrap()
     }
 
-    /// The Gaussian filter's code, with every strategy and both samplers: it
-    /// validates, declares each override constant `constants()` sets, and is absent
-    /// under the box filter.
-    #[test]
-    fn gaussian_filter_kernels_validate() {
-        for strategy in Strategy::ALL {
-            for sampler in Sampler::ALL {
-                let config = KernelConfig {
-                    filter: Filter::Gaussian { stddev: 0.5 },
-                    sampler,
-                    ..KernelConfig::general(strategy, AccumulatorKind::Buffer)
-                };
-                let module = validate(&config);
-                let overrides: Vec<&str> = module
-                    .overrides
-                    .iter()
-                    .filter_map(|(_, o)| o.name.as_deref())
-                    .collect();
-                for (name, _) in config.constants() {
-                    assert!(overrides.contains(&name), "{name} not declared");
-                }
-            }
+    /// One of each pixel filter.
+    pub(crate) const FILTERS: [Filter; 6] = [
+        Filter::Box,
+        Filter::Gaussian { stddev: 0.5 },
+        Filter::Tent { radius: 1.25 },
+        Filter::Mitchell { b: 0.25, c: 0.55 },
+        Filter::CatmullRom,
+        Filter::Lanczos { lobes: 3 },
+    ];
+
+    /// `constants` sets only override constants `module` declares, and every
+    /// one it declares without a default (a pipeline fails on one without a value).
+    fn assert_overrides_set(module: &naga::Module, constants: &[(&str, f64)], what: &str) {
+        let set: BTreeSet<&str> = constants.iter().map(|&(name, _)| name).collect();
+        for (_, o) in module.overrides.iter() {
+            let name = o.name.as_deref().unwrap();
+            assert!(
+                o.init.is_some() || set.contains(name),
+                "{what}: {name} unset"
+            );
         }
-        let boxed = KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer);
-        assert!(!boxed.source().unwrap().contains("gaussian_filter_offset"));
-        assert!(
-            boxed
-                .constants()
-                .iter()
-                .all(|(n, _)| !n.starts_with("FILTER"))
-        );
+        for name in set {
+            let mut declared = module.overrides.iter();
+            let declared = declared.any(|(_, o)| o.name.as_deref() == Some(name));
+            assert!(declared, "{what}: {name} not declared");
+        }
     }
 
-    /// The host terms against values computed independently (Mitsuba's default).
+    /// Each filter's code, with both samplers, and its probe: they validate
+    /// with their override constants set. Only the scene's filter is compiled in.
     #[test]
-    fn gaussian_filter_terms() {
-        let g = GaussianFilterTerms::new(0.5);
-        assert_eq!(g.radius, 2.0);
-        assert!((g.erf_radius - 0.999_936_657_516_333_8).abs() < 1e-15);
-        assert!((g.floor - (-8f64).exp()).abs() < 1e-18);
-        // Z_g = 0.5 sqrt(2 pi) erf(2 sqrt 2); Z_f = Z_g - 4 exp(-8).
-        let z_g = 0.5 * (2.0 * std::f64::consts::PI).sqrt() * 0.999_936_657_516_333_8;
-        assert!((g.weight_scale - z_g / (z_g - 4.0 * (-8f64).exp())).abs() < 1e-12);
+    fn filter_kernels_validate() {
+        for filter in FILTERS {
+            for sampler in Sampler::ALL {
+                let config = KernelConfig {
+                    filter,
+                    sampler,
+                    ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+                };
+                let what = format!("{filter:?}");
+                assert_overrides_set(&validate(&config), &config.constants(), &what);
+                let source = config.source().unwrap();
+                assert_eq!(source.contains("fn filter_offset"), filter != Filter::Box);
+                assert_eq!(
+                    source.contains("fn filter_bins_at"),
+                    filter.table().is_some(),
+                    "{what}"
+                );
+            }
+            if filter != Filter::Box {
+                let source = KernelConfig::filter_probe_source(filter).unwrap();
+                let module = validate_source(&source, &filter);
+                assert_overrides_set(&module, &filter.constants(), &format!("{filter:?} probe"));
+            }
+        }
     }
 
     #[test]

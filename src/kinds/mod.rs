@@ -1,4 +1,5 @@
-//! The kinds of primitive and material pathmix renders, each described once.
+//! The kinds of primitive, material, texture and pixel filter pathmix renders,
+//! each described once.
 //!
 //! A kind's description names its WGSL module and packed struct and says what it
 //! supports; the kernel's presence flags, modules, scene arrays, bindings, baked
@@ -10,6 +11,7 @@
 
 mod coat;
 mod disk;
+mod filter;
 mod material;
 mod quad;
 mod sphere;
@@ -18,6 +20,9 @@ mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
 pub use disk::{Disk, PackedDisk};
+pub use filter::{
+    FILTER_FLAGS, FILTER_MODULE, FILTER_TABLE_BINS, Filter, FilterTable, GaussianFilterTerms,
+};
 pub use material::{
     Distribution, Lobe, MATERIAL_KINDS, Material, MaterialKind, MaterialModel, MaterialTables,
     material_kind_id, pack_material,

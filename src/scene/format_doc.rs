@@ -4,8 +4,8 @@
 
 use super::parse::{
     ALL_LIGHT_KEYS, ALL_MATERIAL_KEYS, ALL_OBJECT_KEYS, BITMAP_KEYS, CAMERA_KEYS,
-    CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, FILTER_TYPES, LIGHT_TYPES, MATERIAL_TYPES, OBJECT_TYPES,
-    RENDER_KEYS, SCENE_KEYS, TEXTURE_TYPES, TOP_KEYS, TRANSFORM_KEYS,
+    CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, FILTER_KEYS, LIGHT_TYPES, MATERIAL_TYPES, OBJECT_TYPES,
+    RENDER_KEYS, SCENE_KEYS, TEXTURE_TYPES, TOP_KEYS, TRANSFORM_KEYS, filter_types,
 };
 use crate::kinds::MATERIAL_KINDS;
 
@@ -46,7 +46,7 @@ fn every_table_type_and_key_is_documented() {
             .map(|n| format!("table [{n}]")),
     );
     for types in [
-        FILTER_TYPES,
+        &filter_types()[..],
         MATERIAL_TYPES,
         LIGHT_TYPES,
         OBJECT_TYPES,
@@ -58,7 +58,13 @@ fn every_table_type_and_key_is_documented() {
                 .map(|n| format!("type \"{n}\"")),
         );
     }
+    let filter_keys: Vec<&str> = FILTER_KEYS
+        .iter()
+        .flat_map(|(_, keys)| *keys)
+        .copied()
+        .collect();
     for keys in [
+        &filter_keys[..],
         SCENE_KEYS,
         CAMERA_KEYS,
         RENDER_KEYS,

@@ -8,8 +8,8 @@
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
 //! `constant`, `envmap`, `point` and `spot` emitters; `bitmap` and `checkerboard` textures (nested or
-//! by `<ref>`) on the colour each BSDF can take one for (`Builder::texturable`); the `perspective` sensor with `hdrfilm`, its `box` or
-//! `gaussian` filter and a sampler; the `path` and `direct` integrators. Anything
+//! by `<ref>`) on the colour each BSDF can take one for (`Builder::texturable`); the `perspective` sensor with `hdrfilm`, its `rfilter`
+//! (`box`, `gaussian`, `tent`, `mitchell`, `catmullrom`, `lanczos`) and a sampler; the `path` and `direct` integrators. Anything
 //! else is an error naming `file:line:col` and the element; an approximation is a
 //! warning.
 
@@ -1940,18 +1940,47 @@ impl<'a> Builder<'a> {
             [f] => {
                 f.check_attrs(&["type", "id", "name"])?;
                 let mut props = Props::new(f);
-                let filter = match f.ty() {
-                    "box" => Value::String("box".into()),
-                    "gaussian" => gaussian_filter(props.float("stddev")?.unwrap_or(0.5)),
+                // Parameters as Mitsuba names them; their defaults and checks are the
+                // TOML reader's, whose errors point here.
+                let parameters: &[(&str, &str)] = match f.ty() {
+                    "box" | "catmullrom" => &[],
+                    "gaussian" => &[("stddev", "stddev")],
+                    "tent" => &[("radius", "radius")],
+                    "mitchell" => &[("B", "b"), ("C", "c")],
+                    "lanczos" => &[("lobes", "lobes")],
                     other => {
                         return Err(f.origin.error(format!(
-                            "rfilter `{other}`: not supported (supported: box, gaussian)",
+                            "rfilter `{other}`: not supported (supported: box, gaussian, tent, \
+                             mitchell, catmullrom, lanczos)",
                             other = excerpt(other)
                         )));
                     }
                 };
+                let mut filter = Table::new();
+                filter.insert("type".into(), Value::String(f.ty().into()));
+                for &(mitsuba_name, name) in parameters {
+                    let value = match mitsuba_name {
+                        "lobes" => props.integer(mitsuba_name)?.map(Value::Integer),
+                        _ => props.float(mitsuba_name)?.map(Value::Float),
+                    };
+                    if let Some(value) = value {
+                        filter.insert(name.into(), value);
+                    }
+                }
                 props.finish()?;
-                filter
+                self.origins
+                    .push(("camera.filter".into(), f.origin.clone()));
+                // Mitsuba's film takes any filter of radius 0.5 (in f32) for its box
+                // filter (`ReconstructionFilter::is_box_filter`).
+                let radius = match (f.ty(), filter.get("radius"), filter.get("stddev")) {
+                    ("tent", Some(Value::Float(radius)), _) => Some(*radius),
+                    ("gaussian", _, Some(Value::Float(stddev))) => Some(4.0 * stddev),
+                    _ => None,
+                };
+                match radius {
+                    Some(radius) if radius as f32 == 0.5 => Value::String("box".into()),
+                    _ => Value::Table(filter),
+                }
             }
             [_, second, ..] => return Err(second.origin.error("a second <rfilter>")),
         };

@@ -18,7 +18,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Disk, Distribution, Material, MaterialKind, Quad, Shapes, Sphere, Triangle,
+    Disk, Distribution, Filter, Material, MaterialKind, Quad, Shapes, Sphere, Triangle,
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
@@ -140,23 +140,6 @@ pub struct Camera {
     pub width: u32,
     pub height: u32,
     pub filter: Filter,
-}
-
-/// The pixel reconstruction filter, applied by filter importance sampling: each
-/// camera ray's offset from the pixel centre is drawn from the filter itself, so
-/// every sample stays in its own pixel (unbiased, no splatting).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub enum Filter {
-    /// Uniform over the pixel (offsets in [-0.5, 0.5) per axis): the default.
-    Box,
-    /// Per axis `exp(-x^2 / (2 stddev^2))` minus its value at the radius `4 stddev`
-    /// (in pixels), as Mitsuba's and pbrt-v4's Gaussian filters.
-    Gaussian { stddev: f32 },
-}
-
-impl Filter {
-    /// Mitsuba's default Gaussian: standard deviation 0.5 pixels.
-    pub const GAUSSIAN_DEFAULT_STDDEV: f32 = 0.5;
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -348,3 +348,76 @@ pub fn write_exr(
     })
     .unwrap();
 }
+
+/// Pearson's statistic over the cells, those expecting fewer than 5 samples
+/// pooled into one (as pbrt and Mitsuba do), and its p-value. A pool still
+/// expecting fewer than 5 is left out, unless it holds clearly more samples
+/// than that: samples where the density says there are almost none.
+pub fn chi_square_p_value(observed: &[f64], expected: &[f64]) -> f64 {
+    let (mut statistic, mut cells) = (0.0, 0usize);
+    let (mut pooled_observed, mut pooled_expected) = (0.0, 0.0);
+    for (&o, &e) in observed.iter().zip(expected) {
+        if e < 5.0 {
+            pooled_observed += o;
+            pooled_expected += e;
+        } else {
+            statistic += (o - e) * (o - e) / e;
+            cells += 1;
+        }
+    }
+    if pooled_expected >= 5.0 {
+        statistic += (pooled_observed - pooled_expected).powi(2) / pooled_expected;
+        cells += 1;
+    } else if pooled_observed > 10.0 + 4.0 * pooled_expected.sqrt() {
+        return 0.0;
+    }
+    chi_square_survival(statistic, cells.saturating_sub(1).max(1) as f64)
+}
+
+/// P(X >= x) for X chi-square with `dof` degrees of freedom: the regularised
+/// upper incomplete gamma Q(dof / 2, x / 2), by its series below a + 1 and its
+/// continued fraction above (Numerical Recipes, 6.2).
+pub fn chi_square_survival(x: f64, dof: f64) -> f64 {
+    let (a, x) = (dof / 2.0, x / 2.0);
+    if x <= 0.0 {
+        return 1.0;
+    }
+    let log_prefactor = -x + a * x.ln() - libm::lgamma(a);
+    if x < a + 1.0 {
+        let (mut term, mut sum, mut ap) = (1.0 / a, 1.0 / a, a);
+        for _ in 0..10_000 {
+            ap += 1.0;
+            term *= x / ap;
+            sum += term;
+            if term.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        1.0 - sum * log_prefactor.exp()
+    } else {
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let delta = d * c;
+            h *= delta;
+            if (delta - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        log_prefactor.exp() * h
+    }
+}
