@@ -5,6 +5,7 @@ mod common;
 
 use pathmix::kernel::{GroupedDensity, KernelConfig, SceneStorage};
 use pathmix::render::{RenderOptions, Renderer};
+use pathmix::scene::mesh::load_mesh;
 use pathmix::scene::{Scene, Strategy};
 use std::fmt::Write;
 
@@ -808,4 +809,42 @@ fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
             &format!("cube of {} faces", 12 * n * n),
         );
     }
+}
+
+/// Mitsuba's own meshes read as Mitsuba reads them: the bunny and the teapot
+/// (PLY), the bunny without vertex normals.
+#[test]
+fn mitsuba_bunny_and_teapot_load() {
+    let bunny = load_mesh(&shared_or_skip!("mitsuba-scenes/meshes/bunny.ply")).unwrap();
+    assert_eq!(bunny.positions.len(), 35_947);
+    assert_eq!(bunny.triangles.len(), 69_451);
+    assert_eq!(bunny.normals, None);
+    let teapot = load_mesh(&shared_or_skip!("mitsuba-scenes/meshes/teapot.ply")).unwrap();
+    assert!(!teapot.triangles.is_empty());
+}
+
+/// Every OBJ of Mitsuba's Cornell box loads: the back wall one quad (two
+/// faces), the large box 12 faces with its 24 vertex normals.
+#[test]
+fn mitsuba_cornell_box_objs_load() {
+    let back = shared_or_skip!("mitsuba-scenes/cbox/meshes/cbox_back.obj");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(back.parent().unwrap()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "obj") {
+            let mesh = load_mesh(&path).unwrap();
+            assert!(!mesh.triangles.is_empty(), "{}", path.display());
+            seen += 1;
+        }
+    }
+    assert!(seen > 1);
+    let back = load_mesh(&back).unwrap();
+    assert_eq!(back.positions.len(), 4);
+    assert_eq!(back.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    let large = load_mesh(&shared_or_skip!(
+        "mitsuba-scenes/cbox/meshes/cbox_largebox.obj"
+    ))
+    .unwrap();
+    assert_eq!(large.triangles.len(), 12);
+    assert_eq!(large.normals.map(|n| n.len()), Some(24));
 }
