@@ -274,15 +274,9 @@ fn flag(setting: Setting) -> &'static str {
         Setting::SampleCounts => "--sample-counts",
         Setting::Partial => "--partial",
         Setting::Checkpoint => "--checkpoint",
-        Setting::CheckpointEvery => "--checkpoint-every",
-        Setting::PreviewEvery => "--preview-every",
         Setting::Resume => "--resume",
-        Setting::Adaptive => "--adaptive",
         Setting::SampleRange => "--sample-range",
         Setting::Shard => "--shard",
-        Setting::LightWeight => "--light-weight",
-        Setting::Strategy => "--strategy",
-        Setting::TargetError => "--target-error",
     }
 }
 

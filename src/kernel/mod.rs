@@ -153,7 +153,7 @@ pub enum ArraySource {
     Uvs(usize),
     /// The primitives of kind `k` of `PRIMITIVE_KINDS`.
     Primitives(usize),
-    /// Its large primitives, the first of `Primitives(k)` (`SceneData::large`):
+    /// Its large primitives, the first of `Primitives(k)` (`PrimitiveArrays::large`):
     /// beside a BVH, always compiled in.
     Large(usize),
     /// The primitives of kind `k` in the light density.

@@ -47,15 +47,9 @@ pub enum Setting {
     SampleCounts,
     Partial,
     Checkpoint,
-    CheckpointEvery,
-    PreviewEvery,
     Resume,
-    Adaptive,
     SampleRange,
     Shard,
-    LightWeight,
-    Strategy,
-    TargetError,
 }
 
 impl Setting {
@@ -68,15 +62,9 @@ impl Setting {
             Setting::SampleCounts => "sample_counts",
             Setting::Partial => "partial",
             Setting::Checkpoint => "checkpoint",
-            Setting::CheckpointEvery => "checkpoint_every",
-            Setting::PreviewEvery => "preview_every",
             Setting::Resume => "resume",
-            Setting::Adaptive => "adaptive",
             Setting::SampleRange => "sample_range",
             Setting::Shard => "shard",
-            Setting::LightWeight => "light_weight",
-            Setting::Strategy => "strategy",
-            Setting::TargetError => "target_error",
         }
     }
 }
@@ -262,8 +250,6 @@ impl fmt::Display for PathSource {
 pub struct Session {
     pub scene: Scene,
     pub scene_path: PathBuf,
-    /// Whether the request named the scene (else the checkpoint recorded it).
-    scene_given: bool,
     /// What was approximated reading the scene (Mitsuba files).
     pub approximations: Vec<String>,
     defines: Vec<Define>,
@@ -516,7 +502,6 @@ impl Session {
             .map_err(SessionError::Refused)?;
         Ok(Session {
             scene,
-            scene_given: request.scene.is_some(),
             scene_path,
             approximations,
             defines,
@@ -545,16 +530,6 @@ impl Session {
     /// What checkpoints and partial results record of the scene.
     pub fn identity(&self) -> &SceneIdentity {
         self.identity.get_or_init(|| SceneIdentity::of(&self.scene))
-    }
-
-    /// Whether the scene file was named by the request (else recorded in the checkpoint).
-    pub fn scene_given(&self) -> bool {
-        self.scene_given
-    }
-
-    /// The options the renderer is built with.
-    pub fn render_options(&self) -> &RenderOptions {
-        &self.render
     }
 
     /// The sample indices this run was asked for (a partial result records them):
