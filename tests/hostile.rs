@@ -32,8 +32,8 @@ fn pathmix(dir: &Path, args: &[&str]) -> Run {
 /// taking the machine's memory (a refusal needs no device, whose driver may
 /// reserve more).
 fn run_pathmix(dir: &Path, args: &[&str], limited: bool) -> Run {
-    let logs = tempfile::tempdir().unwrap();
-    let (out, err) = (logs.path().join("out"), logs.path().join("err"));
+    let logs = common::TempDir::new("hostile", "logs");
+    let (out, err) = (logs.join("out"), logs.join("err"));
     let mut command = Command::new(env!("CARGO_BIN_EXE_pathmix"));
     command
         .args(args)
@@ -318,8 +318,11 @@ fn write_scenes(dir: &Path, name: &str, file: &str) {
 /// primitive and the accessor.
 #[test]
 fn gltf_accessors_that_panicked_the_reader_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "gltf_accessors_that_panicked_the_reader_are_refused",
+    );
+    let dir: &Path = &dir;
     let cases: [(&str, Gltf, &str); 5] = [
         (
             "float-indices",
@@ -394,8 +397,11 @@ fn gltf_accessors_that_panicked_the_reader_are_refused() {
 /// whose sparse indices are floats, is refused before a byte is read.
 #[test]
 fn gltf_views_and_accessors_are_checked_against_their_buffers() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "gltf_views_and_accessors_are_checked_against_their_buffers",
+    );
+    let dir: &Path = &dir;
     write_gltf(dir, "good", &Gltf::default());
     let good = std::fs::read_to_string(dir.join("good.gltf")).unwrap();
     let accessor = r#""bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]"#;
@@ -457,8 +463,11 @@ fn gltf_views_and_accessors_are_checked_against_their_buffers() {
 /// that is no unit quaternion, NaN normals and texture coordinates.
 #[test]
 fn gltf_versions_transforms_and_attributes_out_of_spec_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "gltf_versions_transforms_and_attributes_out_of_spec_are_refused",
+    );
+    let dir: &Path = &dir;
     let nan = f32::NAN;
     let cases: [(&str, Gltf, &str); 5] = [
         (
@@ -534,8 +543,11 @@ fn mkfifo(path: &Path) {
 #[cfg(unix)]
 #[test]
 fn devices_named_as_inputs_are_refused_before_they_are_read() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "devices_named_as_inputs_are_refused_before_they_are_read",
+    );
+    let dir: &Path = &dir;
     let not_regular = "not a regular file";
     // Two levels down, so that `../../dev/zero` is the device.
     let depth = dir.join("a/b");
@@ -582,8 +594,11 @@ fn devices_named_as_inputs_are_refused_before_they_are_read() {
 #[cfg(unix)]
 #[test]
 fn fifos_named_as_inputs_are_refused_without_waiting() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "fifos_named_as_inputs_are_refused_without_waiting",
+    );
+    let dir: &Path = &dir;
     mkfifo(&dir.join("pipe.obj"));
     mkfifo(&dir.join("pipe.bin"));
     mkfifo(&dir.join("pipe.xml"));
@@ -695,8 +710,11 @@ fn png_claiming(width: u32, height: u32) -> Vec<u8> {
 /// environment map, as bitmap texture, by `compare` and by `merge`.
 #[test]
 fn image_headers_claiming_too_many_texels_are_refused_before_reading() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "image_headers_claiming_too_many_texels_are_refused_before_reading",
+    );
+    let dir: &Path = &dir;
     std::fs::write(dir.join("huge.exr"), exr_claiming(100_000, 100_000)).unwrap();
     std::fs::write(
         dir.join("huge.hdr"),
@@ -746,8 +764,11 @@ fn image_headers_claiming_too_many_texels_are_refused_before_reading() {
 /// in an EXR and the largest Radiance HDR value, 1.7e38, naming the texel.
 #[test]
 fn texture_texels_beyond_the_documented_bound_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "texture_texels_beyond_the_documented_bound_are_refused",
+    );
+    let dir: &Path = &dir;
     write_exr(&dir.join("bright.exr"), 3, 2, |x, y| match (x, y) {
         (2, 1) => [0.5, 1e30, 0.5],
         _ => [0.5; 3],
@@ -780,8 +801,11 @@ fn texture_texels_beyond_the_documented_bound_are_refused() {
 /// overflowed the stack); nesting within the limit is not what is refused.
 #[test]
 fn xml_nested_past_the_limit_is_refused_with_its_place() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "xml_nested_past_the_limit_is_refused_with_its_place",
+    );
+    let dir: &Path = &dir;
     for (levels, refused) in [(20_000, true), (900, false)] {
         let nested = format!("{}{}", "<foo>".repeat(levels), "</foo>".repeat(levels));
         let body = format!("<shape type=\"sphere\">\n{nested}</shape>");
@@ -808,8 +832,11 @@ fn xml_nested_past_the_limit_is_refused_with_its_place() {
 /// within the deadline.
 #[test]
 fn xml_includes_that_expand_exponentially_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "xml_includes_that_expand_exponentially_are_refused",
+    );
+    let dir: &Path = &dir;
     for i in 0..25 {
         let body = match i {
             24 => String::new(),
@@ -832,8 +859,11 @@ fn xml_includes_that_expand_exponentially_are_refused() {
 /// ASCII twin is (it rendered half the mesh); so is a PLY version other than 1.0.
 #[test]
 fn ply_data_past_the_declared_elements_and_unknown_versions_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "ply_data_past_the_declared_elements_and_unknown_versions_are_refused",
+    );
+    let dir: &Path = &dir;
     let header = |format: &str, faces: usize| {
         format!(
             "ply\nformat {format}\nelement vertex 4\nproperty float x\nproperty float y\n\
@@ -883,8 +913,11 @@ const FLOOR_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1 3 2\nf 1 4 3\n"
 /// refused naming the object, as a quad of the same size is.
 #[test]
 fn meshes_no_face_of_which_survives_are_refused_as_quads_are() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "meshes_no_face_of_which_survives_are_refused_as_quads_are",
+    );
+    let dir: &Path = &dir;
     std::fs::write(dir.join("floor.obj"), FLOOR_OBJ).unwrap();
     std::fs::write(
         dir.join("wide.obj"),
@@ -942,8 +975,8 @@ fn meshes_no_face_of_which_survives_are_refused_as_quads_are() {
 /// the object, and `info` always shows how many faces were dropped.
 #[test]
 fn dropped_mesh_faces_are_warned_and_counted() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new("hostile", "dropped_mesh_faces_are_warned_and_counted");
+    let dir: &Path = &dir;
     // The floor and a face with no area.
     let obj = format!("{FLOOR_OBJ}v 2 0 0\nf 1 2 5\n");
     std::fs::write(dir.join("floor.obj"), obj).unwrap();
@@ -982,8 +1015,8 @@ fn dropped_mesh_faces_are_warned_and_counted() {
 /// refused with the reason; one just past that limit renders.
 #[test]
 fn extreme_material_parameters_make_no_nan_samples() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("material.toml");
+    let dir = common::TempDir::new("hostile", "materials");
+    let path = dir.join("material.toml");
     let scene_of = |material: &str| {
         let text = format!(
             "[camera]\nlookfrom = [0, 1, 4]\nlookat = [0, 0, 0]\nwidth = 16\nheight = 16\n\
@@ -1037,8 +1070,8 @@ const XML_SPHERE: &str = r#"<shape type="sphere"><emitter type="area"><rgb name=
 /// `<integer>`, not the field of view derived from it.
 #[test]
 fn a_film_side_of_zero_is_refused_naming_the_side() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new("hostile", "a_film_side_of_zero_is_refused_naming_the_side");
+    let dir: &Path = &dir;
     let sphere = XML_SPHERE;
     std::fs::write(dir.join("film.xml"), xml_scene(sphere)).unwrap();
     std::fs::write(
@@ -1064,8 +1097,11 @@ fn a_film_side_of_zero_is_refused_naming_the_side() {
 /// its line, not at the sensor.
 #[test]
 fn a_constant_emitters_radiance_is_located_at_its_element() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "a_constant_emitters_radiance_is_located_at_its_element",
+    );
+    let dir: &Path = &dir;
     let sphere = XML_SPHERE;
     let constant =
         "<emitter type=\"constant\">\n    <rgb name=\"radiance\" value=\"1e39\"/>\n    </emitter>";
@@ -1089,8 +1125,8 @@ fn a_constant_emitters_radiance_is_located_at_its_element() {
 /// in TOML.
 #[test]
 fn long_values_are_quoted_cut_short() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new("hostile", "long_values_are_quoted_cut_short");
+    let dir: &Path = &dir;
     let long = format!("{}x", "1".repeat(10_000_000));
     let body = format!("<shape type=\"sphere\"><float name=\"radius\" value=\"{long}\"/></shape>");
     std::fs::write(dir.join("long.xml"), xml_scene(&body)).unwrap();
@@ -1115,8 +1151,11 @@ fn long_values_are_quoted_cut_short() {
 /// above pathmix's largest is rendered at it with a warning.
 #[test]
 fn xml_versions_are_checked_and_clamped_depths_warned() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "xml_versions_are_checked_and_clamped_depths_warned",
+    );
+    let dir: &Path = &dir;
     let sphere = r#"<shape type="sphere"/>"#;
     for (version, needle) in [
         ("abc", "is not MAJOR.MINOR.PATCH"),
@@ -1146,8 +1185,8 @@ fn xml_versions_are_checked_and_clamped_depths_warned() {
 /// material and its `emit`, or the environment map's texel.
 #[test]
 fn emission_refusals_name_the_material_or_texel() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new("hostile", "emission_refusals_name_the_material_or_texel");
+    let dir: &Path = &dir;
     let bright = toml_scene("").replace("emit = [1, 1, 1]", "emit = [1e38, 1e38, 1e38]");
     let scene = Scene::parse(&bright, "bright.toml").unwrap();
     let message = render::check_emission(&scene, 4, false)
@@ -1186,8 +1225,11 @@ fn loop_limit_refusals_follow_the_storage_used_and_name_the_mesh() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+    let dir = common::TempDir::new(
+        "hostile",
+        "loop_limit_refusals_follow_the_storage_used_and_name_the_mesh",
+    );
+    let dir: &Path = &dir;
     // Large triangles crossing the unit cube at random (a fixed LCG).
     let mut state = 12345u64;
     let mut next = || {

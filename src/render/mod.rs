@@ -1124,7 +1124,7 @@ fn check_scene_limits(
                 largest_meshes(scene)
             ),
             (SceneStorage::Buffers, _) => {
-                " (the BVH, --scene-storage bvh, needs far fewer)".to_string()
+                " (the BVH, scene storage `bvh`, needs far fewer)".to_string()
             }
             _ => String::new(),
         };
@@ -1138,6 +1138,25 @@ fn check_scene_limits(
             format!("{per_vertex} loop iterations"),
             format!(
                 "the {DRIVER_LOOP_LIMIT} loop iterations lavapipe allows an invocation{advice}"
+            ),
+        ));
+    }
+    // Read from buffers, a path's count is a bound, not an allowance: one
+    // that could pass the limit is refused rather than cut short mid-run.
+    let per_path = per_vertex * (u64::from(config.max_depth) + 1);
+    if config.scene_storage() == SceneStorage::Buffers && per_path > DRIVER_LOOP_LIMIT {
+        return Err(limit(
+            format!(
+                "a path of up to {} vertices over {} objects and {} lights (scene storage \
+                 Buffers)",
+                config.max_depth + 1,
+                data.geometry.primitive_count(),
+                data.light_count()
+            ),
+            format!("{per_path} loop iterations"),
+            format!(
+                "the {DRIVER_LOOP_LIMIT} loop iterations lavapipe allows an invocation (the \
+                 BVH, scene storage `bvh`, needs far fewer; or lower the maximum depth)"
             ),
         ));
     }
