@@ -318,10 +318,7 @@ fn write_scenes(dir: &Path, name: &str, file: &str) {
 /// primitive and the accessor.
 #[test]
 fn gltf_accessors_that_panicked_the_reader_are_refused() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "gltf_accessors_that_panicked_the_reader_are_refused",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let cases: [(&str, Gltf, &str); 5] = [
         (
@@ -397,10 +394,7 @@ fn gltf_accessors_that_panicked_the_reader_are_refused() {
 /// whose sparse indices are floats, is refused before a byte is read.
 #[test]
 fn gltf_views_and_accessors_are_checked_against_their_buffers() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "gltf_views_and_accessors_are_checked_against_their_buffers",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     write_gltf(dir, "good", &Gltf::default());
     let good = std::fs::read_to_string(dir.join("good.gltf")).unwrap();
@@ -463,10 +457,7 @@ fn gltf_views_and_accessors_are_checked_against_their_buffers() {
 /// that is no unit quaternion, NaN normals and texture coordinates.
 #[test]
 fn gltf_versions_transforms_and_attributes_out_of_spec_are_refused() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "gltf_versions_transforms_and_attributes_out_of_spec_are_refused",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let nan = f32::NAN;
     let cases: [(&str, Gltf, &str); 5] = [
@@ -543,10 +534,7 @@ fn mkfifo(path: &Path) {
 #[cfg(unix)]
 #[test]
 fn devices_named_as_inputs_are_refused_before_they_are_read() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "devices_named_as_inputs_are_refused_before_they_are_read",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let not_regular = "not a regular file";
     // Two levels down, so that `../../dev/zero` is the device.
@@ -594,10 +582,7 @@ fn devices_named_as_inputs_are_refused_before_they_are_read() {
 #[cfg(unix)]
 #[test]
 fn fifos_named_as_inputs_are_refused_without_waiting() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "fifos_named_as_inputs_are_refused_without_waiting",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     mkfifo(&dir.join("pipe.obj"));
     mkfifo(&dir.join("pipe.bin"));
@@ -710,10 +695,7 @@ fn png_claiming(width: u32, height: u32) -> Vec<u8> {
 /// environment map, as bitmap texture, by `compare` and by `merge`.
 #[test]
 fn image_headers_claiming_too_many_texels_are_refused_before_reading() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "image_headers_claiming_too_many_texels_are_refused_before_reading",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     std::fs::write(dir.join("huge.exr"), exr_claiming(100_000, 100_000)).unwrap();
     std::fs::write(
@@ -764,10 +746,7 @@ fn image_headers_claiming_too_many_texels_are_refused_before_reading() {
 /// in an EXR and the largest Radiance HDR value, 1.7e38, naming the texel.
 #[test]
 fn texture_texels_beyond_the_documented_bound_are_refused() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "texture_texels_beyond_the_documented_bound_are_refused",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     write_exr(&dir.join("bright.exr"), 3, 2, |x, y| match (x, y) {
         (2, 1) => [0.5, 1e30, 0.5],
@@ -801,10 +780,7 @@ fn texture_texels_beyond_the_documented_bound_are_refused() {
 /// overflowed the stack); nesting within the limit is not what is refused.
 #[test]
 fn xml_nested_past_the_limit_is_refused_with_its_place() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "xml_nested_past_the_limit_is_refused_with_its_place",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     for (levels, refused) in [(20_000, true), (900, false)] {
         let nested = format!("{}{}", "<foo>".repeat(levels), "</foo>".repeat(levels));
@@ -832,10 +808,7 @@ fn xml_nested_past_the_limit_is_refused_with_its_place() {
 /// within the deadline.
 #[test]
 fn xml_includes_that_expand_exponentially_are_refused() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "xml_includes_that_expand_exponentially_are_refused",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     for i in 0..25 {
         let body = match i {
@@ -859,10 +832,7 @@ fn xml_includes_that_expand_exponentially_are_refused() {
 /// ASCII twin is (it rendered half the mesh); so is a PLY version other than 1.0.
 #[test]
 fn ply_data_past_the_declared_elements_and_unknown_versions_are_refused() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "ply_data_past_the_declared_elements_and_unknown_versions_are_refused",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let header = |format: &str, faces: usize| {
         format!(
@@ -913,10 +883,7 @@ const FLOOR_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1 3 2\nf 1 4 3\n"
 /// refused naming the object, as a quad of the same size is.
 #[test]
 fn meshes_no_face_of_which_survives_are_refused_as_quads_are() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "meshes_no_face_of_which_survives_are_refused_as_quads_are",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     std::fs::write(dir.join("floor.obj"), FLOOR_OBJ).unwrap();
     std::fs::write(
@@ -975,7 +942,7 @@ fn meshes_no_face_of_which_survives_are_refused_as_quads_are() {
 /// the object, and `info` always shows how many faces were dropped.
 #[test]
 fn dropped_mesh_faces_are_warned_and_counted() {
-    let dir = common::TempDir::new("hostile", "dropped_mesh_faces_are_warned_and_counted");
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     // The floor and a face with no area.
     let obj = format!("{FLOOR_OBJ}v 2 0 0\nf 1 2 5\n");
@@ -1015,7 +982,7 @@ fn dropped_mesh_faces_are_warned_and_counted() {
 /// refused with the reason; one just past that limit renders.
 #[test]
 fn extreme_material_parameters_make_no_nan_samples() {
-    let dir = common::TempDir::new("hostile", "materials");
+    let dir = common::TempDir::new("hostile", "case");
     let path = dir.join("material.toml");
     let scene_of = |material: &str| {
         let text = format!(
@@ -1070,7 +1037,7 @@ const XML_SPHERE: &str = r#"<shape type="sphere"><emitter type="area"><rgb name=
 /// `<integer>`, not the field of view derived from it.
 #[test]
 fn a_film_side_of_zero_is_refused_naming_the_side() {
-    let dir = common::TempDir::new("hostile", "a_film_side_of_zero_is_refused_naming_the_side");
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let sphere = XML_SPHERE;
     std::fs::write(dir.join("film.xml"), xml_scene(sphere)).unwrap();
@@ -1097,10 +1064,7 @@ fn a_film_side_of_zero_is_refused_naming_the_side() {
 /// its line, not at the sensor.
 #[test]
 fn a_constant_emitters_radiance_is_located_at_its_element() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "a_constant_emitters_radiance_is_located_at_its_element",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let sphere = XML_SPHERE;
     let constant =
@@ -1125,7 +1089,7 @@ fn a_constant_emitters_radiance_is_located_at_its_element() {
 /// in TOML.
 #[test]
 fn long_values_are_quoted_cut_short() {
-    let dir = common::TempDir::new("hostile", "long_values_are_quoted_cut_short");
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let long = format!("{}x", "1".repeat(10_000_000));
     let body = format!("<shape type=\"sphere\"><float name=\"radius\" value=\"{long}\"/></shape>");
@@ -1151,10 +1115,7 @@ fn long_values_are_quoted_cut_short() {
 /// above pathmix's largest is rendered at it with a warning.
 #[test]
 fn xml_versions_are_checked_and_clamped_depths_warned() {
-    let dir = common::TempDir::new(
-        "hostile",
-        "xml_versions_are_checked_and_clamped_depths_warned",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let sphere = r#"<shape type="sphere"/>"#;
     for (version, needle) in [
@@ -1185,7 +1146,7 @@ fn xml_versions_are_checked_and_clamped_depths_warned() {
 /// material and its `emit`, or the environment map's texel.
 #[test]
 fn emission_refusals_name_the_material_or_texel() {
-    let dir = common::TempDir::new("hostile", "emission_refusals_name_the_material_or_texel");
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     let bright = toml_scene("").replace("emit = [1, 1, 1]", "emit = [1e38, 1e38, 1e38]");
     let scene = Scene::parse(&bright, "bright.toml").unwrap();
@@ -1225,10 +1186,7 @@ fn loop_limit_refusals_follow_the_storage_used_and_name_the_mesh() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    let dir = common::TempDir::new(
-        "hostile",
-        "loop_limit_refusals_follow_the_storage_used_and_name_the_mesh",
-    );
+    let dir = common::TempDir::new("hostile", "case");
     let dir: &Path = &dir;
     // Large triangles crossing the unit cube at random (a fixed LCG).
     let mut state = 12345u64;
