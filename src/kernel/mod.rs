@@ -475,6 +475,20 @@ pub fn light_density_iterations(
         .sum()
 }
 
+/// What every probe kernel (a part of the kernel run on its own, for tests)
+/// starts with: the shared constants, types, random numbers and sampling.
+fn probe_prelude() -> Vec<ShaderModule> {
+    vec![
+        ShaderModule {
+            name: "constants",
+            source: glue::shared_constants().into(),
+        },
+        COMMON,
+        RNG,
+        SAMPLING,
+    ]
+}
+
 /// Whether any of `kinds` has a smooth lobe (where strategies apply).
 fn has_smooth_lobe(kinds: KindSet) -> bool {
     kinds.iter().any(|k| MATERIAL_KINDS[k].lobe.has_density())
@@ -897,15 +911,7 @@ impl KernelConfig {
             textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
-        let mut modules = vec![
-            ShaderModule {
-                name: "constants",
-                source: glue::shared_constants().into(),
-            },
-            COMMON,
-            RNG,
-            SAMPLING,
-        ];
+        let mut modules = probe_prelude();
         modules.extend(config.material_modules());
         modules.push(BSDF_PROBE);
         config.compose(&modules)
@@ -929,21 +935,15 @@ impl KernelConfig {
             .into_iter()
             .filter(|array| matches!(array.source, ArraySource::Environment(_)))
             .collect();
-        let modules = [
-            ShaderModule {
-                name: "constants",
-                source: glue::shared_constants().into(),
-            },
-            COMMON,
-            RNG,
-            SAMPLING,
+        let mut modules = probe_prelude();
+        modules.extend([
             ShaderModule {
                 name: "environment_arrays",
                 source: glue::buffer_arrays(arrays).into(),
             },
             ENVIRONMENT,
             ENVIRONMENT_PROBE,
-        ];
+        ]);
         config.compose(&modules)
     }
 
@@ -957,15 +957,7 @@ impl KernelConfig {
             filter,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
-        let mut modules = vec![
-            ShaderModule {
-                name: "constants",
-                source: glue::shared_constants().into(),
-            },
-            COMMON,
-            RNG,
-            SAMPLING,
-        ];
+        let mut modules = probe_prelude();
         modules.extend(config.filter_modules());
         modules.push(FILTER_PROBE);
         config.compose(&modules)
