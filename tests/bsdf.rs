@@ -18,7 +18,6 @@ use pathmix::kinds::{
 };
 use pathmix::scene::{self, Distribution, MaterialKind, Strategy};
 use std::sync::OnceLock;
-use wgpu::util::DeviceExt;
 
 const SAMPLES: u32 = 1_000_000;
 const WORKGROUP: u32 = 64;
@@ -117,15 +116,6 @@ impl Setup {
     }
 }
 
-fn storage(ctx: &GpuContext, contents: &[u8]) -> wgpu::Buffer {
-    ctx.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("probe"),
-            contents,
-            usage: wgpu::BufferUsages::STORAGE,
-        })
-}
-
 /// Runs `pipeline` over `items` invocations with the input, directions and an
 /// output of `out_vec4s` vec4s, and reads the output back.
 fn run(
@@ -136,9 +126,9 @@ fn run(
     items: u32,
     out_vec4s: u64,
 ) -> Vec<[f32; 4]> {
-    let input = storage(ctx, &setup.input(7));
-    let tables = storage(ctx, bytemuck::cast_slice(&setup.tables));
-    let dirs = storage(
+    let input = common::storage(ctx, &setup.input(7));
+    let tables = common::storage(ctx, bytemuck::cast_slice(&setup.tables));
+    let dirs = common::storage(
         ctx,
         bytemuck::cast_slice(if directions.is_empty() {
             &[[0f32; 4]]
@@ -146,19 +136,7 @@ fn run(
             directions
         }),
     );
-    let size = out_vec4s * 16;
-    let out = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe out"),
-        size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let out = common::ProbeOutput::new(ctx, out_vec4s);
     let layout = pipeline.get_bind_group_layout(0);
     let mut entries = vec![
         wgpu::BindGroupEntry {
@@ -167,7 +145,7 @@ fn run(
         },
         wgpu::BindGroupEntry {
             binding: 12,
-            resource: out.as_entire_binding(),
+            resource: out.buffer.as_entire_binding(),
         },
         wgpu::BindGroupEntry {
             binding: 13,
@@ -194,9 +172,7 @@ fn run(
         pass.set_bind_group(0, &group, &[]);
         pass.dispatch_workgroups(x, y, 1);
     }
-    encoder.copy_buffer_to_buffer(&out, 0, &staging, 0, size);
-    ctx.queue.submit([encoder.finish()]);
-    pathmix::gpu::accumulator::map_read(ctx, &staging, bytemuck::pod_collect_to_vec)
+    out.read(ctx, encoder)
 }
 
 /// A partition of the sphere into cells of (z = cos theta, phi) about the

@@ -315,16 +315,6 @@ fn probe(ctx: &pathmix::gpu::GpuContext) -> &'static Probe {
     })
 }
 
-fn storage(ctx: &pathmix::gpu::GpuContext, contents: &[u8]) -> wgpu::Buffer {
-    use wgpu::util::DeviceExt;
-    ctx.device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("probe"),
-            contents,
-            usage: wgpu::BufferUsages::STORAGE,
-        })
-}
-
 /// Runs `pipeline` over `items` invocations on the tables of `map`, with the
 /// directions (for `probe_pdf`), and reads its `items` vec4s back.
 fn run_probe(
@@ -334,21 +324,9 @@ fn run_probe(
     directions: &[[f32; 4]],
     items: u32,
 ) -> Vec<[f32; 4]> {
-    let size = items as u64 * 16;
-    let out = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe out"),
-        size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let seed = storage(ctx, bytemuck::bytes_of(&11u32));
-    let dirs = storage(ctx, bytemuck::cast_slice(directions));
+    let out = common::ProbeOutput::new(ctx, u64::from(items));
+    let seed = common::storage(ctx, bytemuck::bytes_of(&11u32));
+    let dirs = common::storage(ctx, bytemuck::cast_slice(directions));
     let mut entries = vec![
         wgpu::BindGroupEntry {
             binding: 10,
@@ -356,7 +334,7 @@ fn run_probe(
         },
         wgpu::BindGroupEntry {
             binding: 12,
-            resource: out.as_entire_binding(),
+            resource: out.buffer.as_entire_binding(),
         },
     ];
     if !directions.is_empty() {
@@ -384,7 +362,7 @@ fn run_probe(
         .scene_arrays()
         .into_iter()
         .filter(|a| matches!(a.source, pathmix::kernel::ArraySource::Environment(_)))
-        .map(|a| (a.binding, storage(ctx, data.array_bytes(a.source))))
+        .map(|a| (a.binding, common::storage(ctx, data.array_bytes(a.source))))
         .collect();
     let scene_entries: Vec<_> = buffers
         .iter()
@@ -409,9 +387,7 @@ fn run_probe(
         pass.set_bind_group(1, &scene, &[]);
         pass.dispatch_workgroups(x, y, 1);
     }
-    encoder.copy_buffer_to_buffer(&out, 0, &staging, 0, size);
-    ctx.queue.submit([encoder.finish()]);
-    pathmix::gpu::accumulator::map_read(ctx, &staging, bytemuck::pod_collect_to_vec)
+    out.read(ctx, encoder)
 }
 
 fn map(

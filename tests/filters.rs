@@ -138,25 +138,13 @@ fn probe(ctx: &GpuContext, filter: Filter) -> Vec<[f32; 4]> {
             },
             cache: None,
         });
-    let size = u64::from(SAMPLES) * 16;
-    let out = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe out"),
-        size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("probe readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let out = common::ProbeOutput::new(ctx, u64::from(SAMPLES));
     let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("filter probe"),
         layout: &pipeline.get_bind_group_layout(0),
         entries: &[wgpu::BindGroupEntry {
             binding: 0,
-            resource: out.as_entire_binding(),
+            resource: out.buffer.as_entire_binding(),
         }],
     });
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -166,9 +154,7 @@ fn probe(ctx: &GpuContext, filter: Filter) -> Vec<[f32; 4]> {
         pass.set_bind_group(0, &group, &[]);
         pass.dispatch_workgroups(SAMPLES / WORKGROUP, 1, 1);
     }
-    encoder.copy_buffer_to_buffer(&out, 0, &staging, 0, size);
-    ctx.queue.submit([encoder.finish()]);
-    pathmix::gpu::accumulator::map_read(ctx, &staging, bytemuck::pod_collect_to_vec)
+    out.read(ctx, encoder)
 }
 
 /// What the offsets of one filter showed.

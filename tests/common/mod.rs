@@ -421,3 +421,51 @@ pub fn chi_square_survival(x: f64, dof: f64) -> f64 {
         log_prefactor.exp() * h
     }
 }
+
+/// A storage buffer holding `contents`, for a probe kernel's inputs.
+pub fn storage(ctx: &GpuContext, contents: &[u8]) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    ctx.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("probe"),
+            contents,
+            usage: wgpu::BufferUsages::STORAGE,
+        })
+}
+
+/// The `vec4<f32>` array a probe kernel (a part of the kernel run on its own)
+/// writes, and the buffer it is read back through.
+pub struct ProbeOutput {
+    pub buffer: wgpu::Buffer,
+    staging: wgpu::Buffer,
+}
+
+impl ProbeOutput {
+    pub fn new(ctx: &GpuContext, vec4s: u64) -> ProbeOutput {
+        let buffer = |label, usage| {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: vec4s * 16,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        ProbeOutput {
+            buffer: buffer(
+                "probe out",
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            ),
+            staging: buffer(
+                "probe readback",
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            ),
+        }
+    }
+
+    /// Submits `encoder` (the probe's passes), then reads the output back.
+    pub fn read(&self, ctx: &GpuContext, mut encoder: wgpu::CommandEncoder) -> Vec<[f32; 4]> {
+        encoder.copy_buffer_to_buffer(&self.buffer, 0, &self.staging, 0, self.staging.size());
+        ctx.queue.submit([encoder.finish()]);
+        pathmix::gpu::accumulator::map_read(ctx, &self.staging, bytemuck::pod_collect_to_vec)
+    }
+}
