@@ -401,60 +401,15 @@ fn tent_cdf(radius: f64, t: f64) -> f64 {
 #[test]
 fn a_light_edge_is_the_filters_integral() {
     let ctx = gpu_or_skip!();
-    let width = 12u32;
     for filter in FILTERS {
-        // The camera at the origin looks down +z, so the image's right is world
-        // -x: a light on world x >= 0 fills the image's left half.
-        let scene = common::scene_text(&format!(
-            r#"
-            [camera]
-            lookfrom = [0, 0, 0]
-            lookat = [0, 0, 1]
-            vfov = 5
-            width = {width}
-            height = 1
-            filter = {}
-            [render]
-            spp = 65536
-            max_depth = 0
-            sampler = "independent"
-            [materials.glow]
-            type = "light"
-            emit = [1, 1, 1]
-            [[objects]]
-            type = "quad"
-            q = [0, -10, 1]
-            u = [0, 20, 0]
-            v = [10, 0, 0]
-            material = "glow"
-            "#,
-            filter_toml(filter)
-        ));
-        let acc = common::render(ctx, &scene, &common::with_variance());
-        let (mean, se) = (acc.mean(), acc.standard_error().unwrap());
         let (f, r) = mitsuba_profile(filter);
         let total = integral(&*f, -r, r);
         let share = |t: f64| match filter {
             Filter::Tent { radius } => tent_cdf(radius.into(), t),
             _ => integral(&*f, -r, t.clamp(-r, r)) / total,
         };
-        for k in 0..width {
-            let d = f64::from(k) + 0.5 - f64::from(width) / 2.0;
-            let expected = share(-d);
-            let (value, error) = (f64::from(mean.get(k, 0)[0]), f64::from(se.get(k, 0)[0]));
-            println!("{filter:?} pixel {k}: {value:.5} ± {error:.5}, expected {expected:.5}");
-            if d >= r {
-                assert_eq!(
-                    value, 0.0,
-                    "{filter:?}: pixel {k} is beyond the filter's reach"
-                );
-            } else {
-                assert!(
-                    (value - expected).abs() <= 4.0 * error + 1e-6,
-                    "{filter:?} pixel {k}: {value} against {expected} (standard error {error:.2e})"
-                );
-            }
-        }
+        let what = format!("{filter:?}");
+        common::assert_light_edge(ctx, (12, 65536), &filter_toml(filter), r, share, &what);
     }
 }
 

@@ -344,35 +344,7 @@ fn glossy_teapot_under_the_sky_matches_mitsuba() {
 #[test]
 fn gaussian_filter_matches_its_analytic_values() {
     let ctx = gpu_or_skip!();
-    let (width, stddev) = (10u32, 0.5f64);
-    // The camera at the origin looks down +z, so the image's right is world -x: a
-    // light on world x >= 0 fills the image's left half.
-    let scene = common::scene_text(&format!(
-        r#"
-        [camera]
-        lookfrom = [0, 0, 0]
-        lookat = [0, 0, 1]
-        vfov = 5
-        width = {width}
-        height = 1
-        filter = {{ type = "gaussian", stddev = {stddev} }}
-        [render]
-        spp = 8192
-        max_depth = 0
-        sampler = "independent"
-        [materials.glow]
-        type = "light"
-        emit = [1, 1, 1]
-        [[objects]]
-        type = "quad"
-        q = [0, -10, 1]
-        u = [0, 20, 0]
-        v = [10, 0, 0]
-        material = "glow"
-        "#
-    ));
-    let acc = common::render(ctx, &scene, &common::with_variance());
-    let (mean, se) = (acc.mean(), acc.standard_error().unwrap());
+    let stddev = 0.5f64;
     let r = 4.0 * stddev;
     let floor = (-r * r / (2.0 * stddev * stddev)).exp();
     let integral = |x: f64| {
@@ -382,19 +354,14 @@ fn gaussian_filter_matches_its_analytic_values() {
             - floor * x
     };
     let cdf = |x: f64| (integral(x.clamp(-r, r)) - integral(-r)) / (integral(r) - integral(-r));
-    for k in 0..width {
-        let d = f64::from(k) + 0.5 - f64::from(width) / 2.0;
-        let expected = cdf(-d);
-        let (value, error) = (f64::from(mean.get(k, 0)[0]), f64::from(se.get(k, 0)[0]));
-        if d >= r {
-            assert_eq!(value, 0.0, "pixel {k} is beyond the filter's reach");
-        } else {
-            assert!(
-                (value - expected).abs() <= 4.0 * error + 1e-6,
-                "pixel {k}: {value} against {expected} (standard error {error:.2e})"
-            );
-        }
-    }
+    common::assert_light_edge(
+        ctx,
+        (10, 8192),
+        &format!("{{ type = \"gaussian\", stddev = {stddev} }}"),
+        r,
+        cdf,
+        "gaussian",
+    );
 }
 
 /// A checkpoint records a Mitsuba scene's `-D` parameters: `--resume` without

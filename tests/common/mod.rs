@@ -469,3 +469,60 @@ impl ProbeOutput {
         pathmix::gpu::accumulator::map_read(ctx, &self.staging, bytemuck::pod_collect_to_vec)
     }
 }
+
+/// Renders `width` x 1 pixels across a vertical light edge through the image
+/// centre with the pixel filter `filter` (its TOML value), `spp` samples, and
+/// asserts pixel `k`'s value is `share(-d)` within 4 standard errors, `d` its
+/// centre's distance from the edge in pixels: the filter's share on the
+/// light's side. Pixels `radius` or more beyond the edge are exactly 0.
+pub fn assert_light_edge(
+    ctx: &GpuContext,
+    (width, spp): (u32, u32),
+    filter: &str,
+    radius: f64,
+    share: impl Fn(f64) -> f64,
+    what: &str,
+) {
+    // The camera at the origin looks down +z, so the image's right is world
+    // -x: a light on world x >= 0 fills the image's left half.
+    let scene = scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 0, 0]
+        lookat = [0, 0, 1]
+        vfov = 5
+        width = {width}
+        height = 1
+        filter = {filter}
+        [render]
+        spp = {spp}
+        max_depth = 0
+        sampler = "independent"
+        [materials.glow]
+        type = "light"
+        emit = [1, 1, 1]
+        [[objects]]
+        type = "quad"
+        q = [0, -10, 1]
+        u = [0, 20, 0]
+        v = [10, 0, 0]
+        material = "glow"
+        "#
+    ));
+    let acc = render(ctx, &scene, &with_variance());
+    let (mean, se) = (acc.mean(), acc.standard_error().unwrap());
+    for k in 0..width {
+        let d = f64::from(k) + 0.5 - f64::from(width) / 2.0;
+        let expected = share(-d);
+        let (value, error) = (f64::from(mean.get(k, 0)[0]), f64::from(se.get(k, 0)[0]));
+        println!("{what} pixel {k}: {value:.5} ± {error:.5}, expected {expected:.5}");
+        if d >= radius {
+            assert_eq!(value, 0.0, "{what}: pixel {k} is beyond the filter's reach");
+        } else {
+            assert!(
+                (value - expected).abs() <= 4.0 * error + 1e-6,
+                "{what} pixel {k}: {value} against {expected} (standard error {error:.2e})"
+            );
+        }
+    }
+}
