@@ -1111,7 +1111,7 @@ fn long_values_are_quoted_cut_short() {
 }
 
 /// What was decided about files of other versions (docs/mitsuba.md): an XML
-/// `version` that is no Mitsuba 2 or 3 version is refused; a `max_depth`
+/// `version` that is no Mitsuba 0 to 3 version is refused; a `max_depth`
 /// above pathmix's largest is rendered at it with a warning.
 #[test]
 fn xml_versions_are_checked_and_clamped_depths_warned() {
@@ -1120,7 +1120,7 @@ fn xml_versions_are_checked_and_clamped_depths_warned() {
     let sphere = r#"<shape type="sphere"/>"#;
     for (version, needle) in [
         ("abc", "is not MAJOR.MINOR.PATCH"),
-        ("0.6.0", "a Mitsuba 0 scene"),
+        ("4.0.0", "a Mitsuba 4 scene"),
     ] {
         let text =
             xml_scene(sphere).replace("version=\"3.0.0\"", &format!("version=\"{version}\""));

@@ -21,6 +21,8 @@ use std::str::FromStr;
 use glam::{DMat4, DVec3, DVec4};
 use toml::{Table, Value};
 
+mod upgrade;
+
 use super::parse::{IMAGE_SIDE, NAMED_IORS, sin_cos_degrees};
 use super::{SceneError, excerpt};
 
@@ -42,8 +44,8 @@ pub const MAX_ELEMENTS: usize = 1_000_000;
 /// The most text a scene and its inclusions may read in all (256 MiB).
 pub const MAX_TEXT_BYTES: usize = 256 << 20;
 
-/// The Mitsuba versions whose format pathmix reads: 2.x.y and 3.x.y (0.x
-/// scenes use other names, which Mitsuba 3 upgrades on reading).
+/// The Mitsuba versions whose format pathmix reads as it is: 2.x.y and 3.x.y
+/// (older files are upgraded first, `upgrade::UPGRADED_VERSIONS`).
 const VERSIONS: [u32; 2] = [2, 3];
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
@@ -332,7 +334,7 @@ impl Reader {
             return Err(root_origin
                 .error("not a Mitsuba scene: the root element must be <scene version=\"...\">"));
         };
-        check_version(version).map_err(|message| root_origin.error(message))?;
+        let major = check_version(version).map_err(|message| root_origin.error(message))?;
         // Before `element` recurses into them.
         if let Some(node) = nested_too_deep(&document) {
             return Err(origin_of(&file, &document, node).error(format!(
@@ -355,7 +357,10 @@ impl Reader {
             if !node.is_element() {
                 continue;
             }
-            let elem = self.element(&file, &document, node)?;
+            let mut elem = self.element(&file, &document, node)?;
+            if upgrade::UPGRADED_VERSIONS.contains(&major) {
+                upgrade::upgrade(&mut elem)?;
+            }
             match elem.tag.as_str() {
                 "default" => {
                     elem.check_attrs(&["name", "value"])?;
@@ -478,15 +483,19 @@ impl Reader {
     }
 }
 
-/// A `<scene version="...">` pathmix reads: `MAJOR.MINOR.PATCH`, of a major
-/// version in `VERSIONS`.
-fn check_version(version: &str) -> std::result::Result<(), String> {
+/// The major version of a `<scene version="...">` pathmix reads: `MAJOR.MINOR.PATCH`,
+/// of a major version in `VERSIONS` or `upgrade::UPGRADED_VERSIONS`.
+fn check_version(version: &str) -> std::result::Result<u32, String> {
     let numbers: Option<Vec<u32>> = version.trim().split('.').map(|n| n.parse().ok()).collect();
     match numbers.as_deref() {
-        Some(&[major, _, _]) if VERSIONS.contains(&major) => Ok(()),
+        Some(&[major, _, _])
+            if VERSIONS.contains(&major) || upgrade::UPGRADED_VERSIONS.contains(&major) =>
+        {
+            Ok(major)
+        }
         Some(&[major, _, _]) => Err(format!(
             "version `{version}`: a Mitsuba {major} scene, whose format pathmix does not read \
-             (it reads Mitsuba 2 and 3 scenes, versions 2.x.y and 3.x.y)"
+             (it reads the scenes of Mitsuba 0.x to 3.x)"
         )),
         _ => Err(format!(
             "version `{}` is not MAJOR.MINOR.PATCH (such as 3.0.0)",
@@ -1931,8 +1940,27 @@ impl<'a> Builder<'a> {
                 )));
             }
         }
-        // The output file's precision; pathmix writes 32-bit float EXR.
-        props.string("component_format")?;
+        // Mitsuba's output file, its 0.x logo, and its sampling past the frame's
+        // edge (pathmix samples each pixel's whole filter always): none changes the
+        // radiance pathmix writes, in the format its output name asks for.
+        let mut file_options = Vec::new();
+        for (name, present) in [
+            ("component_format", props.string("component_format")?.is_some()),
+            ("file_format", props.string("file_format")?.is_some()),
+            ("banner", props.boolean("banner")?.is_some()),
+            ("high_quality_edges", props.boolean("high_quality_edges")?.is_some()),
+        ] {
+            if present {
+                file_options.push(name);
+            }
+        }
+        if !file_options.is_empty() {
+            self.warn(format!(
+                "ignored the film's {}: Mitsuba's options for its output file, which do not \
+                 change the image (pathmix writes the format its output name asks for)",
+                file_options.join(", ")
+            ));
+        }
         let filters = props.objects(&["rfilter"]);
         props.finish()?;
         let filter = match filters[..] {
