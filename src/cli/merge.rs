@@ -2,7 +2,7 @@
 
 use super::Failure;
 use clap::Args;
-use pathmix::output::{self, ImageFormat, ImageReadError};
+use pathmix::output::{self, ImageFormat};
 use pathmix::paths::{self, PathUse};
 use pathmix::session::shard::{self, PartialError, describe_ranges};
 use std::path::PathBuf;
@@ -53,16 +53,6 @@ pub fn merge(args: MergeArgs) -> Result<(), Failure> {
     }
     let mut parts = Vec::new();
     for path in &args.parts {
-        // A FIFO, a device or a header claiming too many texels is refused
-        // before the part is decoded; what is no EXR, `read_partial` explains.
-        if let Err(e @ (ImageReadError::Open(_) | ImageReadError::TooLarge { .. })) =
-            output::open_image(path)
-        {
-            return Err(Failure::input(format!(
-                "cannot read `{}`: {e}",
-                path.display()
-            )));
-        }
         let part = shard::read_partial(path).map_err(|e| match e {
             PartialError::NotPartial { .. } => {
                 Failure::input(format!("{e} (made by `pathmix render --partial`)"))

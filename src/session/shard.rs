@@ -327,6 +327,13 @@ pub fn write_partial(path: &Path, partial: &Partial) -> Result<(), OutputError> 
 pub enum PartialError {
     #[error("cannot read `{}`: {source}", .path.display())]
     Read { path: PathBuf, source: io::Error },
+    /// No regular file, or a header claiming more texels than pathmix reads:
+    /// refused before anything is decoded.
+    #[error("cannot read `{}`: {source}", .path.display())]
+    Unreadable {
+        path: PathBuf,
+        source: crate::output::ImageReadError,
+    },
     #[error(
         "`{}` is not a readable OpenEXR file (truncated or corrupted?): {source}",
         .path.display()
@@ -387,6 +394,18 @@ pub enum Corruption {
 /// Reads and checks a partial result.
 pub fn read_partial(path: &Path) -> Result<Partial, PartialError> {
     let path_buf = || path.to_owned();
+    // A FIFO, a device or a header claiming too many texels is refused before
+    // the part is decoded; what is no EXR, the decoder explains below.
+    if let Err(
+        source @ (crate::output::ImageReadError::Open(_)
+        | crate::output::ImageReadError::TooLarge { .. }),
+    ) = crate::output::open_image(path)
+    {
+        return Err(PartialError::Unreadable {
+            path: path_buf(),
+            source,
+        });
+    }
     let image = exr::prelude::read()
         .no_deep_data()
         .largest_resolution_level()
@@ -948,6 +967,18 @@ mod tests {
                 && e.contains("render the part again"),
             "{e}"
         );
+    }
+
+    /// What is no regular file is refused before anything is read from it (a
+    /// FIFO would block, a device never end).
+    #[test]
+    fn a_part_that_is_no_regular_file_is_refused_unread() {
+        let (dir, _) = temp("part.exr");
+        let folder = dir.path().join("folder.exr");
+        std::fs::create_dir(&folder).unwrap();
+        let e = read_partial(&folder).unwrap_err();
+        assert!(matches!(e, PartialError::Unreadable { .. }), "{e:?}");
+        assert!(e.to_string().contains("not a regular file"), "{e}");
     }
 
     fn read_partial_bytes(bytes: &[u8]) -> String {
