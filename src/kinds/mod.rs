@@ -13,6 +13,7 @@ mod coat;
 mod disk;
 mod filter;
 mod material;
+pub(crate) mod params;
 mod quad;
 mod sphere;
 mod texture;
@@ -27,6 +28,7 @@ pub use material::{
     Distribution, Lobe, MATERIAL_KINDS, Material, MaterialKind, MaterialModel, MaterialTables,
     material_kind_id, pack_material,
 };
+pub use params::{SceneError, excerpt};
 pub use quad::{PackedQuad, Quad};
 pub use sphere::{PackedSphere, Sphere};
 pub use texture::{

@@ -7,7 +7,6 @@
 //! `scenes/x.toml: objects[3].radius: must be > 0, got -1`.
 
 use std::collections::BTreeMap;
-use std::fmt::{Display, LowerExp};
 
 use glam::{DMat3, DVec3, Vec3};
 use toml::{Table, Value};
@@ -22,8 +21,11 @@ use super::{
     Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle,
     excerpt,
 };
+use crate::kinds::params::{
+    Params, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
+    colour, fmt_num, fmt_vec, list, named, number, ok, reflectance, type_name, unknown_name,
+};
 use std::cell::RefCell;
-use std::path::{Path, PathBuf};
 
 /// Settings given over the scene file's (a command line's), validated like the
 /// file's values by [`Scene::apply_overrides`].
@@ -41,11 +43,8 @@ pub struct SceneOverrides {
     pub sampler: Option<Sampler>,
 }
 
-type Result<T> = std::result::Result<T, SceneError>;
-
 /// The `render.strategy` that asks for a pilot's choice.
 pub const AUTO_STRATEGY: &str = "auto";
-const U32_MAX: i64 = u32::MAX as i64;
 pub(super) const IMAGE_SIDE: (i64, i64) = (1, 65536);
 const SPP: (i64, i64) = (1, U32_MAX);
 const MAX_DEPTH: (i64, i64) = (0, 100_000);
@@ -156,7 +155,7 @@ pub(super) const ALL_OBJECT_KEYS: &[&str] = &[
 pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     let root: Table = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
     let inputs = RefCell::new(Vec::new());
-    let top = Tab {
+    let top = Params {
         file,
         table: &root,
         path: String::new(),
@@ -346,7 +345,7 @@ impl Scene {
 // ---------------------------------------------------------------------------------
 // Sections
 
-fn parse_camera(t: &Tab) -> Result<Camera> {
+fn parse_camera(t: &Params) -> Result<Camera> {
     t.check_keys(CAMERA_KEYS, None)?;
     let camera = Camera {
         lookfrom: t.require("lookfrom", t.vec3("lookfrom", ok)?)?,
@@ -365,12 +364,12 @@ fn parse_camera(t: &Tab) -> Result<Camera> {
 
 /// `filter = "NAME"` (with its defaults) or `filter = { type = "NAME", KEY = VALUE }`,
 /// a filter's keys being those `FILTER_KEYS` names for its type.
-fn parse_filter(t: &Tab) -> Result<Filter> {
+fn parse_filter(t: &Params) -> Result<Filter> {
     let no_keys = Table::new();
     let (f, name, name_at) = match t.table.get("filter") {
         None => return Ok(Filter::Box),
         Some(Value::String(name)) => {
-            let f = Tab {
+            let f = Params {
                 file: t.file,
                 table: &no_keys,
                 path: t.at("filter"),
@@ -458,7 +457,7 @@ fn default_render() -> RenderSettings {
     }
 }
 
-fn parse_render(t: &Tab) -> Result<RenderSettings> {
+fn parse_render(t: &Params) -> Result<RenderSettings> {
     t.check_keys(RENDER_KEYS, None)?;
     let d = default_render();
     let (strategy, auto_strategy) = parse_strategy(t)?;
@@ -500,7 +499,7 @@ fn parse_render(t: &Tab) -> Result<RenderSettings> {
 }
 
 /// `render.strategy`: a strategy's name, or `auto` (true: the pilot chooses).
-fn parse_strategy(t: &Tab) -> Result<(Option<Strategy>, bool)> {
+fn parse_strategy(t: &Params) -> Result<(Option<Strategy>, bool)> {
     match t.string("strategy")? {
         None => Ok((None, false)),
         Some(AUTO_STRATEGY) => Ok((None, true)),
@@ -518,7 +517,7 @@ fn parse_strategy(t: &Tab) -> Result<(Option<Strategy>, bool)> {
 /// `[environment]`: the map's file (relative to the scene file), `scale`, and its
 /// rotation as objects take one (`rotate_y`, `rotate`, or an orthogonal `matrix`,
 /// whose translation moves nothing at infinity).
-fn parse_environment(t: &Tab) -> Result<EnvironmentMap> {
+fn parse_environment(t: &Params) -> Result<EnvironmentMap> {
     t.check_keys(ENVIRONMENT_KEYS, None)?;
     let file = t.require("file", t.string("file")?)?;
     let scale = t.float("scale", check_nonneg)?.unwrap_or(1.0);
@@ -551,27 +550,7 @@ fn parse_environment(t: &Tab) -> Result<EnvironmentMap> {
     })
 }
 
-/// A setting given by the name of one of `all` (or an alias `from_name` knows).
-fn named<T: Copy>(
-    t: &Tab,
-    key: &str,
-    all: &[T],
-    name: fn(T) -> &'static str,
-    from_name: fn(&str) -> Option<T>,
-) -> Result<Option<T>> {
-    let Some(given) = t.string(key)? else {
-        return Ok(None);
-    };
-    match from_name(given) {
-        Some(v) => Ok(Some(v)),
-        None => {
-            let names: Vec<&str> = all.iter().map(|&v| name(v)).collect();
-            Err(t.err(t.at(key), unknown_name(key, given, &names)))
-        }
-    }
-}
-
-fn parse_materials(top: &Tab) -> Result<Vec<Material>> {
+fn parse_materials(top: &Params) -> Result<Vec<Material>> {
     let Some(mats) = top.sub("materials")? else {
         return Ok(Vec::new());
     };
@@ -937,7 +916,7 @@ const IOR_POLYPROPYLENE: f32 = 1.49;
 
 /// `int_ior` and `ext_ior` (numbers > 0 or names of [`NAMED_IORS`]), with
 /// Mitsuba's defaults: `int_default` inside, air outside. They must differ.
-fn iors(t: &Tab, int_default: f32) -> Result<(f32, f32)> {
+fn iors(t: &Params, int_default: f32) -> Result<(f32, f32)> {
     let ior = |key: &str, default: f32| -> Result<f32> {
         match t.table.get(key) {
             None => Ok(default),
@@ -968,7 +947,7 @@ fn iors(t: &Tab, int_default: f32) -> Result<(f32, f32)> {
 /// A conductor's complex index `eta + i k`, per channel: `eta` and `k`, or a
 /// `material` of [`NAMED_CONDUCTORS`]. Mitsuba's default (`material = "none"`) is
 /// eta 0, k 1: reflectance 1 at every angle.
-fn conductor_ior(t: &Tab) -> Result<(Vec3, Vec3)> {
+fn conductor_ior(t: &Params) -> Result<(Vec3, Vec3)> {
     let Some(name) = t.string("material")? else {
         let eta = colour(t, "eta", 0.0, check_nonneg)?;
         let k = colour(t, "k", 1.0, check_nonneg)?;
@@ -993,7 +972,7 @@ fn conductor_ior(t: &Tab) -> Result<(Vec3, Vec3)> {
 /// with a `default` for when it is absent, one number for grey), or a texture table, stored in
 /// `texture`, whose mean it then gives.
 fn texturable(
-    t: &Tab,
+    t: &Params,
     key: &str,
     default: Option<f32>,
     texture: &mut Option<Texture>,
@@ -1022,7 +1001,7 @@ pub(super) const CHECKERBOARD_KEYS: &[&str] = &["type", "color0", "color1", "to_
 pub(super) const BITMAP_KEYS: &[&str] =
     &["type", "file", "wrap_mode", "filter_type", "raw", "to_uv"];
 
-fn parse_texture(s: &Tab) -> Result<Texture> {
+fn parse_texture(s: &Params) -> Result<Texture> {
     let Some(ty) = s.string("type")? else {
         return Err(s.err(
             s.here(),
@@ -1099,7 +1078,7 @@ fn parse_texture(s: &Tab) -> Result<Texture> {
 /// `to_uv = { scale = [su, sv], translate = [tu, tv] }` (u' = su u + tu; one
 /// number scales both), or `{ matrix = [[a, b, c], [d, e, f]] }` (u' = a u + b v
 /// + c, v' = d u + e v + f): Mitsuba's `to_uv` transform.
-fn parse_to_uv(u: &Tab) -> Result<UvTransform> {
+fn parse_to_uv(u: &Params) -> Result<UvTransform> {
     u.check_keys(&["scale", "translate", "matrix"], Some("to_uv"))?;
     if let Some(rows) = u.table.get("matrix") {
         if let Some(key) = ["scale", "translate"]
@@ -1153,26 +1132,7 @@ fn parse_to_uv(u: &Tab) -> Result<UvTransform> {
     ]))
 }
 
-/// An RGB reflectance or transmittance in [0, 1].
-fn reflectance(t: &Tab, key: &str, default: f32) -> Result<Vec3> {
-    colour(t, key, default, check_unit)
-}
-
-/// An RGB parameter: a vector, or one number for grey.
-fn colour(
-    t: &Tab,
-    key: &str,
-    default: f32,
-    check: fn(f32) -> std::result::Result<(), String>,
-) -> Result<Vec3> {
-    match t.table.get(key) {
-        Some(Value::Array(_)) => Ok(t.vec3(key, check)?.expect("present")),
-        Some(_) => Ok(Vec3::splat(t.float(key, check)?.expect("present"))),
-        None => Ok(Vec3::splat(default)),
-    }
-}
-
-fn distribution(t: &Tab) -> Result<Distribution> {
+fn distribution(t: &Params) -> Result<Distribution> {
     Ok(named(
         t,
         "distribution",
@@ -1184,7 +1144,7 @@ fn distribution(t: &Tab) -> Result<Distribution> {
 }
 
 /// `alpha` (default 0.1), or `alpha_u` and `alpha_v` together; each in (0, 1].
-fn roughness(t: &Tab) -> Result<(f32, f32)> {
+fn roughness(t: &Params) -> Result<(f32, f32)> {
     let (u, v) = (
         t.table.contains_key("alpha_u"),
         t.table.contains_key("alpha_v"),
@@ -1229,11 +1189,11 @@ fn check_cutoff(x: f32) -> std::result::Result<(), String> {
 /// in file order); a table without a `type` is refused, its keys checked against
 /// `all_keys` first, naming the `types` it may take.
 fn typed_tables<'a, 'b>(
-    top: &'b Tab<'a>,
+    top: &'b Params<'a>,
     key: &'b str,
     all_keys: &'b [&'b str],
     types: &'b [&'b str],
-) -> Result<impl ExactSizeIterator<Item = Result<(Tab<'a>, &'a str)>> + 'b> {
+) -> Result<impl ExactSizeIterator<Item = Result<(Params<'a>, &'a str)>> + 'b> {
     let items: &'a [Value] = match top.table.get(key) {
         None => &[],
         Some(Value::Array(items)) => items,
@@ -1252,7 +1212,7 @@ fn typed_tables<'a, 'b>(
         let Value::Table(table) = item else {
             return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
         };
-        let t = Tab {
+        let t = Params {
             file: top.file,
             table,
             path,
@@ -1273,7 +1233,7 @@ fn typed_tables<'a, 'b>(
 }
 
 /// The `[[lights]]`: point and spot lights.
-fn parse_lights(top: &Tab) -> Result<Vec<PointLight>> {
+fn parse_lights(top: &Params) -> Result<Vec<PointLight>> {
     let tables = typed_tables(top, "lights", ALL_LIGHT_KEYS, LIGHT_TYPES)?;
     let mut lights = Vec::with_capacity(tables.len());
     for table in tables {
@@ -1338,7 +1298,7 @@ struct Objects {
     warnings: Vec<String>,
 }
 
-fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
+fn parse_objects(top: &Params, materials: &[Material]) -> Result<Objects> {
     let mut objects = Objects::default();
     let Objects {
         quads,
@@ -1595,7 +1555,7 @@ fn parse_objects(top: &Tab, materials: &[Material]) -> Result<Objects> {
 /// object and the file's names, numbered from `base` in the scene; an error
 /// where a face has none (it needs the object's `material`) or a colour is
 /// out of range.
-fn file_materials(t: &Tab, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Material>> {
+fn file_materials(t: &Params, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Material>> {
     let missing = || {
         t.err(
             t.here(),
@@ -1722,7 +1682,7 @@ pub(super) fn sin_cos_degrees(degrees: f64) -> (f64, f64) {
 
 /// `matrix` (16 numbers, row-major, affine): its linear part and translation.
 /// `others` are the keys it replaces, refused alongside it.
-fn matrix(t: &Tab, others: &[&str]) -> Result<(DMat3, DVec3)> {
+fn matrix(t: &Params, others: &[&str]) -> Result<(DMat3, DVec3)> {
     if let Some(other) = others.iter().find(|k| t.table.contains_key(**k)) {
         return Err(t.err(
             t.at(other),
@@ -1753,7 +1713,7 @@ fn matrix(t: &Tab, others: &[&str]) -> Result<(DMat3, DVec3)> {
 }
 
 /// `rotate_y` (the book's) or `rotate = { axis, angle }`; the identity without either.
-fn rotation(t: &Tab) -> Result<DMat3> {
+fn rotation(t: &Params) -> Result<DMat3> {
     Ok(match (t.table.contains_key("rotate_y"), t.sub("rotate")?) {
         (true, Some(_)) => {
             return Err(t.err(
@@ -1795,7 +1755,7 @@ fn rotation(t: &Tab) -> Result<DMat3> {
 impl Transform {
     /// The object's transform keys: `scale`, `rotate_y` or `rotate`, `translate`,
     /// or `matrix` instead of all three.
-    fn parse(t: &Tab) -> Result<Transform> {
+    fn parse(t: &Params) -> Result<Transform> {
         if t.table.contains_key("matrix") {
             let (linear, translate) = matrix(t, &["scale", "rotate_y", "rotate", "translate"])?;
             return Transform::checked(t, "matrix", linear, translate);
@@ -1811,7 +1771,7 @@ impl Transform {
         Transform::checked(t, "scale", linear, translate)
     }
 
-    fn checked(t: &Tab, key: &str, linear: DMat3, translate: DVec3) -> Result<Transform> {
+    fn checked(t: &Params, key: &str, linear: DMat3, translate: DVec3) -> Result<Transform> {
         if !linear.is_finite() || !translate.is_finite() || linear.determinant() == 0.0 {
             return Err(t.err(
                 t.at(key),
@@ -1957,43 +1917,7 @@ fn camera_problem(c: &Camera) -> Option<(&'static str, String)> {
 }
 
 // ---------------------------------------------------------------------------------
-// Value checks (shared by the parser and the command-line overrides)
-
-fn ok(_: f32) -> std::result::Result<(), String> {
-    Ok(())
-}
-
-fn check_finite(x: f32) -> std::result::Result<(), String> {
-    if x.is_finite() {
-        Ok(())
-    } else {
-        Err(format!("must be a finite number, got {}", fmt_num(x)))
-    }
-}
-
-fn check_positive(x: f32) -> std::result::Result<(), String> {
-    if x > 0.0 {
-        Ok(())
-    } else {
-        Err(format!("must be > 0, got {}", fmt_num(x)))
-    }
-}
-
-fn check_nonneg(x: f32) -> std::result::Result<(), String> {
-    if x >= 0.0 {
-        Ok(())
-    } else {
-        Err(format!("must be >= 0, got {}", fmt_num(x)))
-    }
-}
-
-fn check_unit(x: f32) -> std::result::Result<(), String> {
-    if (0.0..=1.0).contains(&x) {
-        Ok(())
-    } else {
-        Err(format!("must be in [0, 1], got {}", fmt_num(x)))
-    }
-}
+// Value checks (the others are `kinds::params`')
 
 fn check_vfov(x: f32) -> std::result::Result<(), String> {
     if x > 0.0 && x < 180.0 {
@@ -2003,250 +1927,6 @@ fn check_vfov(x: f32) -> std::result::Result<(), String> {
             "must be in (0, 180) degrees, exclusive, got {}",
             fmt_num(x)
         ))
-    }
-}
-
-fn check_int(v: i64, (lo, hi): (i64, i64)) -> std::result::Result<u32, String> {
-    if v < lo && hi == U32_MAX {
-        Err(format!("must be >= {lo}, got {v}"))
-    } else if v < lo || v > hi {
-        Err(format!("must be between {lo} and {hi}, got {v}"))
-    } else {
-        u32::try_from(v).map_err(|_| format!("must be between {lo} and {hi}, got {v}"))
-    }
-}
-
-// ---------------------------------------------------------------------------------
-// Table access with field paths
-
-/// A TOML table and its field path, for messages.
-struct Tab<'a> {
-    file: &'a str,
-    table: &'a Table,
-    /// Empty at the top level.
-    path: String,
-    /// The files the scene reads, as `input` resolves them (`Scene::inputs`).
-    inputs: &'a RefCell<Vec<PathBuf>>,
-}
-
-impl<'a> Tab<'a> {
-    /// The file `name` names, relative to the scene file as every path in it,
-    /// recorded as one of the scene's inputs.
-    fn input(&self, name: &str) -> PathBuf {
-        let path = Path::new(self.file)
-            .parent()
-            .unwrap_or(Path::new(""))
-            .join(name);
-        self.inputs.borrow_mut().push(path.clone());
-        path
-    }
-
-    fn err(&self, location: impl Into<String>, message: impl Into<String>) -> SceneError {
-        SceneError {
-            file: self.file.to_string(),
-            location: location.into(),
-            message: message.into(),
-        }
-    }
-
-    /// The path of `key` in this table.
-    fn at(&self, key: &str) -> String {
-        if self.path.is_empty() {
-            toml_key(key)
-        } else {
-            format!("{}.{}", self.path, toml_key(key))
-        }
-    }
-
-    /// This table's path, for messages about the table as a whole.
-    fn here(&self) -> String {
-        if self.path.is_empty() {
-            "top level".to_string()
-        } else {
-            self.path.clone()
-        }
-    }
-
-    /// Rejects keys not in `known`; `what` names the kind of table when the allowed keys
-    /// depend on its `type`.
-    fn check_keys(&self, known: &[&str], what: Option<&str>) -> Result<()> {
-        for key in self.table.keys() {
-            if known.contains(&key.as_str()) {
-                continue;
-            }
-            let for_what = what.map(|w| format!(" for {w}")).unwrap_or_default();
-            let key = excerpt(key);
-            let message = match suggest(&key, known.iter().copied()) {
-                Some(s) => format!("unknown key `{key}`{for_what} (did you mean `{s}`?)"),
-                None => format!(
-                    "unknown key `{key}`{for_what} (expected one of {})",
-                    list(known)
-                ),
-            };
-            return Err(self.err(self.here(), message));
-        }
-        Ok(())
-    }
-
-    fn require<T>(&self, key: &str, value: Option<T>) -> Result<T> {
-        value.ok_or_else(|| self.err(self.here(), format!("missing required key `{key}`")))
-    }
-
-    /// The table at `key`, if present.
-    fn sub(&self, key: &str) -> Result<Option<Tab<'a>>> {
-        match self.table.get(key) {
-            None => Ok(None),
-            Some(Value::Table(table)) => Ok(Some(Tab {
-                file: self.file,
-                table,
-                path: self.at(key),
-                inputs: self.inputs,
-            })),
-            Some(other) => Err(self.err(
-                self.at(key),
-                format!("expected a table, got {}", type_name(other)),
-            )),
-        }
-    }
-
-    fn float(
-        &self,
-        key: &str,
-        check: fn(f32) -> std::result::Result<(), String>,
-    ) -> Result<Option<f32>> {
-        let Some(value) = self.table.get(key) else {
-            return Ok(None);
-        };
-        let loc = self.at(key);
-        let x = number(value).map_err(|m| self.err(&loc, m))?;
-        check(x).map_err(|m| self.err(&loc, m))?;
-        Ok(Some(x))
-    }
-
-    fn vec3(
-        &self,
-        key: &str,
-        check: fn(f32) -> std::result::Result<(), String>,
-    ) -> Result<Option<Vec3>> {
-        let Some(value) = self.table.get(key) else {
-            return Ok(None);
-        };
-        let loc = self.at(key);
-        let expected = "expected an array of 3 numbers";
-        let items = match value {
-            Value::Array(items) if items.len() == 3 => items,
-            Value::Array(items) => {
-                return Err(self.err(
-                    loc,
-                    format!("{expected}, got an array of {} elements", items.len()),
-                ));
-            }
-            other => return Err(self.err(loc, format!("{expected}, got {}", type_name(other)))),
-        };
-        let mut out = [0.0f32; 3];
-        for (i, (item, slot)) in items.iter().zip(&mut out).enumerate() {
-            let x = number(item)
-                .and_then(|x| check(x).map(|()| x))
-                .map_err(|m| self.err(format!("{loc}[{i}]"), m))?;
-            *slot = x;
-        }
-        Ok(Some(Vec3::from_array(out)))
-    }
-
-    /// Exactly `n` numbers (required).
-    fn numbers<const N: usize>(&self, key: &str) -> Result<[f32; N]> {
-        let loc = self.at(key);
-        let value = self.table.get(key).expect("caller checked the key");
-        let items = match value {
-            Value::Array(items) if items.len() == N => items,
-            Value::Array(items) => {
-                return Err(self.err(
-                    loc,
-                    format!(
-                        "expected an array of {N} numbers, got {} elements",
-                        items.len()
-                    ),
-                ));
-            }
-            other => {
-                return Err(self.err(
-                    loc,
-                    format!("expected an array of {N} numbers, got {}", type_name(other)),
-                ));
-            }
-        };
-        let mut out = [0.0f32; N];
-        for (i, (item, slot)) in items.iter().zip(&mut out).enumerate() {
-            *slot = number(item).map_err(|m| self.err(format!("{loc}[{i}]"), m))?;
-        }
-        Ok(out)
-    }
-
-    fn int(&self, key: &str, range: (i64, i64)) -> Result<Option<u32>> {
-        match self.table.get(key) {
-            None => Ok(None),
-            Some(Value::Integer(v)) => check_int(*v, range)
-                .map(Some)
-                .map_err(|m| self.err(self.at(key), m)),
-            Some(other) => Err(self.err(
-                self.at(key),
-                format!("expected an integer, got {}", type_name(other)),
-            )),
-        }
-    }
-
-    fn string(&self, key: &str) -> Result<Option<&'a str>> {
-        match self.table.get(key) {
-            None => Ok(None),
-            Some(Value::String(s)) => Ok(Some(s)),
-            Some(other) => Err(self.err(
-                self.at(key),
-                format!("expected a string, got {}", type_name(other)),
-            )),
-        }
-    }
-
-    fn boolean(&self, key: &str) -> Result<Option<bool>> {
-        match self.table.get(key) {
-            None => Ok(None),
-            Some(Value::Boolean(b)) => Ok(Some(*b)),
-            Some(other) => Err(self.err(
-                self.at(key),
-                format!("expected a boolean, got {}", type_name(other)),
-            )),
-        }
-    }
-}
-
-/// A finite number that fits a 32-bit float (integers accepted).
-fn number(value: &Value) -> std::result::Result<f32, String> {
-    let x = match value {
-        Value::Integer(i) => *i as f64,
-        Value::Float(f) => *f,
-        other => return Err(format!("expected a number, got {}", type_name(other))),
-    };
-    if !x.is_finite() {
-        return Err(format!("must be a finite number, got {}", fmt_num(x)));
-    }
-    let y = x as f32;
-    if !y.is_finite() {
-        return Err(format!(
-            "{} is too large for a 32-bit float (max about 3.4e38)",
-            fmt_num(x)
-        ));
-    }
-    Ok(y)
-}
-
-fn type_name(value: &Value) -> &'static str {
-    match value {
-        Value::String(_) => "a string",
-        Value::Integer(_) => "an integer",
-        Value::Float(_) => "a float",
-        Value::Boolean(_) => "a boolean",
-        Value::Datetime(_) => "a date-time",
-        Value::Array(_) => "an array",
-        Value::Table(_) => "a table",
     }
 }
 
@@ -2284,82 +1964,6 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
     (line, column)
-}
-
-/// `unknown <what> `name` (did you mean `x`?)` or a list of the valid names.
-fn unknown_name(what: &str, name: &str, valid: &[&str]) -> String {
-    let name = excerpt(name);
-    match suggest(&name, valid.iter().copied()) {
-        Some(s) => format!(
-            "unknown {what} `{name}` (did you mean `{s}`?); expected one of {}",
-            list(valid)
-        ),
-        None => format!("unknown {what} `{name}`; expected one of {}", list(valid)),
-    }
-}
-
-fn list(names: &[&str]) -> String {
-    names
-        .iter()
-        .map(|n| format!("`{n}`"))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// The closest candidate by edit distance, if it is close enough to be a typo.
-fn suggest<'k>(word: &str, candidates: impl IntoIterator<Item = &'k str>) -> Option<&'k str> {
-    let word_len = word.chars().count();
-    candidates
-        .into_iter()
-        .map(|c| (levenshtein(word, c), c))
-        .filter(|&(d, c)| d <= 2 && d < word_len.max(c.chars().count()))
-        .min_by_key(|&(d, _)| d)
-        .map(|(_, c)| c)
-}
-
-fn levenshtein(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut prev: Vec<usize> = (0..=b.len()).collect();
-    let mut cur = vec![0; b.len() + 1];
-    for (i, ca) in a.chars().enumerate() {
-        cur[0] = i + 1;
-        for (j, &cb) in b.iter().enumerate() {
-            let substitute = prev[j] + usize::from(ca != cb);
-            cur[j + 1] = substitute.min(prev[j + 1] + 1).min(cur[j] + 1);
-        }
-        std::mem::swap(&mut prev, &mut cur);
-    }
-    prev[b.len()]
-}
-
-/// A key as written in a TOML path: bare when possible, quoted otherwise.
-fn toml_key(key: &str) -> String {
-    let bare = !key.is_empty()
-        && key
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
-    if bare {
-        key.to_string()
-    } else {
-        format!("{key:?}")
-    }
-}
-
-fn fmt_num<T: Copy + Display + LowerExp + Into<f64>>(x: T) -> String {
-    let f: f64 = x.into();
-    if f.is_nan() {
-        "nan".to_string()
-    } else if f.is_infinite() {
-        if f > 0.0 { "inf" } else { "-inf" }.to_string()
-    } else if f != 0.0 && (f.abs() >= 1e7 || f.abs() < 1e-4) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
-}
-
-fn fmt_vec(v: Vec3) -> String {
-    format!("[{}, {}, {}]", fmt_num(v.x), fmt_num(v.y), fmt_num(v.z))
 }
 
 #[cfg(test)]
@@ -2670,9 +2274,6 @@ material = "white"
         // A typo in `type` itself.
         let e = error("type = \"sphere\"", "tpye = \"sphere\"");
         assert_error(&e, "objects[0]", &["`tpye`", "did you mean `type`?"]);
-        assert_eq!(levenshtein("kitten", "sitting"), 3);
-        assert_eq!(levenshtein("", "abc"), 3);
-        assert_eq!(suggest("x", ["q", "u"]), None);
     }
 
     #[test]
