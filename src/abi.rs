@@ -161,7 +161,7 @@ impl Counters {
 
 gpu_struct! {
     /// Every material kind packs into this; what each field holds for each kind
-    /// is said once, in `kinds::material::pack_material`.
+    /// is said once, in its kind's file (`src/kinds/material/`).
     pub struct PackedMaterial as Material {
         pub albedo: [f32; 3],
         /// Index into `kinds::MATERIAL_KINDS`.

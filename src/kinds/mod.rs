@@ -13,6 +13,7 @@ mod coat;
 mod disk;
 mod filter;
 mod material;
+pub(crate) mod params;
 mod quad;
 mod sphere;
 mod texture;
@@ -23,10 +24,15 @@ pub use disk::{Disk, PackedDisk};
 pub use filter::{
     FILTER_FLAGS, FILTER_MODULE, FILTER_TABLE_BINS, Filter, FilterTable, GaussianFilterTerms,
 };
+pub(crate) use material::NAMED_IORS;
 pub use material::{
     Distribution, Lobe, MATERIAL_KINDS, Material, MaterialKind, MaterialModel, MaterialTables,
-    material_kind_id, pack_material,
+    pack_material,
 };
+// For the scene's tests of Mitsuba's conductors and of the format's page.
+#[cfg(test)]
+pub(crate) use material::{NAMED_CONDUCTORS, material_keys, material_types};
+pub use params::{SceneError, excerpt};
 pub use quad::{PackedQuad, Quad};
 pub use sphere::{PackedSphere, Sphere};
 pub use texture::{

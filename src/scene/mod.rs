@@ -18,7 +18,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Disk, Distribution, Filter, Material, MaterialKind, Quad, Shapes, Sphere, Triangle,
+    Disk, Distribution, Filter, Material, MaterialKind, Quad, SceneError, Shapes, Sphere, Triangle,
+    excerpt,
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
@@ -230,39 +231,6 @@ pub struct LoadedScene {
     pub scene: Scene,
     /// One phrase per approximation, for a warning.
     pub warnings: Vec<String>,
-}
-
-/// A problem with a scene file: which file, where in it, and what is wrong.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SceneError {
-    pub file: String,
-    /// A field path such as `objects[3].radius`, or `line 7, column 3`.
-    pub location: String,
-    pub message: String,
-}
-
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.location.is_empty() {
-            write!(f, "{}: {}", self.file, self.message)
-        } else {
-            write!(f, "{}: {}: {}", self.file, self.location, self.message)
-        }
-    }
-}
-
-impl std::error::Error for SceneError {}
-
-/// The longest text a message quotes from a file, in characters.
-const EXCERPT_CHARS: usize = 64;
-
-/// `text` as a message quotes it: whole, or its first `EXCERPT_CHARS`
-/// characters and `…` (a file's value may be megabytes long).
-pub fn excerpt(text: &str) -> std::borrow::Cow<'_, str> {
-    match text.char_indices().nth(EXCERPT_CHARS) {
-        None => text.into(),
-        Some((end, _)) => format!("{}…", &text[..end]).into(),
-    }
 }
 
 /// A reading crate's message, which may quote a file's text, with each word

@@ -1,0 +1,417 @@
+//! Material kinds, one file each (`lambertian.rs`, `roughconductor.rs`, ...):
+//! its manual (the file's doc comment: keys, defaults, ranges, Mitsuba's
+//! equivalent), its description ([`MaterialModel`]: WGSL module, lobes, keys),
+//! how it reads its `[materials.NAME]` table and what it packs into
+//! `abi::PackedMaterial`, and its test. One entry of `material_kinds!` below
+//! registers a kind: its `MaterialKind` variant (its parameters), its place in
+//! [`MATERIAL_KINDS`] (its id in the kernel), and so the scene files' type
+//! names and keys. What several kinds share is in `common.rs`.
+
+mod common;
+mod conductor;
+mod dielectric;
+mod lambertian;
+mod light;
+mod metal;
+mod plastic;
+mod roughconductor;
+mod roughdielectric;
+mod roughplastic;
+mod thindielectric;
+
+pub use common::Distribution;
+#[cfg(test)]
+pub(crate) use common::NAMED_CONDUCTORS;
+pub(crate) use common::{NAMED_IORS, ReadTexture};
+
+use super::Texture;
+use super::coat::CoatTables;
+use super::params::{Params, Result, list, unknown_name};
+use crate::abi::{PackedMaterial, material_flag};
+use crate::shader::ShaderModule;
+use common::TextureSlot;
+use glam::Vec3;
+use serde::Serialize;
+use std::sync::Mutex;
+
+/// What a material kind's BSDF is made of (the interface is in materials.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobe {
+    /// A density over directions: the module defines `NAME_eval`, `NAME_pdf` and
+    /// `NAME_sample`, and every strategy applies (light sampling, mixtures, MIS).
+    Smooth,
+    /// A smooth lobe and a delta one (a specular coat over a diffuse base):
+    /// `NAME_eval` and `NAME_pdf` cover the smooth part only, and `NAME_sample`
+    /// says per sample whether it drew the delta part. Strategies apply to the
+    /// smooth part; a delta sample is followed.
+    SmoothAndDelta,
+    /// Specular, or with no density to evaluate: the module defines only
+    /// `NAME_sample`, and a path follows it whatever the strategy.
+    Delta,
+    /// Scatters nothing: no module, a path ends there after its emission.
+    Absorbing,
+}
+
+impl Lobe {
+    /// Whether it has a density the strategies can mix (`NAME_eval`, `NAME_pdf`).
+    pub fn has_density(self) -> bool {
+        matches!(self, Lobe::Smooth | Lobe::SmoothAndDelta)
+    }
+}
+
+pub struct MaterialModel {
+    /// Lower case, as in scene files: the module's name and its functions'
+    /// prefix; the kernel's flag is `NAME` and its id constant `MATERIAL_NAME`.
+    pub name: &'static str,
+    pub module: Option<ShaderModule>,
+    /// Modules it calls into (`fresnel`, `microfacet`), composed before it once
+    /// however many kinds use them.
+    pub helpers: &'static [ShaderModule],
+    pub lobe: Lobe,
+    /// Its module reads per-material tables from the scene's `material_tables`
+    /// array (`MaterialTables`), which kernels declare only for such kinds.
+    pub tables: bool,
+    /// The keys of its table, `type` first, in the order an unknown key's
+    /// message lists them.
+    pub keys: &'static [&'static str],
+    /// What an unknown key's message adds about the keys (`isotropic: ...`).
+    pub keys_note: Option<&'static str>,
+    /// Reads its parameters from its table, whose keys are checked; the
+    /// generic part (`one_sided`, the texture) is [`Material::parse`]'s.
+    pub(crate) parse: fn(&Params, &mut TextureSlot) -> Result<Parsed>,
+    /// Its packed material, but for what every kind packs alike
+    /// ([`pack_material`]): each kind's file says which fields it fills.
+    pub(crate) pack: fn(&Material, &mut MaterialTables) -> PackedMaterial,
+}
+
+impl MaterialModel {
+    pub fn flag(&self) -> String {
+        self.name.to_uppercase()
+    }
+
+    /// The WGSL constant holding its id (its index in [`MATERIAL_KINDS`]).
+    pub fn id_constant(&self) -> String {
+        format!("MATERIAL_{}", self.flag())
+    }
+
+    /// The table it reads, as messages name it: `a roughplastic material`.
+    fn what(&self) -> String {
+        match self.keys_note {
+            Some(note) => format!("a {} material ({note})", self.name),
+            None => format!("a {} material", self.name),
+        }
+    }
+}
+
+/// Registers the material kinds, each as `Variant { parameters } = module::MODEL`:
+/// `MaterialKind` has the variant, and [`MATERIAL_KINDS`] the description, in
+/// this order (the variants' order shapes the checkpoint identity's encoding,
+/// and the kinds' order their ids in the kernel).
+macro_rules! material_kinds {
+    ($(
+        $(#[$doc:meta])*
+        $variant:ident $({ $($(#[$field_doc:meta])* $field:ident: $type:ty),* $(,)? })? = $model:path,
+    )*) => {
+        /// A material's kind and its parameters. The book's (`Lambertian`,
+        /// `Metal`, `Dielectric`, `Light`) keep the book's parameters; the others
+        /// are Mitsuba 3's plugins of the same names, with Mitsuba's parameter
+        /// names, meanings and defaults (so a Mitsuba scene maps onto them field
+        /// for field). Each kind's file is its manual.
+        #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+        pub enum MaterialKind {
+            $($(#[$doc])* $variant $({ $($(#[$field_doc])* $field: $type,)* })?,)*
+        }
+
+        /// Every material kind; a kind's id in the packed material is its index.
+        pub const MATERIAL_KINDS: &[MaterialModel] = &[$($model,)*];
+
+        impl MaterialKind {
+            /// Its index in [`MATERIAL_KINDS`].
+            pub fn id(&self) -> usize {
+                enum Id {
+                    $($variant,)*
+                }
+                match self {
+                    $(MaterialKind::$variant { .. } => Id::$variant as usize,)*
+                }
+            }
+        }
+    };
+}
+
+material_kinds! {
+    Lambertian = lambertian::LAMBERTIAN,
+    Metal { fuzz: f32 } = metal::METAL,
+    /// The book's glass: `ior` is the relative index (interior over exterior).
+    Dielectric { ior: f32 } = dielectric::DIELECTRIC,
+    /// Emits `emit` on the side its normal faces; scatters nothing.
+    Light = light::LIGHT,
+    /// A perfectly smooth conductor of complex index `eta + i k` (per RGB channel).
+    Conductor { eta: Vec3, k: Vec3, specular_reflectance: Vec3 } = conductor::CONDUCTOR,
+    /// A conductor with a microfacet surface.
+    RoughConductor {
+        distribution: Distribution,
+        /// Roughness along the shading frame's two tangents (equal: isotropic).
+        alpha_u: f32,
+        alpha_v: f32,
+        eta: Vec3,
+        k: Vec3,
+        specular_reflectance: Vec3,
+    } = roughconductor::ROUGHCONDUCTOR,
+    /// A rough interface between two dielectrics.
+    RoughDielectric {
+        distribution: Distribution,
+        alpha_u: f32,
+        alpha_v: f32,
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Vec3,
+        specular_transmittance: Vec3,
+    } = roughdielectric::ROUGHDIELECTRIC,
+    /// A thin slab of dielectric (two parallel interfaces).
+    ThinDielectric {
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Vec3,
+        specular_transmittance: Vec3,
+    } = thindielectric::THINDIELECTRIC,
+    /// A diffuse base under a smooth dielectric coat.
+    Plastic {
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Vec3,
+        specular_reflectance: Vec3,
+        /// Mitsuba's `nonlinear`: account for the colour shift of light scattered
+        /// inside the coat several times.
+        nonlinear: bool,
+    } = plastic::PLASTIC,
+    /// A diffuse base under a rough dielectric coat (isotropic microfacets).
+    RoughPlastic {
+        distribution: Distribution,
+        alpha: f32,
+        int_ior: f32,
+        ext_ior: f32,
+        diffuse_reflectance: Vec3,
+        specular_reflectance: Vec3,
+        nonlinear: bool,
+    } = roughplastic::ROUGHPLASTIC,
+}
+
+/// The scene files' material types, in [`MATERIAL_KINDS`] order.
+pub(crate) fn material_types() -> Vec<&'static str> {
+    MATERIAL_KINDS.iter().map(|kind| kind.name).collect()
+}
+
+/// Every key of some material kind, in kind order: what a table without a
+/// `type` may hold (its typos are suggested from these).
+pub(crate) fn material_keys() -> Vec<&'static str> {
+    let mut keys = Vec::new();
+    for &key in MATERIAL_KINDS.iter().flat_map(|kind| kind.keys) {
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    keys
+}
+
+/// What a kind reads from its table.
+pub(crate) struct Parsed {
+    pub kind: MaterialKind,
+    /// The book's colours (`Material::albedo`, `Material::emit`); zero for
+    /// kinds without them.
+    pub albedo: Vec3,
+    pub emit: Vec3,
+}
+
+impl From<MaterialKind> for Parsed {
+    fn from(kind: MaterialKind) -> Parsed {
+        Parsed {
+            kind,
+            albedo: Vec3::ZERO,
+            emit: Vec3::ZERO,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Material {
+    pub name: String,
+    pub kind: MaterialKind,
+    /// The book's materials' reflectance (`lambertian`, `metal`); zero for the
+    /// others, whose colours are parameters of their kind.
+    pub albedo: Vec3,
+    /// Emitted radiance (one-sided, along the surface normal); zero for most materials.
+    pub emit: Vec3,
+    /// Scatters only on the side the normal faces, black from behind (Mitsuba's
+    /// BSDFs outside `twosided`); the book's materials scatter on both sides.
+    pub one_sided: bool,
+    /// A texture on the kind's colour that `kinds::pack_material` packs as
+    /// `albedo` (lambertian and metal `albedo`, conductors' and rough
+    /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
+    /// which then holds the texture's mean.
+    pub texture: Option<Texture>,
+}
+
+impl Material {
+    pub fn emits(&self) -> bool {
+        self.emit.max_element() > 0.0
+    }
+
+    /// The material `name` of table `t` (`[materials.NAME]`): `type` names its
+    /// kind, which reads the rest; `one_sided` (default false) where the kind
+    /// takes it. `read_texture` reads the texture its colour may be.
+    pub(crate) fn parse(name: &str, t: &Params, read_texture: ReadTexture) -> Result<Material> {
+        let Some(ty) = t.string("type")? else {
+            t.check_keys(&material_keys(), None)?;
+            return Err(t.err(
+                t.here(),
+                format!(
+                    "missing required key `type` (expected one of {})",
+                    list(&material_types())
+                ),
+            ));
+        };
+        let Some(model) = MATERIAL_KINDS.iter().find(|kind| kind.name == ty) else {
+            return Err(t.err(
+                t.at("type"),
+                unknown_name("material type", ty, &material_types()),
+            ));
+        };
+        t.check_keys(model.keys, Some(&model.what()))?;
+        let mut slot = TextureSlot::new(read_texture);
+        let Parsed { kind, albedo, emit } = (model.parse)(t, &mut slot)?;
+        Ok(Material {
+            name: name.to_string(),
+            kind,
+            albedo,
+            emit,
+            one_sided: t.boolean("one_sided")?.unwrap_or(false),
+            texture: slot.texture,
+        })
+    }
+}
+
+/// A coat's distribution, alpha and eta (as bits).
+type CoatKey = (Distribution, u32, u32);
+
+/// The tables of a scene's materials (`MaterialModel::tables`), one array of
+/// floats the kernel reads at the offset a packed material holds. Materials with
+/// the same coat share one table.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MaterialTables {
+    pub values: Vec<f32>,
+    /// The coats tabulated so far (distribution, alpha and eta, as bits), and
+    /// their tables' offsets and internal reflectances.
+    coats: Vec<(CoatKey, u32, f32)>,
+}
+
+impl MaterialTables {
+    /// The offset of the coat's transmittance table, and its internal reflectance.
+    fn coat(&mut self, distribution: Distribution, alpha: f32, eta: f32) -> (u32, f32) {
+        let key = (distribution, alpha.to_bits(), eta.to_bits());
+        if let Some(&(_, offset, internal)) = self.coats.iter().find(|(k, ..)| *k == key) {
+            return (offset, internal);
+        }
+        let tables = coat_tables(key);
+        let offset = self.values.len() as u32;
+        self.values.extend_from_slice(&tables.transmittance);
+        self.coats.push((key, offset, tables.internal_reflectance));
+        (offset, tables.internal_reflectance)
+    }
+}
+
+/// [`CoatTables::new`] for a coat, computed once per
+/// process: a run may pack its scene once per kernel (the `auto` strategy's pilot
+/// candidates, `converge`'s variants), and each coat costs a million samples.
+fn coat_tables(key: CoatKey) -> CoatTables {
+    static COMPUTED: Mutex<Vec<(CoatKey, CoatTables)>> = Mutex::new(Vec::new());
+    let mut computed = COMPUTED
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some((_, tables)) = computed.iter().find(|(k, _)| *k == key) {
+        return tables.clone();
+    }
+    let (distribution, alpha, eta) = key;
+    let tables = CoatTables::new(distribution, f32::from_bits(alpha), f32::from_bits(eta));
+    computed.push((key, tables.clone()));
+    tables
+}
+
+/// The packed material: its kind's packing (`MaterialModel::pack`; each kind's
+/// file says which fields it fills, and the WGSL module reads the same), and
+/// what every kind packs alike: `kind` its id, `emit`, and the one-sided bit
+/// of `flags`.
+pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> PackedMaterial {
+    let id = material.kind.id();
+    let packed = (MATERIAL_KINDS[id].pack)(material, tables);
+    let one_sided = if material.one_sided {
+        material_flag("MATERIAL_ONE_SIDED")
+    } else {
+        0
+    };
+    PackedMaterial {
+        kind: id as u32,
+        emit: material.emit.to_array(),
+        flags: packed.flags | one_sided,
+        ..packed
+    }
+}
+
+/// `body` read as the table `[materials.red]` of `scenes/x.toml`, without
+/// textures: for the kinds' tests.
+#[cfg(test)]
+fn read(body: &str) -> Result<Material> {
+    let table: toml::Table = toml::from_str(body).expect("valid TOML");
+    let inputs = std::cell::RefCell::new(Vec::new());
+    let t = Params {
+        file: "scenes/x.toml",
+        table: &table,
+        path: "materials.red".to_string(),
+        inputs: &inputs,
+    };
+    Material::parse("red", &t, |_| panic!("no texture in these tests"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_table_names_a_registered_kind() {
+        let e = read("albedo = [0.5, 0.5, 0.5]").unwrap_err();
+        assert_eq!(e.location, "materials.red");
+        assert!(
+            e.message
+                .starts_with("missing required key `type` (expected one of `lambertian`, `metal`"),
+            "{e}"
+        );
+        let e = read("type = \"lambertain\"").unwrap_err();
+        assert_eq!(e.location, "materials.red.type");
+        assert!(e.message.contains("did you mean `lambertian`?"), "{e}");
+        // A key of some kind but no `type`: the type is what is missing.
+        let e = read("alpha_u = 0.1").unwrap_err();
+        assert!(e.message.starts_with("missing required key `type`"), "{e}");
+        let e = read("alpah = 0.1").unwrap_err();
+        assert!(e.message.contains("did you mean `alpha`?"), "{e}");
+    }
+
+    #[test]
+    fn each_kind_is_its_variants_id() {
+        for (id, model) in MATERIAL_KINDS.iter().enumerate() {
+            // Each kind's required keys, of those it takes.
+            let body: String = [
+                ("albedo", "[0.5, 0.5, 0.5]"),
+                ("emit", "[1, 1, 1]"),
+                ("ior", "1.5"),
+            ]
+            .iter()
+            .filter(|(key, _)| model.keys.contains(key))
+            .map(|(key, value)| format!("{key} = {value}\n"))
+            .collect();
+            let material = read(&format!("type = \"{}\"\n{body}", model.name)).unwrap();
+            assert_eq!(material.kind.id(), id, "{}", model.name);
+            let packed = pack_material(&material, &mut MaterialTables::default());
+            assert_eq!(packed.kind as usize, id, "{}", model.name);
+        }
+    }
+}
