@@ -11,22 +11,29 @@ struct Sphere {
 }
 
 // Distance along the (unit-direction) ray to the sphere in (0, t_max), or -1.
-// The discriminant is r^2 - |perpendicular offset|^2, which keeps its precision
-// for small or distant spheres (Haines et al., Ray Tracing Gems, ch. 7).
+// The discriminant is r^2 - |perpendicular offset|^2, and the roots are q and
+// c / q with q the one computed without cancellation (Haines et al., Ray Tracing
+// Gems, ch. 7): small and distant spheres keep their size, and a ray leaving
+// the surface (its origin a ray offset off it) does not find it again.
 fn sphere_hit_t(sphere: Sphere, ray: Ray, t_max: f32) -> f32 {
     let to_center = sphere.center - ray.origin;
     let along = dot(ray.dir, to_center);
     let perpendicular = to_center - along * ray.dir;
-    let disc = sphere.radius * sphere.radius - dot(perpendicular, perpendicular);
+    let r2 = sphere.radius * sphere.radius;
+    let disc = r2 - dot(perpendicular, perpendicular);
     if disc < 0.0 {
         return -1.0;
     }
-    let half_chord = sqrt(disc);
-    let near = along - half_chord;
+    let q = along + select(-1.0, 1.0, along >= 0.0) * sqrt(disc);
+    if q == 0.0 {
+        return -1.0;
+    }
+    let other = (dot(to_center, to_center) - r2) / q;
+    let near = min(q, other);
     if near > 0.0 && near < t_max {
         return near;
     }
-    let far = along + half_chord;
+    let far = max(q, other);
     if far > 0.0 && far < t_max {
         return far;
     }
@@ -36,6 +43,12 @@ fn sphere_hit_t(sphere: Sphere, ray: Ray, t_max: f32) -> f32 {
 // The closest hit keeps the centre and radius, from which the normal follows.
 fn sphere_hit_keep(sphere: Sphere) -> vec4<f32> {
     return vec4<f32>(sphere.center, sphere.radius);
+}
+
+// The hit point moved onto the sphere along its normal (`o + t d` errs by ulps of
+// the ray's origin and length, more than a ray offset).
+fn sphere_hit_point(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
+    return keep.xyz + normalize(p - keep.xyz) * keep.w;
 }
 
 fn sphere_hit_normal(keep: vec4<f32>, p: vec3<f32>) -> vec3<f32> {

@@ -1,5 +1,6 @@
 //! Point and spot lights (delta lights, estimated by shadow rays under every
-//! strategy) and the `thindielectric` material, against analytic answers.
+//! strategy) and the `thindielectric` and `smoothdielectric` materials, against
+//! analytic answers.
 
 mod common;
 
@@ -233,6 +234,114 @@ fn thindielectric_slab_transmits_and_reflects_the_analytic_fractions() {
     let schlick = r0 + (1.0 - r0) * 0.5f64.powi(5);
     let schlick_slab = 2.0 * schlick / (1.0 + schlick);
     assert!((emit * schlick_slab - expected_green).abs() > 8.0 * green_error);
+}
+
+/// One smooth interface at 60 degrees to the view (into glass of index 1.5), a
+/// red emitter behind it where the refracted rays go and a green one where it
+/// mirrors the view: green shows the exact Fresnel reflectance R, red the rest
+/// scaled by 1/eta^2 as radiance entering glass is (Mitsuba's `dielectric`).
+#[test]
+fn smoothdielectric_reflects_and_refracts_the_analytic_fractions() {
+    let ctx = gpu_or_skip!();
+    let (eta, emit) = (1.5f64, 2.0f64);
+    let r = fresnel(0.5, eta);
+    let (sin60, cos60) = (3f64.sqrt() / 2.0, 0.5);
+    let u = [0.0, 2.0, 0.0];
+    let v = [-2.0 * cos60, 0.0, 2.0 * sin60];
+    let q = [
+        -(u[0] + v[0]) / 2.0,
+        -(u[1] + v[1]) / 2.0,
+        -5.0 - (u[2] + v[2]) / 2.0,
+    ];
+    let scene = common::scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 0, 0]
+        lookat = [0, 0, -1]
+        vfov = 0.5
+        width = 4
+        height = 4
+        [render]
+        spp = 8192
+        max_depth = 1
+        sampler = "independent"
+        [materials.glass]
+        type = "smoothdielectric"
+        int_ior = {eta}
+        ext_ior = 1
+        [materials.red]
+        type = "light"
+        emit = [{emit}, 0, 0]
+        [materials.green]
+        type = "light"
+        emit = [0, {emit}, 0]
+        [[objects]]
+        type = "quad"
+        q = {q:?}
+        u = {u:?}
+        v = {v:?}
+        material = "glass"
+        [[objects]]
+        type = "quad"
+        q = [-100, -100, -20]
+        u = [200, 0, 0]
+        v = [0, 200, 0]
+        material = "red"
+        [[objects]]
+        type = "quad"
+        q = [10, -20, -30]
+        u = [0, 0, 40]
+        v = [0, 40, 0]
+        material = "green"
+        "#
+    ));
+    let acc = common::render(ctx, &scene, &common::with_variance());
+    let [(red, red_error), (green, green_error), (blue, _)] = channel_means_and_errors(&acc);
+    let (expected_red, expected_green) = (emit * (1.0 - r) / (eta * eta), emit * r);
+    println!(
+        "R = {r:.6}: red {red:.5} ± {red_error:.5} (expected {expected_red:.5}), \
+         green {green:.5} ± {green_error:.5} (expected {expected_green:.5})"
+    );
+    assert!((red - expected_red).abs() < 4.0 * red_error + 1e-6);
+    assert!((green - expected_green).abs() < 4.0 * green_error + 1e-6);
+    assert_eq!(blue, 0.0);
+    // Schlick's approximation, which the book's glass uses, would be caught.
+    let r0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+    let schlick = r0 + (1.0 - r0) * 0.5f64.powi(5);
+    assert!((emit * schlick - expected_green).abs() > 8.0 * green_error);
+}
+
+/// A white furnace: a smoothdielectric sphere under a uniform sky of 1: what
+/// enters is scaled by 1/eta^2 and what leaves by eta^2, and the sphere traps
+/// nothing (a ray inside meets its surface at the angle it entered by, below
+/// the critical one), so every pixel is 1.
+#[test]
+fn smoothdielectric_conserves_energy_in_a_furnace() {
+    let ctx = gpu_or_skip!();
+    let scene = common::scene_text(
+        r#"
+        [camera]
+        lookfrom = [0, 0, 3]
+        lookat = [0, 0, 0]
+        vfov = 40
+        width = 8
+        height = 8
+        [render]
+        spp = 64
+        max_depth = 100
+        background = [1, 1, 1]
+        [materials.glass]
+        type = "smoothdielectric"
+        int_ior = 1.7
+        [[objects]]
+        type = "sphere"
+        center = [0, 0, 0]
+        radius = 1
+        material = "glass"
+        "#,
+    );
+    let acc = common::render(ctx, &scene, &RenderOptions::default());
+    common::assert_every_pixel_is(&acc, 1.0, 1e-5, "smoothdielectric furnace");
 }
 
 /// A white furnace: a thindielectric sphere (reflectance and transmittance 1)

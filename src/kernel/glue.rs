@@ -393,10 +393,16 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             "hit.normal".to_string()
         };
         let factor = PRIMITIVE_KINDS[k].ray_offset_factor;
-        let mut set = format!(
+        let mut set = String::new();
+        if PRIMITIVE_KINDS[k].reprojects_hit_point {
+            write!(set, "hit.p = {name}_hit_point(hit_keep, hit.p); ").unwrap();
+        }
+        write!(
+            set,
             "hit.normal = {name}_hit_normal(hit_keep, hit.p); hit.shading_normal = {shading}; \
              hit.offset = {factor:?} * params.ray_offset;"
-        );
+        )
+        .unwrap();
         if config.textures {
             let kind = PRIMITIVE_KINDS[k];
             let uvs = match kind.texture_uvs {

@@ -75,6 +75,7 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
     // Its hit point (the ray meets it by a plane or sphere equation) errs by a
     // few ulps of the extent.
     ray_offset_factor: 1.0,
+    reprojects_hit_point: false,
 };
 
 gpu_struct! {

@@ -166,6 +166,12 @@ pub struct PrimitiveKind {
     /// few ulps of the scene's extent, a larger factor keeps a ray from hitting
     /// the surface it leaves.
     pub ray_offset_factor: f32,
+    /// Its module defines `fn NAME_hit_point(keep: vec4<f32>, p: vec3<f32>) ->
+    /// vec3<f32>`, the computed hit point moved onto the surface: `o + t d` errs
+    /// by ulps of the ray's origin and length, which on a curved surface can pass
+    /// the ray offset and let a ray leaving it find it again (as Mitsuba's sphere
+    /// reprojects its hit point).
+    pub reprojects_hit_point: bool,
 }
 
 /// The `light` field of a primitive outside the light density.

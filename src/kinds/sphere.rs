@@ -70,9 +70,9 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
     shading_normals: None,
     texture_uvs: None,
     grouped_lights: false,
-    // Its hit point (the ray meets it by a plane or sphere equation) errs by a
-    // few ulps of the extent.
+    // Its hit point, reprojected onto the sphere, errs by a few ulps of the extent.
     ray_offset_factor: 1.0,
+    reprojects_hit_point: true,
 };
 
 gpu_struct! {

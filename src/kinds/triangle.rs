@@ -90,6 +90,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     // width: under a uniform sky, slivers of 200 to 800 to one as long as the
     // scene hit themselves at 1x (up to 8% of the light lost), never at 10x.
     ray_offset_factor: 10.0,
+    reprojects_hit_point: false,
 };
 
 gpu_struct! {

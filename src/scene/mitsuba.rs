@@ -950,9 +950,6 @@ enum Surface {
         albedo: Value,
         one_sided: bool,
     },
-    Dielectric {
-        ior: f64,
-    },
     /// One of pathmix's microfacet-era materials, named and parameterised as
     /// Mitsuba's plugin of the same name: its TOML table, `type` included.
     Mitsuba {
@@ -967,7 +964,6 @@ impl Surface {
     fn is_textured(&self) -> bool {
         match self {
             Surface::Lambertian { albedo, .. } => albedo.is_table(),
-            Surface::Dielectric { .. } => false,
             Surface::Mitsuba { table, .. } => table.values().any(Value::is_table),
         }
     }
@@ -1217,19 +1213,12 @@ impl<'a> Builder<'a> {
                     one_sided: !twosided,
                 }
             }
-            "dielectric" => {
-                let int_ior = ior(&mut props, "int_ior", 1.5046)?;
-                let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
-                Surface::Dielectric {
-                    ior: int_ior / ext_ior,
-                }
-            }
-            ty @ ("conductor" | "roughconductor" | "roughdielectric" | "thindielectric"
-            | "plastic" | "roughplastic") => {
+            ty @ ("conductor" | "roughconductor" | "dielectric" | "roughdielectric"
+            | "thindielectric" | "plastic" | "roughplastic") => {
                 let transmits = ty.ends_with("dielectric");
                 let textured = match ty {
                     "plastic" | "roughplastic" => Some("diffuse_reflectance"),
-                    "thindielectric" => None,
+                    "dielectric" | "thindielectric" => None,
                     _ => Some("specular_reflectance"),
                 };
                 let texture = match textured {
@@ -1427,11 +1416,6 @@ impl<'a> Builder<'a> {
                     None => base,
                 }
             }
-            (Surface::Dielectric { ior }, None) => {
-                table.insert("type".into(), Value::String("dielectric".into()));
-                table.insert("ior".into(), Value::Float(*ior));
-                base
-            }
             (
                 Surface::Mitsuba {
                     table: params,
@@ -1446,7 +1430,7 @@ impl<'a> Builder<'a> {
                 }
                 base
             }
-            (Surface::Dielectric { .. } | Surface::Mitsuba { .. }, Some(_)) => {
+            (Surface::Mitsuba { .. }, Some(_)) => {
                 return Err(shape.origin.error(
                     "an area emitter on a non-diffuse BSDF is not supported (pathmix's \
                      emitters are diffuse)",
@@ -1495,8 +1479,7 @@ impl<'a> Builder<'a> {
         let sided = emits
             || matches!(
                 surface,
-                Surface::Dielectric { .. }
-                    | Surface::Mitsuba {
+                Surface::Mitsuba {
                         transmits: true,
                         ..
                     }
@@ -2017,16 +2000,24 @@ impl<'a> Builder<'a> {
 }
 
 /// The pathmix material of Mitsuba's `conductor`, `roughconductor`,
-/// `roughdielectric`, `thindielectric`, `plastic` or `roughplastic`: the same parameter names (the TOML parser
+/// `dielectric` (as `smoothdielectric`), `roughdielectric`, `thindielectric`, `plastic` or
+/// `roughplastic`: the same parameter names (the TOML parser
 /// validates them and fills Mitsuba's defaults), IORs given by name turned into
 /// numbers; a conductor's named `material` stays a name.
 fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     let mut table = Table::new();
-    table.insert("type".into(), Value::String(ty.into()));
+    // Mitsuba's smooth `dielectric` is not the book's (Schlick's) `dielectric`.
+    let kind = match ty {
+        "dielectric" => "smoothdielectric",
+        other => other,
+    };
+    table.insert("type".into(), Value::String(kind.into()));
     let rough = ty.starts_with("rough");
     let colors: &[&str] = match ty {
         "conductor" | "roughconductor" => &["eta", "k", "specular_reflectance"],
-        "roughdielectric" | "thindielectric" => &["specular_reflectance", "specular_transmittance"],
+        "dielectric" | "roughdielectric" | "thindielectric" => {
+            &["specular_reflectance", "specular_transmittance"]
+        }
         _ => &["diffuse_reflectance", "specular_reflectance"],
     };
     for &name in colors {
@@ -2420,13 +2411,14 @@ mod tests {
                <float name="ext_ior" value="1.333"/></bsdf></shape>"#,
         );
         let iors: Vec<_> = s.materials.iter().map(|m| m.kind).collect();
-        use crate::scene::MaterialKind::Dielectric;
-        assert!(iors.contains(&Dielectric {
-            ior: (1.5046f64 / 1.000277) as f32
-        }));
-        assert!(iors.contains(&Dielectric {
-            ior: (2.419f64 / 1.333) as f32
-        }));
+        let glass = |int_ior: f64, ext_ior: f64| crate::scene::MaterialKind::SmoothDielectric {
+            int_ior: int_ior as f32,
+            ext_ior: ext_ior as f32,
+            specular_reflectance: Vec3::ONE,
+            specular_transmittance: Vec3::ONE,
+        };
+        assert!(iors.contains(&glass(1.5046, 1.000277)));
+        assert!(iors.contains(&glass(2.419, 1.333)));
         // An emitter on a diffuse shape: the same albedo, emitting; in the light density.
         let (s, c) = read(
             "emitter",

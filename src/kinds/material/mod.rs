@@ -17,6 +17,7 @@ mod plastic;
 mod roughconductor;
 mod roughdielectric;
 mod roughplastic;
+mod smoothdielectric;
 mod thindielectric;
 
 pub use common::Distribution;
@@ -195,6 +196,14 @@ material_kinds! {
         specular_reflectance: Vec3,
         nonlinear: bool,
     } = roughplastic::ROUGHPLASTIC,
+    /// A smooth interface between two dielectrics, by the exact Fresnel
+    /// reflectance (Mitsuba's `dielectric`).
+    SmoothDielectric {
+        int_ior: f32,
+        ext_ior: f32,
+        specular_reflectance: Vec3,
+        specular_transmittance: Vec3,
+    } = smoothdielectric::SMOOTHDIELECTRIC,
 }
 
 /// The scene files' material types, in [`MATERIAL_KINDS`] order.
