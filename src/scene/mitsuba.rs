@@ -2153,10 +2153,26 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     }
     match ty {
         "conductor" | "roughconductor" => {
-            // `none` is Mitsuba's default, which `eta` and `k` may go with.
-            if let Some((name, _)) = props.string("material")? {
-                if name != "none" {
-                    table.insert("material".into(), Value::String(name.into()));
+            // `none` is Mitsuba's default, which `eta` and `k` may go with. The
+            // presets the TOML format does not name become their `eta` and `k`.
+            if let Some((name, at)) = props.string("material")? {
+                let unlisted = spectrum::UNLISTED_CONDUCTORS
+                    .iter()
+                    .find(|(n, _, _)| *n == name);
+                match unlisted {
+                    Some(&(_, eta, k)) => {
+                        if table.contains_key("eta") || table.contains_key("k") {
+                            return Err(at.origin.error(format!(
+                                "give either `material` (here `{name}`) or `eta` and `k`, not both"
+                            )));
+                        }
+                        table.insert("eta".into(), color_value(eta.map(f64::from)));
+                        table.insert("k".into(), color_value(k.map(f64::from)));
+                    }
+                    None if name != "none" => {
+                        table.insert("material".into(), Value::String(name.into()));
+                    }
+                    None => {}
                 }
             }
         }
@@ -2649,6 +2665,7 @@ mod tests {
                <shape type="sphere"><bsdf type="conductor">
                  <spectrum name="eta" value="400:1.5, 500:0.8, 600:0.3, 700:0.2"/>
                  <spectrum name="k" value="3"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="conductor"><string name="material" value="Cu_palik"/></bsdf></shape>
                <emitter type="point"><spectrum name="intensity" type="blackbody">
                  <float name="temperature" value="2700"/></spectrum></emitter>"#;
         let (_dir, path) = folder(
@@ -2682,6 +2699,14 @@ mod tests {
         };
         close(eta, [0.17729497, 0.5709648, 1.1914738], 1e-6);
         assert_eq!(k, Vec3::splat(3.0));
+        let &(_, eta, k) = spectrum::UNLISTED_CONDUCTORS
+            .iter()
+            .find(|(n, _, _)| *n == "Cu_palik")
+            .expect("in the table");
+        assert!(
+            matches!(sphere(1), MaterialKind::Conductor { eta: e, k: kk, .. }
+            if e == Vec3::from_array(eta) && kk == Vec3::from_array(k))
+        );
         close(
             s.point_lights[0].intensity,
             [314.19116, 130.49847, 31.168295],
@@ -2740,6 +2765,10 @@ mod tests {
             (
                 diffuse(r#"<spectrum name="reflectance" filename="gone.spd"/>"#),
                 r#"scene.xml:2:46: <spectrum name="reflectance">: cannot find the spectrum file `gone.spd`"#,
+            ),
+            (
+                r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Cu_palik"/><rgb name="eta" value="1"/></bsdf></shape>"#.into(),
+                "give either `material` (here `Cu_palik`) or `eta` and `k`, not both",
             ),
         ];
         for (body, expected) in &cases {

@@ -212,6 +212,53 @@ pub fn blackbody_rgb(temperature: f64, range: [f64; 2]) -> [f64; 3] {
     })
 }
 
+/// The conductor presets (`material` of `conductor` and `roughconductor`) that
+/// Mitsuba 3 reads from its data folder (`data/ior/NAME.eta.spd` and `.k.spd`)
+/// beyond the ones its documentation lists, which are the TOML format's
+/// `NAMED_CONDUCTORS` (src/scene/parse.rs): name, RGB `eta`, RGB `k`, as Mitsuba's
+/// RGB variants reduce the measured spectra (under no illuminant, negatives
+/// clamped to 0). Read back from Mitsuba by `scripts/conductor-presets.py
+/// --unlisted`, which prints these rows.
+// One row per line, as the script prints them.
+#[rustfmt::skip]
+pub const UNLISTED_CONDUCTORS: &[(&str, [f32; 3], [f32; 3])] = &[
+    // Mitsuba 3.9.1, variant scalar_rgb: (name, eta, k)
+    ("AlAs_palik", [3.605296, 3.2329378, 2.2163186], [0.0006794373, 0.0, 0.007512709]),
+    ("AlSb_palik", [0.0, 4.1393747, 4.6692543], [0.0, 0.09400908, 1.30057]),
+    ("Be_palik", [4.1850123, 3.1850293, 2.7840612], [3.835466, 3.0101223, 2.868994]),
+    ("CsI_palik", [2.1448996, 1.7023189, 1.6624272], [0.0, 0.0, 0.0]),
+    ("Cu2O_palik", [3.5517726, 2.9498696, 2.7518754], [0.11420702, 0.19389686, 0.6061339]),
+    ("CuO_palik", [3.247541, 2.4478052, 2.2102196], [0.52108955, 0.57003075, 0.72217894]),
+    ("Cu_palik", [0.21322851, 0.9197154, 1.1024108], [3.9218733, 2.4573317, 2.136584]),
+    ("HgTe_palik", [4.77904, 3.2311962, 2.6599011], [1.6316127, 1.5808104, 1.7292874]),
+    ("Hg_palik", [2.3989387, 1.440028, 0.9095704], [6.327587, 4.371925, 3.4217637]),
+    ("Ir_palik", [3.0863, 2.0821905, 1.6179146], [5.592153, 4.067088, 3.267312]),
+    ("K_palik", [0.06404319, 0.046409767, 0.038184915], [2.1041996, 1.34894, 0.9131259]),
+    ("Li_palik", [0.26579094, 0.19561832, 0.22094862], [3.540155, 2.3111234, 1.6686072]),
+    ("MgO_palik", [2.0895839, 1.6507235, 1.594879], [4.3326952e-12, 0.0, 2.4986457e-11]),
+    ("Mo_palik", [4.483974, 3.5251307, 2.7763104], [4.1114373, 3.420827, 3.1506073]),
+    ("Nb_palik", [3.420074, 2.7900932, 2.3956294], [3.4413946, 2.7376661, 2.5797458]),
+    ("Rh_palik", [2.5857935, 1.8602164, 1.5542634], [6.7822604, 4.702987, 3.976073]),
+    ("Se-e", [5.722849, 4.165736, 4.0813384], [0.8711363, 1.1051575, 1.5653203]),
+    ("Se-e_palik", [5.722849, 4.165736, 4.0813384], [0.8711363, 1.1051575, 1.5653203]),
+    ("Se_palik", [4.0583115, 2.842935, 2.8208535], [0.75404954, 0.6384435, 0.52180755]),
+    ("SiC_palik", [3.1723416, 2.5259717, 2.4793706], [7.5376636e-07, 0.0, 1.0192531e-05]),
+    ("SnTe_palik", [4.5242496, 1.981645, 1.2815913], [0.0, 0.0, 0.0]),
+    ("Ta_palik", [2.062721, 2.3929389, 2.6279287], [2.4083598, 1.7414864, 1.9470278]),
+    ("Te-e", [7.508907, 4.2964287, 2.3699877], [5.5839286, 4.947205, 3.9975922]),
+    ("Te-e_palik", [7.508907, 4.2964287, 2.3699877], [5.5839286, 4.947205, 3.9975922]),
+    ("Te_palik", [7.3902335, 4.482105, 2.637106], [3.2560222, 3.5270588, 3.2920542]),
+    ("ThF4_palik", [1.8307136, 1.4422286, 1.3876476], [0.0, 0.0, 0.0]),
+    ("TiC_palik", [3.7005284, 2.8374221, 2.582287], [3.265635, 2.3515892, 2.1727905]),
+    ("TiN_palik", [1.6484497, 1.150516, 1.3798234], [3.368328, 1.9434981, 1.1020677]),
+    ("TiO2-e", [3.1065645, 2.5131683, 2.5824444], [2.9751605e-05, 0.0, 0.00018269809]),
+    ("TiO2-e_palik", [3.1065645, 2.5131683, 2.5824444], [2.9751605e-05, 0.0, 0.00018269809]),
+    ("TiO2_palik", [3.45661, 2.8017359, 2.905175], [0.00010526484, 0.0, 0.0006528865]),
+    ("VC_palik", [3.657566, 2.752736, 2.532672], [3.0683007, 2.1986873, 1.9631927]),
+    ("VN_palik", [2.8656023, 2.119189, 1.9400911], [3.0322425, 2.0561156, 1.6163063]),
+    ("d-C_palik", [2.7087197, 2.3188257, 2.2288976], [0.0, 0.0, 0.0]),
+];
+
 /// Splits at commas and white space, as Mitsuba's `tokenize` (XML has already
 /// turned line breaks and tabs in attributes into spaces).
 fn tokens(text: &str) -> Vec<&str> {
@@ -548,6 +595,36 @@ mod tests {
             Spectrum::regular("0.1, 0.5, 0.2", 400.0, 700.0).unwrap(),
             pairs
         );
+    }
+
+    /// Two rows against Mitsuba itself, read by hand from `llvm_ad_rgb` (`mi.traverse`
+    /// of a loaded `conductor` with that `material`: `eta.value`, `k.value`), not from
+    /// the script, which reads `scalar_rgb`; and the table adds names, never
+    /// repeats one the TOML format knows.
+    #[test]
+    fn unlisted_conductors_match_mitsuba() {
+        let mitsuba = [
+            (
+                "Se-e",
+                [5.722849, 4.165736, 4.0813384],
+                [0.8711363, 1.1051575, 1.5653203],
+            ),
+            (
+                "Cu_palik",
+                [0.21322851, 0.9197154, 1.1024108],
+                [3.9218733, 2.4573317, 2.136584],
+            ),
+        ];
+        for (name, eta, k) in mitsuba {
+            let row = UNLISTED_CONDUCTORS.iter().find(|(n, _, _)| *n == name);
+            assert_eq!(row, Some(&(name, eta, k)));
+        }
+        let listed = &super::super::parse::NAMED_CONDUCTORS;
+        for (name, _, _) in UNLISTED_CONDUCTORS {
+            assert!(listed.iter().all(|(n, _, _)| n != name), "{name}");
+        }
+        // Mitsuba 3.9.1's data folder holds 71 presets; 37 are listed.
+        assert_eq!(UNLISTED_CONDUCTORS.len() + listed.len() - 1, 71);
     }
 
     #[test]
