@@ -643,9 +643,9 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             ":2:1: <emitter type=\"envmap\">: missing <string name=\"filename\">",
         ),
         (
-            "spectral",
-            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\"><spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/></bsdf>\n</scene>",
-            "spectra by wavelength are not supported",
+            "spectrum-order",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\"><spectrum name=\"reflectance\" value=\"700:0.1, 400:0.5\"/></bsdf>\n</scene>",
+            ":2:22: <spectrum name=\"reflectance\">: the wavelengths must increase, but 400 follows 700",
         ),
         (
             "unused",

@@ -7,6 +7,8 @@
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
 //! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
+//! colours as `<rgb>`, `<float>` or `<spectrum>` (reduced to RGB as Mitsuba's RGB
+//! variants reduce it, src/scene/spectrum.rs);
 //! `constant`, `envmap`, `point` and `spot` emitters; `bitmap` and `checkerboard` textures (nested or
 //! by `<ref>`) on the colour each BSDF can take one for (`Builder::texturable`); the `perspective` sensor with `hdrfilm`, its `rfilter`
 //! (`box`, `gaussian`, `tent`, `mitchell`, `catmullrom`, `lanczos`) and a sampler; the `path` and `direct` integrators. Anything
@@ -24,6 +26,7 @@ use toml::{Table, Value};
 mod upgrade;
 
 use super::parse::{IMAGE_SIDE, NAMED_IORS, sin_cos_degrees};
+use super::spectrum::{self, Role, Spectrum};
 use super::{SceneError, excerpt};
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -561,6 +564,8 @@ fn resolve(search: &[PathBuf], name: &str) -> Option<PathBuf> {
 struct Props<'e> {
     elem: &'e Elem,
     used: Vec<bool>,
+    /// Where a `<spectrum filename>` is looked for (as meshes are).
+    search: &'e [PathBuf],
 }
 
 const PROPERTY_TAGS: &[&str] = &[
@@ -576,10 +581,11 @@ const PROPERTY_TAGS: &[&str] = &[
 ];
 
 impl<'e> Props<'e> {
-    fn new(elem: &'e Elem) -> Props<'e> {
+    fn new(elem: &'e Elem, search: &'e [PathBuf]) -> Props<'e> {
         Props {
             elem,
             used: vec![false; elem.children.len()],
+            search,
         }
     }
 
@@ -660,22 +666,19 @@ impl<'e> Props<'e> {
         Ok(Some((e.require("value")?, e)))
     }
 
-    /// An emitter's colour: as `color`, except that a uniform `<spectrum>` is, as in
-    /// Mitsuba's RGB variants (`create_texture_from_spectrum` in its xml.cpp, for
-    /// any spectrum within an emitter), the equal-energy spectrum seen in sRGB: its
-    /// value times `xyz_to_srgb(1, 1, 1)`, a purplish white.
+    /// An emitter's colour: as `color`, except that a `<spectrum>` is read as
+    /// Mitsuba's RGB variants read emission ([`Role::Emission`]).
     fn emitted(&mut self, name: &str) -> Result<Option<[f64; 3]>> {
-        // The row sums of Mitsuba's `xyz_to_srgb` (include/mitsuba/core/spectrum.h).
-        const EQUAL_ENERGY_SRGB: [f64; 3] = [1.204794, 0.948291, 0.908916];
-        let uniform_spectrum = self.get(name).is_some_and(|e| e.tag == "spectrum");
-        Ok(self.color(name)?.map(|c| match uniform_spectrum {
-            true => std::array::from_fn(|i| c[i] * EQUAL_ENERGY_SRGB[i]),
-            false => c,
-        }))
+        self.color_for(name, Role::Emission)
     }
 
-    /// A colour: `<rgb>`, a uniform `<spectrum>` or a `<float>` (grey).
+    /// A colour: `<rgb>`, `<spectrum>` (read as a reflectance) or a `<float>` (grey).
     fn color(&mut self, name: &str) -> Result<Option<[f64; 3]>> {
+        self.color_for(name, Role::Reflectance)
+    }
+
+    /// A colour, a `<spectrum>` read for `role`.
+    fn color_for(&mut self, name: &str, role: Role) -> Result<Option<[f64; 3]>> {
         // One `Builder::texturable` took is no longer a problem.
         if let Some((_, texture)) = self.elem.children.iter().enumerate().find(|&(i, c)| {
             matches!(c.tag.as_str(), "texture" | "ref") && c.name() == Some(name) && !self.used[i]
@@ -689,6 +692,9 @@ impl<'e> Props<'e> {
         let Some(e) = self.get(name) else {
             return Ok(None);
         };
+        if e.tag == "spectrum" {
+            return self.spectrum(e, role).map(Some);
+        }
         e.check_attrs(&["name", "value"])?;
         let text = e.require("value")?;
         match e.tag.as_str() {
@@ -702,12 +708,129 @@ impl<'e> Props<'e> {
                         .error(format!("expected 1 or 3 numbers, got {}", values.len()))),
                 }
             }
-            "spectrum" if text.contains(':') => Err(e.origin.error(
-                "spectra by wavelength are not supported (pathmix renders RGB): give an <rgb>",
-            )),
-            "spectrum" | "float" => Ok(Some([number(e, text)?; 3])),
+            "float" => Ok(Some([number(e, text)?; 3])),
             _ => Err(e.origin.error(format!("expected <rgb name=\"{name}\">"))),
         }
+    }
+
+    /// A `<spectrum>`'s colour as Mitsuba's RGB variants read it for `role`
+    /// (src/scene/spectrum.rs): a `value` (one number or `wavelength:value`
+    /// pairs), a `filename` (an `.spd` file, found as meshes are) or a `type` of
+    /// spectrum plugin.
+    fn spectrum(&self, e: &Elem, role: Role) -> Result<[f64; 3]> {
+        if e.attr("type").is_some() {
+            return self.spectrum_plugin(e, role);
+        }
+        e.check_attrs(&["name", "value", "filename"])?;
+        let spectrum = match (e.attr("value"), e.attr("filename")) {
+            (Some(text), None) => Spectrum::parse(text),
+            (None, Some(name)) => {
+                let path = resolve(self.search, name).ok_or_else(|| {
+                    e.origin.error(format!(
+                        "cannot find the spectrum file `{name}`",
+                        name = excerpt(name)
+                    ))
+                })?;
+                Spectrum::read_spd(&path)
+            }
+            _ => {
+                return Err(e
+                    .origin
+                    .error("give either a `value` or a `filename` (as Mitsuba)"));
+            }
+        };
+        spectrum
+            .map(|s| s.rgb(role))
+            .map_err(|message| e.origin.error(message))
+    }
+
+    /// A `<spectrum type="...">`, one of Mitsuba's spectrum plugins: `uniform`,
+    /// `srgb` and `d65` as Mitsuba's RGB variants evaluate them (a plugin stays
+    /// itself in an emitter: a uniform one is grey there); `irregular` and
+    /// `regular`, which those variants cannot evaluate, as they read the same
+    /// samples written as `value="wavelength:value, ..."`; `blackbody`, which
+    /// only emits, as [`spectrum::blackbody_rgb`].
+    fn spectrum_plugin(&self, e: &Elem, role: Role) -> Result<[f64; 3]> {
+        e.check_attrs(&["type", "name"])?;
+        let mut props = Props::new(e, self.search);
+        let missing =
+            |tag: &str, name: &str| e.origin.error(format!("missing <{tag} name=\"{name}\">"));
+        let sampled = |spectrum: std::result::Result<Spectrum, String>| {
+            spectrum
+                .map(|s| s.rgb(role))
+                .map_err(|message| e.origin.error(message))
+        };
+        let rgb = match e.ty() {
+            "uniform" => {
+                let value = props.float("value")?;
+                [value.ok_or_else(|| missing("float", "value"))?; 3]
+            }
+            "srgb" => {
+                let color = props
+                    .color("color")?
+                    .ok_or_else(|| missing("rgb", "color"))?;
+                let unbounded = props.boolean("unbounded")?.unwrap_or(false);
+                if !unbounded && color.iter().any(|c| !(0.0..=1.0).contains(c)) {
+                    return Err(e.origin.error(format!(
+                        "the colour {color:?} is not in [0, 1] (Mitsuba's `srgb` takes one \
+                         outside only with <boolean name=\"unbounded\" value=\"true\"/>)"
+                    )));
+                }
+                color
+            }
+            "d65" => {
+                let scale = props.float("scale")?.unwrap_or(1.0);
+                props.color("color")?.unwrap_or([1.0; 3]).map(|c| c * scale)
+            }
+            "irregular" => {
+                let (wavelengths, _) = props
+                    .string("wavelengths")?
+                    .ok_or_else(|| missing("string", "wavelengths"))?;
+                let (values, _) = props
+                    .string("values")?
+                    .ok_or_else(|| missing("string", "values"))?;
+                sampled(Spectrum::from_lists(wavelengths, values))?
+            }
+            "regular" => {
+                let (values, _) = props
+                    .string("values")?
+                    .ok_or_else(|| missing("string", "values"))?;
+                let min = props
+                    .float("wavelength_min")?
+                    .ok_or_else(|| missing("float", "wavelength_min"))?;
+                let max = props
+                    .float("wavelength_max")?
+                    .ok_or_else(|| missing("float", "wavelength_max"))?;
+                sampled(Spectrum::regular(values, min, max))?
+            }
+            "blackbody" => {
+                if role != Role::Emission {
+                    return Err(e.origin.error(
+                        "a black body is an emission spectrum: it goes in an emitter's radiance \
+                         or intensity",
+                    ));
+                }
+                let temperature = props
+                    .float("temperature")?
+                    .ok_or_else(|| missing("float", "temperature"))?;
+                if temperature <= 0.0 {
+                    return Err(e
+                        .origin
+                        .error(format!("the temperature must be > 0 K, got {temperature}")));
+                }
+                let min = props.float("wavelength_min")?.unwrap_or(360.0);
+                let max = props.float("wavelength_max")?.unwrap_or(830.0);
+                spectrum::blackbody_rgb(temperature, [min, max])
+            }
+            _ => {
+                return Err(e.origin.error(
+                    "not supported (supported spectra: uniform, srgb, d65, irregular, regular, \
+                     blackbody)",
+                ));
+            }
+        };
+        props.finish()?;
+        Ok(rgb)
     }
 
     fn point(&mut self, name: &str) -> Result<Option<DVec3>> {
@@ -1079,7 +1202,7 @@ impl<'a> Builder<'a> {
                             .error("a second constant or envmap emitter: pathmix takes one"));
                     }
                     e.check_attrs(&["type", "id"])?;
-                    let mut props = Props::new(e);
+                    let mut props = Props::new(e, self.search);
                     let radiance = props.emitted("radiance")?.unwrap_or([1.0; 3]);
                     props.finish()?;
                     // Where the value is, for the TOML parser's checks of it.
@@ -1108,7 +1231,7 @@ impl<'a> Builder<'a> {
     /// the light's own frame, which a shear or an uneven scale would distort).
     fn delta_light(&mut self, e: &'a Elem) -> Result<()> {
         e.check_attrs(&["type", "id"])?;
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let ty = e.ty();
         let mut light = Table::new();
         light.insert("type".into(), Value::String(ty.into()));
@@ -1170,7 +1293,7 @@ impl<'a> Builder<'a> {
                 .error("a second constant or envmap emitter: pathmix takes one"));
         }
         e.check_attrs(&["type", "id"])?;
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let (name, at) = props
             .string("filename")?
             .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
@@ -1202,7 +1325,7 @@ impl<'a> Builder<'a> {
     /// `twosided` wrapper.
     fn surface(&mut self, e: &'a Elem, twosided: bool) -> Result<Surface> {
         e.check_attrs(&["type", "id", "name"])?;
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let surface = match e.ty() {
             "diffuse" => {
                 let albedo = self
@@ -1279,7 +1402,7 @@ impl<'a> Builder<'a> {
     /// texture table of the same meaning.
     fn texture(&mut self, e: &'a Elem) -> Result<Value> {
         e.check_attrs(&["type", "id", "name"])?;
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let mut table = Table::new();
         table.insert("type".into(), Value::String(e.ty().into()));
         match e.ty() {
@@ -1340,7 +1463,7 @@ impl<'a> Builder<'a> {
 
     fn radiance(&mut self, e: &'a Elem) -> Result<[f64; 3]> {
         e.check_attrs(&["type", "id", "name"])?;
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let radiance = props
             .emitted("radiance")?
             .ok_or_else(|| e.origin.error("missing <rgb name=\"radiance\">"))?;
@@ -1451,7 +1574,7 @@ impl<'a> Builder<'a> {
 
     fn shape(&mut self, e: &'a Elem) -> Result<()> {
         e.check_attrs(&["type", "id"])?;
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let to_world = props.transform("to_world")?;
         let flip = props.boolean("flip_normals")?.unwrap_or(false);
         let mut bsdf = None;
@@ -1686,7 +1809,7 @@ impl<'a> Builder<'a> {
             None => (-1, Some(5)),
             Some(e) => {
                 e.check_attrs(&["type", "id"])?;
-                let mut props = Props::new(e);
+                let mut props = Props::new(e, self.search);
                 if props.boolean("hide_emitters")?.unwrap_or(false) {
                     return Err(e.origin.error("hide_emitters=\"true\" is not supported"));
                 }
@@ -1764,7 +1887,7 @@ impl<'a> Builder<'a> {
                 excerpt(e.ty())
             )));
         }
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let to_world = props.transform("to_world")?;
         let fov = props
             .float("fov")?
@@ -1860,7 +1983,7 @@ impl<'a> Builder<'a> {
         let (spp, seed, kind) = match sampler {
             Some(s) => {
                 s.check_attrs(&["type", "id"])?;
-                let mut props = Props::new(s);
+                let mut props = Props::new(s, self.search);
                 let spp = props.integer("sample_count")?.unwrap_or(4);
                 let seed = props.integer("seed")?.unwrap_or(0);
                 props.finish()?;
@@ -1900,7 +2023,7 @@ impl<'a> Builder<'a> {
                 excerpt(e.ty())
             )));
         }
-        let mut props = Props::new(e);
+        let mut props = Props::new(e, self.search);
         let width = props.integer("width")?.unwrap_or(768);
         let height = props.integer("height")?.unwrap_or(576);
         // Here, at the <integer>: the field of view is derived from the aspect
@@ -1950,7 +2073,7 @@ impl<'a> Builder<'a> {
             [] => gaussian_filter(0.5),
             [f] => {
                 f.check_attrs(&["type", "id", "name"])?;
-                let mut props = Props::new(f);
+                let mut props = Props::new(f, self.search);
                 // Parameters as Mitsuba names them; their defaults and checks are the
                 // TOML reader's, whose errors point here.
                 let parameters: &[(&str, &str)] = match f.ty() {
@@ -2021,7 +2144,12 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
         _ => &["diffuse_reflectance", "specular_reflectance"],
     };
     for &name in colors {
-        if let Some(c) = props.color(name)? {
+        // Mitsuba reads a conductor's `eta` and `k` as unbounded textures.
+        let role = match name {
+            "eta" | "k" => Role::Unbounded,
+            _ => Role::Reflectance,
+        };
+        if let Some(c) = props.color_for(name, role)? {
             table.insert(name.into(), color_value(c));
         }
     }
@@ -2044,10 +2172,26 @@ fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
     }
     match ty {
         "conductor" | "roughconductor" => {
-            // `none` is Mitsuba's default, which `eta` and `k` may go with.
-            if let Some((name, _)) = props.string("material")? {
-                if name != "none" {
-                    table.insert("material".into(), Value::String(name.into()));
+            // `none` is Mitsuba's default, which `eta` and `k` may go with. The
+            // presets the TOML format does not name become their `eta` and `k`.
+            if let Some((name, at)) = props.string("material")? {
+                let unlisted = spectrum::UNLISTED_CONDUCTORS
+                    .iter()
+                    .find(|(n, _, _)| *n == name);
+                match unlisted {
+                    Some(&(_, eta, k)) => {
+                        if table.contains_key("eta") || table.contains_key("k") {
+                            return Err(at.origin.error(format!(
+                                "give either `material` (here `{name}`) or `eta` and `k`, not both"
+                            )));
+                        }
+                        table.insert("eta".into(), color_value(eta.map(f64::from)));
+                        table.insert("k".into(), color_value(k.map(f64::from)));
+                    }
+                    None if name != "none" => {
+                        table.insert("material".into(), Value::String(name.into()));
+                    }
+                    None => {}
                 }
             }
         }
@@ -2517,6 +2661,156 @@ mod tests {
         let material = |i: usize| &s.materials[s.shapes.quads[i].material as usize];
         assert!(material(0).emit.abs_diff_eq(white, 1e-6));
         assert_eq!(material(1).albedo, Vec3::splat(0.5));
+    }
+
+    /// Spectra by wavelength, in `.spd` files and as plugins, read as Mitsuba's RGB
+    /// variants read them (the values are Mitsuba's, as src/scene/spectrum.rs checks
+    /// them): a reflectance under D65, an emission unweighted, a conductor's `eta`
+    /// and `k` unbounded, a file found next to the scene. A plugin stays itself in
+    /// an emitter (a `uniform` one is grey there, a `d65` one its colour).
+    #[test]
+    fn spectra_read_as_mitsubas_rgb_variants() {
+        let body = r#"<shape type="rectangle"><bsdf type="diffuse">
+                 <spectrum name="reflectance" value="400:0.1, 500:0.5, 600:0.9, 700:0.3"/></bsdf>
+                 <emitter type="area"><spectrum name="radiance" filename="light.spd"/></emitter></shape>
+               <shape type="rectangle"><bsdf type="diffuse"><spectrum name="reflectance" type="srgb">
+                 <rgb name="color" value="0.2, 0.4, 0.6"/></spectrum></bsdf>
+                 <emitter type="area"><spectrum name="radiance" type="uniform">
+                 <float name="value" value="2"/></spectrum></emitter></shape>
+               <shape type="rectangle"><bsdf type="diffuse"><spectrum name="reflectance" type="irregular">
+                 <string name="wavelengths" value="400, 500, 600, 700"/>
+                 <string name="values" value="0.1, 0.5, 0.9, 0.3"/></spectrum></bsdf>
+                 <emitter type="area"><spectrum name="radiance" type="d65">
+                 <rgb name="color" value="1, 2, 3"/><float name="scale" value="2"/></spectrum></emitter></shape>
+               <shape type="sphere"><bsdf type="conductor">
+                 <spectrum name="eta" value="400:1.5, 500:0.8, 600:0.3, 700:0.2"/>
+                 <spectrum name="k" value="3"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="conductor"><string name="material" value="Cu_palik"/></bsdf></shape>
+               <emitter type="point"><spectrum name="intensity" type="blackbody">
+                 <float name="temperature" value="2700"/></spectrum></emitter>"#;
+        let (_dir, path) = folder(
+            "spectra",
+            &[
+                ("scene.xml", &scene_text(body)),
+                (
+                    "light.spd",
+                    "# a light\n400 0.1\n500 0.5\n600 0.9\n700 0.3\n",
+                ),
+            ],
+        );
+        let s = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let close = |ours: Vec3, mitsuba: [f32; 3], tolerance: f32| {
+            let mitsuba = Vec3::from_array(mitsuba);
+            assert!(
+                ours.abs_diff_eq(mitsuba, tolerance * mitsuba.max_element()),
+                "{ours} vs Mitsuba's {mitsuba}"
+            );
+        };
+        let quad = |i: usize| &s.materials[s.shapes.quads[i].material as usize];
+        close(quad(0).albedo, [0.8547973, 0.6875398, 0.2650152], 1e-6);
+        close(quad(0).emit, [0.999234, 0.6596998, 0.22944438], 1e-6);
+        assert_eq!(quad(1).albedo, Vec3::new(0.2, 0.4, 0.6));
+        assert_eq!(quad(1).emit, Vec3::splat(2.0));
+        assert_eq!(quad(2).albedo, quad(0).albedo);
+        assert_eq!(quad(2).emit, Vec3::new(2.0, 4.0, 6.0));
+        let sphere = |i: usize| s.materials[s.shapes.spheres[i].material as usize].kind;
+        let MaterialKind::Conductor { eta, k, .. } = sphere(0) else {
+            panic!("{:?}", sphere(0));
+        };
+        close(eta, [0.17729497, 0.5709648, 1.1914738], 1e-6);
+        assert_eq!(k, Vec3::splat(3.0));
+        let &(_, eta, k) = spectrum::UNLISTED_CONDUCTORS
+            .iter()
+            .find(|(n, _, _)| *n == "Cu_palik")
+            .expect("in the table");
+        assert!(
+            matches!(sphere(1), MaterialKind::Conductor { eta: e, k: kk, .. }
+            if e == Vec3::from_array(eta) && kk == Vec3::from_array(k))
+        );
+        close(
+            s.point_lights[0].intensity,
+            [314.19116, 130.49847, 31.168295],
+            1e-5,
+        );
+    }
+
+    /// A spectrum Mitsuba would refuse, or that pathmix cannot read, is refused at
+    /// its element; so is a `.spd` file's error, naming the file and the line.
+    #[test]
+    fn spectrum_errors_name_the_element() {
+        let diffuse = |spectrum: &str| {
+            format!(r#"<shape type="rectangle"><bsdf type="diffuse">{spectrum}</bsdf></shape>"#)
+        };
+        let cases = [
+            (
+                diffuse(r#"<spectrum name="reflectance" value="700:0.1, 400:0.5"/>"#),
+                r#"scene.xml:2:46: <spectrum name="reflectance">: the wavelengths must increase, but 400 follows 700"#,
+            ),
+            (
+                diffuse(r#"<spectrum name="reflectance" value="400:0.1; 700:0.5"/>"#),
+                "`0.1;` is not a finite number",
+            ),
+            (
+                diffuse(r#"<spectrum name="reflectance" type="cie1931"/>"#),
+                r#"scene.xml:2:46: <spectrum type="cie1931" name="reflectance">: not supported (supported spectra: uniform, srgb, d65, irregular, regular, blackbody)"#,
+            ),
+            (
+                diffuse(
+                    r#"<spectrum name="reflectance" type="blackbody"><float name="temperature" value="5000"/></spectrum>"#,
+                ),
+                "a black body is an emission spectrum",
+            ),
+            (
+                r#"<emitter type="point"><spectrum name="intensity" type="blackbody"><float name="temperature" value="0"/></spectrum></emitter>"#.into(),
+                "the temperature must be > 0 K, got 0",
+            ),
+            (
+                diffuse(r#"<spectrum name="reflectance" type="srgb"><rgb name="color" value="2, 0, 0"/></spectrum>"#),
+                "is not in [0, 1]",
+            ),
+            (
+                diffuse(
+                    r#"<spectrum name="reflectance" type="uniform"><float name="value" value="0.5"/><float name="wavelength_min" value="400"/></spectrum>"#,
+                ),
+                r#"<float name="wavelength_min">: not supported in <spectrum type="uniform" name="reflectance">"#,
+            ),
+            (
+                diffuse(r#"<spectrum name="reflectance" type="irregular"><string name="values" value="1, 2"/></spectrum>"#),
+                r#"missing <string name="wavelengths">"#,
+            ),
+            (
+                diffuse(r#"<spectrum name="reflectance" value="0.5" filename="a.spd"/>"#),
+                "give either a `value` or a `filename`",
+            ),
+            (
+                diffuse(r#"<spectrum name="reflectance" filename="gone.spd"/>"#),
+                r#"scene.xml:2:46: <spectrum name="reflectance">: cannot find the spectrum file `gone.spd`"#,
+            ),
+            (
+                r#"<shape type="sphere"><bsdf type="conductor"><string name="material" value="Cu_palik"/><rgb name="eta" value="1"/></bsdf></shape>"#.into(),
+                "give either `material` (here `Cu_palik`) or `eta` and `k`, not both",
+            ),
+        ];
+        for (body, expected) in &cases {
+            let e = error("spectrum-errors", body);
+            assert!(e.contains(expected), "{body}: {e}");
+        }
+        let body = diffuse(r#"<spectrum name="reflectance" filename="bad.spd"/>"#);
+        let (_dir, path) = folder(
+            "bad-spd",
+            &[
+                ("scene.xml", &scene_text(&body)),
+                ("bad.spd", "400 0.1\n500 0.2 0.3\n"),
+            ],
+        );
+        let e = Converted::read(&path, &[]).unwrap_err().to_string();
+        assert!(
+            e.contains("scene.xml:2:46: <spectrum name=\"reflectance\">: in the spectrum file `")
+                && e.contains(
+                    "bad.spd`, line 2: expected a wavelength and a value, got `500 0.2 0.3`"
+                ),
+            "{e}"
+        );
     }
 
     /// `envmap` becomes `[environment]`: the file found like a mesh (written

@@ -9,6 +9,7 @@ pub mod mesh;
 pub mod mitsuba;
 mod parse;
 mod prune;
+mod spectrum;
 mod sphere_field;
 pub mod texture;
 
