@@ -17,6 +17,7 @@ pub(crate) mod params;
 mod quad;
 mod sphere;
 mod texture;
+pub(crate) mod transform;
 mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
@@ -43,6 +44,8 @@ pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 
 use crate::abi::GpuLayout;
 use crate::shader::ShaderModule;
+use params::{ParamTable, Result};
+use transform::Transform;
 
 /// What the scene needs of a shape of any kind.
 pub trait Shape {
@@ -53,6 +56,39 @@ pub trait Shape {
     fn importance(&self) -> bool;
     /// Its largest absolute coordinate, toward the scene's size (`Scene::extent`).
     fn extent(&self) -> f32;
+    /// Every position and length multiplied by `factor` (`Scene::scaled`).
+    fn scale(&mut self, factor: f32);
+    /// Why 32-bit floats cannot render it (coordinates that overflow, a size
+    /// out of their range), checked where it is read and again after a
+    /// `[scene] scale`.
+    fn problem(&self) -> Option<String>;
+}
+
+/// `|u x v| <= DEGENERATE |u| |v|`: a flat shape (or camera basis) with no area.
+pub(crate) const DEGENERATE: f64 = 1e-6;
+
+/// A squared length a renderer can work with in 32-bit floats.
+pub(crate) fn usable_length_squared(l2: f32) -> bool {
+    l2.is_finite() && l2 >= f32::MIN_POSITIVE
+}
+
+/// How scene files make one shape of a kind: an `[[objects]]` table whose
+/// `type` is the kind's name. The scene reads its `type`, `material`,
+/// `importance` and transform keys (and its own objects: boxes, meshes).
+pub(crate) struct ObjectType {
+    /// Its other keys, in the order an unknown key's message lists them.
+    pub keys: &'static [&'static str],
+    /// Reads the object's geometry, placed by its transform, into its list of
+    /// `Shapes`, with the object's material index and whether it is in the
+    /// light density; refuses a shape with a [`Shape::problem`].
+    pub parse: fn(&ParamTable, &Transform, u32, bool, &mut Shapes) -> Result<()>,
+}
+
+/// The object types of the primitive kinds that have one, by name, in kind order.
+pub(crate) fn object_types() -> impl Iterator<Item = (&'static str, &'static ObjectType)> {
+    PRIMITIVE_KINDS
+        .iter()
+        .filter_map(|kind| Some((kind.name, kind.object.as_ref()?)))
 }
 
 /// Registers the primitive kinds, each in one line `array: SceneType = KIND`:
@@ -166,6 +202,8 @@ pub struct PrimitiveKind {
     /// few ulps of the scene's extent, a larger factor keeps a ray from hitting
     /// the surface it leaves.
     pub ray_offset_factor: f32,
+    /// How scene files name one shape of this kind, if they do.
+    pub(crate) object: Option<ObjectType>,
 }
 
 /// The `light` field of a primitive outside the light density.
@@ -355,6 +393,24 @@ impl FromIterator<usize> for KindSet {
     fn from_iter<I: IntoIterator<Item = usize>>(iter: I) -> KindSet {
         iter.into_iter().fold(KindSet::default(), KindSet::with)
     }
+}
+
+/// `body` read as `objects[0]` of `scenes/x.toml` by `kind`'s object type
+/// (material 0, outside the light density): for the kinds' tests.
+#[cfg(test)]
+fn read_object(kind: &PrimitiveKind, body: &str) -> Result<Shapes> {
+    let table: toml::Table = toml::from_str(body).expect("valid TOML");
+    let inputs = std::cell::RefCell::new(Vec::new());
+    let t = ParamTable {
+        file: "scenes/x.toml",
+        table: &table,
+        path: "objects[0]".to_string(),
+        inputs: &inputs,
+    };
+    let object = kind.object.as_ref().expect("an object type");
+    let mut shapes = Shapes::default();
+    (object.parse)(&t, &Transform::parse(&t)?, 0, false, &mut shapes)?;
+    Ok(shapes)
 }
 
 #[cfg(test)]
