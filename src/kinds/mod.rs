@@ -1,13 +1,31 @@
 //! The kinds of primitive, material, texture and pixel filter pathmix renders,
-//! each described once.
+//! each described once, with how scene files name it: `params` is the table
+//! reader every kind and the scene read with, `transform` where an object sits.
 //!
 //! A kind's description names its WGSL module and packed struct and says what it
 //! supports; the kernel's presence flags, modules, scene arrays, bindings, baked
 //! constants and generated WGSL glue (`kernel::glue`), the packed scene
-//! (`pack::SceneData`) and `pathmix info` are all derived from it. A new
-//! primitive kind is its WGSL file, a file here with its packed struct and
-//! description (listed in [`PRIMITIVE_KINDS`]), its scene type and parser
-//! (`scene`), and a test; a material kind is the same with [`MATERIAL_KINDS`].
+//! (`pack::SceneData`), `pathmix info` and the scene files' lists of types and
+//! keys (for messages and `scene::format_doc`) are all derived from it.
+//!
+//! A new **shape kind** touches:
+//! - `shaders/NAME.wgsl` (the contract is [`PrimitiveKind`]'s doc comment);
+//! - `src/kinds/NAME.rs`: its manual (the file's doc comment), its scene type
+//!   with [`Shape`] (material, light density, extent, scale, problem), its
+//!   packed struct, its [`PrimitiveKind`] with the [`ObjectType`] that reads its
+//!   `[[objects]]` table, and its test;
+//! - this file: `mod NAME;`, its `pub use`, and its line in `primitive_kinds!`.
+//!
+//! A new **material kind** touches:
+//! - `shaders/NAME.wgsl` (the interface is in `shaders/materials.wgsl`);
+//! - `src/kinds/material/NAME.rs`: its manual, its [`MaterialModel`] (lobes,
+//!   keys, how it reads its table and packs), and its test;
+//! - `src/kinds/material/mod.rs`: `mod NAME;` and its entry in
+//!   `material_kinds!` (its [`MaterialKind`] variant, with its parameters).
+//!
+//! Either also documents its type and keys in `docs/scene-format.md`
+//! (`scene::format_doc` fails on one it lacks); ARCHITECTURE.md says what else
+//! may follow (a Mitsuba plugin, the checkpoint identity's version).
 
 mod coat;
 mod disk;

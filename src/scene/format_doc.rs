@@ -1,6 +1,7 @@
 //! docs/scene-format.md against the parser: every table, type and key the
-//! TOML reader accepts is documented there. A kind or key added to the
-//! parser without its documentation fails here.
+//! TOML reader accepts is documented there (the kinds' types and keys as
+//! their registrations list them). A kind or key added to the parser without
+//! its documentation fails here.
 
 use super::parse::{
     ALL_LIGHT_KEYS, BITMAP_KEYS, CAMERA_KEYS, CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, FILTER_KEYS,
