@@ -12,7 +12,7 @@
 //! - `shaders/NAME.wgsl` (the contract is [`PrimitiveKind`]'s doc comment);
 //! - `src/kinds/NAME.rs`: its manual (the file's doc comment), its scene type
 //!   with [`Shape`] (material, light density, extent, scale, problem), its
-//!   packed struct, its [`PrimitiveKind`] with the [`ObjectType`] that reads its
+//!   packed struct, its [`PrimitiveKind`] with the `ObjectType` that reads its
 //!   `[[objects]]` table, and its test;
 //! - this file: `mod NAME;`, its `pub use`, and its line in `primitive_kinds!`.
 //!

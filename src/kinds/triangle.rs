@@ -69,7 +69,7 @@ impl Shape for Triangle {
         }
     }
 
-    /// None: a degenerate face is dropped ([`Triangle::is_degenerate`]), not refused.
+    /// None: a degenerate face is dropped (`Triangle::is_degenerate`), not refused.
     fn problem(&self) -> Option<String> {
         None
     }
