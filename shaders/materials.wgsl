@@ -23,8 +23,8 @@
 // `sample_2d`) in a fixed order; a strategy draws its own before it, so the
 // mixture's light and BSDF branches use the same dimensions for their 2D point.
 
-// Mirrors `gpu::layout::Material`; what each field holds per kind is said in
-// `kinds::material::pack_material`.
+// Mirrors `abi::PackedMaterial`; what each field holds per kind is said in
+// the kind's file (`src/kinds/material/`).
 struct Material {
     albedo: vec3<f32>,
     // Index into `kinds::MATERIAL_KINDS` (the generated `MATERIAL_*` constants).

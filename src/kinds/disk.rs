@@ -1,8 +1,27 @@
 //! Disks (ellipses under a general transform): `center + a u + b v` for
 //! `a^2 + b^2 <= 1`, normal `normalize(u x v)`.
+//!
+//! ```toml
+//! [[objects]]
+//! type = "disk"
+//! center = [0, 4, 0]
+//! u = [1, 0, 0]     # perpendicular and as long: a disk of radius 1
+//! v = [0, 0, -1]
+//! material = "lamp"
+//! ```
+//!
+//! `center`, `u`, `v` (vectors, required) with an object's common keys
+//! (`material`, `importance`, the transform: the centre is moved, `u` and `v`
+//! transformed). A disk of radius `r` for perpendicular `u` and `v` of length
+//! `r`, an ellipse otherwise (as a transform leaves it). Degenerate `u`, `v` are
+//! refused as for quads. As a light it is sampled uniformly by area. Texture
+//! coordinates: `(r, phi / 2 pi)` of `center + r (cos phi u + sin phi v)`.
+//! Mitsuba's `disk` becomes one. WGSL: `shaders/disk.wgsl`.
 
-use super::quad::PlaneTerms;
-use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
+use super::params::{ParamTable, Result};
+use super::quad::{PlaneTerms, planar, spanned_problem};
+use super::transform::Transform;
+use super::{ErasedLayout, ObjectType, PackedPrimitive, PrimitiveKind, Shape, Shapes};
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
@@ -42,6 +61,38 @@ impl Shape for Disk {
                 extent.max((self.center + corner).abs().max_element())
             })
     }
+
+    fn scale(&mut self, factor: f32) {
+        self.center *= factor;
+        self.u *= factor;
+        self.v *= factor;
+    }
+
+    fn problem(&self) -> Option<String> {
+        spanned_problem("disk", self.center, self.u, self.v)
+    }
+}
+
+fn parse(
+    t: &ParamTable,
+    xf: &Transform,
+    material: u32,
+    importance: bool,
+    shapes: &mut Shapes,
+) -> Result<()> {
+    let (center, u, v) = planar(t, xf, "center")?;
+    let disk = Disk {
+        center,
+        u,
+        v,
+        material,
+        importance,
+    };
+    if let Some(p) = disk.problem() {
+        return Err(t.err(t.here(), p));
+    }
+    shapes.disks.push(disk);
+    Ok(())
 }
 
 pub const DISK: PrimitiveKind = PrimitiveKind {
@@ -76,6 +127,10 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
     // few ulps of the extent.
     ray_offset_factor: 1.0,
     reprojects_hit_point: false,
+    object: Some(ObjectType {
+        keys: &["center", "u", "v"],
+        parse,
+    }),
 };
 
 gpu_struct! {
@@ -123,5 +178,32 @@ impl PackedDisk {
             w: nan,
             ..PackedDisk::default()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::read_object;
+    use super::*;
+
+    #[test]
+    fn reads_a_placed_disk_and_refuses_one_without_area() {
+        let disk = |body: &str| read_object(&DISK, body).map(|shapes| shapes.disks);
+        let disks =
+            disk("center = [1, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\nscale = [2, 3, 1]").unwrap();
+        assert_eq!(
+            (disks[0].center, disks[0].u, disks[0].v),
+            (
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(0.0, 3.0, 0.0)
+            )
+        );
+        let e = disk("center = [0, 0, 0]\nu = [0, 0, 0]\nv = [0, 1, 0]").unwrap_err();
+        assert_eq!(e.location, "objects[0]");
+        assert!(e.message.starts_with("degenerate disk"), "{e}");
+        let mut tiny = disks[0];
+        tiny.scale(1e-30);
+        assert!(tiny.problem().unwrap().starts_with("disk area"));
     }
 }

@@ -1,13 +1,31 @@
 //! The kinds of primitive, material, texture and pixel filter pathmix renders,
-//! each described once.
+//! each described once, with how scene files name it: `params` is the table
+//! reader every kind and the scene read with, `transform` where an object sits.
 //!
 //! A kind's description names its WGSL module and packed struct and says what it
 //! supports; the kernel's presence flags, modules, scene arrays, bindings, baked
 //! constants and generated WGSL glue (`kernel::glue`), the packed scene
-//! (`pack::SceneData`) and `pathmix info` are all derived from it. A new
-//! primitive kind is its WGSL file, a file here with its packed struct and
-//! description (listed in [`PRIMITIVE_KINDS`]), its scene type and parser
-//! (`scene`), and a test; a material kind is the same with [`MATERIAL_KINDS`].
+//! (`pack::SceneData`), `pathmix info` and the scene files' lists of types and
+//! keys (for messages and `scene::format_doc`) are all derived from it.
+//!
+//! A new **shape kind** touches:
+//! - `shaders/NAME.wgsl` (the contract is [`PrimitiveKind`]'s doc comment);
+//! - `src/kinds/NAME.rs`: its manual (the file's doc comment), its scene type
+//!   with [`Shape`] (material, light density, extent, scale, problem), its
+//!   packed struct, its [`PrimitiveKind`] with the `ObjectType` that reads its
+//!   `[[objects]]` table, and its test;
+//! - this file: `mod NAME;`, its `pub use`, and its line in `primitive_kinds!`.
+//!
+//! A new **material kind** touches:
+//! - `shaders/NAME.wgsl` (the interface is in `shaders/materials.wgsl`);
+//! - `src/kinds/material/NAME.rs`: its manual, its [`MaterialModel`] (lobes,
+//!   keys, how it reads its table and packs), and its test;
+//! - `src/kinds/material/mod.rs`: `mod NAME;` and its entry in
+//!   `material_kinds!` (its [`MaterialKind`] variant, with its parameters).
+//!
+//! Either also documents its type and keys in `docs/scene-format.md`
+//! (`scene::format_doc` fails on one it lacks); ARCHITECTURE.md says what else
+//! may follow (a Mitsuba plugin, the checkpoint identity's version).
 
 mod coat;
 mod disk;
@@ -17,6 +35,7 @@ pub(crate) mod params;
 mod quad;
 mod sphere;
 mod texture;
+pub(crate) mod transform;
 mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
@@ -43,6 +62,8 @@ pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 
 use crate::abi::GpuLayout;
 use crate::shader::ShaderModule;
+use params::{ParamTable, Result};
+use transform::Transform;
 
 /// What the scene needs of a shape of any kind.
 pub trait Shape {
@@ -53,6 +74,39 @@ pub trait Shape {
     fn importance(&self) -> bool;
     /// Its largest absolute coordinate, toward the scene's size (`Scene::extent`).
     fn extent(&self) -> f32;
+    /// Every position and length multiplied by `factor` (`Scene::scaled`).
+    fn scale(&mut self, factor: f32);
+    /// Why 32-bit floats cannot render it (coordinates that overflow, a size
+    /// out of their range), checked where it is read and again after a
+    /// `[scene] scale`.
+    fn problem(&self) -> Option<String>;
+}
+
+/// `|u x v| <= DEGENERATE |u| |v|`: a flat shape (or camera basis) with no area.
+pub(crate) const DEGENERATE: f64 = 1e-6;
+
+/// A squared length a renderer can work with in 32-bit floats.
+pub(crate) fn usable_length_squared(l2: f32) -> bool {
+    l2.is_finite() && l2 >= f32::MIN_POSITIVE
+}
+
+/// How scene files make one shape of a kind: an `[[objects]]` table whose
+/// `type` is the kind's name. The scene reads its `type`, `material`,
+/// `importance` and transform keys (and its own objects: boxes, meshes).
+pub(crate) struct ObjectType {
+    /// Its other keys, in the order an unknown key's message lists them.
+    pub keys: &'static [&'static str],
+    /// Reads the object's geometry, placed by its transform, into its list of
+    /// `Shapes`, with the object's material index and whether it is in the
+    /// light density; refuses a shape with a [`Shape::problem`].
+    pub parse: fn(&ParamTable, &Transform, u32, bool, &mut Shapes) -> Result<()>,
+}
+
+/// The object types of the primitive kinds that have one, by name, in kind order.
+pub(crate) fn object_types() -> impl Iterator<Item = (&'static str, &'static ObjectType)> {
+    PRIMITIVE_KINDS
+        .iter()
+        .filter_map(|kind| Some((kind.name, kind.object.as_ref()?)))
 }
 
 /// Registers the primitive kinds, each in one line `array: SceneType = KIND`:
@@ -172,6 +226,8 @@ pub struct PrimitiveKind {
     /// the ray offset and let a ray leaving it find it again (as Mitsuba's sphere
     /// reprojects its hit point).
     pub reprojects_hit_point: bool,
+    /// How scene files name one shape of this kind, if they do.
+    pub(crate) object: Option<ObjectType>,
 }
 
 /// The `light` field of a primitive outside the light density.
@@ -361,6 +417,24 @@ impl FromIterator<usize> for KindSet {
     fn from_iter<I: IntoIterator<Item = usize>>(iter: I) -> KindSet {
         iter.into_iter().fold(KindSet::default(), KindSet::with)
     }
+}
+
+/// `body` read as `objects[0]` of `scenes/x.toml` by `kind`'s object type
+/// (material 0, outside the light density): for the kinds' tests.
+#[cfg(test)]
+fn read_object(kind: &PrimitiveKind, body: &str) -> Result<Shapes> {
+    let table: toml::Table = toml::from_str(body).expect("valid TOML");
+    let inputs = std::cell::RefCell::new(Vec::new());
+    let t = ParamTable {
+        file: "scenes/x.toml",
+        table: &table,
+        path: "objects[0]".to_string(),
+        inputs: &inputs,
+    };
+    let object = kind.object.as_ref().expect("an object type");
+    let mut shapes = Shapes::default();
+    (object.parse)(&t, &Transform::parse(&t)?, 0, false, &mut shapes)?;
+    Ok(shapes)
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-//! Reading scene-file tables: [`Params`], a TOML table with its field path,
+//! Reading scene-file tables: [`ParamTable`], a TOML table with its field path,
 //! whose readers check each value and say where a bad one is
 //! (`scenes/x.toml: objects[3].radius: must be > 0, got -1`), the value checks
 //! they take, and the messages' shared wording (typo suggestions, numbers).
@@ -102,7 +102,7 @@ pub(crate) fn check_int(v: i64, (lo, hi): (i64, i64)) -> std::result::Result<u32
 
 /// A setting given by the name of one of `all` (or an alias `from_name` knows).
 pub(crate) fn named<T: Copy>(
-    t: &Params,
+    t: &ParamTable,
     key: &str,
     all: &[T],
     name: fn(T) -> &'static str,
@@ -121,13 +121,13 @@ pub(crate) fn named<T: Copy>(
 }
 
 /// An RGB reflectance or transmittance in [0, 1].
-pub(crate) fn reflectance(t: &Params, key: &str, default: f32) -> Result<Vec3> {
+pub(crate) fn reflectance(t: &ParamTable, key: &str, default: f32) -> Result<Vec3> {
     colour(t, key, default, check_unit)
 }
 
 /// An RGB parameter: a vector, or one number for grey.
 pub(crate) fn colour(
-    t: &Params,
+    t: &ParamTable,
     key: &str,
     default: f32,
     check: fn(f32) -> std::result::Result<(), String>,
@@ -143,7 +143,7 @@ pub(crate) fn colour(
 // Table access with field paths
 
 /// A TOML table and its field path, for messages.
-pub(crate) struct Params<'a> {
+pub(crate) struct ParamTable<'a> {
     pub file: &'a str,
     pub table: &'a Table,
     /// Empty at the top level.
@@ -152,7 +152,7 @@ pub(crate) struct Params<'a> {
     pub inputs: &'a RefCell<Vec<PathBuf>>,
 }
 
-impl<'a> Params<'a> {
+impl<'a> ParamTable<'a> {
     /// The file `name` names, relative to the scene file as every path in it,
     /// recorded as one of the scene's inputs.
     pub(crate) fn input(&self, name: &str) -> PathBuf {
@@ -220,10 +220,10 @@ impl<'a> Params<'a> {
     }
 
     /// The table at `key`, if present.
-    pub(crate) fn sub(&self, key: &str) -> Result<Option<Params<'a>>> {
+    pub(crate) fn sub(&self, key: &str) -> Result<Option<ParamTable<'a>>> {
         match self.table.get(key) {
             None => Ok(None),
-            Some(Value::Table(table)) => Ok(Some(Params {
+            Some(Value::Table(table)) => Ok(Some(ParamTable {
                 file: self.file,
                 table,
                 path: self.at(key),

@@ -1,6 +1,28 @@
 //! Quads (parallelograms): `q + a u + b v` for `a, b` in [0, 1], normal `normalize(u x v)`.
+//!
+//! ```toml
+//! [[objects]]
+//! type = "quad"
+//! q = [213, 554, 227]   # a corner
+//! u = [130, 0, 0]       # the edges from it
+//! v = [0, 0, 105]
+//! material = "light"
+//! ```
+//!
+//! `q`, `u`, `v` (vectors, required) with an object's common keys (`material`,
+//! `importance`, the transform: `q` is moved, `u` and `v` transformed). `u x v`
+//! must not be (near) zero: `|u x v| <= 1e-6 |u| |v|` is refused as degenerate,
+//! as is a quad whose coordinates or area 32-bit floats cannot hold. As a light
+//! it is sampled uniformly by area. Texture coordinates: `(a, b)`. A `box`
+//! object (`scene`'s) is six quads; Mitsuba's `rectangle` becomes one quad and
+//! its `cube` six. WGSL: `shaders/quad.wgsl`.
 
-use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
+use super::params::{ParamTable, Result, fmt_num, fmt_vec, ok};
+use super::transform::Transform;
+use super::{
+    DEGENERATE, ErasedLayout, ObjectType, PackedPrimitive, PrimitiveKind, Shape, Shapes,
+    usable_length_squared,
+};
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
@@ -41,6 +63,73 @@ impl Shape for Quad {
         .into_iter()
         .fold(0.0, |extent, corner| extent.max(corner.abs().max_element()))
     }
+
+    fn scale(&mut self, factor: f32) {
+        self.q *= factor;
+        self.u *= factor;
+        self.v *= factor;
+    }
+
+    fn problem(&self) -> Option<String> {
+        spanned_problem("quad", self.q, self.u, self.v)
+    }
+}
+
+/// What is wrong with a flat shape spanned by `u` and `v` from `point` (a quad, a disk).
+pub(super) fn spanned_problem(what: &str, point: Vec3, u: Vec3, v: Vec3) -> Option<String> {
+    if !(point.is_finite() && u.is_finite() && v.is_finite()) {
+        return Some("coordinates overflow a 32-bit float".to_string());
+    }
+    let area = u.as_dvec3().cross(v.as_dvec3()).length();
+    if area <= DEGENERATE * u.as_dvec3().length() * v.as_dvec3().length() {
+        return Some(format!(
+            "degenerate {what}: u x v has (near) zero length (u = {}, v = {})",
+            fmt_vec(u),
+            fmt_vec(v)
+        ));
+    }
+    if !usable_length_squared(u.cross(v).length_squared()) {
+        return Some(format!(
+            "{what} area {} is out of the range 32-bit float arithmetic can handle",
+            fmt_num(area)
+        ));
+    }
+    None
+}
+
+/// A flat shape's anchor point (`anchor`) and edge vectors `u`, `v` (a quad's,
+/// a disk's), in world space.
+pub(super) fn planar(t: &ParamTable, xf: &Transform, anchor: &str) -> Result<(Vec3, Vec3, Vec3)> {
+    let point = t.require(anchor, t.vec3(anchor, ok)?)?;
+    let u = t.require("u", t.vec3("u", ok)?)?;
+    let v = t.require("v", t.vec3("v", ok)?)?;
+    Ok((
+        xf.point(point.as_dvec3()),
+        xf.vector(u.as_dvec3()),
+        xf.vector(v.as_dvec3()),
+    ))
+}
+
+fn parse(
+    t: &ParamTable,
+    xf: &Transform,
+    material: u32,
+    importance: bool,
+    shapes: &mut Shapes,
+) -> Result<()> {
+    let (q, u, v) = planar(t, xf, "q")?;
+    let quad = Quad {
+        q,
+        u,
+        v,
+        material,
+        importance,
+    };
+    if let Some(p) = quad.problem() {
+        return Err(t.err(t.here(), p));
+    }
+    shapes.quads.push(quad);
+    Ok(())
 }
 
 pub const QUAD: PrimitiveKind = PrimitiveKind {
@@ -78,6 +167,10 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
     // few ulps of the extent.
     ray_offset_factor: 1.0,
     reprojects_hit_point: false,
+    object: Some(ObjectType {
+        keys: &["q", "u", "v"],
+        parse,
+    }),
 };
 
 gpu_struct! {
@@ -148,5 +241,41 @@ impl PackedQuad {
             w: nan,
             ..PackedQuad::default()
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::read_object;
+    use super::*;
+
+    #[test]
+    fn reads_a_placed_quad_and_refuses_one_without_area() {
+        let quad = |body: &str| read_object(&QUAD, body).map(|shapes| shapes.quads);
+        let placed =
+            "q = [0, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\nscale = 2\ntranslate = [1, 2, 3]";
+        let quads = quad(placed).unwrap();
+        assert_eq!(
+            quads,
+            [Quad {
+                q: Vec3::new(1.0, 2.0, 3.0),
+                u: Vec3::new(2.0, 0.0, 0.0),
+                v: Vec3::new(0.0, 2.0, 0.0),
+                material: 0,
+                importance: false,
+            }]
+        );
+        let e = quad("q = [0, 0, 0]\nu = [1, 0, 0]\nv = [2, 0, 0]").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "scenes/x.toml: objects[0]: degenerate quad: u x v has (near) zero length \
+             (u = [1, 0, 0], v = [2, 0, 0])"
+        );
+        let mut huge = quads[0];
+        huge.scale(f32::MAX);
+        assert_eq!(
+            huge.problem().as_deref(),
+            Some("coordinates overflow a 32-bit float")
+        );
     }
 }

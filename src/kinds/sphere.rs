@@ -1,6 +1,26 @@
 //! Spheres, with outward normals.
+//!
+//! ```toml
+//! [[objects]]
+//! type = "sphere"
+//! center = [190, 90, 190]
+//! radius = 90          # > 0
+//! material = "glass"
+//! ```
+//!
+//! `center` (vector, required) and `radius` (float > 0, required) with an
+//! object's common keys (`material`, `importance`, the transform: the centre
+//! is moved, the radius scaled; only a uniform scale, or it would be an
+//! ellipsoid). A sphere whose coordinates or radius 32-bit floats cannot hold
+//! is refused. Texture coordinates: `(phi / 2 pi, theta / pi)` about its centre,
+//! theta from +z, phi from +x toward +y (world axes). Mitsuba's `sphere`
+//! becomes one. WGSL: `shaders/sphere.wgsl`.
 
-use super::{ErasedLayout, PackedPrimitive, PrimitiveKind, Shape, Shapes};
+use super::params::{ParamTable, Result, check_positive, fmt_num, ok};
+use super::transform::Transform;
+use super::{
+    ErasedLayout, ObjectType, PackedPrimitive, PrimitiveKind, Shape, Shapes, usable_length_squared,
+};
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
@@ -31,6 +51,52 @@ impl Shape for Sphere {
     fn extent(&self) -> f32 {
         self.center.abs().max_element() + self.radius
     }
+
+    fn scale(&mut self, factor: f32) {
+        self.center *= factor;
+        self.radius *= factor;
+    }
+
+    fn problem(&self) -> Option<String> {
+        if !self.center.is_finite() {
+            return Some("coordinates overflow a 32-bit float".to_string());
+        }
+        if !(self.radius > 0.0 && usable_length_squared(self.radius * self.radius)) {
+            return Some(format!(
+                "radius {} is out of the range 32-bit float arithmetic can handle",
+                fmt_num(self.radius)
+            ));
+        }
+        None
+    }
+}
+
+fn parse(
+    t: &ParamTable,
+    xf: &Transform,
+    material: u32,
+    importance: bool,
+    shapes: &mut Shapes,
+) -> Result<()> {
+    let center = t.require("center", t.vec3("center", ok)?)?;
+    let radius = t.require("radius", t.float("radius", check_positive)?)?;
+    let Some(scale) = xf.uniform_scale() else {
+        return Err(t.err(
+            t.here(),
+            "a sphere cannot take a non-uniform scale (it would be an ellipsoid)",
+        ));
+    };
+    let sphere = Sphere {
+        center: xf.point(center.as_dvec3()),
+        radius: (f64::from(radius) * scale) as f32,
+        material,
+        importance,
+    };
+    if let Some(p) = sphere.problem() {
+        return Err(t.err(t.here(), p));
+    }
+    shapes.spheres.push(sphere);
+    Ok(())
 }
 
 pub const SPHERE: PrimitiveKind = PrimitiveKind {
@@ -73,6 +139,10 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
     // Its hit point, reprojected onto the sphere, errs by a few ulps of the extent.
     ray_offset_factor: 1.0,
     reprojects_hit_point: true,
+    object: Some(ObjectType {
+        keys: &["center", "radius"],
+        parse,
+    }),
 };
 
 gpu_struct! {
@@ -83,5 +153,33 @@ gpu_struct! {
         pub _pad0: u32,
         pub _pad1: u32,
         pub _pad2: u32,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::read_object;
+    use super::*;
+
+    #[test]
+    fn reads_a_placed_sphere_under_a_uniform_scale_only() {
+        let sphere = |body: &str| read_object(&SPHERE, body).map(|shapes| shapes.spheres);
+        // Scaled by 3, then turned a quarter about y: +x goes to -z.
+        let spheres = sphere("center = [1, 0, 0]\nradius = 2\nscale = 3\nrotate_y = 90").unwrap();
+        assert_eq!(
+            (spheres[0].center, spheres[0].radius),
+            (Vec3::new(0.0, 0.0, -3.0), 6.0)
+        );
+        let e = sphere("center = [0, 0, 0]\nradius = 1\nscale = [1, 2, 1]").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "scenes/x.toml: objects[0]: a sphere cannot take a non-uniform scale (it would be \
+             an ellipsoid)"
+        );
+        let e = sphere("center = [0, 0, 0]\nradius = 1e-30").unwrap_err();
+        assert!(
+            e.message.starts_with("radius 1e-30 is out of the range"),
+            "{e}"
+        );
     }
 }

@@ -1,6 +1,11 @@
-//! Triangles: the faces of meshes.
+//! Triangles: the faces of meshes. Scene files make them by `mesh` objects,
+//! which the scene reads (mesh files, their transforms and materials): no
+//! object type makes one triangle. WGSL: `shaders/triangle.wgsl`.
 
-use super::{ErasedLayout, NO_LIGHT, PackedPrimitive, PrimitiveKind, Shape, Shapes};
+use super::{
+    DEGENERATE, ErasedLayout, NO_LIGHT, PackedPrimitive, PrimitiveKind, Shape, Shapes,
+    usable_length_squared,
+};
 use crate::abi::gpu_struct;
 use crate::shader::shader_module;
 use glam::Vec3;
@@ -27,6 +32,16 @@ impl Triangle {
         let [a, b, c] = self.vertices;
         0.5 * (b - a).cross(c - a).length()
     }
+
+    /// No usable area in 32-bit floats (collinear or coincident vertices): it
+    /// can be neither hit nor sampled, so the scene drops it and counts it.
+    pub(crate) fn is_degenerate(&self) -> bool {
+        let [a, b, c] = self.vertices;
+        let (e1, e2) = ((b - a).as_dvec3(), (c - a).as_dvec3());
+        let n = e1.cross(e2);
+        !usable_length_squared(n.as_vec3().length_squared())
+            || n.length() <= DEGENERATE * e1.length() * e2.length()
+    }
 }
 
 impl Shape for Triangle {
@@ -46,6 +61,17 @@ impl Shape for Triangle {
         self.vertices
             .into_iter()
             .fold(0.0, |extent, v| extent.max(v.abs().max_element()))
+    }
+
+    fn scale(&mut self, factor: f32) {
+        for v in &mut self.vertices {
+            *v *= factor;
+        }
+    }
+
+    /// None: a degenerate face is dropped (`Triangle::is_degenerate`), not refused.
+    fn problem(&self) -> Option<String> {
+        None
     }
 }
 
@@ -91,6 +117,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     // scene hit themselves at 1x (up to 8% of the light lost), never at 10x.
     ray_offset_factor: 10.0,
     reprojects_hit_point: false,
+    object: None,
 };
 
 gpu_struct! {

@@ -1,4 +1,7 @@
 //! The scene file format: TOML, parsed by hand into a validated [`Scene`].
+//! Each material kind reads its own table, and each primitive kind its objects
+//! (`kinds`); this file reads the rest, dispatches to them by `type`, and
+//! reads boxes and meshes.
 //!
 //! The reference for every table and key (meaning, default, range) is
 //! docs/scene-format.md: keep it in step with the parser. Unknown keys are errors
@@ -17,20 +20,22 @@ use super::texture::{
     Bitmap, TextureFilter, TextureKind, UvTransform, WrapMode, load_texture_image,
 };
 use super::{
-    Camera, Disk, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings, Roulette,
-    Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle, excerpt,
+    Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings, Roulette, Sampler,
+    Scene, SceneError, Shapes, Spot, Strategy, Texture, Triangle, excerpt,
 };
 use crate::kinds::params::{
-    Params, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
+    ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
     colour, fmt_num, fmt_vec, list, named, number, ok, reflectance, type_name, unknown_name,
 };
+use crate::kinds::transform::{TRANSFORM_KEYS, Transform, matrix, rotation};
+use crate::kinds::{self, DEGENERATE, Shape, usable_length_squared};
 use std::cell::RefCell;
 
-// Mitsuba's reader takes its named indices from the material kinds, as the
-// TOML reader does.
+// Mitsuba's reader takes these from here, as the TOML reader does from the kinds.
 #[cfg(test)]
 pub(super) use crate::kinds::NAMED_CONDUCTORS;
 pub(super) use crate::kinds::NAMED_IORS;
+pub(super) use crate::kinds::transform::sin_cos_degrees;
 
 /// Settings given over the scene file's (a command line's), validated like the
 /// file's values by [`Scene::apply_overrides`].
@@ -54,8 +59,6 @@ pub(super) const IMAGE_SIDE: (i64, i64) = (1, 65536);
 const SPP: (i64, i64) = (1, U32_MAX);
 const MAX_DEPTH: (i64, i64) = (0, 100_000);
 const SEED: (i64, i64) = (0, U32_MAX);
-/// `|u x v| <= DEGENERATE |u| |v|`: a quad (or camera basis) with no area.
-const DEGENERATE: f64 = 1e-6;
 
 pub(super) const TOP_KEYS: &[&str] = &[
     "scene",
@@ -100,34 +103,13 @@ pub(super) const ALL_LIGHT_KEYS: &[&str] = &[
     "cutoff_angle",
     "beam_width",
 ];
-pub(super) const OBJECT_TYPES: &[&str] = &["sphere", "quad", "disk", "box", "mesh"];
-pub(super) const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
-pub(super) const ALL_OBJECT_KEYS: &[&str] = &[
-    "type",
-    "material",
-    "scale",
-    "rotate_y",
-    "rotate",
-    "translate",
-    "matrix",
-    "importance",
-    "center",
-    "radius",
-    "q",
-    "u",
-    "v",
-    "min",
-    "max",
-    "file",
-];
-
 // ---------------------------------------------------------------------------------
 // Entry points
 
 pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     let root: Table = toml::from_str(text).map_err(|e| syntax_error(file, text, &e))?;
     let inputs = RefCell::new(Vec::new());
-    let top = Params {
+    let top = ParamTable {
         file,
         table: &root,
         path: String::new(),
@@ -174,12 +156,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         camera,
         render,
         materials,
-        shapes: Shapes {
-            quads: objects.quads,
-            spheres: objects.spheres,
-            triangles: objects.triangles,
-            disks: objects.disks,
-        },
+        shapes: objects.shapes,
         degenerate_triangles: objects.degenerate_triangles,
         point_lights,
         warnings: objects.warnings,
@@ -193,9 +170,7 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
     // Re-check what the scale could break (overflow, underflow).
     let problem = camera_problem(&scene.camera)
         .map(|(_, p)| p)
-        .or_else(|| scene.shapes.quads.iter().find_map(quad_problem))
-        .or_else(|| scene.shapes.disks.iter().find_map(disk_problem))
-        .or_else(|| scene.shapes.spheres.iter().find_map(sphere_problem))
+        .or_else(|| scene.shapes.iter().find_map(|shape| shape.problem()))
         .or_else(|| drop_scaled_out_faces(&mut scene, file));
     match problem {
         Some(p) => Err(top.err(
@@ -280,31 +255,15 @@ impl Scene {
     }
 
     /// The same scene with every position and length (camera `lookfrom`/`lookat`,
-    /// quad `q`/`u`/`v`, disk centre and axes, sphere centre and radius, light
-    /// positions) multiplied by `factor`, and point and spot lights' intensities by
-    /// `factor^2`, so that the irradiance they give, and the image, stay the same.
+    /// every shape's geometry (`Shape::scale`), light positions) multiplied by
+    /// `factor`, and point and spot lights' intensities by `factor^2`, so that
+    /// the irradiance they give, and the image, stay the same.
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
         s.camera.lookfrom *= factor;
         s.camera.lookat *= factor;
-        for q in &mut s.shapes.quads {
-            q.q *= factor;
-            q.u *= factor;
-            q.v *= factor;
-        }
-        for d in &mut s.shapes.disks {
-            d.center *= factor;
-            d.u *= factor;
-            d.v *= factor;
-        }
-        for sp in &mut s.shapes.spheres {
-            sp.center *= factor;
-            sp.radius *= factor;
-        }
-        for t in &mut s.shapes.triangles {
-            for v in &mut t.vertices {
-                *v *= factor;
-            }
+        for shape in s.shapes.iter_mut() {
+            shape.scale(factor);
         }
         for l in &mut s.point_lights {
             l.position *= factor;
@@ -317,7 +276,7 @@ impl Scene {
 // ---------------------------------------------------------------------------------
 // Sections
 
-fn parse_camera(t: &Params) -> Result<Camera> {
+fn parse_camera(t: &ParamTable) -> Result<Camera> {
     t.check_keys(CAMERA_KEYS, None)?;
     let camera = Camera {
         lookfrom: t.require("lookfrom", t.vec3("lookfrom", ok)?)?,
@@ -336,12 +295,12 @@ fn parse_camera(t: &Params) -> Result<Camera> {
 
 /// `filter = "NAME"` (with its defaults) or `filter = { type = "NAME", KEY = VALUE }`,
 /// a filter's keys being those `FILTER_KEYS` names for its type.
-fn parse_filter(t: &Params) -> Result<Filter> {
+fn parse_filter(t: &ParamTable) -> Result<Filter> {
     let no_keys = Table::new();
     let (f, name, name_at) = match t.table.get("filter") {
         None => return Ok(Filter::Box),
         Some(Value::String(name)) => {
-            let f = Params {
+            let f = ParamTable {
                 file: t.file,
                 table: &no_keys,
                 path: t.at("filter"),
@@ -429,7 +388,7 @@ fn default_render() -> RenderSettings {
     }
 }
 
-fn parse_render(t: &Params) -> Result<RenderSettings> {
+fn parse_render(t: &ParamTable) -> Result<RenderSettings> {
     t.check_keys(RENDER_KEYS, None)?;
     let d = default_render();
     let (strategy, auto_strategy) = parse_strategy(t)?;
@@ -471,7 +430,7 @@ fn parse_render(t: &Params) -> Result<RenderSettings> {
 }
 
 /// `render.strategy`: a strategy's name, or `auto` (true: the pilot chooses).
-fn parse_strategy(t: &Params) -> Result<(Option<Strategy>, bool)> {
+fn parse_strategy(t: &ParamTable) -> Result<(Option<Strategy>, bool)> {
     match t.string("strategy")? {
         None => Ok((None, false)),
         Some(AUTO_STRATEGY) => Ok((None, true)),
@@ -489,7 +448,7 @@ fn parse_strategy(t: &Params) -> Result<(Option<Strategy>, bool)> {
 /// `[environment]`: the map's file (relative to the scene file), `scale`, and its
 /// rotation as objects take one (`rotate_y`, `rotate`, or an orthogonal `matrix`,
 /// whose translation moves nothing at infinity).
-fn parse_environment(t: &Params) -> Result<EnvironmentMap> {
+fn parse_environment(t: &ParamTable) -> Result<EnvironmentMap> {
     t.check_keys(ENVIRONMENT_KEYS, None)?;
     let file = t.require("file", t.string("file")?)?;
     let scale = t.float("scale", check_nonneg)?.unwrap_or(1.0);
@@ -524,7 +483,7 @@ fn parse_environment(t: &Params) -> Result<EnvironmentMap> {
 
 /// `[materials.NAME]`, sorted by name; each kind reads its own table
 /// (`kinds::Material::parse`).
-fn parse_materials(top: &Params) -> Result<Vec<Material>> {
+fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
     let Some(mats) = top.sub("materials")? else {
         return Ok(Vec::new());
     };
@@ -548,7 +507,7 @@ pub(super) const CHECKERBOARD_KEYS: &[&str] = &["type", "color0", "color1", "to_
 pub(super) const BITMAP_KEYS: &[&str] =
     &["type", "file", "wrap_mode", "filter_type", "raw", "to_uv"];
 
-fn parse_texture(s: &Params) -> Result<Texture> {
+fn parse_texture(s: &ParamTable) -> Result<Texture> {
     let Some(ty) = s.string("type")? else {
         return Err(s.err(
             s.here(),
@@ -625,7 +584,7 @@ fn parse_texture(s: &Params) -> Result<Texture> {
 /// `to_uv = { scale = [su, sv], translate = [tu, tv] }` (u' = su u + tu; one
 /// number scales both), or `{ matrix = [[a, b, c], [d, e, f]] }` (u' = a u + b v
 /// + c, v' = d u + e v + f): Mitsuba's `to_uv` transform.
-fn parse_to_uv(u: &Params) -> Result<UvTransform> {
+fn parse_to_uv(u: &ParamTable) -> Result<UvTransform> {
     u.check_keys(&["scale", "translate", "matrix"], Some("to_uv"))?;
     if let Some(rows) = u.table.get("matrix") {
         if let Some(key) = ["scale", "translate"]
@@ -695,11 +654,11 @@ fn check_cutoff(x: f32) -> std::result::Result<(), String> {
 /// in file order); a table without a `type` is refused, its keys checked against
 /// `all_keys` first, naming the `types` it may take.
 fn typed_tables<'a, 'b>(
-    top: &'b Params<'a>,
+    top: &'b ParamTable<'a>,
     key: &'b str,
     all_keys: &'b [&'b str],
     types: &'b [&'b str],
-) -> Result<impl ExactSizeIterator<Item = Result<(Params<'a>, &'a str)>> + 'b> {
+) -> Result<impl ExactSizeIterator<Item = Result<(ParamTable<'a>, &'a str)>> + 'b> {
     let items: &'a [Value] = match top.table.get(key) {
         None => &[],
         Some(Value::Array(items)) => items,
@@ -718,7 +677,7 @@ fn typed_tables<'a, 'b>(
         let Value::Table(table) = item else {
             return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
         };
-        let t = Params {
+        let t = ParamTable {
             file: top.file,
             table,
             path,
@@ -739,7 +698,7 @@ fn typed_tables<'a, 'b>(
 }
 
 /// The `[[lights]]`: point and spot lights.
-fn parse_lights(top: &Params) -> Result<Vec<PointLight>> {
+fn parse_lights(top: &ParamTable) -> Result<Vec<PointLight>> {
     let tables = typed_tables(top, "lights", ALL_LIGHT_KEYS, LIGHT_TYPES)?;
     let mut lights = Vec::with_capacity(tables.len());
     for table in tables {
@@ -794,40 +753,67 @@ fn parse_lights(top: &Params) -> Result<Vec<PointLight>> {
 /// The objects of a scene file, in world space.
 #[derive(Default)]
 struct Objects {
-    quads: Vec<Quad>,
-    disks: Vec<Disk>,
-    spheres: Vec<Sphere>,
-    triangles: Vec<Triangle>,
+    shapes: Shapes,
     degenerate_triangles: usize,
     /// Materials taken from mesh files, after the scene's own.
     extra_materials: Vec<Material>,
     warnings: Vec<String>,
 }
 
-fn parse_objects(top: &Params, materials: &[Material]) -> Result<Objects> {
+/// The object types the scene reads itself, and their keys besides the common
+/// ones: a box (six quads) and a mesh (its file's faces).
+const SCENE_OBJECTS: &[(&str, &[&str])] =
+    &[("box", &["min", "max"]), ("mesh", &["file", "smooth"])];
+
+/// Every object type and its own keys: the primitive kinds'
+/// (`kinds::ObjectType`), then the scene's.
+fn object_types() -> Vec<(&'static str, &'static [&'static str])> {
+    kinds::object_types()
+        .map(|(name, object)| (name, object.keys))
+        .chain(SCENE_OBJECTS.iter().copied())
+        .collect()
+}
+
+/// Every key of some object type, the common ones first: what an object
+/// without a `type` may hold.
+pub(super) fn object_keys() -> Vec<&'static str> {
+    let mut keys = vec!["type", "material"];
+    keys.extend(TRANSFORM_KEYS);
+    keys.push("importance");
+    for (_, own) in object_types() {
+        for key in own {
+            if !keys.contains(key) {
+                keys.push(key);
+            }
+        }
+    }
+    keys
+}
+
+/// The scene files' object types, in the order messages list them.
+pub(super) fn object_type_names() -> Vec<&'static str> {
+    object_types().into_iter().map(|(name, _)| name).collect()
+}
+
+fn parse_objects(top: &ParamTable, materials: &[Material]) -> Result<Objects> {
     let mut objects = Objects::default();
     let Objects {
-        quads,
-        disks,
-        spheres,
-        triangles,
+        shapes,
         degenerate_triangles,
         extra_materials,
         warnings,
     } = &mut objects;
-    for (i, table) in typed_tables(top, "objects", ALL_OBJECT_KEYS, OBJECT_TYPES)?.enumerate() {
+    let (all_keys, names) = (object_keys(), object_type_names());
+    for (i, table) in typed_tables(top, "objects", &all_keys, &names)?.enumerate() {
         let (t, ty) = table?;
-        let (keys, what): (&[&str], &str) = match ty {
-            "sphere" => (&["center", "radius"], "a sphere"),
-            "quad" => (&["q", "u", "v"], "a quad"),
-            "disk" => (&["center", "u", "v"], "a disk"),
-            "box" => (&["min", "max"], "a box"),
-            "mesh" => (&["file", "smooth"], "a mesh"),
-            other => {
-                return Err(t.err(
-                    t.at("type"),
-                    unknown_name("object type", other, OBJECT_TYPES),
-                ));
+        let kind = kinds::object_types()
+            .find(|&(name, _)| name == ty)
+            .map(|(_, object)| object);
+        let keys = match (kind, SCENE_OBJECTS.iter().find(|&&(name, _)| name == ty)) {
+            (Some(object), _) => object.keys,
+            (None, Some(&(_, keys))) => keys,
+            (None, None) => {
+                return Err(t.err(t.at("type"), unknown_name("object type", ty, &names)));
             }
         };
         let known: Vec<&str> = TRANSFORM_KEYS
@@ -836,7 +822,7 @@ fn parse_objects(top: &Params, materials: &[Material]) -> Result<Objects> {
             .chain(["type", "material", "importance"])
             .chain(keys.iter().copied())
             .collect();
-        t.check_keys(&known, Some(what))?;
+        t.check_keys(&known, Some(&format!("a {ty}")))?;
 
         // A mesh may take its materials from its file (glTF) instead.
         let name = match t.string("material")? {
@@ -866,67 +852,12 @@ fn parse_objects(top: &Params, materials: &[Material]) -> Result<Objects> {
         let xf = Transform::parse(&t)?;
         // Only a mesh has no `material`; it resolves its faces' below.
         let material = chosen.unwrap_or_default() as u32;
-        // A quad's or disk's anchor point and edge vectors, in world space.
-        let planar = |anchor: &str| -> Result<(Vec3, Vec3, Vec3)> {
-            let point = t.require(anchor, t.vec3(anchor, ok)?)?;
-            let u = t.require("u", t.vec3("u", ok)?)?;
-            let v = t.require("v", t.vec3("v", ok)?)?;
-            Ok((
-                xf.point(point.as_dvec3()),
-                xf.vector(u.as_dvec3()),
-                xf.vector(v.as_dvec3()),
-            ))
-        };
+        if let Some(object) = kind {
+            (object.parse)(&t, &xf, material, importance, shapes)?;
+            continue;
+        }
 
         match ty {
-            "sphere" => {
-                let center = t.require("center", t.vec3("center", ok)?)?;
-                let radius = t.require("radius", t.float("radius", check_positive)?)?;
-                let Some(scale) = xf.uniform_scale() else {
-                    return Err(t.err(
-                        t.here(),
-                        "a sphere cannot take a non-uniform scale (it would be an ellipsoid)",
-                    ));
-                };
-                let sphere = Sphere {
-                    center: xf.point(center.as_dvec3()),
-                    radius: (f64::from(radius) * scale) as f32,
-                    material,
-                    importance,
-                };
-                if let Some(p) = sphere_problem(&sphere) {
-                    return Err(t.err(t.here(), p));
-                }
-                spheres.push(sphere);
-            }
-            "quad" => {
-                let (q, u, v) = planar("q")?;
-                let quad = Quad {
-                    q,
-                    u,
-                    v,
-                    material,
-                    importance,
-                };
-                if let Some(p) = quad_problem(&quad) {
-                    return Err(t.err(t.here(), p));
-                }
-                quads.push(quad);
-            }
-            "disk" => {
-                let (center, u, v) = planar("center")?;
-                let disk = Disk {
-                    center,
-                    u,
-                    v,
-                    material,
-                    importance,
-                };
-                if let Some(p) = disk_problem(&disk) {
-                    return Err(t.err(t.here(), p));
-                }
-                disks.push(disk);
-            }
             "mesh" => {
                 let name = t.require("file", t.string("file")?)?;
                 let path = t.input(name);
@@ -991,19 +922,19 @@ fn parse_objects(top: &Params, materials: &[Material]) -> Result<Objects> {
                 let faces_in_file = faces.len();
                 let mut dropped = 0;
                 for (face, (material, importance)) in faces.into_iter().zip(face_materials) {
-                    let vertices = face.map(|i| world[i as usize]);
-                    if triangle_is_degenerate(vertices) {
-                        dropped += 1;
-                        continue;
-                    }
-                    triangles.push(Triangle {
-                        vertices,
+                    let triangle = Triangle {
+                        vertices: face.map(|i| world[i as usize]),
                         normals: normals.as_ref().map(|n| face.map(|i| n[i as usize])),
                         uvs: mesh.uvs.as_ref().map(|uvs| face.map(|i| uvs[i as usize])),
                         material,
                         importance,
                         mesh: i as u32,
-                    });
+                    };
+                    if triangle.is_degenerate() {
+                        dropped += 1;
+                        continue;
+                    }
+                    shapes.triangles.push(triangle);
                 }
                 // As a quad that 32-bit floats cannot hold is refused, so is a
                 // mesh none of whose faces they can.
@@ -1046,10 +977,10 @@ fn parse_objects(top: &Params, materials: &[Material]) -> Result<Objects> {
                         material,
                         importance,
                     };
-                    if let Some(p) = quad_problem(&quad) {
+                    if let Some(p) = quad.problem() {
                         return Err(t.err(t.here(), format!("{face} face of the box: {p}")));
                     }
-                    quads.push(quad);
+                    shapes.quads.push(quad);
                 }
             }
         }
@@ -1061,7 +992,7 @@ fn parse_objects(top: &Params, materials: &[Material]) -> Result<Objects> {
 /// object and the file's names, numbered from `base` in the scene; an error
 /// where a face has none (it needs the object's `material`) or a colour is
 /// out of range.
-fn file_materials(t: &Params, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Material>> {
+fn file_materials(t: &ParamTable, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec<Material>> {
     let missing = || {
         t.err(
             t.here(),
@@ -1117,15 +1048,6 @@ fn dropped_faces_warning(file: &str, object: &str, dropped: usize, faces: usize)
     )
 }
 
-/// A face with no usable area in 32-bit floats (collinear or coincident
-/// vertices): it can be neither hit nor sampled, so it is dropped and counted.
-fn triangle_is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
-    let (e1, e2) = ((b - a).as_dvec3(), (c - a).as_dvec3());
-    let n = e1.cross(e2);
-    !usable_length_squared(n.as_vec3().length_squared())
-        || n.length() <= DEGENERATE * e1.length() * e2.length()
-}
-
 /// The six outward-facing sides of an axis-aligned box, as the book's `box()`.
 fn box_faces(a: DVec3, b: DVec3) -> [(&'static str, DVec3, DVec3, DVec3); 6] {
     let dx = DVec3::new(b.x - a.x, 0.0, 0.0);
@@ -1141,9 +1063,6 @@ fn box_faces(a: DVec3, b: DVec3) -> [(&'static str, DVec3, DVec3, DVec3); 6] {
     ]
 }
 
-/// `rotate_y` then `translate`, object to world, evaluated in double precision.
-/// Object to world: `linear` (scale, then rotation) then `translate`, in f64 so
-/// that composing and applying it rounds once, to f32, at the end.
 /// Drops the mesh faces a `[scene] scale` left with no usable area, with a
 /// warning per object that lost some; the problem if one lost them all.
 fn drop_scaled_out_faces(scene: &mut Scene, file: &str) -> Option<String> {
@@ -1152,7 +1071,7 @@ fn drop_scaled_out_faces(scene: &mut Scene, file: &str) -> Option<String> {
     scene.shapes.triangles.retain(|t| {
         let count = counts.entry(t.mesh).or_default();
         count.0 += 1;
-        let degenerate = triangle_is_degenerate(t.vertices);
+        let degenerate = t.is_degenerate();
         count.1 += usize::from(degenerate);
         !degenerate
     });
@@ -1169,208 +1088,8 @@ fn drop_scaled_out_faces(scene: &mut Scene, file: &str) -> Option<String> {
     None
 }
 
-struct Transform {
-    linear: DMat3,
-    translate: DVec3,
-}
-
-/// `sin` and `cos` of `degrees`, exact at multiples of 90 degrees so axis-aligned
-/// geometry stays exact.
-pub(super) fn sin_cos_degrees(degrees: f64) -> (f64, f64) {
-    match degrees.rem_euclid(360.0) {
-        0.0 => (0.0, 1.0),
-        90.0 => (1.0, 0.0),
-        180.0 => (0.0, -1.0),
-        270.0 => (-1.0, 0.0),
-        r => r.to_radians().sin_cos(),
-    }
-}
-
-/// `matrix` (16 numbers, row-major, affine): its linear part and translation.
-/// `others` are the keys it replaces, refused alongside it.
-fn matrix(t: &Params, others: &[&str]) -> Result<(DMat3, DVec3)> {
-    if let Some(other) = others.iter().find(|k| t.table.contains_key(**k)) {
-        return Err(t.err(
-            t.at(other),
-            "cannot be combined with `matrix` (the matrix is the whole transform)",
-        ));
-    }
-    let m: [f32; 16] = t.numbers("matrix")?;
-    if m[12..] != [0.0, 0.0, 0.0, 1.0] {
-        return Err(t.err(
-            t.at("matrix"),
-            format!(
-                "must be affine: its last row must be [0, 0, 0, 1], got [{}]",
-                m[12..]
-                    .iter()
-                    .map(|&x| fmt_num(x))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        ));
-    }
-    let m = m.map(f64::from);
-    let linear = DMat3::from_cols(
-        DVec3::new(m[0], m[4], m[8]),
-        DVec3::new(m[1], m[5], m[9]),
-        DVec3::new(m[2], m[6], m[10]),
-    );
-    Ok((linear, DVec3::new(m[3], m[7], m[11])))
-}
-
-/// `rotate_y` (the book's) or `rotate = { axis, angle }`; the identity without either.
-fn rotation(t: &Params) -> Result<DMat3> {
-    Ok(match (t.table.contains_key("rotate_y"), t.sub("rotate")?) {
-        (true, Some(_)) => {
-            return Err(t.err(
-                t.at("rotate"),
-                "give either `rotate_y` or `rotate`, not both",
-            ));
-        }
-        (_, Some(r)) => {
-            r.check_keys(&["axis", "angle"], Some("a rotation"))?;
-            let axis = r.require("axis", r.vec3("axis", ok)?)?.as_dvec3();
-            let angle = f64::from(r.require("angle", r.float("angle", ok)?)?);
-            if axis.length_squared() == 0.0 {
-                return Err(r.err(r.at("axis"), "must not be the zero vector"));
-            }
-            let (sin, cos) = sin_cos_degrees(angle);
-            // Rodrigues' formula, with the exact sine and cosine.
-            let k = axis.normalize();
-            let cross = DMat3::from_cols(
-                DVec3::new(0.0, k.z, -k.y),
-                DVec3::new(-k.z, 0.0, k.x),
-                DVec3::new(k.y, -k.x, 0.0),
-            );
-            DMat3::IDENTITY * cos
-                + cross * sin
-                + DMat3::from_cols(k * k.x, k * k.y, k * k.z) * (1.0 - cos)
-        }
-        (_, None) => {
-            let (sin, cos) = sin_cos_degrees(t.float("rotate_y", ok)?.unwrap_or(0.0).into());
-            // The book's rotate_y: (x, z) maps to (cos x + sin z, -sin x + cos z).
-            DMat3::from_cols(
-                DVec3::new(cos, 0.0, -sin),
-                DVec3::Y,
-                DVec3::new(sin, 0.0, cos),
-            )
-        }
-    })
-}
-
-impl Transform {
-    /// The object's transform keys: `scale`, `rotate_y` or `rotate`, `translate`,
-    /// or `matrix` instead of all three.
-    fn parse(t: &Params) -> Result<Transform> {
-        if t.table.contains_key("matrix") {
-            let (linear, translate) = matrix(t, &["scale", "rotate_y", "rotate", "translate"])?;
-            return Transform::checked(t, "matrix", linear, translate);
-        }
-        let scale = match t.table.get("scale") {
-            None => DVec3::ONE,
-            Some(Value::Array(_)) => t.require("scale", t.vec3("scale", ok)?)?.as_dvec3(),
-            Some(_) => DVec3::splat(t.require("scale", t.float("scale", ok)?)?.into()),
-        };
-        let rotation = rotation(t)?;
-        let translate = t.vec3("translate", ok)?.unwrap_or(Vec3::ZERO).as_dvec3();
-        let linear = rotation * DMat3::from_diagonal(scale);
-        Transform::checked(t, "scale", linear, translate)
-    }
-
-    fn checked(t: &Params, key: &str, linear: DMat3, translate: DVec3) -> Result<Transform> {
-        if !linear.is_finite() || !translate.is_finite() || linear.determinant() == 0.0 {
-            return Err(t.err(
-                t.at(key),
-                "the transform is singular: it flattens the object",
-            ));
-        }
-        Ok(Transform { linear, translate })
-    }
-
-    fn point(&self, p: DVec3) -> Vec3 {
-        (self.linear * p + self.translate).as_vec3()
-    }
-
-    fn vector(&self, v: DVec3) -> Vec3 {
-        (self.linear * v).as_vec3()
-    }
-
-    /// The factor of a transform that scales every direction alike (a rotation
-    /// times a uniform scale, maybe mirrored), or `None`.
-    fn uniform_scale(&self) -> Option<f64> {
-        let columns = [self.linear.x_axis, self.linear.y_axis, self.linear.z_axis];
-        let lengths = columns.map(DVec3::length);
-        let tolerance = 1e-6 * lengths[0];
-        let orthogonal =
-            (0..3).all(|i| columns[i].dot(columns[(i + 1) % 3]).abs() <= tolerance * lengths[0]);
-        let equal = lengths.iter().all(|&l| (l - lengths[0]).abs() <= tolerance);
-        (orthogonal && equal).then_some(lengths[0])
-    }
-
-    /// Whether the transform mirrors (turns counter-clockwise windings clockwise).
-    fn mirrors(&self) -> bool {
-        self.linear.determinant() < 0.0
-    }
-
-    /// A surface normal carried to world space (by the inverse transpose, so it
-    /// stays perpendicular under a non-uniform scale), unit length; zero where
-    /// the file's normal is zero or not finite.
-    fn normal(&self, n: Vec3) -> Vec3 {
-        let world = self.linear.inverse().transpose() * n.as_dvec3();
-        world.normalize_or_zero().as_vec3()
-    }
-}
-
 // ---------------------------------------------------------------------------------
-// Geometric validation (shared by the parser and the post-scale check)
-
-/// A squared length a renderer can work with in 32-bit floats.
-fn usable_length_squared(l2: f32) -> bool {
-    l2.is_finite() && l2 >= f32::MIN_POSITIVE
-}
-
-fn quad_problem(q: &Quad) -> Option<String> {
-    spanned_problem("quad", q.q, q.u, q.v)
-}
-
-fn disk_problem(d: &Disk) -> Option<String> {
-    spanned_problem("disk", d.center, d.u, d.v)
-}
-
-/// What is wrong with a flat shape spanned by `u` and `v` from `point` (a quad, a disk).
-fn spanned_problem(what: &str, point: Vec3, u: Vec3, v: Vec3) -> Option<String> {
-    if !(point.is_finite() && u.is_finite() && v.is_finite()) {
-        return Some("coordinates overflow a 32-bit float".to_string());
-    }
-    let area = u.as_dvec3().cross(v.as_dvec3()).length();
-    if area <= DEGENERATE * u.as_dvec3().length() * v.as_dvec3().length() {
-        return Some(format!(
-            "degenerate {what}: u x v has (near) zero length (u = {}, v = {})",
-            fmt_vec(u),
-            fmt_vec(v)
-        ));
-    }
-    if !usable_length_squared(u.cross(v).length_squared()) {
-        return Some(format!(
-            "{what} area {} is out of the range 32-bit float arithmetic can handle",
-            fmt_num(area)
-        ));
-    }
-    None
-}
-
-fn sphere_problem(s: &Sphere) -> Option<String> {
-    if !s.center.is_finite() {
-        return Some("coordinates overflow a 32-bit float".to_string());
-    }
-    if !(s.radius > 0.0 && usable_length_squared(s.radius * s.radius)) {
-        return Some(format!(
-            "radius {} is out of the range 32-bit float arithmetic can handle",
-            fmt_num(s.radius)
-        ));
-    }
-    None
-}
+// The camera's geometry (checked where read and after a `[scene] scale`)
 
 /// The offending camera key and the problem.
 fn camera_problem(c: &Camera) -> Option<(&'static str, String)> {

@@ -6,7 +6,8 @@
 use crate::abi::material_flag;
 use crate::kinds::Texture;
 use crate::kinds::params::{
-    Params, Result, check_nonneg, check_positive, check_unit, colour, fmt_num, named, unknown_name,
+    ParamTable, Result, check_nonneg, check_positive, check_unit, colour, fmt_num, named,
+    unknown_name,
 };
 use crate::shader::{ShaderModule, shader_module};
 use glam::Vec3;
@@ -100,7 +101,7 @@ pub(super) const IOR_POLYPROPYLENE: f32 = 1.49;
 
 /// `int_ior` and `ext_ior` (numbers > 0 or names of [`NAMED_IORS`]), with
 /// Mitsuba's defaults: `int_default` inside, air outside. They must differ.
-pub(super) fn iors(t: &Params, int_default: f32) -> Result<(f32, f32)> {
+pub(super) fn iors(t: &ParamTable, int_default: f32) -> Result<(f32, f32)> {
     let ior = |key: &str, default: f32| -> Result<f32> {
         match t.table.get(key) {
             None => Ok(default),
@@ -131,7 +132,7 @@ pub(super) fn iors(t: &Params, int_default: f32) -> Result<(f32, f32)> {
 /// A conductor's complex index `eta + i k`, per channel: `eta` and `k`, or a
 /// `material` of [`NAMED_CONDUCTORS`]. Mitsuba's default (`material = "none"`) is
 /// eta 0, k 1: reflectance 1 at every angle.
-pub(super) fn conductor_ior(t: &Params) -> Result<(Vec3, Vec3)> {
+pub(super) fn conductor_ior(t: &ParamTable) -> Result<(Vec3, Vec3)> {
     let Some(name) = t.string("material")? else {
         let eta = colour(t, "eta", 0.0, check_nonneg)?;
         let k = colour(t, "k", 1.0, check_nonneg)?;
@@ -189,7 +190,7 @@ impl Distribution {
 }
 
 /// `distribution`: `"beckmann"` (the default) or `"ggx"`.
-pub(super) fn distribution(t: &Params) -> Result<Distribution> {
+pub(super) fn distribution(t: &ParamTable) -> Result<Distribution> {
     Ok(named(
         t,
         "distribution",
@@ -201,7 +202,7 @@ pub(super) fn distribution(t: &Params) -> Result<Distribution> {
 }
 
 /// `alpha` (default 0.1), or `alpha_u` and `alpha_v` together; each in (0, 1].
-pub(super) fn roughness(t: &Params) -> Result<(f32, f32)> {
+pub(super) fn roughness(t: &ParamTable) -> Result<(f32, f32)> {
     let (u, v) = (
         t.table.contains_key("alpha_u"),
         t.table.contains_key("alpha_v"),
@@ -255,7 +256,7 @@ pub(super) fn specular_sampling_weight(diffuse: Vec3, specular: Vec3) -> f32 {
 
 /// `nonlinear`: Mitsuba's account of the colour shift of light scattered
 /// inside the coat several times (default false).
-pub(super) fn nonlinear(t: &Params) -> Result<bool> {
+pub(super) fn nonlinear(t: &ParamTable) -> Result<bool> {
     Ok(t.boolean("nonlinear")?.unwrap_or(false))
 }
 
@@ -272,7 +273,7 @@ pub(super) fn nonlinear_flag(nonlinear: bool) -> u32 {
 
 /// How the scene reads a texture table (`scene` loads its image; kinds read
 /// no files).
-pub(crate) type ReadTexture = fn(&Params) -> Result<Texture>;
+pub(crate) type ReadTexture = fn(&ParamTable) -> Result<Texture>;
 
 /// The one colour of a material that may be a texture (`Material::texture`),
 /// which its kind reads through this.
@@ -291,7 +292,7 @@ impl TextureSlot {
 
     /// The book's `albedo`: a vector in [0, 1] or a texture (whose mean it
     /// gives); `None` when absent.
-    pub fn albedo(&mut self, t: &Params, key: &str) -> Result<Option<Vec3>> {
+    pub fn albedo(&mut self, t: &ParamTable, key: &str) -> Result<Option<Vec3>> {
         match self.texture(t, key)? {
             Some(mean) => Ok(Some(mean)),
             None => t.vec3(key, check_unit),
@@ -300,7 +301,7 @@ impl TextureSlot {
 
     /// A reflectance in [0, 1] (a vector, or one number for grey; `default`
     /// when absent) or a texture (whose mean it gives).
-    pub fn colour(&mut self, t: &Params, key: &str, default: f32) -> Result<Vec3> {
+    pub fn colour(&mut self, t: &ParamTable, key: &str, default: f32) -> Result<Vec3> {
         match self.texture(t, key)? {
             Some(mean) => Ok(mean),
             None => colour(t, key, default, check_unit),
@@ -308,7 +309,7 @@ impl TextureSlot {
     }
 
     /// The texture at `key`, kept, and its mean; `None` where `key` holds no table.
-    fn texture(&mut self, t: &Params, key: &str) -> Result<Option<Vec3>> {
+    fn texture(&mut self, t: &ParamTable, key: &str) -> Result<Option<Vec3>> {
         if !t.table.get(key).is_some_and(Value::is_table) {
             return Ok(None);
         }

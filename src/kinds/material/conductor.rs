@@ -16,7 +16,7 @@
 use super::common::{FRESNEL, TextureSlot, conductor_index, conductor_ior};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result};
+use crate::kinds::params::{ParamTable, Result};
 use crate::shader::shader_module;
 
 pub(super) const CONDUCTOR: MaterialModel = MaterialModel {
@@ -38,7 +38,7 @@ pub(super) const CONDUCTOR: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, slot: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let (eta, k) = conductor_ior(t)?;
     let specular_reflectance = slot.colour(t, "specular_reflectance", 1.0)?;
     Ok(MaterialKind::Conductor {

@@ -12,7 +12,7 @@
 use super::common::{IOR_BK7, TextureSlot, iors};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, check_positive};
+use crate::kinds::params::{ParamTable, Result, check_positive};
 use crate::shader::shader_module;
 
 pub(super) const DIELECTRIC: MaterialModel = MaterialModel {
@@ -27,7 +27,7 @@ pub(super) const DIELECTRIC: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, _: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, _: &mut TextureSlot) -> Result<Parsed> {
     let ior = match t.float("ior", check_positive)? {
         Some(ior) => {
             if let Some(key) = ["int_ior", "ext_ior"]

@@ -18,7 +18,7 @@
 use super::common::TextureSlot;
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, check_nonneg};
+use crate::kinds::params::{ParamTable, Result, check_nonneg};
 use crate::shader::shader_module;
 use glam::Vec3;
 
@@ -34,7 +34,7 @@ pub(super) const LAMBERTIAN: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, slot: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let albedo = t.require("albedo", slot.albedo(t, "albedo")?)?;
     let emit = t.vec3("emit", check_nonneg)?.unwrap_or(Vec3::ZERO);
     Ok(Parsed {

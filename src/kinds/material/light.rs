@@ -11,7 +11,7 @@
 use super::common::TextureSlot;
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, check_nonneg};
+use crate::kinds::params::{ParamTable, Result, check_nonneg};
 use glam::Vec3;
 
 pub(super) const LIGHT: MaterialModel = MaterialModel {
@@ -26,7 +26,7 @@ pub(super) const LIGHT: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, _: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, _: &mut TextureSlot) -> Result<Parsed> {
     let emit = t.require("emit", t.vec3("emit", check_nonneg)?)?;
     Ok(Parsed {
         kind: MaterialKind::Light,

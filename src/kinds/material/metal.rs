@@ -11,7 +11,7 @@
 use super::common::TextureSlot;
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, check_unit};
+use crate::kinds::params::{ParamTable, Result, check_unit};
 use crate::shader::shader_module;
 
 pub(super) const METAL: MaterialModel = MaterialModel {
@@ -27,7 +27,7 @@ pub(super) const METAL: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, slot: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let albedo = t.require("albedo", slot.albedo(t, "albedo")?)?;
     let fuzz = t.float("fuzz", check_unit)?.unwrap_or(0.0);
     Ok(Parsed {

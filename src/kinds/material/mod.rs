@@ -27,7 +27,7 @@ pub(crate) use common::{NAMED_IORS, ReadTexture};
 
 use super::Texture;
 use super::coat::CoatTables;
-use super::params::{Params, Result, list, unknown_name};
+use super::params::{ParamTable, Result, list, unknown_name};
 use crate::abi::{PackedMaterial, material_flag};
 use crate::shader::ShaderModule;
 use common::TextureSlot;
@@ -79,7 +79,7 @@ pub struct MaterialModel {
     pub keys_note: Option<&'static str>,
     /// Reads its parameters from its table, whose keys are checked; the
     /// generic part (`one_sided`, the texture) is [`Material::parse`]'s.
-    pub(crate) parse: fn(&Params, &mut TextureSlot) -> Result<Parsed>,
+    pub(crate) parse: fn(&ParamTable, &mut TextureSlot) -> Result<Parsed>,
     /// Its packed material, but for what every kind packs alike
     /// ([`pack_material`]): each kind's file says which fields it fills.
     pub(crate) pack: fn(&Material, &mut MaterialTables) -> PackedMaterial,
@@ -269,7 +269,7 @@ impl Material {
     /// The material `name` of table `t` (`[materials.NAME]`): `type` names its
     /// kind, which reads the rest; `one_sided` (default false) where the kind
     /// takes it. `read_texture` reads the texture its colour may be.
-    pub(crate) fn parse(name: &str, t: &Params, read_texture: ReadTexture) -> Result<Material> {
+    pub(crate) fn parse(name: &str, t: &ParamTable, read_texture: ReadTexture) -> Result<Material> {
         let Some(ty) = t.string("type")? else {
             t.check_keys(&material_keys(), None)?;
             return Err(t.err(
@@ -372,7 +372,7 @@ pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> Packed
 fn read(body: &str) -> Result<Material> {
     let table: toml::Table = toml::from_str(body).expect("valid TOML");
     let inputs = std::cell::RefCell::new(Vec::new());
-    let t = Params {
+    let t = ParamTable {
         file: "scenes/x.toml",
         table: &table,
         path: "materials.red".to_string(),

@@ -23,7 +23,7 @@ use super::common::{
 };
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, reflectance};
+use crate::kinds::params::{ParamTable, Result, reflectance};
 use crate::shader::shader_module;
 
 pub(super) const PLASTIC: MaterialModel = MaterialModel {
@@ -46,7 +46,7 @@ pub(super) const PLASTIC: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, slot: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let (int_ior, ext_ior) = iors(t, IOR_POLYPROPYLENE)?;
     Ok(MaterialKind::Plastic {
         int_ior,

@@ -17,7 +17,7 @@ use super::common::{
 };
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result};
+use crate::kinds::params::{ParamTable, Result};
 use crate::shader::shader_module;
 
 pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
@@ -43,7 +43,7 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, slot: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let distribution = distribution(t)?;
     let (alpha_u, alpha_v) = roughness(t)?;
     let (eta, k) = conductor_ior(t)?;

@@ -22,7 +22,7 @@ use super::common::{
 };
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, fmt_num, reflectance};
+use crate::kinds::params::{ParamTable, Result, fmt_num, reflectance};
 use crate::shader::shader_module;
 
 pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
@@ -52,7 +52,7 @@ pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
 /// samples turn NaN.
 const MIN_ROUGH_IOR_CONTRAST: f32 = 1e-3;
 
-fn parse(t: &Params, slot: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let distribution = distribution(t)?;
     let (alpha_u, alpha_v) = roughness(t)?;
     let (int_ior, ext_ior) = iors(t, IOR_BK7)?;

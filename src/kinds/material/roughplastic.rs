@@ -22,7 +22,7 @@ use super::common::{
 };
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, reflectance};
+use crate::kinds::params::{ParamTable, Result, reflectance};
 use crate::shader::shader_module;
 
 pub(super) const ROUGHPLASTIC: MaterialModel = MaterialModel {
@@ -47,7 +47,7 @@ pub(super) const ROUGHPLASTIC: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, slot: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let (int_ior, ext_ior) = iors(t, IOR_POLYPROPYLENE)?;
     Ok(MaterialKind::RoughPlastic {
         distribution: distribution(t)?,
