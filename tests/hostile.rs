@@ -1143,7 +1143,8 @@ fn xml_versions_are_checked_and_clamped_depths_warned() {
 }
 
 /// The refusal of emission that could overflow the sums names its source: the
-/// material and its `emit`, or the environment map's texel.
+/// material and its `emit`, or the environment map's texel; in a Mitsuba file,
+/// the element that gives it, with its line.
 #[test]
 fn emission_refusals_name_the_material_or_texel() {
     let dir = common::TempDir::new("hostile", "case");
@@ -1176,6 +1177,20 @@ fn emission_refusals_name_the_material_or_texel() {
         dir,
         &["render", "sky.toml", "--spp", "4", "-o", "out.png"],
         &["texel (3, 1)", "overflow"],
+    );
+    // A Mitsuba file's emitter is placed at its element.
+    let area = r#"<shape type="rectangle">
+        <emitter type="area"><rgb name="radiance" value="1e38"/></emitter></shape>"#;
+    std::fs::write(dir.join("bright.xml"), xml_scene(area)).unwrap();
+    assert_refused(
+        dir,
+        &["render", "bright.xml", "--spp", "4", "-o", "out.png"],
+        &[
+            "given at ",
+            "bright.xml:12:",
+            "<emitter type=\"area\">",
+            "overflow",
+        ],
     );
 }
 

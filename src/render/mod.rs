@@ -183,6 +183,8 @@ pub enum RenderError {
         scene: String,
         /// The brightest emitter, as the scene names it.
         emitter: String,
+        /// Its field (`materials.light.emit`), which a caller may place in the file.
+        field: String,
         radiance: f32,
         samples: u32,
         hits: u32,
@@ -1491,7 +1493,7 @@ fn check_size(
 /// too. Paths whose throughput grows past 1 are caught after the run by
 /// [`check_sums_finite`].
 pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result<(), RenderError> {
-    let (radiance, emitter) = brightest_emission(scene);
+    let (radiance, emitter, field) = brightest_emission(scene);
     let depth = scene.render.max_depth.saturating_add(1);
     let hits = match scene.render.strategy {
         Strategy::NeeMis => depth.saturating_mul(2),
@@ -1506,6 +1508,7 @@ pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result
         return Err(RenderError::EmissionTooBright {
             scene: scene.source.clone(),
             emitter,
+            field,
             radiance,
             samples: max_samples,
             hits,
@@ -1515,20 +1518,26 @@ pub fn check_emission(scene: &Scene, max_samples: u32, variance: bool) -> Result
     Ok(())
 }
 
-/// The scene's brightest radiance and, for a message, what gives it: a
-/// material's `emit`, `render.background` or an environment map's texel.
-fn brightest_emission(scene: &Scene) -> (f32, String) {
+/// The scene's brightest radiance and, for a message, what gives it (a
+/// material's `emit`, `render.background` or an environment map's texel) and
+/// its field.
+fn brightest_emission(scene: &Scene) -> (f32, String, String) {
     // Only the materials objects use: an unused one is dropped before packing.
     let used = scene.used_materials();
     let materials = (scene.materials.iter().zip(used))
         .filter(|&(_, used)| used)
         .map(|(m, _)| {
-            let field = format!("material `{}` (its `emit`)", m.name);
-            (m.emit.max_element(), field)
+            let what = format!("material `{}` (its `emit`)", m.name);
+            (
+                m.emit.max_element(),
+                what,
+                format!("materials.{}.emit", m.name),
+            )
         });
     let background = (
         scene.render.background.max_element(),
         "`render.background`".to_string(),
+        "render.background".to_string(),
     );
     let environment = scene.environment.as_ref().map(|map| {
         let (x, y, value) = map.brightest_texel();
@@ -1536,10 +1545,10 @@ fn brightest_emission(scene: &Scene) -> (f32, String) {
             "environment map `{}` (texel ({x}, {y}), times `scale` {})",
             map.file, map.scale
         );
-        (value * map.scale, texel)
+        (value * map.scale, texel, "environment".to_string())
     });
     (materials.chain([background]).chain(environment)).fold(
-        (0.0, "emission".to_string()),
+        (0.0, "emission".to_string(), String::new()),
         |brightest, candidate| match candidate.0 > brightest.0 {
             true => candidate,
             false => brightest,

@@ -146,6 +146,21 @@ impl Converted {
         Ok(converted)
     }
 
+    /// Each pathmix field (or table) the XML gives, and where: `file:line:col:
+    /// <element>`.
+    pub fn places(&self) -> Vec<(String, String)> {
+        self.origins
+            .iter()
+            .map(|(field, origin)| {
+                let place = format!(
+                    "{}:{}:{}: {}",
+                    origin.file, origin.line, origin.col, origin.element
+                );
+                (field.clone(), place)
+            })
+            .collect()
+    }
+
     /// A parse error of the TOML document, placed at the XML element it came from.
     pub fn locate(&self, error: SceneError) -> SceneError {
         let origin = self
@@ -1561,6 +1576,12 @@ impl<'a> Builder<'a> {
             }
         };
         if !self.materials.contains_key(&full_name) {
+            if let Some(emitter) = emitter {
+                for name in [full_name.clone(), format!("\"{full_name}\"")] {
+                    self.origins
+                        .push((format!("materials.{name}.emit"), emitter.origin.clone()));
+                }
+            }
             let origin = bsdf.unwrap_or(shape).origin.clone();
             self.origins
                 .push((format!("materials.{full_name}"), origin.clone()));
@@ -1603,17 +1624,15 @@ impl<'a> Builder<'a> {
             || matches!(
                 surface,
                 Surface::Mitsuba {
-                        transmits: true,
-                        ..
-                    }
-                    | Surface::Lambertian {
-                        one_sided: true,
-                        ..
-                    }
-                    | Surface::Mitsuba {
-                        one_sided: true,
-                        ..
-                    }
+                    transmits: true,
+                    ..
+                } | Surface::Lambertian {
+                    one_sided: true,
+                    ..
+                } | Surface::Mitsuba {
+                    one_sided: true,
+                    ..
+                }
             );
         let mirrors = to_world.determinant() < 0.0;
         let mut object = Table::new();
@@ -2051,10 +2070,16 @@ impl<'a> Builder<'a> {
         // radiance pathmix writes, in the format its output name asks for.
         let mut file_options = Vec::new();
         for (name, present) in [
-            ("component_format", props.string("component_format")?.is_some()),
+            (
+                "component_format",
+                props.string("component_format")?.is_some(),
+            ),
             ("file_format", props.string("file_format")?.is_some()),
             ("banner", props.boolean("banner")?.is_some()),
-            ("high_quality_edges", props.boolean("high_quality_edges")?.is_some()),
+            (
+                "high_quality_edges",
+                props.boolean("high_quality_edges")?.is_some(),
+            ),
         ] {
             if present {
                 file_options.push(name);

@@ -232,6 +232,22 @@ pub struct LoadedScene {
     pub scene: Scene,
     /// One phrase per approximation, for a warning.
     pub warnings: Vec<String>,
+    /// Where a Mitsuba file gives each pathmix field, as `(field, place)` pairs
+    /// (`materials.light` and `scene.xml:12:5: <emitter type="area">`), for
+    /// messages made after reading ([`LoadedScene::place_of`]). Empty for a TOML
+    /// file, whose messages name the field itself.
+    pub places: Vec<(String, String)>,
+}
+
+impl LoadedScene {
+    /// Where the file gives `field` (`materials.light.emit`), if that is not
+    /// the field itself.
+    pub fn place_of<'a>(places: &'a [(String, String)], field: &str) -> Option<&'a str> {
+        places
+            .iter()
+            .find(|(prefix, _)| field == prefix || field.starts_with(&format!("{prefix}.")))
+            .map(|(_, place)| place.as_str())
+    }
 }
 
 /// A reading crate's message, which may quote a file's text, with each word
@@ -260,9 +276,11 @@ impl Scene {
             let converted = mitsuba::Converted::read(path, defines)?;
             let toml = toml::to_string(&converted.document).expect("a TOML table serializes");
             let mut scene = Scene::parse(&toml, &file).map_err(|e| converted.locate(e))?;
+            let places = converted.places();
             scene.inputs.extend(converted.includes);
             return Ok(LoadedScene {
                 scene,
+                places,
                 warnings: converted.warnings,
             });
         }
@@ -279,6 +297,7 @@ impl Scene {
         Ok(LoadedScene {
             scene: Scene::parse(&text, &file)?,
             warnings: Vec::new(),
+            places: Vec::new(),
         })
     }
 

@@ -252,6 +252,8 @@ pub struct Session {
     pub scene_path: PathBuf,
     /// What was approximated reading the scene (Mitsuba files).
     pub approximations: Vec<String>,
+    /// Where a Mitsuba file gives each field (`LoadedScene::places`).
+    places: Vec<(String, String)>,
     defines: Vec<Define>,
     /// Settings over the scene file (without spp), as a checkpoint records them.
     overrides: SceneOverrides,
@@ -337,6 +339,7 @@ impl Session {
         let LoadedScene {
             mut scene,
             warnings: approximations,
+            places,
         } = Scene::load_with(&scene_path, &defines)?;
         check_collisions(
             request,
@@ -499,11 +502,12 @@ impl Session {
             false => stop.max_samples,
         };
         render::check_emission(&scene, most, variance || adaptive)
-            .map_err(SessionError::Refused)?;
+            .map_err(|e| SessionError::Refused(placed(e, &places)))?;
         Ok(Session {
             scene,
             scene_path,
             approximations,
+            places,
             defines,
             overrides,
             identity,
@@ -564,7 +568,7 @@ impl Session {
         }
         self.identity = OnceLock::new();
         render::check_emission(&self.scene, self.stop.max_samples, self.variance)
-            .map_err(SessionError::Refused)?;
+            .map_err(|e| SessionError::Refused(placed(e, &self.places)))?;
         Ok(Some(pilot))
     }
 
@@ -914,4 +918,34 @@ fn save_checkpoint(
         state: renderer.export_state(),
     };
     checkpoint::write(path, &checkpoint).map_err(SessionError::Write)
+}
+
+/// A refusal of too bright an emitter, naming where a Mitsuba file gives it.
+fn placed(error: RenderError, places: &[(String, String)]) -> RenderError {
+    match error {
+        RenderError::EmissionTooBright {
+            scene,
+            emitter,
+            field,
+            radiance,
+            samples,
+            hits,
+            variance,
+        } => {
+            let emitter = match LoadedScene::place_of(places, &field) {
+                Some(place) => format!("{emitter}, given at {place},"),
+                None => emitter,
+            };
+            RenderError::EmissionTooBright {
+                scene,
+                emitter,
+                field,
+                radiance,
+                samples,
+                hits,
+                variance,
+            }
+        }
+        other => other,
+    }
 }

@@ -22,7 +22,7 @@
 use super::common::{FRESNEL, IOR_BK7, TextureSlot, iors};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{Params, Result, reflectance};
+use crate::kinds::params::{ParamTable, Result, reflectance};
 use crate::shader::shader_module;
 
 pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
@@ -43,7 +43,7 @@ pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
     pack,
 };
 
-fn parse(t: &Params, _: &mut TextureSlot) -> Result<Parsed> {
+fn parse(t: &ParamTable, _: &mut TextureSlot) -> Result<Parsed> {
     let (int_ior, ext_ior) = iors(t, IOR_BK7)?;
     Ok(MaterialKind::SmoothDielectric {
         int_ior,

@@ -233,10 +233,11 @@ mod tests {
             converted(dir.path(), "3.0.0", &new).unwrap()
         );
         // The upgrade is for old files only: a Mitsuba 3 file keeps its names.
-        let error = converted(dir.path(), "3.0.0", old)
-            .unwrap_err()
-            .to_string();
-        assert!(error.contains("<srgb name=\"diffuseReflectance\">: not supported"), "{error}");
+        let error = converted(dir.path(), "3.0.0", old).unwrap_err().to_string();
+        assert!(
+            error.contains("<srgb name=\"diffuseReflectance\">: not supported"),
+            "{error}"
+        );
     }
 
     #[test]
