@@ -12,7 +12,8 @@
 //! object's common keys (`material`, `importance`, the transform: the centre
 //! is moved, the radius scaled; only a uniform scale, or it would be an
 //! ellipsoid). A sphere whose coordinates or radius 32-bit floats cannot hold
-//! is refused. Texture coordinates: `(phi / 2 pi, theta / pi)` about its centre,
+//! is refused, and so is a sphere light smaller than 32-bit float directions
+//! can aim at (docs/limits.md, "Small sphere lights"). Texture coordinates: `(phi / 2 pi, theta / pi)` about its centre,
 //! theta from +z, phi from +x toward +y (world axes). Mitsuba's `sphere`
 //! becomes one. WGSL: `shaders/sphere.wgsl`.
 
