@@ -27,8 +27,10 @@
 //!   sets how close `|weight|` stays to its ideal constant `∫|f| / ∫ f`
 //!   (within 2.5% of its mean square at 64 bins, for Lanczos with 3 lobes).
 
+use super::params::{ParamTable, Result, check_positive, fmt_num, list, type_name, unknown_name};
 use crate::shader::{ShaderModule, shader_module};
 use serde::Serialize;
+use toml::{Table, Value};
 
 /// The filters' offset samplers (`shaders/filter.wgsl`), each under its flags.
 pub const FILTER_MODULE: ShaderModule = shader_module!("filter");
@@ -290,6 +292,99 @@ impl GaussianFilterTerms {
             floor,
             weight_scale: z_g / z_f,
         }
+    }
+}
+
+/// Each filter type and its keys besides `type`.
+pub(crate) const FILTER_KEYS: &[(&str, &[&str])] = &[
+    ("box", &[]),
+    ("gaussian", &["stddev"]),
+    ("tent", &["radius"]),
+    ("mitchell", &["b", "c"]),
+    ("catmullrom", &[]),
+    ("lanczos", &["lobes"]),
+];
+
+impl Filter {
+    /// The camera table's `filter`: `"NAME"` (with its defaults) or `{ type =
+    /// "NAME", KEY = VALUE }`, a filter's keys being those [`FILTER_KEYS`] names
+    /// for its type; the box filter without one.
+    pub(crate) fn parse(t: &ParamTable) -> Result<Filter> {
+        let no_keys = Table::new();
+        let (f, name, name_at) = match t.table.get("filter") {
+            None => return Ok(Filter::Box),
+            Some(Value::String(name)) => {
+                let f = ParamTable {
+                    file: t.file,
+                    table: &no_keys,
+                    path: t.at("filter"),
+                    inputs: t.inputs,
+                };
+                (f, name.as_str(), t.at("filter"))
+            }
+            Some(Value::Table(_)) => {
+                let f = t.sub("filter")?.expect("key exists");
+                let name = f.require("type", f.string("type")?)?;
+                let name_at = f.at("type");
+                (f, name, name_at)
+            }
+            Some(other) => {
+                return Err(t.err(
+                    t.at("filter"),
+                    format!(
+                        "expected a filter name (one of {}) or a table, got {}",
+                        list(&filter_types()),
+                        type_name(other)
+                    ),
+                ));
+            }
+        };
+        let Some(&(_, keys)) = FILTER_KEYS.iter().find(|(n, _)| *n == name) else {
+            return Err(f.err(name_at, unknown_name("filter type", name, &filter_types())));
+        };
+        let known: Vec<&str> = ["type"].into_iter().chain(keys.iter().copied()).collect();
+        f.check_keys(&known, Some(&format!("the {name} filter")))?;
+        Ok(match name {
+            "box" => Filter::Box,
+            "gaussian" => Filter::Gaussian {
+                stddev: f
+                    .float("stddev", check_positive)?
+                    .unwrap_or(Filter::GAUSSIAN_DEFAULT_STDDEV),
+            },
+            "tent" => Filter::Tent {
+                radius: f
+                    .float("radius", check_positive)?
+                    .unwrap_or(Filter::TENT_DEFAULT_RADIUS),
+            },
+            "mitchell" => Filter::Mitchell {
+                b: f.float("b", check_mitchell_parameter)?
+                    .unwrap_or(Filter::MITCHELL_DEFAULT_B),
+                c: f.float("c", check_mitchell_parameter)?
+                    .unwrap_or(Filter::MITCHELL_DEFAULT_C),
+            },
+            "catmullrom" => Filter::CatmullRom,
+            _ => Filter::Lanczos {
+                lobes: f
+                    .int("lobes", (1, Filter::LANCZOS_MAX_LOBES.into()))?
+                    .unwrap_or(Filter::LANCZOS_DEFAULT_LOBES),
+            },
+        })
+    }
+}
+
+pub(crate) fn filter_types() -> Vec<&'static str> {
+    FILTER_KEYS.iter().map(|&(name, _)| name).collect()
+}
+
+fn check_mitchell_parameter(x: f32) -> std::result::Result<(), String> {
+    let bound = Filter::MITCHELL_MAX_PARAMETER;
+    if x.abs() <= bound {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be in [-{bound}, {bound}], got {}",
+            fmt_num(x)
+        ))
     }
 }
 

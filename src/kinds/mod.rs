@@ -29,7 +29,7 @@
 
 mod coat;
 mod disk;
-mod filter;
+pub(crate) mod filter;
 mod material;
 pub(crate) mod params;
 mod quad;

@@ -4,10 +4,10 @@
 //! its documentation fails here.
 
 use super::parse::{
-    ALL_LIGHT_KEYS, BITMAP_KEYS, CAMERA_KEYS, CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, FILTER_KEYS,
-    LIGHT_TYPES, RENDER_KEYS, SCENE_KEYS, TEXTURE_TYPES, TOP_KEYS, filter_types, object_keys,
-    object_type_names,
+    ALL_LIGHT_KEYS, BITMAP_KEYS, CAMERA_KEYS, CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, LIGHT_TYPES,
+    RENDER_KEYS, SCENE_KEYS, TEXTURE_TYPES, TOP_KEYS, object_keys, object_type_names,
 };
+use crate::kinds::filter::{FILTER_KEYS, filter_types};
 use crate::kinds::{material_keys, material_types};
 
 fn document() -> String {

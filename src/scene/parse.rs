@@ -74,15 +74,6 @@ pub(super) const SCENE_KEYS: &[&str] = &["scale"];
 pub(super) const CAMERA_KEYS: &[&str] = &[
     "lookfrom", "lookat", "vup", "vfov", "width", "height", "filter",
 ];
-/// Each filter type and its keys besides `type`.
-pub(super) const FILTER_KEYS: &[(&str, &[&str])] = &[
-    ("box", &[]),
-    ("gaussian", &["stddev"]),
-    ("tent", &["radius"]),
-    ("mitchell", &["b", "c"]),
-    ("catmullrom", &[]),
-    ("lanczos", &["lobes"]),
-];
 pub(super) const RENDER_KEYS: &[&str] = &[
     "spp",
     "max_depth",
@@ -320,92 +311,12 @@ fn parse_camera(t: &ParamTable) -> Result<Camera> {
         vfov_degrees: t.float("vfov", check_vfov)?.unwrap_or(40.0),
         width: t.int("width", IMAGE_SIDE)?.unwrap_or(600),
         height: t.int("height", IMAGE_SIDE)?.unwrap_or(600),
-        filter: parse_filter(t)?,
+        filter: Filter::parse(t)?,
     };
     if let Some((key, problem)) = camera_problem(&camera) {
         return Err(t.err(t.at(key), problem));
     }
     Ok(camera)
-}
-
-/// `filter = "NAME"` (with its defaults) or `filter = { type = "NAME", KEY = VALUE }`,
-/// a filter's keys being those `FILTER_KEYS` names for its type.
-fn parse_filter(t: &ParamTable) -> Result<Filter> {
-    let no_keys = Table::new();
-    let (f, name, name_at) = match t.table.get("filter") {
-        None => return Ok(Filter::Box),
-        Some(Value::String(name)) => {
-            let f = ParamTable {
-                file: t.file,
-                table: &no_keys,
-                path: t.at("filter"),
-                inputs: t.inputs,
-            };
-            (f, name.as_str(), t.at("filter"))
-        }
-        Some(Value::Table(_)) => {
-            let f = t.sub("filter")?.expect("key exists");
-            let name = f.require("type", f.string("type")?)?;
-            let name_at = f.at("type");
-            (f, name, name_at)
-        }
-        Some(other) => {
-            return Err(t.err(
-                t.at("filter"),
-                format!(
-                    "expected a filter name (one of {}) or a table, got {}",
-                    list(&filter_types()),
-                    type_name(other)
-                ),
-            ));
-        }
-    };
-    let Some(&(_, keys)) = FILTER_KEYS.iter().find(|(n, _)| *n == name) else {
-        return Err(f.err(name_at, unknown_name("filter type", name, &filter_types())));
-    };
-    let known: Vec<&str> = ["type"].into_iter().chain(keys.iter().copied()).collect();
-    f.check_keys(&known, Some(&format!("the {name} filter")))?;
-    Ok(match name {
-        "box" => Filter::Box,
-        "gaussian" => Filter::Gaussian {
-            stddev: f
-                .float("stddev", check_positive)?
-                .unwrap_or(Filter::GAUSSIAN_DEFAULT_STDDEV),
-        },
-        "tent" => Filter::Tent {
-            radius: f
-                .float("radius", check_positive)?
-                .unwrap_or(Filter::TENT_DEFAULT_RADIUS),
-        },
-        "mitchell" => Filter::Mitchell {
-            b: f.float("b", check_mitchell_parameter)?
-                .unwrap_or(Filter::MITCHELL_DEFAULT_B),
-            c: f.float("c", check_mitchell_parameter)?
-                .unwrap_or(Filter::MITCHELL_DEFAULT_C),
-        },
-        "catmullrom" => Filter::CatmullRom,
-        _ => Filter::Lanczos {
-            lobes: f
-                .int("lobes", (1, Filter::LANCZOS_MAX_LOBES.into()))?
-                .unwrap_or(Filter::LANCZOS_DEFAULT_LOBES),
-        },
-    })
-}
-
-pub(super) fn filter_types() -> Vec<&'static str> {
-    FILTER_KEYS.iter().map(|&(name, _)| name).collect()
-}
-
-fn check_mitchell_parameter(x: f32) -> std::result::Result<(), String> {
-    let bound = Filter::MITCHELL_MAX_PARAMETER;
-    if x.abs() <= bound {
-        Ok(())
-    } else {
-        Err(format!(
-            "must be in [-{bound}, {bound}], got {}",
-            fmt_num(x)
-        ))
-    }
 }
 
 fn default_render() -> RenderSettings {
