@@ -1091,6 +1091,7 @@ fn file_materials(t: &Params, mesh: &super::mesh::Mesh, base: u32) -> Result<Vec
                 albedo: m.base_color,
                 emit: m.emission,
                 one_sided: false,
+                opacity: 1.0,
                 texture: None,
             })
         })
