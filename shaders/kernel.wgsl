@@ -93,14 +93,14 @@ fn walked(hit: Hit, travelled: f32) -> Hit {
 }
 
 // How much of a delta light's shadow ray reaches `distance`: the product of
-// the transparencies of the surfaces before it, of at most MASK_SHADOW_HITS
-// (one still in the way at the last counts as opaque). Each closest hit counts
-// as a segment.
+// the transparencies of the surfaces before it, of at most MASK_RAY_HITS (one
+// still in the way at the last counts as opaque). Each closest hit counts as a
+// segment.
 fn shadow_transmittance(ray: Ray, distance: f32, segments: ptr<function, u32>) -> f32 {
     var walk = ray;
     var travelled = 0.0;
     var transmittance = 1.0;
-    for (var k = 0u; k < MASK_SHADOW_HITS; k++) {
+    for (var k = 0u; k < MASK_RAY_HITS; k++) {
         let hit = walked(intersect_scene(walk), travelled);
         *segments += 1u;
         if hit.t >= distance {
@@ -186,6 +186,10 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
     var travelled = 0.0;
 #endif
 #endif
+#if MASK
+    // The masked surfaces the ray has passed since the last bounce.
+    var passes = 0u;
+#endif
     loop {
         var path_done = false;
         let hit = intersect_scene(ray);
@@ -243,21 +247,32 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 radiance += throughput * material.emit;
 #endif
             }
-            if depth == MAX_DEPTH {
-                path_done = true;
 #if MASK
-            } else if transparency > 0.0 && sample_1d() < transparency {
+            // Whether the surface is there is drawn before the depth test: a null
+            // event is no bounce, so a ray from the last bounce goes on through
+            // masks to what its shadow ray would find.
+            if transparency > 0.0 && sample_1d() < transparency {
                 // A null event: the surface is not there, and the ray goes on
-                // unchanged. As in Mitsuba's path integrator, it counts as a
-                // vertex toward MAX_DEPTH. The MIS state of the last bounce is
-                // kept: its shadow ray let this surface through by its
-                // transparency, as this continuation does on average.
-                ray = Ray(offset_origin(hit.p, hit.normal, ray.dir, hit.offset), ray.dir);
-                depth += 1u;
+                // unchanged, not counted toward MAX_DEPTH (the shadow ray's
+                // transmittance spends no depth either, so every strategy sees
+                // the same light). The MIS state of the last bounce is kept: its
+                // shadow ray let this surface through by its transparency, as
+                // this continuation does on average. The ray ends at its
+                // MASK_RAY_HITS-th surface, where a shadow ray stops too.
+                passes += 1u;
+                if passes == MASK_RAY_HITS {
+                    path_done = true;
+                } else {
+                    ray = Ray(offset_origin(hit.p, hit.normal, ray.dir, hit.offset), ray.dir);
 #if STRATEGY_NEE
-                travelled = walked(hit, travelled).t;
+                    travelled = walked(hit, travelled).t;
 #endif
+                }
+            } else if depth == MAX_DEPTH {
+#else
+            if depth == MAX_DEPTH {
 #endif
+                path_done = true;
             } else {
                 let frame = Frame(
                     select(-hit.shading_normal, hit.shading_normal, front_face),
@@ -295,11 +310,11 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     // counts by the transparency of those before it (`throughput`,
                     // within the loop, includes it), as a continuation in the same
                     // direction finds it by chance; it ends at an opaque surface,
-                    // or after MASK_SHADOW_HITS surfaces.
+                    // or after MASK_RAY_HITS surfaces.
                     var shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir, hit.offset), scattered.shadow_dir);
                     var transmittance = 1.0;
                     var shadow_travelled = 0.0;
-                    for (var k = 0u; k < MASK_SHADOW_HITS; k++) {
+                    for (var k = 0u; k < MASK_RAY_HITS; k++) {
                     let throughput = throughput * transmittance;
                     let shadow_hit = walked(intersect_scene(shadow_ray), shadow_travelled);
 #else
@@ -351,6 +366,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     ray = Ray(offset_origin(hit.p, hit.normal, scattered.dir, hit.offset), scattered.dir);
                     depth += 1u;
 #if MASK
+                    passes = 0u;
 #if STRATEGY_NEE
                     travelled = 0.0;
 #endif
@@ -418,6 +434,9 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #if MASK
             travelled = 0.0;
 #endif
+#endif
+#if MASK
+            passes = 0u;
 #endif
         }
     }

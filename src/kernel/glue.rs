@@ -12,7 +12,7 @@ use crate::abi::{
 };
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
-    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_SHADOW_HITS, MATERIAL_KINDS,
+    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_KINDS,
     MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT,
     PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
 };
@@ -52,7 +52,7 @@ pub fn shared_constants() -> String {
     constant("MATERIAL_TEXTURE_SHIFT", MATERIAL_TEXTURE_SHIFT);
     constant("MATERIAL_TRANSPARENCY_SHIFT", MATERIAL_TRANSPARENCY_SHIFT);
     constant("MATERIAL_TRANSPARENCY_MAX", MATERIAL_TRANSPARENCY_MAX);
-    constant("MASK_SHADOW_HITS", MASK_SHADOW_HITS);
+    constant("MASK_RAY_HITS", MASK_RAY_HITS);
     for &(name, value) in TEXTURE_CONSTANTS {
         constant(name, value);
     }

@@ -26,7 +26,7 @@ pub use filter::{
 };
 pub(crate) use material::NAMED_IORS;
 pub use material::{
-    Distribution, Lobe, MASK_SHADOW_HITS, MATERIAL_KINDS, MATERIAL_TRANSPARENCY_MAX,
+    Distribution, Lobe, MASK_RAY_HITS, MATERIAL_KINDS, MATERIAL_TRANSPARENCY_MAX,
     MATERIAL_TRANSPARENCY_SHIFT, Material, MaterialKind, MaterialModel, MaterialTables,
     pack_material, packed_is_masked, packed_kind_id,
 };

@@ -1376,8 +1376,9 @@ impl<'a> Builder<'a> {
                 let inner = self.resolve(inner)?;
                 self.surface(inner, true)?
             }
-            // Mitsuba's null lobe is two-sided whether or not its BSDF is, so
-            // `twosided` around a mask is the same as inside it.
+            // Mitsuba's null lobe is two-sided whether or not its BSDF is, so a
+            // `twosided` around a mask (which Mitsuba 3 refuses, as a BSDF that
+            // transmits) reads as the same surface as one inside it.
             "mask" => {
                 if let Some(texture) = props.texture("opacity") {
                     return Err(texture.origin.error(

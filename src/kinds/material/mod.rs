@@ -324,12 +324,14 @@ fn transparency_bits(opacity: f32) -> u32 {
     ((1.0 - opacity) * MATERIAL_TRANSPARENCY_MAX as f32).round() as u32
 }
 
-/// The most surfaces one shadow ray finds: it passes through masked ones by
-/// their transparency, and a masked surface still in its way at the last of
-/// these counts as opaque (a bias toward dark, only behind that many masks).
-/// Bounds the kernel's shadow-ray loop for lavapipe's loop limit
-/// (`render::max_samples_per_dispatch` budgets these closest hits).
-pub const MASK_SHADOW_HITS: u32 = 8;
+/// The most surfaces one ray finds between two bounces: a shadow ray passes
+/// through masked ones by their transparency, and one still in its way at the
+/// last of these counts as opaque; a path that draws to pass that one too ends
+/// there. So every strategy misses the same light, that behind more masks than
+/// this (a bias toward dark, only there). Bounds the kernel's loops for
+/// lavapipe's loop limit (`render::max_samples_per_dispatch` budgets these
+/// closest hits and path-loop iterations).
+pub const MASK_RAY_HITS: u32 = 8;
 
 /// A packed material's kind id (its index in [`MATERIAL_KINDS`]).
 pub fn packed_kind_id(m: &PackedMaterial) -> usize {
