@@ -69,6 +69,54 @@ fn camera_ray(pixel: vec2<u32>) -> CameraRay {
 #endif
 }
 
+#if MASK
+// Mitsuba's `mask`: a masked material holds its transparency (1 - opacity)
+// above MATERIAL_TRANSPARENCY_SHIFT of its kind, in fixed point
+// (`kinds::material::MATERIAL_TRANSPARENCY_SHIFT`).
+fn material_transparency(m: Material) -> f32 {
+    return f32(m.kind >> MATERIAL_TRANSPARENCY_SHIFT) / f32(MATERIAL_TRANSPARENCY_MAX);
+}
+
+// The material with its kind's id alone, as the BSDF dispatch compares it.
+fn material_unmasked(m: Material) -> Material {
+    var out = m;
+    out.kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
+    return out;
+}
+
+// A hit found by a ray that started `travelled` along from where it was aimed:
+// its distance from there (what a light point's density is measured by).
+fn walked(hit: Hit, travelled: f32) -> Hit {
+    var out = hit;
+    out.t = select(hit.t + travelled, hit.t, hit.t == F32_MAX);
+    return out;
+}
+
+// How much of a delta light's shadow ray reaches `distance`: the product of
+// the transparencies of the surfaces before it, of at most MASK_RAY_HITS (one
+// still in the way at the last counts as opaque). Each closest hit counts as a
+// segment.
+fn shadow_transmittance(ray: Ray, distance: f32, segments: ptr<function, u32>) -> f32 {
+    var walk = ray;
+    var travelled = 0.0;
+    var transmittance = 1.0;
+    for (var k = 0u; k < MASK_RAY_HITS; k++) {
+        let hit = walked(intersect_scene(walk), travelled);
+        *segments += 1u;
+        if hit.t >= distance {
+            return transmittance;
+        }
+        transmittance *= material_transparency(materials_at(hit.material));
+        if transmittance == 0.0 {
+            return 0.0;
+        }
+        walk = Ray(offset_origin(hit.p, hit.normal, walk.dir, hit.offset), walk.dir);
+        travelled = hit.t;
+    }
+    return 0.0;
+}
+#endif
+
 #if ADAPTIVE
 // Adaptive sampling: the pixels this round samples (the index, and the pixel's
 // sample count when the round began), laid out in rows of `params.width`
@@ -133,6 +181,14 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
     var last_delta = true;
     var last_bsdf_pdf = 0.0;
     var last_light_pdf = 0.0;
+#if MASK
+    // How far the ray has come from the last bounce through masked surfaces.
+    var travelled = 0.0;
+#endif
+#endif
+#if MASK
+    // The masked surfaces the ray has passed since the last bounce.
+    var passes = 0u;
 #endif
     loop {
         var path_done = false;
@@ -155,10 +211,20 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #endif
             path_done = true;
         } else {
+#if MASK
+            let found = materials_at(hit.material);
+            let transparency = material_transparency(found);
+#if TEXTURES
+            let material = textured(material_unmasked(found), hit.uv);
+#else
+            let material = material_unmasked(found);
+#endif
+#else
 #if TEXTURES
             let material = textured(materials_at(hit.material), hit.uv);
 #else
             let material = materials_at(hit.material);
+#endif
 #endif
             let front_face = dot(ray.dir, hit.normal) < 0.0;
             if front_face {
@@ -167,7 +233,11 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 var mis = 1.0;
                 if !last_delta {
 #if LIGHT_POINTS
+#if MASK
+                    mis = power_heuristic(last_bsdf_pdf, last_light_pdf + light_point_pdf(walked(hit, travelled), ray.dir));
+#else
                     mis = power_heuristic(last_bsdf_pdf, last_light_pdf + light_point_pdf(hit, ray.dir));
+#endif
 #else
                     mis = power_heuristic(last_bsdf_pdf, last_light_pdf);
 #endif
@@ -177,7 +247,31 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 radiance += throughput * material.emit;
 #endif
             }
+#if MASK
+            // Whether the surface is there is drawn before the depth test: a null
+            // event is no bounce, so a ray from the last bounce goes on through
+            // masks to what its shadow ray would find.
+            if transparency > 0.0 && sample_1d() < transparency {
+                // A null event: the surface is not there, and the ray goes on
+                // unchanged, not counted toward MAX_DEPTH (the shadow ray's
+                // transmittance spends no depth either, so every strategy sees
+                // the same light). The MIS state of the last bounce is kept: its
+                // shadow ray let this surface through by its transparency, as
+                // this continuation does on average. The ray ends at its
+                // MASK_RAY_HITS-th surface, where a shadow ray stops too.
+                passes += 1u;
+                if passes == MASK_RAY_HITS {
+                    path_done = true;
+                } else {
+                    ray = Ray(offset_origin(hit.p, hit.normal, ray.dir, hit.offset), ray.dir);
+#if STRATEGY_NEE
+                    travelled = walked(hit, travelled).t;
+#endif
+                }
+            } else if depth == MAX_DEPTH {
+#else
             if depth == MAX_DEPTH {
+#endif
                 path_done = true;
             } else {
                 let frame = Frame(
@@ -192,11 +286,15 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     for (var j = 0u; j < delta_shadow_rays(); j++) {
                         let delta = delta_light_shadow(material, frame, -ray.dir, hit, delta_light_chosen(j));
                         if any(delta.weight > vec3<f32>(0.0)) {
+#if MASK
+                            radiance += throughput * delta.weight * shadow_transmittance(delta.ray, delta.distance, &segments);
+#else
                             let delta_hit = intersect_scene(delta.ray);
                             segments += 1u;
                             if delta_hit.t >= delta.distance {
                                 radiance += throughput * delta.weight;
                             }
+#endif
                         }
                     }
                 }
@@ -207,8 +305,22 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 // iteration of its own, lanes drifted out of step (some tracing
                 // shadow rays while others shade), which cost 18-38% of the speed.
                 if any(scattered.shadow_weight > vec3<f32>(0.0)) {
+#if MASK
+                    // Through masked surfaces: each emitter the shadow ray finds
+                    // counts by the transparency of those before it (`throughput`,
+                    // within the loop, includes it), as a continuation in the same
+                    // direction finds it by chance; it ends at an opaque surface,
+                    // or after MASK_RAY_HITS surfaces.
+                    var shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir, hit.offset), scattered.shadow_dir);
+                    var transmittance = 1.0;
+                    var shadow_travelled = 0.0;
+                    for (var k = 0u; k < MASK_RAY_HITS; k++) {
+                    let throughput = throughput * transmittance;
+                    let shadow_hit = walked(intersect_scene(shadow_ray), shadow_travelled);
+#else
                     let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir, hit.offset), scattered.shadow_dir);
                     let shadow_hit = intersect_scene(shadow_ray);
+#endif
                     segments += 1u;
 #if LIGHT_POINTS
                     // A grouped light's sample counts only where the shadow ray finds the
@@ -233,6 +345,18 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                         radiance += throughput * shadow_weight * environment_radiance(shadow_ray.dir);
                     }
 #endif
+#if MASK
+                    if shadow_hit.t == F32_MAX {
+                        break;
+                    }
+                    transmittance *= material_transparency(materials_at(shadow_hit.material));
+                    if transmittance == 0.0 {
+                        break;
+                    }
+                    shadow_ray = Ray(offset_origin(shadow_hit.p, shadow_hit.normal, shadow_ray.dir, shadow_hit.offset), shadow_ray.dir);
+                    shadow_travelled = shadow_hit.t;
+                    }
+#endif
                 }
 #endif
                 if scattered.absorbed {
@@ -241,6 +365,12 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     throughput *= scattered.weight;
                     ray = Ray(offset_origin(hit.p, hit.normal, scattered.dir, hit.offset), scattered.dir);
                     depth += 1u;
+#if MASK
+                    passes = 0u;
+#if STRATEGY_NEE
+                    travelled = 0.0;
+#endif
+#endif
                     // Russian roulette: end dim paths early, reweighting survivors (unbiased).
                     if depth >= RR_DEPTH {
                         let survive = clamp(max(throughput.x, max(throughput.y, throughput.z)), 0.05, 1.0);
@@ -301,6 +431,12 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
             depth = 0u;
 #if STRATEGY_NEE
             last_delta = true;
+#if MASK
+            travelled = 0.0;
+#endif
+#endif
+#if MASK
+            passes = 0u;
 #endif
         }
     }

@@ -8,7 +8,7 @@ use crate::accel::{PrimitiveArrays, WideBvh};
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
     KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT, PRIMITIVE_KINDS, PackedArray,
-    PrimitiveKind, TextureInfo, TextureTables, pack_material,
+    PrimitiveKind, TextureInfo, TextureTables, pack_material, packed_is_masked, packed_kind_id,
 };
 use crate::lights::{DeltaLight, LightBvh, LightTables, pack_delta_lights};
 use crate::scene::{Camera, MaterialKind, Scene};
@@ -212,7 +212,7 @@ impl SceneData {
             .primitives
             .iter()
             .flat_map(|array| &array.materials)
-            .map(|&m| self.materials[m as usize].kind as usize)
+            .map(|&m| packed_kind_id(&self.materials[m as usize]))
             .collect()
     }
 
@@ -223,6 +223,15 @@ impl SceneData {
             .iter()
             .flat_map(|array| &array.materials)
             .any(|&m| self.materials[m as usize].flags & material_flag("MATERIAL_ONE_SIDED") != 0)
+    }
+
+    /// Whether a material rays can hit is masked (`Material::opacity` below 1).
+    pub fn has_masked_materials(&self) -> bool {
+        self.geometry
+            .primitives
+            .iter()
+            .flat_map(|array| &array.materials)
+            .any(|&m| packed_is_masked(&self.materials[m as usize]))
     }
 
     /// The primitive kinds in the light density.

@@ -76,6 +76,7 @@ impl Setup {
                 albedo: glam::Vec3::splat(0.8),
                 emit: glam::Vec3::ZERO,
                 one_sided: false,
+                opacity: 1.0,
                 texture: None,
             },
             &mut material_tables,

@@ -5,7 +5,7 @@ use super::render::StrategyArg;
 use clap::Args;
 use pathmix::kernel::{ArrayMemory, SceneStorage};
 use pathmix::kinds::PackedArray;
-use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS};
+use pathmix::kinds::{MATERIAL_KINDS, PRIMITIVE_KINDS, packed_kind_id};
 use pathmix::render::{KernelPlan, RenderOptions, max_samples_per_dispatch, plan_kernel};
 use std::path::PathBuf;
 
@@ -73,7 +73,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     let kinds: Vec<&str> = MATERIAL_KINDS
         .iter()
         .enumerate()
-        .filter(|&(id, _)| data.materials.iter().any(|m| m.kind as usize == id))
+        .filter(|&(id, _)| data.materials.iter().any(|m| packed_kind_id(m) == id))
         .map(|(_, kind)| kind.name)
         .collect();
     let counts = |arrays: &[PackedArray]| -> Vec<String> {

@@ -12,8 +12,9 @@ use crate::abi::{
 };
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
-    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT,
-    NO_LIGHT, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
+    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_KINDS,
+    MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT,
+    PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -49,6 +50,9 @@ pub fn shared_constants() -> String {
         constant(name, bit);
     }
     constant("MATERIAL_TEXTURE_SHIFT", MATERIAL_TEXTURE_SHIFT);
+    constant("MATERIAL_TRANSPARENCY_SHIFT", MATERIAL_TRANSPARENCY_SHIFT);
+    constant("MATERIAL_TRANSPARENCY_MAX", MATERIAL_TRANSPARENCY_MAX);
+    constant("MASK_RAY_HITS", MASK_RAY_HITS);
     for &(name, value) in TEXTURE_CONSTANTS {
         constant(name, value);
     }

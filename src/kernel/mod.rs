@@ -52,6 +52,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "BVH",
     "SHADING_NORMALS",
     "ONE_SIDED",
+    "MASK",
     "ENVIRONMENT",
     "LIGHT_ENVIRONMENT",
     "DELTA_LIGHTS",
@@ -366,6 +367,9 @@ pub struct KernelConfig {
     pub filter: Filter,
     /// Some material of the scene is one-sided (black from behind).
     pub one_sided: bool,
+    /// Some material of the scene is masked (`Material::opacity` below 1): rays
+    /// pass through it by chance and shadow rays by its transparency.
+    pub masked: bool,
     /// Escaping rays find an environment map's radiance (else the background).
     pub environment: bool,
     /// The environment map is one object of the light density.
@@ -587,6 +591,7 @@ impl KernelConfig {
             light_bvh_stack,
             filter,
             one_sided: data.has_one_sided_materials(),
+            masked: data.has_masked_materials(),
             environment,
             light_environment: samples_lights && environment,
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
@@ -646,6 +651,7 @@ impl KernelConfig {
             light_bvh_stack: accel::MAX_DEPTH,
             filter: Filter::Box,
             one_sided: true,
+            masked: true,
             environment: true,
             light_environment: strategy != Strategy::Bsdf,
             delta_lights: true,
@@ -752,6 +758,7 @@ impl KernelConfig {
             ("BVH", self.bvh()),
             ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
             ("ONE_SIDED", self.one_sided),
+            ("MASK", self.masked),
             ("ENVIRONMENT", self.environment),
             ("LIGHT_ENVIRONMENT", self.light_environment),
             ("DELTA_LIGHTS", self.delta_lights),

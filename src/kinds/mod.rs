@@ -45,8 +45,9 @@ pub use filter::{
 };
 pub(crate) use material::NAMED_IORS;
 pub use material::{
-    Distribution, Lobe, MATERIAL_KINDS, Material, MaterialKind, MaterialModel, MaterialTables,
-    pack_material,
+    Distribution, Lobe, MASK_RAY_HITS, MATERIAL_KINDS, MATERIAL_TRANSPARENCY_MAX,
+    MATERIAL_TRANSPARENCY_SHIFT, Material, MaterialKind, MaterialModel, MaterialTables,
+    pack_material, packed_is_masked, packed_kind_id,
 };
 // For the scene's tests of Mitsuba's conductors and of the format's page.
 #[cfg(test)]

@@ -16,7 +16,7 @@ use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{
     AccumulatorKind, ArrayMemory, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE,
 };
-use crate::kinds::PRIMITIVE_KINDS;
+use crate::kinds::{MASK_RAY_HITS, PRIMITIVE_KINDS};
 use crate::pack::{CameraFrame, SceneData};
 use crate::scene::{Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
@@ -1438,15 +1438,31 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     }
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;
+        // Through masked surfaces, a shadow ray takes up to MASK_RAY_HITS
+        // closest hits, each a step of its own loop.
+        if config.masked {
+            inner_loops += (u64::from(MASK_RAY_HITS) - 1) * closest_hit + u64::from(MASK_RAY_HITS);
+        }
     }
     // The delta lights' shadow rays: a linear pick and one closest hit, or one
     // closest hit per light.
     if config.delta_lights {
         let lights = data.delta_lights.len() as u64;
-        inner_loops += match config.delta_light_pick {
-            true => lights + closest_hit,
-            false => lights * (closest_hit + 1),
+        // Through masked surfaces, each shadow ray takes up to MASK_RAY_HITS
+        // closest hits, each a step of its own loop.
+        let shadow_ray = match config.masked {
+            true => u64::from(MASK_RAY_HITS) * (closest_hit + 1),
+            false => closest_hit,
         };
+        inner_loops += match config.delta_light_pick {
+            true => lights + shadow_ray,
+            false => lights * (shadow_ray + 1),
+        };
+    }
+    // Null events through masked surfaces: up to MASK_RAY_HITS - 1 more
+    // path-loop iterations after each bounce, each a closest hit.
+    if config.masked {
+        inner_loops += (u64::from(MASK_RAY_HITS) - 1) * (closest_hit + 1);
     }
     // One spare iteration per vertex, for safety.
     inner_loops + 2

@@ -52,7 +52,7 @@ pub const MAX_TEXT_BYTES: usize = 256 << 20;
 const VERSIONS: [u32; 2] = [2, 3];
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
-                               thindielectric, plastic, roughplastic, twosided";
+                               thindielectric, plastic, roughplastic, twosided, mask";
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const SUPPORTED_TOP: &str =
     "default, include, path, integrator, sensor, shape, bsdf, emitter, texture";
@@ -1336,9 +1336,11 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 
-    /// The BSDF mapping: what each Mitsuba BSDF is in pathmix. `twosided`: inside a
+    /// The BSDF mapping: what each Mitsuba BSDF is in pathmix, and its opacity
+    /// (below 1 inside a `mask`; masks inside masks multiply, as the surface is
+    /// there where each of them is, independently). `twosided`: inside a
     /// `twosided` wrapper.
-    fn surface(&mut self, e: &'a Elem, twosided: bool) -> Result<Surface> {
+    fn surface(&mut self, e: &'a Elem, twosided: bool) -> Result<(Surface, f64)> {
         e.check_attrs(&["type", "id", "name"])?;
         let mut props = Props::new(e, self.search);
         let surface = match e.ty() {
@@ -1346,10 +1348,13 @@ impl<'a> Builder<'a> {
                 let albedo = self
                     .texturable(&mut props, "reflectance")?
                     .unwrap_or_else(|| color_value([0.5; 3]));
-                Surface::Lambertian {
-                    albedo,
-                    one_sided: !twosided,
-                }
+                (
+                    Surface::Lambertian {
+                        albedo,
+                        one_sided: !twosided,
+                    },
+                    1.0,
+                )
             }
             ty @ ("conductor" | "roughconductor" | "dielectric" | "roughdielectric"
             | "thindielectric" | "plastic" | "roughplastic") => {
@@ -1367,11 +1372,14 @@ impl<'a> Builder<'a> {
                 if let (Some(name), Some(texture)) = (textured, texture) {
                     table.insert(name.into(), texture);
                 }
-                Surface::Mitsuba {
-                    table,
-                    transmits,
-                    one_sided: !twosided && !transmits,
-                }
+                (
+                    Surface::Mitsuba {
+                        table,
+                        transmits,
+                        one_sided: !twosided && !transmits,
+                    },
+                    1.0,
+                )
             }
             "twosided" => {
                 let inner = props.objects(&["bsdf", "ref"]);
@@ -1382,6 +1390,32 @@ impl<'a> Builder<'a> {
                 };
                 let inner = self.resolve(inner)?;
                 self.surface(inner, true)?
+            }
+            // Mitsuba's null lobe is two-sided whether or not its BSDF is, so a
+            // `twosided` around a mask (which Mitsuba 3 refuses, as a BSDF that
+            // transmits) reads as the same surface as one inside it.
+            "mask" => {
+                if let Some(texture) = props.texture("opacity") {
+                    return Err(texture.origin.error(
+                        "a textured opacity is not supported (only a <float name=\"opacity\">)",
+                    ));
+                }
+                // Mitsuba's default.
+                let opacity = props.float("opacity")?.unwrap_or(0.5);
+                if !(0.0..=1.0).contains(&opacity) {
+                    return Err(e
+                        .origin
+                        .error(format!("`opacity` must be in [0, 1], got {opacity}")));
+                }
+                let inner = props.objects(&["bsdf", "ref"]);
+                let [inner] = inner[..] else {
+                    return Err(e
+                        .origin
+                        .error("a mask BSDF with other than one nested BSDF is not supported"));
+                };
+                let inner = self.resolve(inner)?;
+                let (surface, inner_opacity) = self.surface(inner, twosided)?;
+                (surface, opacity * inner_opacity)
             }
             _ => {
                 return Err(e
@@ -1508,7 +1542,7 @@ impl<'a> Builder<'a> {
         bsdf: Option<&'a Elem>,
         emitter: Option<&'a Elem>,
     ) -> Result<(String, Surface, bool)> {
-        let (base, surface) = match bsdf {
+        let (base, (surface, opacity)) = match bsdf {
             Some(b) => (self.name_of(b), self.surface(b, false)?),
             // Mitsuba's default: a one-sided diffuse of reflectance 0.5, or 0 on
             // an emitter (`Shape`'s constructor).
@@ -1519,10 +1553,13 @@ impl<'a> Builder<'a> {
                 };
                 (
                     name.to_string(),
-                    Surface::Lambertian {
-                        albedo: color_value([albedo; 3]),
-                        one_sided: true,
-                    },
+                    (
+                        Surface::Lambertian {
+                            albedo: color_value([albedo; 3]),
+                            one_sided: true,
+                        },
+                        1.0,
+                    ),
                 )
             }
         };
@@ -1575,6 +1612,9 @@ impl<'a> Builder<'a> {
                 ));
             }
         };
+        if opacity < 1.0 {
+            table.insert("opacity".into(), Value::Float(opacity));
+        }
         if !self.materials.contains_key(&full_name) {
             if let Some(emitter) = emitter {
                 for name in [full_name.clone(), format!("\"{full_name}\"")] {
@@ -3117,6 +3157,82 @@ mod tests {
             e.contains("<bsdf type=\"diffuse\">") && e.contains("albedo"),
             "{e}"
         );
+    }
+
+    /// `mask` becomes its BSDF's material with `opacity` (Mitsuba's default 0.5),
+    /// inside or around `twosided` alike; masks inside masks multiply; an
+    /// opacity outside [0, 1] or a texture is refused at its element.
+    #[test]
+    fn mask_becomes_the_opacity_of_its_bsdf() {
+        let material = |name: &str, body: &str| {
+            let s = scene(name, body);
+            s.materials[s.shapes.quads[0].material as usize].clone()
+        };
+        let m = material(
+            "mask",
+            r#"<shape type="rectangle"><bsdf type="mask"><float name="opacity" value="0.3"/>
+               <bsdf type="diffuse"><rgb name="reflectance" value="0.2"/></bsdf></bsdf></shape>"#,
+        );
+        assert_eq!(
+            (m.opacity, m.albedo, m.one_sided),
+            (0.3, Vec3::splat(0.2), true)
+        );
+        let m = material(
+            "mask-default",
+            r#"<shape type="rectangle"><bsdf type="mask"><bsdf type="roughplastic"/></bsdf></shape>"#,
+        );
+        assert_eq!(m.opacity, 0.5);
+        assert!(matches!(
+            m.kind,
+            crate::scene::MaterialKind::RoughPlastic { .. }
+        ));
+        for (name, body) in [
+            (
+                "mask-in-twosided",
+                r#"<bsdf type="twosided"><bsdf type="mask"><float name="opacity" value="0.25"/>
+                   <bsdf type="diffuse"/></bsdf></bsdf>"#,
+            ),
+            (
+                "twosided-in-mask",
+                r#"<bsdf type="mask"><float name="opacity" value="0.25"/>
+                   <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf>"#,
+            ),
+        ] {
+            let m = material(name, &format!("<shape type=\"rectangle\">{body}</shape>"));
+            assert_eq!((m.opacity, m.one_sided), (0.25, false), "{name}");
+        }
+        let m = material(
+            "masks",
+            r#"<bsdf type="diffuse" id="leaf"/>
+               <shape type="rectangle"><bsdf type="mask"><float name="opacity" value="0.5"/>
+               <bsdf type="mask"><float name="opacity" value="0.5"/><ref id="leaf"/></bsdf></bsdf>
+               <emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>"#,
+        );
+        assert_eq!((m.opacity, m.emit), (0.25, Vec3::splat(2.0)));
+
+        let e = error(
+            "opacity-range",
+            "<shape type=\"rectangle\">\n<bsdf type=\"mask\"><float name=\"opacity\" value=\"1.5\"/>\
+             <bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <bsdf type=\"mask\">: `opacity` must be in [0, 1], got 1.5"),
+            "{e}"
+        );
+        let e = error(
+            "opacity-texture",
+            "<shape type=\"rectangle\"><bsdf type=\"mask\">\n<texture name=\"opacity\" type=\"checkerboard\"/>\
+             <bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <texture type=\"checkerboard\" name=\"opacity\">: a textured opacity is not supported"),
+            "{e}"
+        );
+        let e = error(
+            "mask-empty",
+            r#"<shape type="rectangle"><bsdf type="mask"/></shape>"#,
+        );
+        assert!(e.contains("other than one nested BSDF"), "{e}");
     }
 
     /// `point` and `spot` emitters become `[[lights]]` with Mitsuba's defaults

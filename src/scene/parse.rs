@@ -972,6 +972,7 @@ fn file_materials(t: &ParamTable, mesh: &super::mesh::Mesh, base: u32) -> Result
                 albedo: m.base_color,
                 emit: m.emission,
                 one_sided: false,
+                opacity: 1.0,
                 texture: None,
             })
         })

@@ -33,7 +33,8 @@ pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
 /// 5: adaptive runs record the pilot's choice (adaptive, or uniform on).
 /// 6: the scene hashes come from a stable encoding of the scene's parts
 /// (`encoding_hash`), no longer from their `Debug` text.
-pub const VERSION: u32 = 6;
+/// 7: materials encode their `opacity` (Mitsuba's `mask`).
+pub const VERSION: u32 = 7;
 
 /// FNV-1a, 64 bits: the scene identity's hash function (stable across platforms).
 #[derive(Clone, Copy, Debug)]
@@ -1222,6 +1223,7 @@ mod tests {
             albedo: Vec3::ZERO,
             emit: Vec3::ZERO,
             one_sided: false,
+            opacity: 1.0,
             texture: None,
         };
         Scene {
@@ -1375,10 +1377,10 @@ mod tests {
     /// Camera, materials, geometry, settings, and the scene hash.
     const GOLDEN: [&str; 5] = [
         "6acd00696624b086",
-        "8440c1a36c58edb7",
+        "748ee7bfced01064",
         "753ba0cdad987ceb",
         "e50b9993ee433292",
-        "17854b8165197a77",
+        "af29dca22734c7c1",
     ];
 
     /// A change of one field of any part changes that part's hash (and the scene
@@ -1493,6 +1495,7 @@ mod tests {
         type = "lambertian"
         albedo = [0.2, 0.3, 0.4]
         emit = [0.5, 0.25, 2]
+        opacity = 0.5
         [materials.glass]
         type = "dielectric"
         ior = 1.33

@@ -46,7 +46,8 @@ const PREFIX: &str = "pathmix.";
 /// variance adds (`replicate1.R`, ...).
 /// 5: the scene hashes come from a stable encoding of the scene's parts (as
 /// checkpoints' version 6), no longer from their `Debug` text.
-const FORMAT: u32 = 5;
+/// 6: materials encode their `opacity` (as checkpoints' version 7).
+const FORMAT: u32 = 6;
 
 /// A sample range or shard given as text that does not make one.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -27,7 +27,7 @@ pub(crate) use common::{NAMED_IORS, ReadTexture};
 
 use super::Texture;
 use super::coat::CoatTables;
-use super::params::{ParamTable, Result, list, unknown_name};
+use super::params::{ParamTable, Result, check_unit, list, unknown_name};
 use crate::abi::{PackedMaterial, material_flag};
 use crate::shader::ShaderModule;
 use common::TextureSlot;
@@ -254,6 +254,10 @@ pub struct Material {
     /// Scatters only on the side the normal faces, black from behind (Mitsuba's
     /// BSDFs outside `twosided`); the book's materials scatter on both sides.
     pub one_sided: bool,
+    /// The probability that the surface is there (Mitsuba's `mask`): a ray finds
+    /// it with this probability and passes through it unchanged otherwise (a
+    /// null event), and a shadow ray is let through by `1 - opacity`. 1: opaque.
+    pub opacity: f32,
     /// A texture on the kind's colour that `kinds::pack_material` packs as
     /// `albedo` (lambertian and metal `albedo`, conductors' and rough
     /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
@@ -268,7 +272,8 @@ impl Material {
 
     /// The material `name` of table `t` (`[materials.NAME]`): `type` names its
     /// kind, which reads the rest; `one_sided` (default false) where the kind
-    /// takes it. `read_texture` reads the texture its colour may be.
+    /// takes it, and `opacity` (default 1) on every kind. `read_texture` reads
+    /// the texture its colour may be.
     pub(crate) fn parse(name: &str, t: &ParamTable, read_texture: ReadTexture) -> Result<Material> {
         let Some(ty) = t.string("type")? else {
             t.check_keys(&material_keys(), None)?;
@@ -286,7 +291,7 @@ impl Material {
                 unknown_name("material type", ty, &material_types()),
             ));
         };
-        t.check_keys(model.keys, Some(&model.what()))?;
+        t.check_keys(&[model.keys, &[OPACITY]].concat(), Some(&model.what()))?;
         let mut slot = TextureSlot::new(read_texture);
         let Parsed { kind, albedo, emit } = (model.parse)(t, &mut slot)?;
         Ok(Material {
@@ -295,9 +300,47 @@ impl Material {
             albedo,
             emit,
             one_sided: t.boolean("one_sided")?.unwrap_or(false),
+            opacity: t.float(OPACITY, check_unit)?.unwrap_or(1.0),
             texture: slot.texture,
         })
     }
+}
+
+/// The key every kind takes besides its own: the surface's presence probability.
+const OPACITY: &str = "opacity";
+
+/// Where the transparency `1 - opacity` starts in `PackedMaterial::kind`, as a
+/// 16-bit fixed-point number (of [`MATERIAL_TRANSPARENCY_MAX`]); below it is the
+/// kind's id. `PackedMaterial` has no free field, and 0 there (every unmasked
+/// material) reads as opaque, so no other material's packing changes. The
+/// value is off by at most 2^-17.
+pub const MATERIAL_TRANSPARENCY_SHIFT: u32 = 16;
+
+/// The transparency 1 in [`MATERIAL_TRANSPARENCY_SHIFT`]'s fixed point.
+pub const MATERIAL_TRANSPARENCY_MAX: u32 = 0xffff;
+
+/// `1 - opacity` in fixed point (see [`MATERIAL_TRANSPARENCY_SHIFT`]).
+fn transparency_bits(opacity: f32) -> u32 {
+    ((1.0 - opacity) * MATERIAL_TRANSPARENCY_MAX as f32).round() as u32
+}
+
+/// The most surfaces one ray finds between two bounces: a shadow ray passes
+/// through masked ones by their transparency, and one still in its way at the
+/// last of these counts as opaque; a path that draws to pass that one too ends
+/// there. So every strategy misses the same light, that behind more masks than
+/// this (a bias toward dark, only there). Bounds the kernel's loops for
+/// lavapipe's loop limit (`render::max_samples_per_dispatch` budgets these
+/// closest hits and path-loop iterations).
+pub const MASK_RAY_HITS: u32 = 8;
+
+/// A packed material's kind id (its index in [`MATERIAL_KINDS`]).
+pub fn packed_kind_id(m: &PackedMaterial) -> usize {
+    (m.kind & MATERIAL_TRANSPARENCY_MAX) as usize
+}
+
+/// Whether a packed material is masked (some transparency).
+pub fn packed_is_masked(m: &PackedMaterial) -> bool {
+    m.kind >> MATERIAL_TRANSPARENCY_SHIFT != 0
 }
 
 /// A coat's distribution, alpha and eta (as bits).
@@ -348,8 +391,8 @@ fn coat_tables(key: CoatKey) -> CoatTables {
 
 /// The packed material: its kind's packing (`MaterialModel::pack`; each kind's
 /// file says which fields it fills, and the WGSL module reads the same), and
-/// what every kind packs alike: `kind` its id, `emit`, and the one-sided bit
-/// of `flags`.
+/// what every kind packs alike: `kind` its id (and the transparency above
+/// [`MATERIAL_TRANSPARENCY_SHIFT`]), `emit`, and the one-sided bit of `flags`.
 pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> PackedMaterial {
     let id = material.kind.id();
     let packed = (MATERIAL_KINDS[id].pack)(material, tables);
@@ -359,7 +402,7 @@ pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> Packed
         0
     };
     PackedMaterial {
-        kind: id as u32,
+        kind: id as u32 | transparency_bits(material.opacity) << MATERIAL_TRANSPARENCY_SHIFT,
         emit: material.emit.to_array(),
         flags: packed.flags | one_sided,
         ..packed
@@ -404,6 +447,27 @@ mod tests {
         assert!(e.message.contains("did you mean `alpha`?"), "{e}");
     }
 
+    /// `opacity` is every kind's, in [0, 1], 1 by default; it packs above the
+    /// kind's id as the transparency, and an opaque material packs as before.
+    #[test]
+    fn opacity_packs_as_the_transparency_above_the_kind() {
+        let m = read("type = \"light\"\nemit = [1, 1, 1]\nopacity = 0.25").unwrap();
+        assert_eq!(m.opacity, 0.25);
+        let packed = pack_material(&m, &mut MaterialTables::default());
+        assert_eq!(packed_kind_id(&packed), m.kind.id());
+        assert!(packed_is_masked(&packed));
+        let transparency =
+            (packed.kind >> MATERIAL_TRANSPARENCY_SHIFT) as f32 / MATERIAL_TRANSPARENCY_MAX as f32;
+        assert!((transparency - 0.75).abs() <= 1e-5, "{transparency}");
+        let opaque = read("type = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]").unwrap();
+        assert_eq!(opaque.opacity, 1.0);
+        let packed = pack_material(&opaque, &mut MaterialTables::default());
+        assert_eq!(packed.kind as usize, opaque.kind.id());
+        let e = read("type = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\nopacity = 1.5").unwrap_err();
+        assert_eq!(e.location, "materials.red.opacity");
+        assert!(e.message.contains("must be in [0, 1], got 1.5"), "{e}");
+    }
+
     #[test]
     fn each_kind_is_its_variants_id() {
         for (id, model) in MATERIAL_KINDS.iter().enumerate() {
@@ -420,7 +484,7 @@ mod tests {
             let material = read(&format!("type = \"{}\"\n{body}", model.name)).unwrap();
             assert_eq!(material.kind.id(), id, "{}", model.name);
             let packed = pack_material(&material, &mut MaterialTables::default());
-            assert_eq!(packed.kind as usize, id, "{}", model.name);
+            assert_eq!(packed_kind_id(&packed), id, "{}", model.name);
         }
     }
 }

@@ -1,0 +1,296 @@
+//! Masked surfaces (`opacity`, Mitsuba's `mask`): a surface there with
+//! probability `opacity`, which rays pass through otherwise and shadow rays by
+//! the transmittance, against analytic values.
+
+mod common;
+
+use pathmix::render::RenderOptions;
+use pathmix::scene::Scene;
+use std::f64::consts::PI;
+
+/// A plane of albedo `a`, seen from above under a uniform sky of 1 with nothing
+/// below it, at opacity `o`: a camera ray passes through it to the sky (1) with
+/// probability `1 - o`, else finds it and reflects `a` of the sky. So
+/// `(1 - o) + o a`; at 0 every sample is 1 (the plane is invisible), at 1 the
+/// image is the unmasked plane's, bit for bit (no random number is drawn for an
+/// opaque surface, though the kernel has the mask's code for the quad far
+/// below that no ray reaches).
+#[test]
+fn a_masked_plane_is_seen_in_proportion_to_its_opacity() {
+    let ctx = gpu_or_skip!();
+    let albedo = 0.5;
+    let plane = |opacity: Option<f64>| {
+        let opacity = opacity.map_or(String::new(), |o| format!("opacity = {o}"));
+        common::scene_text(&format!(
+            r#"
+            [camera]
+            lookfrom = [0, 1, 0]
+            lookat = [0, 0, 0]
+            vup = [0, 0, -1]
+            vfov = 20
+            width = 8
+            height = 8
+            [render]
+            spp = 1024
+            max_depth = 4
+            strategy = "bsdf"
+            sampler = "independent"
+            background = [1, 1, 1]
+            [materials.plane]
+            type = "lambertian"
+            albedo = [{albedo}, {albedo}, {albedo}]
+            {opacity}
+            [materials.hidden]
+            type = "lambertian"
+            albedo = [0.5, 0.5, 0.5]
+            opacity = 0.5
+            [[objects]]
+            type = "quad"
+            q = [-1000, 0, -1000]
+            u = [0, 0, 2000]
+            v = [2000, 0, 0]
+            material = "plane"
+            [[objects]]
+            type = "quad"
+            q = [500, -100, 500]
+            u = [0, 0, 2]
+            v = [2, 0, 0]
+            material = "hidden"
+            "#
+        ))
+    };
+    let render = |scene: &Scene| common::render(ctx, scene, &common::with_variance());
+    // Invisible: exactly the sky.
+    let invisible = render(&plane(Some(0.0)));
+    common::assert_every_pixel_is(&invisible, 1.0, 0.0, "opacity 0");
+    // Opaque: the unmasked plane's image, though this kernel has the mask's code.
+    let opaque = render(&plane(Some(1.0)));
+    let unmasked = render(&plane(None));
+    assert_eq!(opaque.mean().pixels, unmasked.mean().pixels, "opacity 1");
+    common::assert_every_pixel_is(&opaque, albedo as f32, 1e-6, "opacity 1");
+    // Half: the mean of the two, within 4 standard errors.
+    let (mean, error) = common::image_mean_and_error(&render(&plane(Some(0.5))));
+    let expected = 0.5 * 1.0 + 0.5 * albedo;
+    println!("opacity 0.5: {mean:.5} ± {error:.5}, expected {expected}");
+    assert!(
+        (mean - expected).abs() < 4.0 * error,
+        "{mean} ± {error} against {expected}"
+    );
+}
+
+/// Renders the floor patch of `common::assert_lit_floor`'s scene (albedo
+/// `albedo`, straight below `lights`) with `extra` objects and materials added,
+/// under every strategy, direct light only (`max_depth` 1): a BSDF sample that
+/// passes a masked occluder (a null event, no bounce) still reaches the light.
+/// Asserts the patch's mean is `expected` within 4 standard errors (plus 1e-4
+/// relative, and 1e-6 absolute for an expected 0).
+fn assert_floor(albedo: f64, lights: &str, extra: &str, expected: f64, what: &str) {
+    let ctx = gpu_or_skip!();
+    for strategy in ["bsdf", "light", "mixture", "nee-mis"] {
+        let scene = common::scene_text(&format!(
+            r#"
+            [camera]
+            lookfrom = [0, 0.5, 0]
+            lookat = [0, 0, 0]
+            vup = [0, 0, -1]
+            vfov = 0.2
+            width = 4
+            height = 4
+            [render]
+            spp = 4096
+            max_depth = 1
+            strategy = "{strategy}"
+            sampler = "independent"
+            [materials.floor]
+            type = "lambertian"
+            albedo = [{albedo}, {albedo}, {albedo}]
+            [[objects]]
+            type = "quad"
+            q = [-10, 0, -10]
+            u = [0, 0, 20]
+            v = [20, 0, 0]
+            material = "floor"
+            {lights}
+            {extra}
+            "#
+        ));
+        let acc = common::render(ctx, &scene, &common::with_variance());
+        let (mean, error) = common::image_mean_and_error(&acc);
+        println!("{what} {strategy}: {mean:.6} ± {error:.6}, expected {expected:.6}");
+        assert!(
+            (mean - expected).abs() < 4.0 * error + 1e-4 * expected + 1e-6,
+            "{what} {strategy}: {mean} ± {error} against {expected}"
+        );
+    }
+}
+
+/// A disk light of radius r and radiance L at height h, facing down (its
+/// normal is u x v), or up: the floor straight below reflects
+/// a L r^2 / (r^2 + h^2).
+fn disk_light(r: f64, h: f64, emit: f64, opacity: f64, up: bool) -> String {
+    let (u, v) = match up {
+        false => (format!("[{r}, 0, 0]"), format!("[0, 0, {r}]")),
+        true => (format!("[0, 0, {r}]"), format!("[{r}, 0, 0]")),
+    };
+    format!(
+        r#"
+        [materials.lamp]
+        type = "light"
+        emit = [{emit}, {emit}, {emit}]
+        opacity = {opacity}
+        [[objects]]
+        type = "disk"
+        center = [0, {h}, 0]
+        u = {u}
+        v = {v}
+        material = "lamp"
+        "#
+    )
+}
+
+/// A masked occluder (a grey plane between the floor and the light, its top
+/// away from the light's reach from below) lets `1 - opacity` of the light
+/// through: the floor's radiance is `1 - opacity` of the unoccluded one,
+/// under every strategy (under `nee-mis` the shadow ray's transmittance and the
+/// BSDF sample's null events weighed against each other by MIS). For an area
+/// light and for a point light (its shadow ray's transmittance alone).
+#[test]
+fn a_masked_occluder_lets_its_transparency_of_the_light_through() {
+    let (r, h, emit, albedo) = (0.5f64, 2.0f64, 4.0f64, 0.6f64);
+    let area = albedo * emit * r * r / (r * r + h * h);
+    let intensity = 3.0;
+    let point = albedo / PI * intensity / (h * h);
+    let point_light =
+        format!("[[lights]]\ntype = \"point\"\nposition = [0, {h}, 0]\nintensity = {intensity}\n");
+    for opacity in [0.0, 0.5, 1.0] {
+        let occluder = format!(
+            r#"
+            [materials.occluder]
+            type = "lambertian"
+            albedo = [0.5, 0.5, 0.5]
+            opacity = {opacity}
+            [[objects]]
+            type = "quad"
+            q = [-5, 1, -5]
+            u = [0, 0, 10]
+            v = [10, 0, 0]
+            material = "occluder"
+            "#
+        );
+        let what = format!("opacity {opacity}");
+        let expected = (1.0 - opacity) * area;
+        assert_floor(
+            albedo,
+            &disk_light(r, h, emit, 1.0, false),
+            &occluder,
+            expected,
+            &what,
+        );
+        let expected = (1.0 - opacity) * point;
+        assert_floor(
+            albedo,
+            &point_light,
+            &occluder,
+            expected,
+            &format!("{what}, point"),
+        );
+    }
+}
+
+/// An emitting masked surface emits as it would unmasked (Mitsuba's emitters
+/// belong to the shape) and is sampled as before: a masked disk light gives
+/// the floor the unmasked disk's irradiance under every strategy, its light
+/// density and the BSDF samples that find it agreeing. Seen head-on against a
+/// sky of 1, it shows its radiance plus `1 - opacity` of the sky behind it.
+#[test]
+fn an_emitting_masked_surface_keeps_its_light_density() {
+    let (r, h, emit, albedo) = (0.5f64, 2.0f64, 4.0f64, 0.6f64);
+    let expected = albedo * emit * r * r / (r * r + h * h);
+    assert_floor(
+        albedo,
+        &disk_light(r, h, emit, 0.5, false),
+        "",
+        expected,
+        "masked lamp",
+    );
+
+    let ctx = gpu_or_skip!();
+    let opacity = 0.25;
+    let scene = common::scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 1, 0]
+        lookat = [0, 0, 0]
+        vup = [0, 0, -1]
+        vfov = 20
+        width = 8
+        height = 8
+        [render]
+        spp = 1024
+        max_depth = 2
+        strategy = "nee-mis"
+        sampler = "independent"
+        background = [1, 1, 1]
+        {}
+        "#,
+        disk_light(1000.0, 0.0, emit, opacity, true)
+    ));
+    let acc = common::render(ctx, &scene, &common::with_variance());
+    let (mean, error) = common::image_mean_and_error(&acc);
+    let expected = emit + (1.0 - opacity);
+    println!("masked lamp head-on: {mean:.5} ± {error:.5}, expected {expected}");
+    assert!(
+        (mean - expected).abs() < 4.0 * error,
+        "{mean} ± {error} against {expected}"
+    );
+}
+
+/// The loop budget counts a masked scene's shadow-ray walks: every invocation
+/// finishes its samples (no truncation, which `common::render` asserts) in a
+/// stack of masked planes deeper than a shadow ray's walk, over a floor lit by
+/// a light behind them all, under `nee-mis` at a high `max_depth`.
+#[test]
+fn a_stack_of_masks_stays_within_the_loop_budget() {
+    let ctx = gpu_or_skip!();
+    let planes: String = (1..=12)
+        .map(|i| {
+            format!(
+                "[[objects]]\ntype = \"quad\"\nq = [-5, {y}, -5]\nu = [0, 0, 10]\nv = [10, 0, 0]\n\
+                 material = \"leaf\"\n",
+                y = 0.1 * i as f64
+            )
+        })
+        .collect();
+    let scene = common::scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 3, 0]
+        lookat = [0, 0, 0]
+        vup = [0, 0, -1]
+        vfov = 30
+        width = 8
+        height = 8
+        [render]
+        spp = 64
+        max_depth = 32
+        strategy = "nee-mis"
+        [materials.floor]
+        type = "lambertian"
+        albedo = [0.5, 0.5, 0.5]
+        [materials.leaf]
+        type = "lambertian"
+        albedo = [0.5, 0.5, 0.5]
+        opacity = 0.1
+        [[objects]]
+        type = "quad"
+        q = [-10, 0, -10]
+        u = [0, 0, 20]
+        v = [20, 0, 0]
+        material = "floor"
+        {planes}
+        {}
+        "#,
+        disk_light(0.5, 2.0, 4.0, 1.0, false)
+    ));
+    common::render(ctx, &scene, &RenderOptions::default());
+}
