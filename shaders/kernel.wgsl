@@ -180,8 +180,13 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
             if depth == MAX_DEPTH {
                 path_done = true;
             } else {
+#if BUMP_MAPS
+                let shading_normal = bumped_normal(material, hit, -ray.dir);
+#else
+                let shading_normal = hit.shading_normal;
+#endif
                 let frame = Frame(
-                    select(-hit.shading_normal, hit.shading_normal, front_face),
+                    select(-shading_normal, shading_normal, front_face),
                     front_face,
                     select(-hit.normal, hit.normal, front_face),
                 );

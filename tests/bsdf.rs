@@ -77,6 +77,7 @@ impl Setup {
                 emit: glam::Vec3::ZERO,
                 one_sided: false,
                 texture: None,
+                bump: None,
             },
             &mut material_tables,
         );

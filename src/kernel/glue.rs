@@ -12,8 +12,9 @@ use crate::abi::{
 };
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
-    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MATERIAL_KINDS, MATERIAL_TEXTURE_SHIFT,
-    NO_LIGHT, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
+    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MATERIAL_BUMP_SHIFT, MATERIAL_KINDS,
+    MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT, NO_LIGHT, PRIMITIVE_KINDS, PrimitiveKind,
+    ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -49,6 +50,8 @@ pub fn shared_constants() -> String {
         constant(name, bit);
     }
     constant("MATERIAL_TEXTURE_SHIFT", MATERIAL_TEXTURE_SHIFT);
+    constant("MATERIAL_TEXTURE_BITS", MATERIAL_TEXTURE_BITS);
+    constant("MATERIAL_BUMP_SHIFT", MATERIAL_BUMP_SHIFT);
     for &(name, value) in TEXTURE_CONSTANTS {
         constant(name, value);
     }
@@ -415,6 +418,24 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
                 kind.array
             )
             .unwrap();
+        }
+        if config.bump_maps {
+            let kind = PRIMITIVE_KINDS[k];
+            match kind.uv_tangents {
+                true => {
+                    let uvs = match kind.texture_uvs {
+                        Some(_) => format!("{}_at(hit_index), ", kind.uvs_array()),
+                        None => String::new(),
+                    };
+                    write!(
+                        set,
+                        " hit.tangents = {name}_hit_tangents({}_at(hit_index), {uvs}hit.p);",
+                        kind.array
+                    )
+                    .unwrap();
+                }
+                false => set.push_str(" hit.tangents = tangents_about(hit.normal);"),
+            }
         }
         set
     };
@@ -935,7 +956,7 @@ pub fn bsdf(config: &KernelConfig) -> String {
         .collect();
     // With shading normals, each entry point of the interface passes through
     // the leak check of materials.wgsl (`shading_`: the material's own answer).
-    let shading = !config.normal_kinds.is_empty();
+    let shading = config.shading_normals();
     let prefix = if shading { "shading_" } else { "" };
     dispatch(
         &mut out,

@@ -1223,6 +1223,7 @@ mod tests {
             emit: Vec3::ZERO,
             one_sided: false,
             texture: None,
+            bump: None,
         };
         Scene {
             source: "small.toml".into(),
