@@ -1019,11 +1019,22 @@ pub fn bsdf(config: &KernelConfig) -> String {
         None,
     );
     if shading {
+        // Bump and normal maps shadow themselves (`bump_shadowing`); the
+        // density is left as it is, as Mitsuba leaves it.
+        let value = match config.bump_maps {
+            true => "shading_bsdf_eval(m, frame, wo, wi) * bump_shadowing(frame, wi)",
+            false => "shading_bsdf_eval(m, frame, wo, wi)",
+        };
+        write!(
+            out,
+            "fn bsdf_eval(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {{
+    return select({value}, vec3<f32>(0.0), bsdf_leaks(frame, wi));
+}}
+"
+        )
+        .unwrap();
         out.push_str(
-            "fn bsdf_eval(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
-    return select(shading_bsdf_eval(m, frame, wo, wi), vec3<f32>(0.0), bsdf_leaks(frame, wi));
-}
-fn smooth_bsdf_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
+            "fn smooth_bsdf_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
     return bsdf_sample_checked(frame, shading_smooth_bsdf_sample(m, frame, wo));
 }
 ",

@@ -1388,8 +1388,8 @@ impl<'a> Builder<'a> {
     /// Mitsuba's `bumpmap` (a height texture of any name, `scale`) or
     /// `normalmap` (its `normalmap` texture) around one nested BSDF: that
     /// BSDF's material with the key `bump` or `normal_map`
-    /// (`kinds::Bump`). Mitsuba's `flip_invalid_normals` is pathmix's only
-    /// way; its `use_shadowing_function` term is not applied.
+    /// (`kinds::Bump`). Mitsuba's defaults, `flip_invalid_normals` and
+    /// `use_shadowing_function`, are pathmix's only way.
     fn bumped(&mut self, props: &mut Props<'a>, ty: &str, twosided: bool) -> Result<Surface> {
         let e = props.elem;
         let mut bsdf = None;
@@ -1432,9 +1432,12 @@ impl<'a> Builder<'a> {
                 "flip_invalid_normals = false is not supported (pathmix always flips                  normals that face away from the viewer)",
             ));
         }
-        // Mitsuba's Estevez et al. shadowing term is not applied either way:
-        // documented in docs/mitsuba.md.
-        props.boolean("use_shadowing_function")?;
+        if props.boolean("use_shadowing_function")? == Some(false) {
+            return Err(e.origin.error(
+                "use_shadowing_function = false is not supported (pathmix always applies \
+                 the bump's shadowing term, Mitsuba's default)",
+            ));
+        }
         let bump = match ty {
             "bumpmap" => {
                 let mut table = Table::new();

@@ -26,8 +26,11 @@
 //! shading stays lit where the texture tilts the normal past the viewer), and
 //! light that arrives on the other side of the true surface than of the
 //! shading normal carries nothing (`materials.wgsl`'s `bsdf_leaks`, pbrt-v3's
-//! rule, against the geometric normal). Mitsuba's optional shadowing term for
-//! the bump terminator (`use_shadowing_function`) is not applied.
+//! rule, against the geometric normal), and the map shadows itself: the BSDF's
+//! value toward a direction is scaled by Estevez et al.'s microfacet
+//! shadowing term, whose roughness is the normal's tilt (Mitsuba's default
+//! `use_shadowing_function`, `materials.wgsl`'s `bump_shadowing`), so light
+//! does not reach the bump's terminator where the true geometry would shadow it.
 
 use super::common::ReadTexture;
 use crate::kinds::Texture;
