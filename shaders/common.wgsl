@@ -62,6 +62,28 @@ struct Ray {
     dir: vec3<f32>,
 }
 
+#if BUMP_MAPS
+// Mitsuba's `dp_du` and `dp_dv`: how a surface point moves with its texture
+// coordinates, what bump and normal maps are oriented and scaled by.
+struct Tangents {
+    dp_du: vec3<f32>,
+    dp_dv: vec3<f32>,
+}
+
+// Two unit tangents perpendicular to the unit `n` and to each other, for
+// surfaces whose uvs give none (Duff et al. 2017, Mitsuba's
+// `coordinate_system`).
+fn tangents_about(n: vec3<f32>) -> Tangents {
+    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    return Tangents(
+        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
+    );
+}
+#endif
+
 struct Hit {
     t: f32,
     p: vec3<f32>,
@@ -77,6 +99,10 @@ struct Hit {
 #if TEXTURES
     // Texture coordinates (`NAME_hit_uv` of the primitive's kind).
     uv: vec2<f32>,
+#endif
+#if BUMP_MAPS
+    // The surface's derivatives along u and v (`NAME_hit_tangents`).
+    tangents: Tangents,
 #endif
 #if LIGHT_POINTS
     // The grouped light hit (its index in the kind's light array), or NO_LIGHT.

@@ -274,10 +274,19 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #endif
                 path_done = true;
             } else {
+#if BUMP_MAPS
+                let shading_normal = bumped_normal(material, hit, -ray.dir);
+#else
+                let shading_normal = hit.shading_normal;
+#endif
                 let frame = Frame(
-                    select(-hit.shading_normal, hit.shading_normal, front_face),
+                    select(-shading_normal, shading_normal, front_face),
                     front_face,
                     select(-hit.normal, hit.normal, front_face),
+#if BUMP_MAPS
+                    select(-hit.shading_normal, hit.shading_normal, front_face),
+                    bump_alpha2(shading_normal, hit.shading_normal),
+#endif
                 );
 #if DELTA_LIGHTS
                 // No strategy's sampled direction finds a point or spot light: every

@@ -47,6 +47,12 @@ struct Frame {
     n: vec3<f32>,
     front_face: bool,
     ng: vec3<f32>,
+#if BUMP_MAPS
+    // The shading normal before a bump or normal map perturbed it (turned as
+    // `n`), and `bump_shadowing`'s alpha^2 from the angle between the two.
+    unperturbed: vec3<f32>,
+    bump_alpha2: f32,
+#endif
 }
 
 struct BsdfSample {
@@ -77,6 +83,42 @@ fn bsdf_sample_checked(frame: Frame, s: BsdfSample) -> BsdfSample {
     if bsdf_leaks(frame, s.wi) {
         return bsdf_absorbed();
     }
+#if BUMP_MAPS
+    var shadowed = s;
+    shadowed.weight *= bump_shadowing(frame, s.wi);
+    return shadowed;
+#else
     return s;
+#endif
+}
+#endif
+
+#if BUMP_MAPS
+// Estevez et al.'s alpha^2 for a normal perturbed from `unperturbed` to `n`
+// (both unit): the tilt's tan^2 / 8, at most 1 (Mitsuba's
+// `eval_shadow_terminator`); exactly 0 for a normal left as it was (where
+// the rounded dot(n, n) would make it a few ulps).
+fn bump_alpha2(n: vec3<f32>, unperturbed: vec3<f32>) -> f32 {
+    if all(n == unperturbed) {
+        return 0.0;
+    }
+    let c2 = dot(n, unperturbed) * dot(n, unperturbed);
+    return min(0.125 * max(1.0 - c2, 0.0) / c2, 1.0);
+}
+
+// The shadowing a bump or normal map casts on itself toward `wi` (Estevez et
+// al. 2019, "A Microfacet-Based Shadowing Function to Solve the Bump
+// Terminator Problem", as Mitsuba's `bumpmap` and `normalmap` apply it by
+// default): a microfacet G1 whose roughness is the tilt, against the angle of
+// `wi` to the unperturbed normal. Without the term, a tilted normal lights the
+// surface's terminator where its true geometry would be in shadow. Exactly 1
+// where nothing is tilted.
+fn bump_shadowing(frame: Frame, wi: vec3<f32>) -> f32 {
+    if frame.bump_alpha2 == 0.0 {
+        return 1.0;
+    }
+    let c2 = dot(wi, frame.unperturbed) * dot(wi, frame.unperturbed);
+    let tan2 = max(1.0 - c2, 0.0) / c2;
+    return 2.0 / (1.0 + sqrt(1.0 + frame.bump_alpha2 * tan2));
 }
 #endif

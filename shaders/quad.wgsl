@@ -46,6 +46,13 @@ fn quad_hit_uv(quad: Quad, point: vec3<f32>) -> vec2<f32> {
 }
 #endif
 
+#if BUMP_MAPS
+// The point is q + u a + v b at uv (a, b): its edges.
+fn quad_hit_tangents(quad: Quad, point: vec3<f32>) -> Tangents {
+    return Tangents(quad.u, quad.v);
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point on the quad.
 fn quad_light_sample(quad: Quad, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let target_point = quad.q + u.x * quad.u + u.y * quad.v;

@@ -14,7 +14,7 @@ struct TextureInfo {
     height: u32,
     offset: u32,
     nearest: u32,
-    _pad0: u32,
+    bump_scale: f32,
     _pad1: u32,
 }
 
@@ -68,7 +68,7 @@ fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {
 // The material with its texture (index + 1 in the flags' high bits, 0: none)
 // looked up at `uv` in place of the colour packed as `albedo`.
 fn textured(m: Material, uv: vec2<f32>) -> Material {
-    let index = m.flags >> MATERIAL_TEXTURE_SHIFT;
+    let index = (m.flags >> MATERIAL_TEXTURE_SHIFT) & ((1u << MATERIAL_TEXTURE_BITS) - 1u);
     if index == 0u {
         return m;
     }
@@ -76,3 +76,85 @@ fn textured(m: Material, uv: vec2<f32>) -> Material {
     out.albedo = texture_eval(index - 1u, uv);
     return out;
 }
+
+#if BUMP_MAPS
+// The luminance of a linear RGB colour (Mitsuba's `luminance`): the height a
+// bump map's texel stands for.
+fn texture_luminance(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.212671, 0.715160, 0.072169));
+}
+
+// The gradient of bitmap `t`'s luminance along the surface's (u, v): analytic
+// on the bilinear patch between the four texels `texture_eval` reads
+// (Mitsuba's `eval_1_grad`), through `to_uv`; zero for the nearest texel,
+// whose lookup is flat almost everywhere.
+fn texture_gradient(t: TextureInfo, surface_uv: vec2<f32>) -> vec2<f32> {
+    if t.nearest != 0u {
+        return vec2<f32>(0.0);
+    }
+    let uv = vec2<f32>(dot(t.to_uv_u, vec3<f32>(surface_uv, 1.0)), dot(t.to_uv_v, vec3<f32>(surface_uv, 1.0)));
+    let size = vec2<f32>(f32(t.width), f32(t.height));
+    let c = clamp(uv * size, vec2<f32>(-1.0e9), vec2<f32>(1.0e9)) - 0.5;
+    let c0 = floor(c);
+    let f = c - c0;
+    let q = vec2<i32>(c0);
+    let f00 = texture_luminance(texture_texel(t, q.x, q.y));
+    let f10 = texture_luminance(texture_texel(t, q.x + 1, q.y));
+    let f01 = texture_luminance(texture_texel(t, q.x, q.y + 1));
+    let f11 = texture_luminance(texture_texel(t, q.x + 1, q.y + 1));
+    // Along the texture's own u' and v' ...
+    let d = size * vec2<f32>(mix(f10 - f00, f11 - f01, f.y), mix(f01 - f00, f11 - f10, f.x));
+    // ... and so along the surface's: d/du = d/du' du'/du + d/dv' dv'/du.
+    return vec2<f32>(t.to_uv_u.x * d.x + t.to_uv_v.x * d.y, t.to_uv_u.y * d.x + t.to_uv_v.y * d.y);
+}
+
+// The shading normal of material `m` at `hit`, perturbed by its bump or normal
+// map (`kinds::Bump`) as Mitsuba's `bumpmap` and `normalmap` perturb theirs;
+// `hit.shading_normal` for a material without. `wo` points back along the ray.
+fn bumped_normal(m: Material, hit: Hit, wo: vec3<f32>) -> vec3<f32> {
+    let n = hit.shading_normal;
+    let index = m.flags >> MATERIAL_BUMP_SHIFT;
+    if index == 0u {
+        return n;
+    }
+    let t = textures_at(index - 1u);
+    var perturbed: vec3<f32>;
+    if (m.flags & MATERIAL_NORMAL_MAP) != 0u {
+        // The texel is the normal in the frame (s, n x s, n), s along dp_du.
+        let along = hit.tangents.dp_du - n * dot(n, hit.tangents.dp_du);
+        let length2 = dot(along, along);
+        var s = tangents_about(n).dp_du;
+        if length2 > 1e-30 && length2 < F32_MAX {
+            s = along * inverseSqrt(length2);
+        }
+        let c = 2.0 * texture_eval(index - 1u, hit.uv) - 1.0;
+        perturbed = c.x * s + c.y * cross(n, s) + c.z * n;
+    } else {
+        // The surface moved along n by the height: its tangents gain the
+        // height's slope along n (and lose any part of them along n).
+        let g = t.bump_scale * texture_gradient(t, hit.uv);
+        // A flat height leaves n as it is: what the formula gives, without
+        // its rounding.
+        if all(g == vec2<f32>(0.0)) {
+            return n;
+        }
+        let dp_du = hit.tangents.dp_du + n * (g.x - dot(n, hit.tangents.dp_du));
+        let dp_dv = hit.tangents.dp_dv + n * (g.y - dot(n, hit.tangents.dp_dv));
+        let c = cross(dp_du, dp_dv);
+        perturbed = select(c, -c, dot(c, hit.normal) < 0.0);
+    }
+    // Normalised by its largest component first, so that tiny and huge tangents
+    // neither underflow nor overflow; NaN and zero keep the unperturbed normal.
+    let largest = max(max(abs(perturbed.x), abs(perturbed.y)), abs(perturbed.z));
+    if !(largest > 0.0 && largest < F32_MAX) {
+        return n;
+    }
+    let b = normalize(perturbed / largest);
+    // Mitsuba's `flip_invalid_normals`: a normal that turns away from the side
+    // `wo` is on is mirrored about n, so the viewer never sees the back of it.
+    if dot(wo, n) * dot(wo, b) <= 0.0 {
+        return 2.0 * dot(b, n) * n - b;
+    }
+    return b;
+}
+#endif

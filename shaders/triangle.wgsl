@@ -140,6 +140,28 @@ fn triangle_hit_uv(tri: Triangle, uvs: TriangleUvs, point: vec3<f32>) -> vec2<f3
 }
 #endif
 
+#if BUMP_MAPS
+// The face's dp_du and dp_dv from its vertex uvs (Mitsuba's mesh: the edges
+// p1 - p0, p2 - p0 in terms of the uv edges); where the uvs span no area (all
+// equal, or on a line) any frame about the face normal.
+fn triangle_hit_tangents(tri: Triangle, uvs: TriangleUvs, point: vec3<f32>) -> Tangents {
+    let duv0 = uvs.uv1 - uvs.uv0;
+    let duv1 = uvs.uv2 - uvs.uv0;
+    let dp0 = tri.p1 - tri.p0;
+    let dp1 = tri.p2 - tri.p0;
+    let det = difference_of_products(duv0.x, duv1.y, duv0.y, duv1.x);
+    let inv_det = 1.0 / det;
+    let dp_du = (duv1.y * dp0 - duv0.y * dp1) * inv_det;
+    let dp_dv = (duv0.x * dp1 - duv1.x * dp0) * inv_det;
+    // Also false for NaN and infinite tangents (det zero or subnormal).
+    let finite = max(max(abs(dp_du), abs(dp_dv)), vec3<f32>(abs(inv_det))) < vec3<f32>(F32_MAX);
+    if !all(finite) {
+        return tangents_about(normalize(triangle_cross(tri)));
+    }
+    return Tangents(dp_du, dp_dv);
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point of the triangle. (Uniform
 // in solid angle, as pbrt-v4, was measured: 2.5-4.6x as efficient under a large,
 // near triangle light, but 0.7x on Mitsuba's Cornell box, where its code alone

@@ -184,6 +184,8 @@ pub const MATERIAL_FLAGS: &[(&str, u32)] = &[
     ("MATERIAL_NONLINEAR", 2),
     // Scatters only on the side its normal faces.
     ("MATERIAL_ONE_SIDED", 4),
+    // Its bump texture (`kinds::Bump`) is a normal map, not a height field.
+    ("MATERIAL_NORMAL_MAP", 8),
 ];
 
 /// The value of the bit named `name` of [`MATERIAL_FLAGS`].

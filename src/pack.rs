@@ -7,8 +7,9 @@ use crate::abi::{GpuLayout, PackedMaterial, material_flag};
 use crate::accel::{PrimitiveArrays, WideBvh};
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
-    KindSet, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT, PRIMITIVE_KINDS, PackedArray,
-    PrimitiveKind, TextureInfo, TextureTables, pack_material, packed_is_masked, packed_kind_id,
+    Bump, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT,
+    PRIMITIVE_KINDS, PackedArray, PrimitiveKind, TextureInfo, TextureTables, pack_material,
+    packed_is_masked, packed_kind_id,
 };
 use crate::lights::{DeltaLight, LightBvh, LightTables, pack_delta_lights};
 use crate::scene::{Camera, MaterialKind, Scene};
@@ -67,14 +68,19 @@ impl SceneData {
             .materials
             .iter()
             .map(|m| {
-                let packed = pack_material(m, &mut material_tables);
-                match &m.texture {
-                    Some(texture) => PackedMaterial {
-                        flags: packed.flags | (textures.add(texture) + 1) << MATERIAL_TEXTURE_SHIFT,
-                        ..packed
-                    },
-                    None => packed,
+                let mut packed = pack_material(m, &mut material_tables);
+                if let Some(texture) = &m.texture {
+                    packed.flags |= (textures.add(texture) + 1) << MATERIAL_TEXTURE_SHIFT;
                 }
+                if let Some(bump) = &m.bump {
+                    let index = textures.add(bump.texture());
+                    textures.infos[index as usize].bump_scale = bump.scale();
+                    packed.flags |= (index + 1) << MATERIAL_BUMP_SHIFT;
+                    if matches!(bump, Bump::NormalMap { .. }) {
+                        packed.flags |= material_flag("MATERIAL_NORMAL_MAP");
+                    }
+                }
+                packed
             })
             .collect();
         // A dielectric of ior 1 bends and reflects nothing: it is left out of the

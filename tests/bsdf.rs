@@ -78,6 +78,7 @@ impl Setup {
                 one_sided: false,
                 opacity: 1.0,
                 texture: None,
+                bump: None,
             },
             &mut material_tables,
         );

@@ -12,9 +12,10 @@ use crate::abi::{
 };
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
-    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_KINDS,
-    MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT,
-    PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, TEXTURE_CONSTANTS,
+    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
+    MATERIAL_KINDS, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX,
+    MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES,
+    TEXTURE_CONSTANTS,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -53,6 +54,8 @@ pub fn shared_constants() -> String {
     constant("MATERIAL_TRANSPARENCY_SHIFT", MATERIAL_TRANSPARENCY_SHIFT);
     constant("MATERIAL_TRANSPARENCY_MAX", MATERIAL_TRANSPARENCY_MAX);
     constant("MASK_RAY_HITS", MASK_RAY_HITS);
+    constant("MATERIAL_TEXTURE_BITS", MATERIAL_TEXTURE_BITS);
+    constant("MATERIAL_BUMP_SHIFT", MATERIAL_BUMP_SHIFT);
     for &(name, value) in TEXTURE_CONSTANTS {
         constant(name, value);
     }
@@ -419,6 +422,24 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
                 kind.array
             )
             .unwrap();
+        }
+        if config.bump_maps {
+            let kind = PRIMITIVE_KINDS[k];
+            match kind.uv_tangents {
+                true => {
+                    let uvs = match kind.texture_uvs {
+                        Some(_) => format!("{}_at(hit_index), ", kind.uvs_array()),
+                        None => String::new(),
+                    };
+                    write!(
+                        set,
+                        " hit.tangents = {name}_hit_tangents({}_at(hit_index), {uvs}hit.p);",
+                        kind.array
+                    )
+                    .unwrap();
+                }
+                false => set.push_str(" hit.tangents = tangents_about(hit.normal);"),
+            }
         }
         set
     };
@@ -939,7 +960,7 @@ pub fn bsdf(config: &KernelConfig) -> String {
         .collect();
     // With shading normals, each entry point of the interface passes through
     // the leak check of materials.wgsl (`shading_`: the material's own answer).
-    let shading = !config.normal_kinds.is_empty();
+    let shading = config.shading_normals();
     let prefix = if shading { "shading_" } else { "" };
     dispatch(
         &mut out,
@@ -1002,11 +1023,22 @@ pub fn bsdf(config: &KernelConfig) -> String {
         None,
     );
     if shading {
+        // Bump and normal maps shadow themselves (`bump_shadowing`); the
+        // density is left as it is, as Mitsuba leaves it.
+        let value = match config.bump_maps {
+            true => "shading_bsdf_eval(m, frame, wo, wi) * bump_shadowing(frame, wi)",
+            false => "shading_bsdf_eval(m, frame, wo, wi)",
+        };
+        write!(
+            out,
+            "fn bsdf_eval(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {{
+    return select({value}, vec3<f32>(0.0), bsdf_leaks(frame, wi));
+}}
+"
+        )
+        .unwrap();
         out.push_str(
-            "fn bsdf_eval(m: Material, frame: Frame, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
-    return select(shading_bsdf_eval(m, frame, wo, wi), vec3<f32>(0.0), bsdf_leaks(frame, wi));
-}
-fn smooth_bsdf_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
+            "fn smooth_bsdf_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
     return bsdf_sample_checked(frame, shading_smooth_bsdf_sample(m, frame, wo));
 }
 ",

@@ -11,8 +11,8 @@ use crate::abi::{
 use crate::accel::{self, WideBvh, WideBvhNode};
 use crate::environment::EnvironmentInfo;
 use crate::kinds::{
-    ErasedLayout, FILTER_FLAGS, FILTER_MODULE, KindSet, MATERIAL_KINDS, PRIMITIVE_KINDS,
-    PackedArray, TextureInfo,
+    ErasedLayout, FILTER_FLAGS, FILTER_MODULE, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_KINDS,
+    PRIMITIVE_KINDS, PackedArray, TextureInfo,
 };
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::pack::SceneData;
@@ -58,6 +58,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "DELTA_LIGHTS",
     "DELTA_LIGHTS_PICK",
     "TEXTURES",
+    "BUMP_MAPS",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -382,6 +383,10 @@ pub struct KernelConfig {
     pub delta_light_pick: bool,
     /// Some material has a texture: hits carry texture coordinates.
     pub textures: bool,
+    /// Some material has a bump or normal map (`kinds::Bump`; implies
+    /// `textures`): hits carry their tangents along u and v, the shading
+    /// normal is perturbed, and the leak check of shading normals applies.
+    pub bump_maps: bool,
     /// How the light density weighs the grouped lights (mesh faces).
     pub grouped_density: GroupedDensity,
     /// How the arrays read from memory are bound: textures unless the device
@@ -597,6 +602,10 @@ impl KernelConfig {
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
+            bump_maps: data
+                .materials
+                .iter()
+                .any(|m| m.flags >> MATERIAL_BUMP_SHIFT != 0),
             grouped_density,
             array_memory: ArrayMemory::Textures,
         }
@@ -657,9 +666,16 @@ impl KernelConfig {
             delta_lights: true,
             delta_light_pick: false,
             textures: true,
+            bump_maps: true,
             grouped_density: GroupedDensity::Walk,
             array_memory: ArrayMemory::Textures,
         }
+    }
+
+    /// Whether shading normals differ from the geometric ones anywhere:
+    /// interpolated on smooth meshes, or perturbed by bump and normal maps.
+    pub fn shading_normals(&self) -> bool {
+        !self.normal_kinds.is_empty() || self.bump_maps
     }
 
     pub fn scene_storage(&self) -> SceneStorage {
@@ -756,7 +772,7 @@ impl KernelConfig {
             ("ADAPTIVE", self.adaptive),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh()),
-            ("SHADING_NORMALS", !self.normal_kinds.is_empty()),
+            ("SHADING_NORMALS", self.shading_normals()),
             ("ONE_SIDED", self.one_sided),
             ("MASK", self.masked),
             ("ENVIRONMENT", self.environment),
@@ -767,6 +783,7 @@ impl KernelConfig {
                 self.delta_lights && self.delta_light_pick,
             ),
             ("TEXTURES", self.textures),
+            ("BUMP_MAPS", self.bump_maps),
         ];
         for (flag, on) in features {
             if on {
@@ -916,6 +933,7 @@ impl KernelConfig {
             environment: false,
             light_environment: false,
             textures: false,
+            bump_maps: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let mut modules = probe_prelude();
@@ -1317,6 +1335,7 @@ pub(crate) mod tests {
                             // Both ways of estimating them, on the BVH bit.
                             delta_light_pick: mask >> (primitives + 1) != 0,
                             textures: variance,
+                            bump_maps: variance,
                             ..general.clone()
                         });
                     }
@@ -1852,10 +1871,14 @@ pub(crate) mod tests {
             environment: false,
             light_environment: false,
             delta_lights: false,
+            textures: false,
+            bump_maps: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let source = config.source().unwrap();
         for absent in [
+            "bumped_normal",
+            "tangents",
             "sphere_hit_t",
             "dielectric_sample",
             "metal_sample",

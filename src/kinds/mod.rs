@@ -45,7 +45,7 @@ pub use filter::{
 };
 pub(crate) use material::NAMED_IORS;
 pub use material::{
-    Distribution, Lobe, MASK_RAY_HITS, MATERIAL_KINDS, MATERIAL_TRANSPARENCY_MAX,
+    Bump, Distribution, Lobe, MASK_RAY_HITS, MATERIAL_KINDS, MATERIAL_TRANSPARENCY_MAX,
     MATERIAL_TRANSPARENCY_SHIFT, Material, MaterialKind, MaterialModel, MaterialTables,
     pack_material, packed_is_masked, packed_kind_id,
 };
@@ -56,8 +56,9 @@ pub use params::{SceneError, excerpt};
 pub use quad::{PackedQuad, Quad};
 pub use sphere::{PackedSphere, Sphere};
 pub use texture::{
-    Bitmap, MATERIAL_TEXTURE_SHIFT, TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo,
-    TextureKind, TextureTables, UvTransform, WrapMode, serialize_texels,
+    Bitmap, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT, MAX_TEXTURES,
+    TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo, TextureKind, TextureTables,
+    UvTransform, WrapMode, serialize_texels,
 };
 pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 
@@ -177,7 +178,13 @@ primitive_kinds! {
 /// - under the flag `TEXTURES`, `fn NAME_hit_uv(p: S, point: vec3<f32>) ->
 ///   vec2<f32>`: Mitsuba's texture coordinates of the shape at a hit point; a
 ///   kind with `texture_uvs` takes them from its element `uvs` of the array
-///   `NAME_uvs` as a second argument.
+///   `NAME_uvs` as a second argument;
+/// - with `uv_tangents`, under the flag `BUMP_MAPS`, `fn NAME_hit_tangents(p:
+///   S, point: vec3<f32>) -> Tangents` (with the uvs as `NAME_hit_uv` takes
+///   them): the surface's derivatives along its texture coordinates, Mitsuba's
+///   `dp_du` and `dp_dv`, or any frame about the normal where they are
+///   degenerate. Kinds without it use such a frame everywhere
+///   (`shaders/textures.wgsl`).
 ///
 /// The WGSL struct's first `u32` field named `material` indexes the materials.
 /// A kind with `grouped_lights` also has a `u32` field named `light`: the
@@ -208,6 +215,9 @@ pub struct PrimitiveKind {
     /// whose own geometry does not give them (mesh faces); the array exists
     /// only in kernels of scenes with textures.
     pub texture_uvs: Option<ErasedLayout>,
+    /// Its module defines `NAME_hit_tangents`, which bump and normal maps orient
+    /// and scale their perturbation by.
+    pub uv_tangents: bool,
     /// Its lights come in groups (a mesh's faces), each group one object of the
     /// light density, a member picked by power (`lights::LightTables`). The
     /// module then defines `fn NAME_light_sample` and `NAME_light_pdf` per

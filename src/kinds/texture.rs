@@ -13,8 +13,10 @@
 //! Textures as the kernel reads them (`shaders/textures.wgsl`): one
 //! `TextureInfo` per texture and one array of every bitmap's texels. A
 //! textured material names its texture in the high bits of its flags
-//! (index + 1 above [`MATERIAL_TEXTURE_SHIFT`]; 0: none), so materials pack as
-//! before and untextured scenes are unchanged.
+//! (index + 1 in the [`MATERIAL_TEXTURE_BITS`] above [`MATERIAL_TEXTURE_SHIFT`];
+//! 0: none), and its bump or normal map the same way above
+//! [`MATERIAL_BUMP_SHIFT`], so materials pack as before and untextured scenes
+//! are unchanged.
 
 use crate::abi::gpu_struct;
 use glam::{Vec2, Vec3};
@@ -210,6 +212,12 @@ impl Texture {
 
 /// Where a material's texture index + 1 starts in `Material::flags`.
 pub const MATERIAL_TEXTURE_SHIFT: u32 = 8;
+/// How many bits it has, and its bump texture's index + 1 those above it.
+pub const MATERIAL_TEXTURE_BITS: u32 = 12;
+pub const MATERIAL_BUMP_SHIFT: u32 = MATERIAL_TEXTURE_SHIFT + MATERIAL_TEXTURE_BITS;
+/// The most textures a scene's materials may have, bump maps included: each
+/// index + 1 fits [`MATERIAL_TEXTURE_BITS`].
+pub const MAX_TEXTURES: usize = (1 << MATERIAL_TEXTURE_BITS) - 1;
 
 /// The constants `TextureInfo::kind` and `wrap` take, shared with WGSL.
 pub const TEXTURE_CONSTANTS: &[(&str, u32)] = &[
@@ -231,7 +239,8 @@ fn constant(name: &str) -> u32 {
 gpu_struct! {
     /// One texture: its `to_uv` rows, and the checkerboard's colours or the
     /// bitmap's size and first texel (an index into the texel array, three
-    /// floats a texel, row-major from the top row).
+    /// floats a texel, row-major from the top row). `bump_scale`: a bump
+    /// map's `scale` (`kinds::Bump`), 0 for other textures.
     pub struct TextureInfo {
         pub to_uv_u: [f32; 3],
         pub kind: u32,
@@ -243,7 +252,7 @@ gpu_struct! {
         pub height: u32,
         pub offset: u32,
         pub nearest: u32,
-        pub _pad0: u32,
+        pub bump_scale: f32,
         pub _pad1: u32,
     }
 }

@@ -52,7 +52,10 @@ pub const MAX_TEXT_BYTES: usize = 256 << 20;
 const VERSIONS: [u32; 2] = [2, 3];
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
-                               thindielectric, plastic, roughplastic, twosided, mask";
+                               thindielectric, plastic, roughplastic, twosided, mask, bumpmap, \
+                               normalmap";
+/// The material keys a `bumpmap` or `normalmap` sets (`kinds::Bump`).
+const BUMP_KEYS: [&str; 2] = ["bump", "normal_map"];
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
 const SUPPORTED_TOP: &str =
     "default, include, path, integrator, sensor, shape, bsdf, emitter, texture";
@@ -1087,6 +1090,9 @@ enum Surface {
         /// A colour or a texture table.
         albedo: Value,
         one_sided: bool,
+        /// From an enclosing `bumpmap` or `normalmap`: the material key
+        /// (`bump`, `normal_map`) and its value.
+        bump: Option<(&'static str, Value)>,
     },
     /// One of pathmix's microfacet-era materials, named and parameterised as
     /// Mitsuba's plugin of the same name: its TOML table, `type` included.
@@ -1101,7 +1107,7 @@ impl Surface {
     /// Whether one of its colours is a texture (a table among its values).
     fn is_textured(&self) -> bool {
         match self {
-            Surface::Lambertian { albedo, .. } => albedo.is_table(),
+            Surface::Lambertian { albedo, bump, .. } => albedo.is_table() || bump.is_some(),
             Surface::Mitsuba { table, .. } => table.values().any(Value::is_table),
         }
     }
@@ -1352,6 +1358,7 @@ impl<'a> Builder<'a> {
                     Surface::Lambertian {
                         albedo,
                         one_sided: !twosided,
+                        bump: None,
                     },
                     1.0,
                 )
@@ -1417,6 +1424,7 @@ impl<'a> Builder<'a> {
                 let (surface, inner_opacity) = self.surface(inner, twosided)?;
                 (surface, opacity * inner_opacity)
             }
+            ty @ ("bumpmap" | "normalmap") => self.bumped(&mut props, ty, twosided)?,
             _ => {
                 return Err(e
                     .origin
@@ -1425,6 +1433,93 @@ impl<'a> Builder<'a> {
         };
         props.finish()?;
         Ok(surface)
+    }
+
+    /// Mitsuba's `bumpmap` (a height texture of any name, `scale`) or
+    /// `normalmap` (its `normalmap` texture) around one nested BSDF: that
+    /// BSDF's material with the key `bump` or `normal_map`
+    /// (`kinds::Bump`). Mitsuba's defaults, `flip_invalid_normals` and
+    /// `use_shadowing_function`, are pathmix's only way.
+    fn bumped(
+        &mut self,
+        props: &mut Props<'a>,
+        ty: &str,
+        twosided: bool,
+    ) -> Result<(Surface, f64)> {
+        let e = props.elem;
+        let mut bsdf = None;
+        let mut texture = None;
+        for child in props.objects(&["bsdf", "texture", "ref"]) {
+            let target = self.resolve(child)?;
+            let slot = match target.tag.as_str() {
+                "bsdf" => &mut bsdf,
+                "texture" => &mut texture,
+                other => {
+                    return Err(child.origin.error(format!(
+                        "a {ty} takes one <bsdf> and one <texture>, not a <{other}>"
+                    )));
+                }
+            };
+            if slot.replace((child, target)).is_some() {
+                return Err(child
+                    .origin
+                    .error(format!("a second <{}> in one {ty}", target.tag)));
+            }
+        }
+        let (Some((_, bsdf)), Some((reference, texture))) = (bsdf, texture) else {
+            return Err(e.origin.error(format!(
+                "a {ty} takes exactly one nested <bsdf> and one <texture>"
+            )));
+        };
+        if ty == "normalmap" && reference.name() != Some("normalmap") {
+            return Err(reference
+                .origin
+                .error("a normalmap's texture is named `normalmap`"));
+        }
+        if texture.ty() != "bitmap" {
+            return Err(texture.origin.error(format!(
+                "a {ty}'s texture must be a bitmap (pathmix takes no other texture's gradient)"
+            )));
+        }
+        let map = self.texture(texture)?;
+        if props.boolean("flip_invalid_normals")? == Some(false) {
+            return Err(e.origin.error(
+                "flip_invalid_normals = false is not supported (pathmix always flips \
+                 normals that face away from the viewer)",
+            ));
+        }
+        if props.boolean("use_shadowing_function")? == Some(false) {
+            return Err(e.origin.error(
+                "use_shadowing_function = false is not supported (pathmix always applies \
+                 the bump's shadowing term, Mitsuba's default)",
+            ));
+        }
+        let bump = match ty {
+            "bumpmap" => {
+                let mut table = Table::new();
+                table.insert("texture".into(), map);
+                if let Some(scale) = props.float("scale")? {
+                    table.insert("scale".into(), Value::Float(scale));
+                }
+                ("bump", Value::Table(table))
+            }
+            _ => ("normal_map", map),
+        };
+        let (mut surface, opacity) = self.surface(bsdf, twosided)?;
+        let taken = match &mut surface {
+            Surface::Lambertian { bump: slot, .. } => slot.replace(bump).is_some(),
+            Surface::Mitsuba { table, .. } => {
+                let taken = BUMP_KEYS.iter().any(|k| table.contains_key(*k));
+                table.insert(bump.0.into(), bump.1);
+                taken
+            }
+        };
+        if taken {
+            return Err(e
+                .origin
+                .error("a bumpmap or normalmap inside another is not supported"));
+        }
+        Ok((surface, opacity))
     }
 
     /// The colour property `name`: a constant (`[r, g, b]`), or a nested or
@@ -1557,6 +1652,7 @@ impl<'a> Builder<'a> {
                         Surface::Lambertian {
                             albedo: color_value([albedo; 3]),
                             one_sided: true,
+                            bump: None,
                         },
                         1.0,
                     ),
@@ -1577,9 +1673,19 @@ impl<'a> Builder<'a> {
         };
         let mut table = Table::new();
         let full_name = match (&surface, &emit) {
-            (Surface::Lambertian { albedo, one_sided }, _) => {
+            (
+                Surface::Lambertian {
+                    albedo,
+                    one_sided,
+                    bump,
+                },
+                _,
+            ) => {
                 table.insert("type".into(), Value::String("lambertian".into()));
                 table.insert("albedo".into(), albedo.clone());
+                if let Some((key, value)) = bump {
+                    table.insert(key.to_string(), value.clone());
+                }
                 if *one_sided {
                     table.insert("one_sided".into(), Value::Boolean(true));
                 }

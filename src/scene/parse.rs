@@ -23,6 +23,7 @@ use super::{
     Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings, Roulette, Sampler,
     Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle, excerpt,
 };
+use crate::kinds::MAX_TEXTURES;
 use crate::kinds::params::{
     ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
     colour, fmt_num, fmt_vec, list, named, number, ok, reflectance, type_name, unknown_name,
@@ -436,9 +437,20 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
     let mut names: Vec<&String> = mats.table.keys().collect();
     names.sort();
     let mut out = Vec::with_capacity(names.len());
+    let mut textures = 0;
     for name in names {
         let t = mats.sub(name)?.expect("key exists");
-        out.push(Material::parse(name, &t, parse_texture)?);
+        let material = Material::parse(name, &t, parse_texture)?;
+        textures += material.texture.is_some() as usize + material.bump.is_some() as usize;
+        if textures > MAX_TEXTURES {
+            return Err(t.err(
+                t.here(),
+                format!(
+                    "more than {MAX_TEXTURES} textures (bump and normal maps included) in one scene"
+                ),
+            ));
+        }
+        out.push(material);
     }
     Ok(out)
 }
@@ -974,6 +986,7 @@ fn file_materials(t: &ParamTable, mesh: &super::mesh::Mesh, base: u32) -> Result
                 one_sided: false,
                 opacity: 1.0,
                 texture: None,
+                bump: None,
             })
         })
         .collect()

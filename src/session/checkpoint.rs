@@ -1225,6 +1225,7 @@ mod tests {
             one_sided: false,
             opacity: 1.0,
             texture: None,
+            bump: None,
         };
         Scene {
             source: "small.toml".into(),

@@ -146,7 +146,7 @@ pub enum SessionError {
     #[error(transparent)]
     Override(#[from] OverrideError),
     #[error("cannot resume: {0}")]
-    Resume(CheckpointError),
+    Resume(Box<CheckpointError>),
     #[error("no scene file given")]
     NoScene,
     #[error(
@@ -289,7 +289,7 @@ impl Session {
         let resume = match &request.resume {
             Some(path) => Some((
                 path.clone(),
-                checkpoint::read(path).map_err(SessionError::Resume)?,
+                checkpoint::read(path).map_err(|e| SessionError::Resume(Box::new(e)))?,
             )),
             None => None,
         };

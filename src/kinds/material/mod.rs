@@ -7,6 +7,7 @@
 //! [`MATERIAL_KINDS`] (its id in the kernel), and so the scene files' type
 //! names and keys. What several kinds share is in `common.rs`.
 
+mod bump;
 mod common;
 mod conductor;
 mod dielectric;
@@ -20,6 +21,7 @@ mod roughplastic;
 mod smoothdielectric;
 mod thindielectric;
 
+pub use bump::Bump;
 pub use common::Distribution;
 #[cfg(test)]
 pub(crate) use common::NAMED_CONDUCTORS;
@@ -215,7 +217,11 @@ pub(crate) fn material_types() -> Vec<&'static str> {
 /// `type` may hold (its typos are suggested from these).
 pub(crate) fn material_keys() -> Vec<&'static str> {
     let mut keys = Vec::new();
-    for &key in MATERIAL_KINDS.iter().flat_map(|kind| kind.keys) {
+    for &key in MATERIAL_KINDS
+        .iter()
+        .flat_map(|kind| kind.keys)
+        .chain(bump::BUMP_KEYS)
+    {
         if !keys.contains(&key) {
             keys.push(key);
         }
@@ -263,6 +269,11 @@ pub struct Material {
     /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
     /// which then holds the texture's mean.
     pub texture: Option<Texture>,
+    /// A bump or normal map (Mitsuba's `bumpmap`, `normalmap`). Left out of
+    /// the serialized material when absent, so the checkpoint identities of
+    /// scenes without one are as before.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bump: Option<Bump>,
 }
 
 impl Material {
@@ -291,9 +302,19 @@ impl Material {
                 unknown_name("material type", ty, &material_types()),
             ));
         };
-        t.check_keys(&[model.keys, &[OPACITY]].concat(), Some(&model.what()))?;
+        // Any material that scatters may have its shading normal perturbed.
+        let scatters = model.lobe != Lobe::Absorbing;
+        let mut keys: Vec<&str> = model.keys.iter().chain([&OPACITY]).copied().collect();
+        if scatters {
+            keys.extend(bump::BUMP_KEYS);
+        }
+        t.check_keys(&keys, Some(&model.what()))?;
         let mut slot = TextureSlot::new(read_texture);
         let Parsed { kind, albedo, emit } = (model.parse)(t, &mut slot)?;
+        let bump = match scatters {
+            true => bump::parse_bump(t, read_texture)?,
+            false => None,
+        };
         Ok(Material {
             name: name.to_string(),
             kind,
@@ -302,6 +323,7 @@ impl Material {
             one_sided: t.boolean("one_sided")?.unwrap_or(false),
             opacity: t.float(OPACITY, check_unit)?.unwrap_or(1.0),
             texture: slot.texture,
+            bump,
         })
     }
 }
