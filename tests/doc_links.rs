@@ -370,7 +370,7 @@ fn check_link(root: &Path, file: &Path, link: &Link) -> Option<String> {
     };
     let anchors = anchors(&text);
     let wanted = percent_decode(anchor).to_lowercase();
-    if anchors.iter().any(|a| *a == wanted) {
+    if anchors.contains(&wanted) {
         None
     } else {
         Some(format!(
