@@ -1,13 +1,15 @@
 //! `dielectric`: the book's glass, a smooth interface that reflects or
-//! refracts by the Fresnel reflectance of its relative index.
+//! refracts by Schlick's approximation of the Fresnel reflectance of its
+//! relative index.
 //!
 //! - `ior` (float > 0): the relative index (interior over exterior); or
 //!   instead `int_ior` and `ext_ior` (numbers > 0 or Mitsuba's names, defaults
 //!   `"bk7"` and `"air"`, which must differ), `ior` being their ratio. One of
 //!   the two forms is required.
 //!
-//! Two-sided (no `one_sided`); no albedo or emission. Mitsuba's `dielectric`
-//! becomes this kind. Packed: `param` = ior. WGSL: `shaders/dielectric.wgsl`.
+//! Two-sided (no `one_sided`); no albedo or emission. Mitsuba's `dielectric`,
+//! with the exact reflectance, is `smoothdielectric`. Packed: `param` = ior.
+//! WGSL: `shaders/dielectric.wgsl`.
 
 use super::common::{IOR_BK7, TextureSlot, iors};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
