@@ -3,11 +3,11 @@
 //! colour that may be a texture), Mitsuba's named indices and conductors, and
 //! the packing helpers and limits of the Fresnel and microfacet models.
 
-use crate::abi::material_flag;
+use crate::abi::{PackedMaterial, material_flag};
 use crate::kinds::Texture;
 use crate::kinds::params::{
     ParamTable, Result, check_nonneg, check_positive, check_unit, colour, fmt_num, named,
-    unknown_name,
+    reflectance, unknown_name,
 };
 use crate::shader::{ShaderModule, shader_module};
 use glam::Vec3;
@@ -127,6 +127,48 @@ pub(super) fn iors(t: &ParamTable, int_default: f32) -> Result<(f32, f32)> {
         ));
     }
     Ok((int_ior, ext_ior))
+}
+
+/// The keys of a smooth interface between two dielectrics (`smoothdielectric`,
+/// `thindielectric`).
+pub(super) const INTERFACE_KEYS: &[&str] = &[
+    "type",
+    "int_ior",
+    "ext_ior",
+    "specular_reflectance",
+    "specular_transmittance",
+];
+
+/// A smooth interface's parameters as Mitsuba names them: [`iors`] with BK7
+/// inside, and the two tints (colours in [0, 1], default 1).
+pub(super) struct Interface {
+    pub int_ior: f32,
+    pub ext_ior: f32,
+    pub specular_reflectance: Vec3,
+    pub specular_transmittance: Vec3,
+}
+
+impl Interface {
+    pub(super) fn read(t: &ParamTable) -> Result<Interface> {
+        let (int_ior, ext_ior) = iors(t, IOR_BK7)?;
+        Ok(Interface {
+            int_ior,
+            ext_ior,
+            specular_reflectance: reflectance(t, "specular_reflectance", 1.0)?,
+            specular_transmittance: reflectance(t, "specular_transmittance", 1.0)?,
+        })
+    }
+
+    /// Packed: `albedo` = specular_reflectance, `color2` =
+    /// specular_transmittance, `param` = eta (int_ior / ext_ior).
+    pub(super) fn pack(&self) -> PackedMaterial {
+        PackedMaterial {
+            albedo: self.specular_reflectance.to_array(),
+            color2: self.specular_transmittance.to_array(),
+            param: self.int_ior / self.ext_ior,
+            ..Default::default()
+        }
+    }
 }
 
 /// A conductor's complex index `eta + i k`, per channel: `eta` and `k`, or a

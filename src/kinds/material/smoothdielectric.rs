@@ -19,10 +19,10 @@
 //! `color2` = specular_transmittance, `param` = eta (int_ior / ext_ior). WGSL:
 //! `shaders/smoothdielectric.wgsl`.
 
-use super::common::{FRESNEL, IOR_BK7, TextureSlot, iors};
+use super::common::{FRESNEL, INTERFACE_KEYS, Interface, TextureSlot};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
 use crate::abi::PackedMaterial;
-use crate::kinds::params::{ParamTable, Result, reflectance};
+use crate::kinds::params::{ParamTable, Result};
 use crate::shader::shader_module;
 
 pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
@@ -31,25 +31,24 @@ pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
     helpers: &[FRESNEL],
     lobe: Lobe::Delta,
     tables: false,
-    keys: &[
-        "type",
-        "int_ior",
-        "ext_ior",
-        "specular_reflectance",
-        "specular_transmittance",
-    ],
+    keys: INTERFACE_KEYS,
     keys_note: None,
     parse,
     pack,
 };
 
 fn parse(t: &ParamTable, _: &mut TextureSlot) -> Result<Parsed> {
-    let (int_ior, ext_ior) = iors(t, IOR_BK7)?;
+    let Interface {
+        int_ior,
+        ext_ior,
+        specular_reflectance,
+        specular_transmittance,
+    } = Interface::read(t)?;
     Ok(MaterialKind::SmoothDielectric {
         int_ior,
         ext_ior,
-        specular_reflectance: reflectance(t, "specular_reflectance", 1.0)?,
-        specular_transmittance: reflectance(t, "specular_transmittance", 1.0)?,
+        specular_reflectance,
+        specular_transmittance,
     }
     .into())
 }
@@ -62,19 +61,20 @@ fn pack(material: &Material, _: &mut MaterialTables) -> PackedMaterial {
         specular_transmittance,
     } = material.kind
     else {
-        unreachable!("SMOOTHDIELECTRIC packs smooth dielectrics")
+        unreachable!("SMOOTHDIELECTRIC packs SmoothDielectric")
     };
-    PackedMaterial {
-        albedo: specular_reflectance.to_array(),
-        color2: specular_transmittance.to_array(),
-        param: int_ior / ext_ior,
-        ..Default::default()
+    Interface {
+        int_ior,
+        ext_ior,
+        specular_reflectance,
+        specular_transmittance,
     }
+    .pack()
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::common::IOR_AIR;
+    use super::super::common::{IOR_AIR, IOR_BK7};
     use super::super::read;
     use super::*;
     use glam::Vec3;
