@@ -158,18 +158,14 @@ fn fresnel(c: f64, eta: f64) -> f64 {
     0.5 * (rs * rs + rp * rp)
 }
 
-/// A thin slab at 60 degrees to the view, a red emitter straight behind it and a
-/// green one where it mirrors the view: red shows the transmitted 1 - R', green
-/// the reflected R' = 2R / (1 + R) (every bounce inside the slab summed), R the
-/// exact Fresnel reflectance of one interface.
-#[test]
-fn thindielectric_slab_transmits_and_reflects_the_analytic_fractions() {
-    let ctx = gpu_or_skip!();
-    let (eta, emit) = (1.5f64, 2.0f64);
-    let r = fresnel(0.5, eta);
-    let slab = 2.0 * r / (1.0 + r);
+/// A quad of `material` (a `[materials.*]` table's body) at 60 degrees to a
+/// narrow view, centred 5 down it: its normal (sin 60, 0, cos 60), edges 2
+/// long. A red emitter of `emit` lies behind it (the square of side `red_side`
+/// about the view at z = -20, to catch what passes straight or bent), a green
+/// one where the quad mirrors the view; one scattering event, 8192 independent
+/// samples.
+fn interface_at_60_degrees(material: &str, emit: f64, red_side: f64) -> pathmix::scene::Scene {
     let (sin60, cos60) = (3f64.sqrt() / 2.0, 0.5);
-    // Normal (sin 60, 0, cos 60); edges 2 long, centred 5 down the view (-z).
     let u = [0.0, 2.0, 0.0];
     let v = [-2.0 * cos60, 0.0, 2.0 * sin60];
     let q = [
@@ -177,7 +173,8 @@ fn thindielectric_slab_transmits_and_reflects_the_analytic_fractions() {
         -(u[1] + v[1]) / 2.0,
         -5.0 - (u[2] + v[2]) / 2.0,
     ];
-    let scene = common::scene_text(&format!(
+    let half = red_side / 2.0;
+    common::scene_text(&format!(
         r#"
         [camera]
         lookfrom = [0, 0, 0]
@@ -189,10 +186,8 @@ fn thindielectric_slab_transmits_and_reflects_the_analytic_fractions() {
         spp = 8192
         max_depth = 1
         sampler = "independent"
-        [materials.slab]
-        type = "thindielectric"
-        int_ior = {eta}
-        ext_ior = 1
+        [materials.interface]
+        {material}
         [materials.red]
         type = "light"
         emit = [{emit}, 0, 0]
@@ -204,12 +199,12 @@ fn thindielectric_slab_transmits_and_reflects_the_analytic_fractions() {
         q = {q:?}
         u = {u:?}
         v = {v:?}
-        material = "slab"
+        material = "interface"
         [[objects]]
         type = "quad"
-        q = [-5, -5, -20]
-        u = [10, 0, 0]
-        v = [0, 10, 0]
+        q = [-{half}, -{half}, -20]
+        u = [{red_side}, 0, 0]
+        v = [0, {red_side}, 0]
         material = "red"
         [[objects]]
         type = "quad"
@@ -218,7 +213,24 @@ fn thindielectric_slab_transmits_and_reflects_the_analytic_fractions() {
         v = [0, 40, 0]
         material = "green"
         "#
-    ));
+    ))
+}
+
+/// A thin slab at 60 degrees to the view, a red emitter straight behind it and a
+/// green one where it mirrors the view: red shows the transmitted 1 - R', green
+/// the reflected R' = 2R / (1 + R) (every bounce inside the slab summed), R the
+/// exact Fresnel reflectance of one interface.
+#[test]
+fn thindielectric_slab_transmits_and_reflects_the_analytic_fractions() {
+    let ctx = gpu_or_skip!();
+    let (eta, emit) = (1.5f64, 2.0f64);
+    let r = fresnel(0.5, eta);
+    let slab = 2.0 * r / (1.0 + r);
+    let scene = interface_at_60_degrees(
+        &format!("type = \"thindielectric\"\nint_ior = {eta}\next_ior = 1"),
+        emit,
+        10.0,
+    );
     let acc = common::render(ctx, &scene, &common::with_variance());
     let [(red, red_error), (green, green_error), (blue, _)] = channel_means_and_errors(&acc);
     let (expected_red, expected_green) = (emit * (1.0 - slab), emit * slab);
@@ -245,56 +257,11 @@ fn smoothdielectric_reflects_and_refracts_the_analytic_fractions() {
     let ctx = gpu_or_skip!();
     let (eta, emit) = (1.5f64, 2.0f64);
     let r = fresnel(0.5, eta);
-    let (sin60, cos60) = (3f64.sqrt() / 2.0, 0.5);
-    let u = [0.0, 2.0, 0.0];
-    let v = [-2.0 * cos60, 0.0, 2.0 * sin60];
-    let q = [
-        -(u[0] + v[0]) / 2.0,
-        -(u[1] + v[1]) / 2.0,
-        -5.0 - (u[2] + v[2]) / 2.0,
-    ];
-    let scene = common::scene_text(&format!(
-        r#"
-        [camera]
-        lookfrom = [0, 0, 0]
-        lookat = [0, 0, -1]
-        vfov = 0.5
-        width = 4
-        height = 4
-        [render]
-        spp = 8192
-        max_depth = 1
-        sampler = "independent"
-        [materials.glass]
-        type = "smoothdielectric"
-        int_ior = {eta}
-        ext_ior = 1
-        [materials.red]
-        type = "light"
-        emit = [{emit}, 0, 0]
-        [materials.green]
-        type = "light"
-        emit = [0, {emit}, 0]
-        [[objects]]
-        type = "quad"
-        q = {q:?}
-        u = {u:?}
-        v = {v:?}
-        material = "glass"
-        [[objects]]
-        type = "quad"
-        q = [-100, -100, -20]
-        u = [200, 0, 0]
-        v = [0, 200, 0]
-        material = "red"
-        [[objects]]
-        type = "quad"
-        q = [10, -20, -30]
-        u = [0, 0, 40]
-        v = [0, 40, 0]
-        material = "green"
-        "#
-    ));
+    let scene = interface_at_60_degrees(
+        &format!("type = \"smoothdielectric\"\nint_ior = {eta}\next_ior = 1"),
+        emit,
+        200.0,
+    );
     let acc = common::render(ctx, &scene, &common::with_variance());
     let [(red, red_error), (green, green_error), (blue, _)] = channel_means_and_errors(&acc);
     let (expected_red, expected_green) = (emit * (1.0 - r) / (eta * eta), emit * r);
