@@ -86,42 +86,13 @@ fn a_masked_plane_is_seen_in_proportion_to_its_opacity() {
 /// relative, and 1e-6 absolute for an expected 0).
 fn assert_floor(albedo: f64, lights: &str, extra: &str, expected: f64, what: &str) {
     let ctx = gpu_or_skip!();
-    for strategy in ["bsdf", "light", "mixture", "nee-mis"] {
-        let scene = common::scene_text(&format!(
-            r#"
-            [camera]
-            lookfrom = [0, 0.5, 0]
-            lookat = [0, 0, 0]
-            vup = [0, 0, -1]
-            vfov = 0.2
-            width = 4
-            height = 4
-            [render]
-            spp = 4096
-            max_depth = 1
-            strategy = "{strategy}"
-            sampler = "independent"
-            [materials.floor]
-            type = "lambertian"
-            albedo = [{albedo}, {albedo}, {albedo}]
-            [[objects]]
-            type = "quad"
-            q = [-10, 0, -10]
-            u = [0, 0, 20]
-            v = [20, 0, 0]
-            material = "floor"
-            {lights}
-            {extra}
-            "#
-        ));
-        let acc = common::render(ctx, &scene, &common::with_variance());
-        let (mean, error) = common::image_mean_and_error(&acc);
-        println!("{what} {strategy}: {mean:.6} ± {error:.6}, expected {expected:.6}");
-        assert!(
-            (mean - expected).abs() < 4.0 * error + 1e-4 * expected + 1e-6,
-            "{what} {strategy}: {mean} ± {error} against {expected}"
-        );
-    }
+    common::assert_floor_patch(
+        ctx,
+        (albedo, 0.5),
+        &format!("{lights}\n{extra}"),
+        (expected, 1e-6),
+        what,
+    );
 }
 
 /// A disk light of radius r and radiance L at height h, facing down (its

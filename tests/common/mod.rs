@@ -205,6 +205,32 @@ pub fn assert_lit_floor(
     expected: f64,
     what: &str,
 ) {
+    let lamp = format!(
+        r#"
+        [materials.lamp]
+        type = "light"
+        emit = [{emit}, {emit}, {emit}]
+        "#
+    );
+    assert_floor_patch(
+        ctx,
+        (albedo, camera_height),
+        &format!("{lamp}\n{lights}"),
+        (expected, 0.0),
+        what,
+    );
+}
+
+/// `assert_lit_floor`'s floor patch lit by `scene` (materials, objects and
+/// lights of the caller's own), its mean asserted within 4 standard errors plus
+/// 1e-4 relative plus `absolute`.
+pub fn assert_floor_patch(
+    ctx: &GpuContext,
+    (albedo, camera_height): (f64, f64),
+    scene: &str,
+    (expected, absolute): (f64, f64),
+    what: &str,
+) {
     for strategy in ["bsdf", "light", "mixture", "nee-mis"] {
         let scene = scene_text(&format!(
             r#"
@@ -223,23 +249,20 @@ pub fn assert_lit_floor(
             [materials.floor]
             type = "lambertian"
             albedo = [{albedo}, {albedo}, {albedo}]
-            [materials.lamp]
-            type = "light"
-            emit = [{emit}, {emit}, {emit}]
             [[objects]]
             type = "quad"
             q = [-10, 0, -10]
             u = [0, 0, 20]
             v = [20, 0, 0]
             material = "floor"
-            {lights}
+            {scene}
             "#
         ));
         let acc = render(ctx, &scene, &with_variance());
         let (mean, error) = image_mean_and_error(&acc);
         println!("{what} {strategy}: {mean:.6} ± {error:.6}, expected {expected:.6}");
         assert!(
-            (mean - expected).abs() < 4.0 * error + 1e-4 * expected,
+            (mean - expected).abs() < 4.0 * error + 1e-4 * expected + absolute,
             "{what} {strategy}: {mean} ± {error} against {expected}"
         );
     }
