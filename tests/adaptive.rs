@@ -5,7 +5,7 @@
 mod common;
 
 use pathmix::render::{self, AccumulatorState, RenderOptions, Renderer, StopReason, StopRule};
-use pathmix::scene::{Sampler, Scene, SceneOverrides};
+use pathmix::scene::{AdaptiveMetric, Sampler, Scene, SceneOverrides};
 use pathmix::session::checkpoint;
 use pathmix::stats::Accumulation;
 
@@ -322,6 +322,8 @@ fn a_target_error_stops_sooner_where_the_rounds_win() {
         height: Some(85),
         strategy: Some(pathmix::scene::Strategy::NeeMis),
         sampler: Some(Sampler::Sobol),
+        // The error the target measures, as a session would choose.
+        adaptive_metric: Some(AdaptiveMetric::Absolute),
         ..Default::default()
     }))
     .unwrap();

@@ -126,3 +126,86 @@ fn a_run_resumed_from_its_checkpoint_gives_the_uninterrupted_sums() {
     assert_eq!(sums.samples, 8);
     assert_eq!(sums, whole, "bit-identical to one run of 8 samples");
 }
+
+/// Defaults by measurement (issue 48): the sampler only changes the noise, so a
+/// Mitsuba file's `independent` (Mitsuba's default) renders with Sobol, and
+/// adaptive sampling takes Sobol over a scene's independent sampler, each with a
+/// note; a run that asks for the independent sampler itself gets it (and is
+/// refused with adaptive sampling). The rounds lower the error a target-error
+/// run stops on (absolute), else the relative error.
+#[test]
+fn the_run_picks_its_defaults_and_says_so() {
+    use pathmix::scene::{AdaptiveMetric, Sampler};
+    let dir = common::TempDir::new("session", "defaults");
+    let xml = dir.join("scene.xml");
+    std::fs::write(
+        &xml,
+        r#"<scene version="3.0.0">
+             <sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="8"/>
+               <integer name="height" value="6"/></film></sensor>
+             <shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+           </scene>"#,
+    )
+    .unwrap();
+    let plan = |request: &Request| Session::plan(request).unwrap();
+    let mitsuba = Request {
+        scene: Some(xml.clone()),
+        ..Request::default()
+    };
+    let session = plan(&mitsuba);
+    assert_eq!(session.scene.render.sampler, Sampler::Sobol);
+    assert!(
+        session
+            .warnings
+            .iter()
+            .any(|w| w.contains("independent sampler (Mitsuba's default)")),
+        "{:?}",
+        session.warnings
+    );
+    let mut asked = mitsuba.clone();
+    asked.overrides.sampler = Some(Sampler::Independent);
+    let session = plan(&asked);
+    assert_eq!(session.scene.render.sampler, Sampler::Independent);
+    assert!(session.warnings.is_empty(), "{:?}", session.warnings);
+    asked.adaptive = true;
+    assert!(Session::plan(&asked).is_err());
+
+    let toml = dir.join("independent.toml");
+    let text = std::fs::read_to_string(cornell()).unwrap();
+    std::fs::write(
+        &toml,
+        text.replace("[render]", "[render]\nsampler = \"independent\""),
+    )
+    .unwrap();
+    let mut adaptive = Request {
+        scene: Some(toml),
+        adaptive: true,
+        ..request(16)
+    };
+    let session = plan(&adaptive);
+    assert_eq!(session.scene.render.sampler, Sampler::Sobol);
+    assert!(
+        session
+            .warnings
+            .iter()
+            .any(|w| w.contains("adaptive sampling decides")),
+        "{:?}",
+        session.warnings
+    );
+    assert_eq!(
+        session.scene.render.adaptive_metric, None,
+        "relative, the renderer's default"
+    );
+    adaptive.target_error = Some(0.1);
+    let session = plan(&adaptive);
+    assert_eq!(
+        session.scene.render.adaptive_metric,
+        Some(AdaptiveMetric::Absolute)
+    );
+    adaptive.overrides.adaptive_metric = Some(AdaptiveMetric::Relative);
+    let session = plan(&adaptive);
+    assert_eq!(
+        session.scene.render.adaptive_metric,
+        Some(AdaptiveMetric::Relative)
+    );
+}

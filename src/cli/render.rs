@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::{RenderError, RenderOptions, RunSummary, StopReason, StopRule};
 use pathmix::scene::mitsuba::Define;
-use pathmix::scene::{Sampler, SceneOverrides, Strategy};
+use pathmix::scene::{AdaptiveMetric, Sampler, SceneOverrides, Strategy};
 use pathmix::session::checkpoint;
 use pathmix::session::pilot::{self, Pilot};
 use pathmix::session::shard;
@@ -50,13 +50,19 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     pub variance: Option<PathBuf>,
     /// Adaptive sampling [scene: render.adaptive]: after a 16-spp pilot, rounds
-    /// sample the pixels whose samples lower the image's error most (each pixel's
-    /// count in proportion to its noise), where the pilot predicts they beat uniform
-    /// sampling; elsewhere the run goes on uniformly. --spp is then the budget (the uniform
+    /// sample the pixels whose samples lower the image's error most (see
+    /// --adaptive-metric), where the pilot predicts they beat uniform sampling;
+    /// elsewhere the run goes on uniformly. --spp is then the budget (the uniform
     /// run's total samples: N per pixel on average), a pixel takes at most 16 N;
-    /// --time and --target-error stop as without it. Not with shards.
+    /// --time and --target-error stop as without it. Samples with the sobol
+    /// sampler. Not with shards.
     #[arg(long)]
     pub adaptive: bool,
+    /// The error adaptive sampling lowers: each pixel's relative to its
+    /// brightness (what a person sees; default), or the absolute squared error
+    /// (bright pixels take most samples) [scene: render.adaptive_metric].
+    #[arg(long, value_enum)]
+    pub adaptive_metric: Option<AdaptiveMetricArg>,
     /// With adaptive sampling: also write each pixel's sample count (OpenEXR, in
     /// every channel).
     #[arg(long, value_name = "FILE")]
@@ -192,6 +198,23 @@ impl From<SamplerArg> for Sampler {
         match arg {
             SamplerArg::Sobol => Sampler::Sobol,
             SamplerArg::Independent => Sampler::Independent,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum AdaptiveMetricArg {
+    /// Each pixel's error relative to its brightness (the default).
+    Relative,
+    /// The absolute squared error of the linear image.
+    Absolute,
+}
+
+impl From<AdaptiveMetricArg> for AdaptiveMetric {
+    fn from(arg: AdaptiveMetricArg) -> AdaptiveMetric {
+        match arg {
+            AdaptiveMetricArg::Relative => AdaptiveMetric::Relative,
+            AdaptiveMetricArg::Absolute => AdaptiveMetric::Absolute,
         }
     }
 }
@@ -375,6 +398,7 @@ fn request(args: &RenderArgs) -> Request {
             seed: args.seed,
             rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
             sampler: args.sampler.map(Sampler::from),
+            adaptive_metric: args.adaptive_metric.map(AdaptiveMetric::from),
         },
         spp: args.spp,
         auto_strategy: matches!(args.strategy, Some(StrategyArg::Auto)),

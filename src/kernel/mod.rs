@@ -1402,6 +1402,7 @@ pub(crate) mod tests {
             rr_depth: crate::scene::Roulette::Off,
             sampler: Sampler::Sobol,
             adaptive: false,
+            adaptive_metric: None,
         };
         for strategy in Strategy::ALL {
             for storage in [

@@ -2,13 +2,17 @@
 //! and how many samples each gets. Plain data in, plain data out: the renderer
 //! reads the sums back at each round's start and hands them here.
 //!
-//! The image's squared error is the sum of the pixels' `σ_p² / n_p`; for a given
-//! total of samples it is least with `n_p ∝ σ_p` (each sample goes where it
-//! lowers the error most: the pixel's priority `σ_p² / n_p²`, the error one more
-//! sample removes). Each round samples the pixels whose priority is at least the
-//! image's mean priority, all by the same number of samples, so that every pixel
-//! of a round continues from where it is and one dispatch covers them all. Uniform
-//! sampling (`n_p` equal) is the special case of equal `σ_p`.
+//! The image's error is the sum of the pixels' `c_p σ_p² / n_p`, with `c_p` what
+//! the metric makes of a pixel's squared error ([`AdaptiveMetric`]): by default
+//! relative to its brightness, `c_p = 1 / (μ_p² + (RELATIVE_FLOOR · μ̄)²)`, the
+//! error a person sees (an error of 0.1 on a pixel of 10 is not one on a pixel of
+//! 0.1); `c_p = 1` for the absolute squared error. For a given total of samples it
+//! is least with `n_p ∝ sqrt(c_p) σ_p`, the pixel's *spread* (each sample goes
+//! where it lowers the error most: the pixel's priority `c_p σ_p² / n_p²`, the
+//! error one more sample removes). Each round samples the pixels whose priority
+//! is at least the image's mean priority, all by the same number of samples, so
+//! that every pixel of a round continues from where it is and one dispatch covers
+//! them all. Uniform sampling (`n_p` equal) is the special case of equal spreads.
 //!
 //! The rounds read only replicate 0 (sample indices `0 mod 4`, an independently
 //! scrambled sequence: its sums and, in an adaptive kernel, the squares), and the
@@ -22,6 +26,7 @@
 //! is the mean of every sample.
 
 use crate::abi::REPLICATES;
+pub use crate::scene::AdaptiveMetric;
 use crate::stats::{Accumulation, luminance_f64};
 
 /// Samples per pixel of the first round (every pixel), before anything is decided.
@@ -34,6 +39,11 @@ pub const MAX_SAMPLES_FACTOR: u32 = 16;
 /// mean luminance: a pixel whose pilot missed a rare bright path (zero spread)
 /// still gets samples, in proportion to the floor.
 pub const SPREAD_FLOOR: f64 = 0.1;
+
+/// Under the relative metric, a pixel's brightness counts as at least about this
+/// fraction of the image's mean luminance: the error of black pixels (a shadow,
+/// the background) matters, but not infinitely.
+pub const RELATIVE_FLOOR: f64 = 0.1;
 
 /// The next round: the pixels it samples (indices, ascending) and the samples
 /// each gets, a multiple of `REPLICATES` so every replicate keeps its share.
@@ -56,12 +66,13 @@ fn whole_sets(n: u64) -> u64 {
 }
 
 /// The round after the sums of `accumulation` (with its per-pixel `counts`,
-/// `sum_sq` needed), for pixels of at most `cap` samples, tracing at most about
+/// `sum_sq` needed), lowering the error `metric` measures, for pixels of at most `cap` samples, tracing at most about
 /// `budget` samples in all (over by less than `REPLICATES`). `None` when no pixel
 /// can take more (all at the cap, or no budget left).
 pub fn next_round(
     accumulation: &Accumulation,
     counts: &[u32],
+    metric: AdaptiveMetric,
     cap: u32,
     budget: u64,
 ) -> Option<Round> {
@@ -70,7 +81,7 @@ pub fn next_round(
         return None;
     }
     let pixels = counts.len() as u64;
-    let priorities = priorities(accumulation, counts);
+    let priorities = priorities(accumulation, counts, metric);
     // The mean over the pixels that can take samples: one capped pixel of huge
     // priority (an emitter's edge) would otherwise leave every other one below it.
     let open: Vec<usize> = (0..pixels as usize).filter(|&p| counts[p] < cap).collect();
@@ -130,34 +141,82 @@ pub fn uniform_round(counts: &[u32], cap: u32, budget: u64) -> Option<Round> {
     })
 }
 
-/// Each pixel's priority `σ_p² / n_p²`, with `σ_p` its spread (`spreads`) and
+/// Each pixel's priority `(spread / n_p)²`, with its spread from `spreads` and
 /// `n_p` its count.
-fn priorities(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
-    (spreads(accumulation, counts).iter().zip(counts))
+fn priorities(accumulation: &Accumulation, counts: &[u32], metric: AdaptiveMetric) -> Vec<f64> {
+    (spreads(accumulation, counts, metric).iter().zip(counts))
         .map(|(&spread, &n)| spread * spread / (n as f64 * n as f64))
         .collect()
 }
 
+/// Each pixel's mean from replicate 0 alone (its samples decide).
+fn deciding_means(accumulation: &Accumulation, counts: &[u32]) -> Vec<[f64; 3]> {
+    let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
+    let k = replicates.sums.len() as u32;
+    (replicates.sums[0].iter().zip(counts))
+        .map(|(s, &n)| s.map(|c| c / (n / k).max(1) as f64))
+        .collect()
+}
+
+/// Each pixel's `sqrt(c_p)` (the module's doc), from the deciding means. A
+/// pixel's brightness `μ_p` is the mean luminance of it and its 8 neighbours: its
+/// own few samples make a noisy brightness, and dividing by that sent the samples
+/// to pixels whose samples happened to be dark (on the book's Cornell box the
+/// rounds then lost 1.3x in relMSE where the pilot predicted a 2x gain).
+fn metric_scales(means: &[[f64; 3]], width: usize, metric: AdaptiveMetric) -> Vec<f64> {
+    match metric {
+        AdaptiveMetric::Absolute => vec![1.0; means.len()],
+        AdaptiveMetric::Relative => {
+            let floor_sq = (RELATIVE_FLOOR * image_mean(means)).powi(2);
+            let luminance: Vec<f64> = means.iter().map(|&m| luminance_f64(m)).collect();
+            let height = means.len() / width;
+            (0..means.len())
+                .map(|p| {
+                    let (sum, count) = neighbourhood(p, width, height)
+                        .fold((0.0, 0.0), |(sum, count), q| {
+                            (sum + luminance[q], count + 1.0)
+                        });
+                    let brightness = sum / count;
+                    let scale = 1.0 / (brightness.powi(2) + floor_sq).sqrt();
+                    // A black image (no floor): every pixel alike.
+                    if scale.is_finite() { scale } else { 1.0 }
+                })
+                .collect()
+        }
+    }
+}
+
+/// Pixel `p` and its (up to 8) neighbours in an image `width` by `height`.
+fn neighbourhood(p: usize, width: usize, height: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (p % width, p / width);
+    (y.saturating_sub(1)..(y + 2).min(height)).flat_map(move |ny| {
+        (x.saturating_sub(1)..(x + 2).min(width)).map(move |nx| ny * width + nx)
+    })
+}
+
+fn image_mean(means: &[[f64; 3]]) -> f64 {
+    let sum = means.iter().map(|&m| luminance_f64(m)).sum::<f64>();
+    (sum / means.len() as f64).max(0.0)
+}
+
 /// What the rounds allocate by, per pixel: the largest spread of the pixel and its
-/// 8 neighbours, a spread being the luminance of the per-channel sample standard
-/// deviations, floored at `SPREAD_FLOOR` of the image's mean luminance; all from
-/// replicate 0 alone (its sums and the squares). Infinite (sampled first) with
-/// fewer than 2 samples in replicate 0. The neighbours' maximum guards against a
-/// pixel whose few replicate-0 samples all missed a rare bright path its
-/// neighbours found (a caustic, a small light's glossy reflection): starved, such
-/// pixels dominated the image's error.
-fn spreads(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
+/// 8 neighbours, a pixel's own spread being the luminance of its per-channel
+/// sample standard deviations, floored at `SPREAD_FLOOR` of the image's mean
+/// luminance, times its metric's scale (`metric_scales`); all from replicate 0
+/// alone (its sums and the squares). Infinite (sampled first) with fewer than 2
+/// samples in replicate 0. The neighbours' maximum guards against a pixel whose
+/// few replicate-0 samples all missed a rare bright path its neighbours found (a
+/// caustic, a small light's glossy reflection): starved, such pixels dominated
+/// the image's error.
+fn spreads(accumulation: &Accumulation, counts: &[u32], metric: AdaptiveMetric) -> Vec<f64> {
     let squares = (accumulation.sum_sq.as_ref()).expect("adaptive sampling sums squares");
     let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
     let k = replicates.sums.len() as u32;
-    let deciding = &replicates.sums[0];
-    let means: Vec<[f64; 3]> = (deciding.iter().zip(counts))
-        .map(|(s, &n)| s.map(|c| c / (n / k).max(1) as f64))
-        .collect();
-    let image_mean = means.iter().map(|&m| luminance_f64(m)).sum::<f64>() / means.len() as f64;
-    let floor = SPREAD_FLOOR * image_mean.max(0.0);
-    let own: Vec<f64> = (means.iter().zip(squares).zip(counts))
-        .map(|((mean, squares), &n)| {
+    let means = deciding_means(accumulation, counts);
+    let floor = SPREAD_FLOOR * image_mean(&means);
+    let scales = metric_scales(&means, accumulation.width as usize, metric);
+    let own: Vec<f64> = (means.iter().zip(squares).zip(counts).zip(&scales))
+        .map(|(((mean, squares), &n), &scale)| {
             let m = (n / k) as f64;
             if m < 2.0 {
                 return f64::INFINITY;
@@ -168,7 +227,7 @@ fn spreads(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
                     .sqrt()
             });
             // NaN (overflowed sums) counts as most urgent; the run refuses such sums anyway.
-            let spread = luminance_f64(deviation).max(floor);
+            let spread = luminance_f64(deviation).max(floor) * scale;
             if spread.is_nan() {
                 f64::INFINITY
             } else {
@@ -179,14 +238,9 @@ fn spreads(accumulation: &Accumulation, counts: &[u32]) -> Vec<f64> {
     let (width, height) = (accumulation.width as usize, accumulation.height as usize);
     (0..own.len())
         .map(|p| {
-            let (x, y) = (p % width, p / width);
-            let mut spread = 0.0f64;
-            for ny in y.saturating_sub(1)..(y + 2).min(height) {
-                for nx in x.saturating_sub(1)..(x + 2).min(width) {
-                    spread = spread.max(own[ny * width + nx]);
-                }
-            }
-            spread
+            neighbourhood(p, width, height)
+                .map(|q| own[q])
+                .fold(0.0, f64::max)
         })
         .collect()
 }
@@ -220,7 +274,9 @@ pub struct Choice {
 /// (`spreads`, as the rounds steer), `N` on average, in `1 / ROUNDS_THROUGHPUT`
 /// the time. `N` and the pilot cancel:
 ///
-/// `ratio² = (Σ e_p² / s_p) (Σ s_p) / (3/4 · P · Σ e_p²) / ROUNDS_THROUGHPUT`.
+/// `ratio² = (Σ e_p² / s_p) (Σ s_p) / (3/4 · P · Σ e_p²) / ROUNDS_THROUGHPUT`,
+///
+/// the errors scaled by the metric as the spreads are (`metric_scales`).
 ///
 /// Uniform where the prediction fails: no error seen, or a pilot of fewer than 2
 /// samples per replicate (no spreads).
@@ -229,8 +285,13 @@ pub struct Choice {
 /// neither continuation's image is unbiased by construction any more; but it is
 /// one bit from sums over every pixel, in each of which a pixel's samples weigh
 /// about `1 / P`: docs/rendering.md argues the bias negligible, tests/adaptive.rs measures it.
-pub fn choose(accumulation: &Accumulation, counts: &[u32]) -> Choice {
-    let spreads = spreads(accumulation, counts);
+pub fn choose(accumulation: &Accumulation, counts: &[u32], metric: AdaptiveMetric) -> Choice {
+    let spreads = spreads(accumulation, counts, metric);
+    let scales = metric_scales(
+        &deciding_means(accumulation, counts),
+        accumulation.width as usize,
+        metric,
+    );
     let replicates = (accumulation.replicates.as_ref()).expect("adaptive sampling has replicates");
     let k = replicates.sums.len() as f64;
     let (mut weighted, mut total_spread, mut total_error) = (0.0, 0.0, 0.0);
@@ -239,12 +300,13 @@ pub fn choose(accumulation: &Accumulation, counts: &[u32]) -> Choice {
         // times it is the pixel's per-sample spread as Monte Carlo would see it,
         // at most the true one (stratification only lowers the replicates' spread).
         let per_replicate = (counts[p] as f64 / k).max(1.0);
-        let replicate_spread = luminance_f64(std::array::from_fn(|c| {
-            let means = || replicates.sums.iter().map(|s| s[p][c] / per_replicate);
-            let average = means().sum::<f64>() / k;
-            let variance = means().map(|m| (m - average).powi(2)).sum::<f64>() / (k - 1.0);
-            variance.sqrt()
-        }));
+        let replicate_spread = scales[p]
+            * luminance_f64(std::array::from_fn(|c| {
+                let means = || replicates.sums.iter().map(|s| s[p][c] / per_replicate);
+                let average = means().sum::<f64>() / k;
+                let variance = means().map(|m| (m - average).powi(2)).sum::<f64>() / (k - 1.0);
+                variance.sqrt()
+            }));
         // The pilot mean's squared standard error, up to a factor common to all pixels.
         let error_sq = replicate_spread.powi(2);
         // The rounds re-estimate the spreads as samples come in: a bright path that
@@ -346,7 +408,7 @@ mod tests {
     fn the_pilot_goes_on_adaptively_only_where_the_error_is_uneven() {
         // Even: every pixel's error alike: 2/sqrt(3)/sqrt(0.8) = 1.29, uniform.
         let (acc, counts) = pilot(&[(1.0, 0.1); 16]);
-        let even = choose(&acc, &counts);
+        let even = choose(&acc, &counts, AdaptiveMetric::Absolute);
         assert!(
             (even.predicted_ratio - (1.0 / 0.75f64 / 0.8).sqrt()).abs() < 1e-9,
             "{even:?}"
@@ -361,14 +423,14 @@ mod tests {
         for (square, &(_, deviation)) in squares.iter_mut().zip(&pixels) {
             *square = [4.0 * (1.0 + deviation * deviation); 3];
         }
-        let uneven = choose(&acc, &counts);
+        let uneven = choose(&acc, &counts, AdaptiveMetric::Absolute);
         assert!(
             uneven.predicted_ratio < 0.5 && !uneven.uniform,
             "{uneven:?}"
         );
         // No error seen at all: nothing to gain.
         let (acc, counts) = pilot(&[(1.0, 0.0); 4]);
-        let flat = choose(&acc, &counts);
+        let flat = choose(&acc, &counts, AdaptiveMetric::Absolute);
         assert!(
             flat.uniform && flat.predicted_ratio == f64::INFINITY,
             "{flat:?}"
@@ -381,7 +443,7 @@ mod tests {
         // neighbours 2 and 4 share its spread.
         let quiet = (16, 1.0, 0.1);
         let (acc, counts) = accumulation(&[quiet, quiet, quiet, (16, 1.0, 1.0), quiet]);
-        let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+        let round = next_round(&acc, &counts, AdaptiveMetric::Absolute, 1024, u64::MAX).unwrap();
         // Half the least count: 8 (a quarter of the 80 traced is 7 each).
         assert_eq!(
             round,
@@ -392,12 +454,20 @@ mod tests {
         );
         // At the cap, nothing: the run ends.
         let (acc, counts) = accumulation(&[(64, 1.0, 0.1), (64, 1.0, 1.0)]);
-        assert_eq!(next_round(&acc, &counts, 64, u64::MAX), None);
+        assert_eq!(
+            next_round(&acc, &counts, AdaptiveMetric::Absolute, 64, u64::MAX),
+            None
+        );
         // A capped pixel, however noisy, leaves the round to the others (here its
         // neighbour, which shares its spread, is above the others' mean).
         let far = (16, 1.0, 0.1);
         let (acc, counts) = accumulation(&[(64, 1.0, 100.0), far, far, far, (16, 1.0, 1.0)]);
-        assert_eq!(next_round(&acc, &counts, 64, u64::MAX).unwrap().pixels, [1]);
+        assert_eq!(
+            next_round(&acc, &counts, AdaptiveMetric::Absolute, 64, u64::MAX)
+                .unwrap()
+                .pixels,
+            [1]
+        );
     }
 
     #[test]
@@ -406,7 +476,8 @@ mod tests {
         // where the mean of the equal priorities rounds above them.
         for pixels in [4, 3, 7, 1000] {
             let (acc, counts) = accumulation(&vec![(16, 0.3, 0.1); pixels]);
-            let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+            let round =
+                next_round(&acc, &counts, AdaptiveMetric::Absolute, 1024, u64::MAX).unwrap();
             assert_eq!(round.pixels.len(), pixels);
             assert_eq!(round.samples, 8);
         }
@@ -422,14 +493,14 @@ mod tests {
             acc.replicates.as_ref().unwrap().sums[0][..2],
             [[4.0; 3], [4.0; 3]]
         );
-        let q = priorities(&acc, &counts);
+        let q = priorities(&acc, &counts, AdaptiveMetric::Absolute);
         for p in [0, 1] {
             assert!((q[p] - 0.01 / 256.0).abs() < 1e-12, "{q:?}");
         }
         // Pixel 2 takes its neighbour's spread at its own count.
         let spread = 0.5 * (64.0f64 / 63.0).sqrt();
         assert!((q[2] - spread * spread / 256.0).abs() < 1e-12, "{q:?}");
-        let round = next_round(&acc, &counts, 1024, u64::MAX).unwrap();
+        let round = next_round(&acc, &counts, AdaptiveMetric::Absolute, 1024, u64::MAX).unwrap();
         assert_eq!(round.pixels, [2]);
     }
 
@@ -439,11 +510,13 @@ mod tests {
         let quiet = (16, 1.0, 1.0);
         let (acc, counts) = accumulation(&[quiet, quiet, quiet, (16, 1.0, 3.0), quiet]);
         assert_eq!(
-            next_round(&acc, &counts, 1024, u64::MAX).unwrap().pixels,
+            next_round(&acc, &counts, AdaptiveMetric::Absolute, 1024, u64::MAX)
+                .unwrap()
+                .pixels,
             [2, 3, 4]
         );
         // Room for 8 samples: two of them, one set each (equal priorities: by index).
-        let round = next_round(&acc, &counts, 1024, 8).unwrap();
+        let round = next_round(&acc, &counts, AdaptiveMetric::Absolute, 1024, 8).unwrap();
         assert_eq!(
             round,
             Round {
@@ -452,7 +525,7 @@ mod tests {
             }
         );
         // Room for 1: one set (over by 3).
-        let round = next_round(&acc, &counts, 1024, 1).unwrap();
+        let round = next_round(&acc, &counts, AdaptiveMetric::Absolute, 1024, 1).unwrap();
         assert_eq!(
             round,
             Round {
@@ -467,5 +540,33 @@ mod tests {
         assert_eq!(pixel_cap(1), 16);
         assert_eq!(pixel_cap(0), REPLICATES);
         assert_eq!(pixel_cap(u32::MAX), u32::MAX - u32::MAX % REPLICATES);
+    }
+
+    #[test]
+    fn the_relative_metric_weighs_each_pixels_error_by_its_brightness() {
+        // Pixels of equal noise, three dark and three ten times as bright, in one
+        // row: alike under the absolute metric; under the relative one the ends'
+        // (whose neighbourhoods are all dark or all bright) ten times apart.
+        let (dark, bright) = ((16, 1.0, 0.5), (16, 10.0, 0.5));
+        let (acc, counts) = accumulation(&[dark, dark, dark, bright, bright, bright]);
+        let absolute = priorities(&acc, &counts, AdaptiveMetric::Absolute);
+        assert!((absolute[0] - absolute[5]).abs() < 1e-12, "{absolute:?}");
+        let relative = priorities(&acc, &counts, AdaptiveMetric::Relative);
+        // Weights 1 / (μ² + (0.1 · 5.5)²): 1 / 1.3025 and 1 / 100.3025.
+        let expected = 100.3025 / 1.3025;
+        assert!(
+            (relative[0] / relative[5] - expected).abs() < 1e-9,
+            "{relative:?}"
+        );
+        let round = next_round(&acc, &counts, AdaptiveMetric::Relative, 1024, u64::MAX).unwrap();
+        // The dark ones; pixel 3 is bright, and its neighbourhood brighter still.
+        assert_eq!(round.pixels, [0, 1, 2]);
+        // A black image has no brightness to weigh by: every pixel alike.
+        let (acc, counts) = accumulation(&[(16, 0.0, 0.5), (16, 0.0, 0.5)]);
+        let black = priorities(&acc, &counts, AdaptiveMetric::Relative);
+        assert!(
+            black.iter().all(|q| q.is_finite() && *q == black[0]),
+            "{black:?}"
+        );
     }
 }

@@ -298,6 +298,7 @@ impl<'a> Renderer<'a> {
             round_done: 0,
             choice: None,
             rounds_always: options.adaptive_rounds_always,
+            metric: (settings.adaptive_metric).unwrap_or(adaptive::AdaptiveMetric::Relative),
             list: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("active pixels"),
                 size: (pixels * size_of::<[u32; 2]>()) as u64,
@@ -618,7 +619,8 @@ impl<'a> Renderer<'a> {
                 None => adaptive::uniform_round(&adaptive.counts, cap, budget),
                 Some(accumulation) => {
                     let choice = *adaptive.choice.get_or_insert_with(|| {
-                        let choice = adaptive::choose(accumulation, &adaptive.counts);
+                        let choice =
+                            adaptive::choose(accumulation, &adaptive.counts, adaptive.metric);
                         adaptive::Choice {
                             uniform: choice.uniform && !adaptive.rounds_always,
                             ..choice
@@ -626,7 +628,13 @@ impl<'a> Renderer<'a> {
                     });
                     match choice.uniform {
                         true => adaptive::uniform_round(&adaptive.counts, cap, budget),
-                        false => adaptive::next_round(accumulation, &adaptive.counts, cap, budget),
+                        false => adaptive::next_round(
+                            accumulation,
+                            &adaptive.counts,
+                            adaptive.metric,
+                            cap,
+                            budget,
+                        ),
                     }
                 }
             };
@@ -959,6 +967,8 @@ impl AdaptiveState {
 
 /// The adaptive renderer's counts and round, and the device list of the round's pixels.
 struct AdaptiveRun {
+    /// The error the rounds lower.
+    metric: adaptive::AdaptiveMetric,
     counts: Vec<u32>,
     round: Vec<[u32; 2]>,
     round_samples: u32,

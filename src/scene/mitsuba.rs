@@ -27,7 +27,7 @@ mod upgrade;
 
 use super::parse::{IMAGE_SIDE, NAMED_IORS, sin_cos_degrees};
 use super::spectrum::{self, Role, Spectrum};
-use super::{SceneError, excerpt};
+use super::{Sampler, SceneError, excerpt};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -109,6 +109,9 @@ pub struct Converted {
     pub includes: Vec<PathBuf>,
     /// Each approximation made, once.
     pub warnings: Vec<String>,
+    /// The sampler the file names (or Mitsuba's default it leaves), where the
+    /// scene samples with another: Mitsuba's `independent`, rendered with Sobol.
+    pub file_sampler: Option<Sampler>,
     /// The element each object (`objects[i]`) and material came from, for messages.
     origins: Vec<(String, Origin)>,
     /// The `<sensor>`, for errors in `[camera]` and `[render]`.
@@ -1130,6 +1133,8 @@ struct Builder<'a> {
     lights: Vec<Value>,
     origins: Vec<(String, Origin)>,
     anonymous: usize,
+    /// `Converted::file_sampler`.
+    file_sampler: Option<Sampler>,
 }
 
 impl<'a> Builder<'a> {
@@ -1168,6 +1173,7 @@ impl<'a> Builder<'a> {
             lights: Vec::new(),
             origins: Vec::new(),
             anonymous: 0,
+            file_sampler: None,
         })
     }
 
@@ -1960,6 +1966,7 @@ impl<'a> Builder<'a> {
             document,
             includes: Vec::new(),
             warnings: self.warnings,
+            file_sampler: self.file_sampler,
             origins: self.origins,
             sensor: sensor.origin.clone(),
         })
@@ -2041,6 +2048,15 @@ impl<'a> Builder<'a> {
             rr_depth.map_or(Value::String("off".into()), Value::Integer),
         );
         Ok(render)
+    }
+
+    /// The sampler for Mitsuba's `independent`, its default and the one most
+    /// files name whatever their author would choose: pathmix's Sobol, the same
+    /// expected image with less noise (docs/mitsuba.md); the session says so,
+    /// unless the run asks for a sampler itself.
+    fn independent_sampler(&mut self) -> &'static str {
+        self.file_sampler = Some(Sampler::Independent);
+        Sampler::Sobol.name()
     }
 
     /// `[camera]`, and the sampler's part of `[render]`.
@@ -2153,7 +2169,7 @@ impl<'a> Builder<'a> {
                 let seed = props.integer("seed")?.unwrap_or(0);
                 props.finish()?;
                 let kind = match s.ty() {
-                    "independent" => "independent",
+                    "independent" => self.independent_sampler(),
                     "stratified" | "multijitter" | "orthogonal" | "ldsampler" => {
                         self.warn(format!(
                             "the `{}` sampler is pathmix's Owen-scrambled Sobol sampler (another \
@@ -2172,7 +2188,7 @@ impl<'a> Builder<'a> {
                 };
                 (spp, seed, kind)
             }
-            None => (4, 0, "independent"),
+            None => (4, 0, self.independent_sampler()),
         };
         render.insert("spp".into(), Value::Integer(spp));
         render.insert("seed".into(), Value::Integer(seed));

@@ -111,6 +111,32 @@ pub enum Sampler {
     Independent,
 }
 
+/// The error adaptive sampling lowers (`crate::render::adaptive`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum AdaptiveMetric {
+    /// Each pixel's error relative to its brightness (floored at a tenth of the
+    /// image's mean): the noise a person sees, and the relMSE papers report.
+    Relative,
+    /// The absolute squared error: the mean squared error of the linear image.
+    /// Bright pixels (lights, their reflections) take most of the samples.
+    Absolute,
+}
+
+impl AdaptiveMetric {
+    pub const ALL: [AdaptiveMetric; 2] = [AdaptiveMetric::Relative, AdaptiveMetric::Absolute];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            AdaptiveMetric::Relative => "relative",
+            AdaptiveMetric::Absolute => "absolute",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<AdaptiveMetric> {
+        AdaptiveMetric::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
 impl Sampler {
     pub const ALL: [Sampler; 2] = [Sampler::Sobol, Sampler::Independent];
 
@@ -163,6 +189,9 @@ pub struct RenderSettings {
     pub sampler: Sampler,
     /// Adaptive sampling (`crate::render::adaptive`), as the command line's `--adaptive`.
     pub adaptive: bool,
+    /// The error adaptive sampling lowers; `None`: the run's, the one its
+    /// stopping rule measures (absolute for a target error, else relative).
+    pub adaptive_metric: Option<AdaptiveMetric>,
 }
 
 impl RenderSettings {
@@ -237,6 +266,9 @@ pub struct LoadedScene {
     /// messages made after reading ([`LoadedScene::place_of`]). Empty for a TOML
     /// file, whose messages name the field itself.
     pub places: Vec<(String, String)>,
+    /// The sampler the file names where the scene samples with another
+    /// (`mitsuba::Converted::file_sampler`), for the run to say so.
+    pub file_sampler: Option<Sampler>,
 }
 
 impl LoadedScene {
@@ -282,6 +314,7 @@ impl Scene {
                 scene,
                 places,
                 warnings: converted.warnings,
+                file_sampler: converted.file_sampler,
             });
         }
         if let Some(define) = defines.first() {
@@ -298,6 +331,7 @@ impl Scene {
             scene: Scene::parse(&text, &file)?,
             warnings: Vec::new(),
             places: Vec::new(),
+            file_sampler: None,
         })
     }
 

@@ -20,8 +20,9 @@ use super::texture::{
     Bitmap, TextureFilter, TextureKind, UvTransform, WrapMode, load_texture_image,
 };
 use super::{
-    Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings, Roulette, Sampler,
-    Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle, excerpt,
+    AdaptiveMetric, Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
+    Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle,
+    excerpt,
 };
 use crate::kinds::MAX_TEXTURES;
 use crate::kinds::params::{
@@ -52,6 +53,7 @@ pub struct SceneOverrides {
     /// `Some(None)` turns Russian roulette off.
     pub rr_depth: Option<Option<u32>>,
     pub sampler: Option<Sampler>,
+    pub adaptive_metric: Option<AdaptiveMetric>,
 }
 
 /// The `render.strategy` that asks for a pilot's choice.
@@ -85,6 +87,7 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "rr_depth",
     "sampler",
     "adaptive",
+    "adaptive_metric",
 ];
 pub(super) const LIGHT_TYPES: &[&str] = &["point", "spot"];
 pub(super) const ALL_LIGHT_KEYS: &[&str] = &[
@@ -278,6 +281,9 @@ impl Scene {
         if let Some(v) = o.sampler {
             self.render.sampler = v;
         }
+        if let Some(v) = o.adaptive_metric {
+            self.render.adaptive_metric = Some(v);
+        }
         Ok(())
     }
 
@@ -332,6 +338,7 @@ fn default_render() -> RenderSettings {
         rr_depth: Roulette::StrategyDefault,
         sampler: Sampler::Sobol,
         adaptive: false,
+        adaptive_metric: None,
     }
 }
 
@@ -373,6 +380,14 @@ fn parse_render(t: &ParamTable) -> Result<RenderSettings> {
         )?
         .unwrap_or(d.sampler),
         adaptive: t.boolean("adaptive")?.unwrap_or(d.adaptive),
+        adaptive_metric: named(
+            t,
+            "adaptive_metric",
+            &AdaptiveMetric::ALL,
+            AdaptiveMetric::name,
+            AdaptiveMetric::from_name,
+        )?
+        .or(d.adaptive_metric),
     })
 }
 
@@ -1926,6 +1941,7 @@ material = "white"
             seed: Some(7),
             rr_depth: None,
             sampler: Some(Sampler::Independent),
+            adaptive_metric: Some(AdaptiveMetric::Absolute),
         };
         s.apply_overrides(&o).unwrap();
         assert_eq!(
@@ -1938,6 +1954,7 @@ material = "white"
         );
         assert_eq!(s.render.light_weight, 1.0);
         assert_eq!(s.render.sampler, Sampler::Independent);
+        assert_eq!(s.render.adaptive_metric, Some(AdaptiveMetric::Absolute));
         s.apply_overrides(&SceneOverrides::default()).unwrap();
         assert_eq!(s.render.spp, 16);
 

@@ -20,7 +20,7 @@ use crate::kinds::PRIMITIVE_KINDS;
 use crate::output::{self, OutputError};
 use crate::render::adaptive::Choice;
 use crate::render::{AccumulatorState, AdaptiveState};
-use crate::scene::{RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
+use crate::scene::{AdaptiveMetric, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
 use serde::Serialize;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -135,6 +135,8 @@ impl SceneIdentity {
             // How the run samples, not what it estimates; the state says whether
             // it was adaptive (its counts), and a resume must match it.
             adaptive: _,
+            // Which pixels the rounds sample, not what the run estimates.
+            adaptive_metric: _,
         } = render;
         let rr_depth = render.roulette_depth();
         SceneIdentity {
@@ -603,6 +605,9 @@ fn header(c: &Checkpoint) -> String {
     if let Some(s) = o.sampler {
         overrides.insert("sampler".into(), s.name().into());
     }
+    if let Some(m) = o.adaptive_metric {
+        overrides.insert("adaptive_metric".into(), m.name().into());
+    }
     root.insert("overrides".into(), overrides.into());
     let s = &c.state;
     let mut state = toml::Table::new();
@@ -786,6 +791,7 @@ fn parse_header(
             )),
         },
         sampler: named_in(o, "sampler", Sampler::from_name)?,
+        adaptive_metric: named_in(o, "adaptive_metric", AdaptiveMetric::from_name)?,
     };
     let s = table("state")?;
     let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| missing(format!("state.{key}")));
@@ -1249,6 +1255,7 @@ mod tests {
                 rr_depth: Roulette::StrategyDefault,
                 sampler: Sampler::Sobol,
                 adaptive: false,
+                adaptive_metric: None,
             },
             materials: vec![
                 Material {

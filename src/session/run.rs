@@ -20,7 +20,9 @@ use crate::render::{
     self, Progress, RenderError, RenderOptions, Renderer, RunSummary, StopReason, StopRule,
 };
 use crate::scene::mitsuba::Define;
-use crate::scene::{LoadedScene, OverrideError, Scene, SceneError, SceneOverrides};
+use crate::scene::{
+    AdaptiveMetric, LoadedScene, OverrideError, Sampler, Scene, SceneError, SceneOverrides,
+};
 use crate::session::checkpoint::{
     self, Checkpoint, CheckpointError, CheckpointLock, LockError, SceneIdentity,
 };
@@ -340,6 +342,7 @@ impl Session {
             mut scene,
             warnings: approximations,
             places,
+            file_sampler,
         } = Scene::load_with(&scene_path, &defines)?;
         check_collisions(
             request,
@@ -380,6 +383,29 @@ impl Session {
             }
             None => request.adaptive || scene.render.adaptive,
         };
+        // Defaults by measurement (docs/rendering.md): the sampler only changes the
+        // noise, so where this run does not name one it gets the best one, and is told.
+        if overrides.sampler.is_none() {
+            if let Some(named) = file_sampler {
+                warnings.push(format!(
+                    "the scene file names the {named} sampler (Mitsuba's default): rendering \
+                     with the {} sampler, the same expected image with less noise; ask for the \
+                     {named} sampler to render with it",
+                    scene.render.sampler
+                ));
+            } else if adaptive && scene.render.sampler == Sampler::Independent {
+                scene.render.sampler = Sampler::Sobol;
+                warnings.push(
+                    "adaptive sampling decides from one of the sobol sampler's replicates: \
+                     rendering with it, not the scene's independent sampler (the same expected \
+                     image)"
+                        .into(),
+                );
+            }
+        }
+        if adaptive && scene.render.sampler != Sampler::Sobol {
+            return Err(SessionError::Refused(RenderError::AdaptiveNeedsSobol));
+        }
         if adaptive {
             for (setting, given) in [
                 (Setting::SampleRange, request.sample_range.is_some()),
@@ -501,6 +527,10 @@ impl Session {
             true => adaptive::pixel_cap(stop.max_samples),
             false => stop.max_samples,
         };
+        // Unless told otherwise, the rounds lower the error the run stops on.
+        if adaptive && stop.target_error.is_some() && scene.render.adaptive_metric.is_none() {
+            scene.render.adaptive_metric = Some(AdaptiveMetric::Absolute);
+        }
         render::check_emission(&scene, most, variance || adaptive)
             .map_err(|e| SessionError::Refused(placed(e, &places)))?;
         Ok(Session {
