@@ -55,10 +55,13 @@ pub(crate) use material::{NAMED_CONDUCTORS, material_keys, material_types};
 pub use params::{SceneError, excerpt};
 pub use quad::{PackedQuad, Quad};
 pub use sphere::{PackedSphere, Sphere};
+// For the format's page.
+#[cfg(test)]
+pub(crate) use texture::TEXTURE_KINDS;
 pub use texture::{
-    Bitmap, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT, MAX_TEXTURES,
-    TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo, TextureKind, TextureTables,
-    UvTransform, WrapMode, serialize_texels,
+    Bitmap, Checkerboard, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT,
+    MAX_TEXTURES, TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo, TextureKind,
+    TextureTables, UvTransform, WrapMode, serialize_texels,
 };
 pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 
@@ -446,6 +449,16 @@ fn read_object(kind: &PrimitiveKind, body: &str) -> Result<Shapes> {
     let mut shapes = Shapes::default();
     (object.parse)(&t, &Transform::parse(&t)?, 0, false, &mut shapes)?;
     Ok(shapes)
+}
+
+/// A kind's manual: the doc comment at the top of its file's `source`.
+#[cfg(test)]
+fn manual(source: &str) -> String {
+    source
+        .lines()
+        .map_while(|line| line.strip_prefix("//!"))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 #[cfg(test)]

@@ -4,11 +4,11 @@
 //! its documentation fails here.
 
 use super::parse::{
-    ALL_LIGHT_KEYS, BITMAP_KEYS, CAMERA_KEYS, CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, LIGHT_TYPES,
-    RENDER_KEYS, SCENE_KEYS, TEXTURE_TYPES, TOP_KEYS, object_keys, object_type_names,
+    ALL_LIGHT_KEYS, CAMERA_KEYS, ENVIRONMENT_KEYS, LIGHT_TYPES, RENDER_KEYS, SCENE_KEYS, TOP_KEYS,
+    object_keys, object_type_names,
 };
 use crate::kinds::filter::{FILTER_KEYS, filter_types};
-use crate::kinds::{material_keys, material_types};
+use crate::kinds::{TEXTURE_KINDS, material_keys, material_types};
 
 fn document() -> String {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scene-format.md");
@@ -40,6 +40,7 @@ fn every_table_type_and_key_is_documented() {
     };
     let type_name = |name: &str| vec![format!("`\"{name}\"`"), format!("`type = \"{name}\"`")];
     let key = |name: &str| vec![format!("`{name}`")];
+    let texture_types: Vec<&str> = TEXTURE_KINDS.iter().map(|kind| kind.name).collect();
     let mut missing = Vec::new();
     missing.extend(
         undocumented(&document, TOP_KEYS, table)
@@ -51,7 +52,7 @@ fn every_table_type_and_key_is_documented() {
         &material_types(),
         LIGHT_TYPES,
         &object_type_names(),
-        TEXTURE_TYPES,
+        &texture_types,
     ] {
         missing.extend(
             undocumented(&document, types, type_name)
@@ -59,6 +60,10 @@ fn every_table_type_and_key_is_documented() {
                 .map(|n| format!("type \"{n}\"")),
         );
     }
+    let texture_keys: Vec<&str> = TEXTURE_KINDS
+        .iter()
+        .flat_map(|kind| kind.all_keys())
+        .collect();
     let filter_keys: Vec<&str> = FILTER_KEYS
         .iter()
         .flat_map(|(_, keys)| *keys)
@@ -73,8 +78,7 @@ fn every_table_type_and_key_is_documented() {
         &material_keys(),
         ALL_LIGHT_KEYS,
         &object_keys(),
-        CHECKERBOARD_KEYS,
-        BITMAP_KEYS,
+        &texture_keys,
     ] {
         missing.extend(
             undocumented(&document, keys, key)

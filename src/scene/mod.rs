@@ -11,7 +11,6 @@ mod parse;
 mod prune;
 mod spectrum;
 mod sphere_field;
-pub mod texture;
 
 use glam::Vec3;
 use serde::Serialize;
@@ -19,13 +18,12 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Disk, Distribution, Filter, Material, MaterialKind, Quad, SceneError, Shapes, Sphere, Triangle,
-    excerpt,
+    Disk, Distribution, Filter, Material, MaterialKind, Quad, SceneError, Shapes, Sphere, Texture,
+    Triangle, excerpt,
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
 pub use sphere_field::{sphere_field, sphere_field_toml};
-pub use texture::Texture;
 
 /// How a diffuse bounce picks its direction (docs/estimator.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]

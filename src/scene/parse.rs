@@ -16,17 +16,14 @@ use toml::{Table, Value};
 
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
-use super::texture::{
-    Bitmap, TextureFilter, TextureKind, UvTransform, WrapMode, load_texture_image,
-};
 use super::{
     Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings, Roulette, Sampler,
-    Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle, excerpt,
+    Scene, SceneError, Shapes, Sphere, Spot, Strategy, Triangle, excerpt,
 };
 use crate::kinds::MAX_TEXTURES;
 use crate::kinds::params::{
     ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
-    colour, fmt_num, fmt_vec, list, named, number, ok, reflectance, type_name, unknown_name,
+    colour, fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
 };
 use crate::kinds::transform::{TRANSFORM_KEYS, Transform, matrix, rotation};
 use crate::kinds::{self, DEGENERATE, Shape, usable_length_squared};
@@ -440,7 +437,7 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
     let mut textures = 0;
     for name in names {
         let t = mats.sub(name)?.expect("key exists");
-        let material = Material::parse(name, &t, parse_texture)?;
+        let material = Material::parse(name, &t)?;
         textures += material.texture.is_some() as usize + material.bump.is_some() as usize;
         if textures > MAX_TEXTURES {
             return Err(t.err(
@@ -453,147 +450,6 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
         out.push(material);
     }
     Ok(out)
-}
-
-/// Textures in device memory: one storage binding holds every texel (three
-/// floats each), and wgpu's default limit on a binding, lavapipe's too, is 128 MiB.
-pub const MAX_TEXTURE_TEXELS: u64 = (128 << 20) / 12;
-
-/// `{ type = "checkerboard" | "bitmap", ... }` (`scene::texture`).
-pub(super) const TEXTURE_TYPES: &[&str] = &["checkerboard", "bitmap"];
-pub(super) const CHECKERBOARD_KEYS: &[&str] = &["type", "color0", "color1", "to_uv"];
-pub(super) const BITMAP_KEYS: &[&str] =
-    &["type", "file", "wrap_mode", "filter_type", "raw", "to_uv"];
-
-fn parse_texture(s: &ParamTable) -> Result<Texture> {
-    let Some(ty) = s.string("type")? else {
-        return Err(s.err(
-            s.here(),
-            format!(
-                "missing required key `type` for a texture (expected one of {})",
-                list(TEXTURE_TYPES)
-            ),
-        ));
-    };
-    let kind = match ty {
-        "checkerboard" => {
-            s.check_keys(CHECKERBOARD_KEYS, Some("a checkerboard texture"))?;
-            TextureKind::Checkerboard {
-                color0: reflectance(s, "color0", 0.4)?,
-                color1: reflectance(s, "color1", 0.2)?,
-            }
-        }
-        "bitmap" => {
-            s.check_keys(BITMAP_KEYS, Some("a bitmap texture"))?;
-            let file = s.require("file", s.string("file")?)?;
-            let raw = s.boolean("raw")?.unwrap_or(false);
-            let wrap = named(
-                s,
-                "wrap_mode",
-                &WrapMode::ALL,
-                WrapMode::name,
-                WrapMode::from_name,
-            )?
-            .unwrap_or(WrapMode::Repeat);
-            let filter = named(
-                s,
-                "filter_type",
-                &TextureFilter::ALL,
-                TextureFilter::name,
-                TextureFilter::from_name,
-            )?
-            .unwrap_or(TextureFilter::Bilinear);
-            let path = s.input(file);
-            let (width, height, texels) =
-                load_texture_image(&path, raw).map_err(|m| s.err(s.at("file"), m))?;
-            if width as u64 * height as u64 > MAX_TEXTURE_TEXELS {
-                return Err(s.err(
-                    s.at("file"),
-                    format!(
-                        "{}: {width}x{height} texels do not fit the 128 MiB storage binding                          that holds a scene's textures (at most {MAX_TEXTURE_TEXELS} texels):                          scale the image down",
-                        path.display()
-                    ),
-                ));
-            }
-            TextureKind::Bitmap(Bitmap {
-                file: file.to_string(),
-                width,
-                height,
-                texels: std::sync::Arc::new(texels),
-                raw,
-                wrap,
-                filter,
-            })
-        }
-        other => {
-            return Err(s.err(
-                s.at("type"),
-                unknown_name("texture type", other, TEXTURE_TYPES),
-            ));
-        }
-    };
-    let to_uv = match s.sub("to_uv")? {
-        Some(u) => parse_to_uv(&u)?,
-        None => UvTransform::IDENTITY,
-    };
-    Ok(Texture { kind, to_uv })
-}
-
-/// `to_uv = { scale = [su, sv], translate = [tu, tv] }` (u' = su u + tu; one
-/// number scales both), or `{ matrix = [[a, b, c], [d, e, f]] }` (u' = a u + b v
-/// + c, v' = d u + e v + f): Mitsuba's `to_uv` transform.
-fn parse_to_uv(u: &ParamTable) -> Result<UvTransform> {
-    u.check_keys(&["scale", "translate", "matrix"], Some("to_uv"))?;
-    if let Some(rows) = u.table.get("matrix") {
-        if let Some(key) = ["scale", "translate"]
-            .into_iter()
-            .find(|k| u.table.contains_key(*k))
-        {
-            return Err(u.err(
-                u.at(key),
-                "give either `matrix` or `scale`/`translate`, not both",
-            ));
-        }
-        let bad = || {
-            u.err(
-                u.at("matrix"),
-                "expected two rows of three numbers, [[a, b, c], [d, e, f]]",
-            )
-        };
-        let Value::Array(rows) = rows else {
-            return Err(bad());
-        };
-        let mut m = [[0.0f32; 3]; 2];
-        if rows.len() != 2 {
-            return Err(bad());
-        }
-        for (r, row) in rows.iter().enumerate() {
-            let Value::Array(row) = row else {
-                return Err(bad());
-            };
-            if row.len() != 3 {
-                return Err(bad());
-            }
-            for (c, x) in row.iter().enumerate() {
-                m[r][c] =
-                    number(x).map_err(|e| u.err(format!("{}[{r}][{c}]", u.at("matrix")), e))?;
-            }
-        }
-        return Ok(UvTransform(m));
-    }
-    let scale = match u.table.get("scale") {
-        Some(Value::Array(_)) => u.numbers::<2>("scale")?,
-        Some(_) => [u.float("scale", check_finite)?.expect("present"); 2],
-        None => [1.0; 2],
-    };
-    let translate = match u.table.get("translate") {
-        Some(_) => u.numbers::<2>("translate")?,
-        None => [0.0; 2],
-    };
-    Ok(UvTransform([
-        [scale[0], 0.0, translate[0]],
-        [0.0, scale[1], translate[1]],
-    ]))
 }
 
 fn check_cutoff(x: f32) -> std::result::Result<(), String> {
