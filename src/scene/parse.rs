@@ -1,7 +1,9 @@
 //! The scene file format: TOML, parsed by hand into a validated [`Scene`].
-//! Each material kind reads its own table, and each primitive kind its objects
-//! (`kinds`); this file reads the rest, dispatches to them by `type`, and
-//! reads boxes and meshes.
+//! Each kind reads its own table (`kinds`): a material kind its
+//! `[materials.NAME]`, a primitive kind its `[[objects]]`, a texture kind the
+//! texture a material names, a point or spot light its `[[lights]]` and the
+//! pixel filter `camera.filter`; this file reads the rest (the sections, the
+//! environment), dispatches to them by `type`, and reads boxes and meshes.
 //!
 //! The reference for every table and key (meaning, default, range) is
 //! docs/scene-format.md: keep it in step with the parser. Unknown keys are errors
@@ -18,15 +20,15 @@ use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
 use super::{
     Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings, Roulette, Sampler,
-    Scene, SceneError, Shapes, Sphere, Spot, Strategy, Triangle, excerpt,
+    Scene, SceneError, Shapes, Sphere, Strategy, Triangle, excerpt,
 };
 use crate::kinds::MAX_TEXTURES;
 use crate::kinds::params::{
     ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
-    colour, fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
+    fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
 };
 use crate::kinds::transform::{TRANSFORM_KEYS, Transform, matrix, rotation};
-use crate::kinds::{self, DEGENERATE, Shape, usable_length_squared};
+use crate::kinds::{self, DEGENERATE, Shape, light_keys, light_types, usable_length_squared};
 use std::cell::RefCell;
 
 // Mitsuba's reader takes these from here, as the TOML reader does from the kinds.
@@ -82,15 +84,6 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "rr_depth",
     "sampler",
     "adaptive",
-];
-pub(super) const LIGHT_TYPES: &[&str] = &["point", "spot"];
-pub(super) const ALL_LIGHT_KEYS: &[&str] = &[
-    "type",
-    "position",
-    "intensity",
-    "direction",
-    "cutoff_angle",
-    "beam_width",
 ];
 // ---------------------------------------------------------------------------------
 // Entry points
@@ -452,17 +445,6 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
     Ok(out)
 }
 
-fn check_cutoff(x: f32) -> std::result::Result<(), String> {
-    if x > 0.0 && x < 180.0 {
-        Ok(())
-    } else {
-        Err(format!(
-            "must be in (0, 180) degrees, exclusive, got {}",
-            fmt_num(x)
-        ))
-    }
-}
-
 /// The tables of the top-level array `key` (`[[key]]`, none when absent), each
 /// with its `type`, read one at a time as the caller walks them (so errors come
 /// in file order); a table without a `type` is refused, its keys checked against
@@ -511,55 +493,15 @@ fn typed_tables<'a, 'b>(
     }))
 }
 
-/// The `[[lights]]`: point and spot lights.
+/// The `[[lights]]`: point and spot lights, each read by its type
+/// (`kinds::PointLight`).
 fn parse_lights(top: &ParamTable) -> Result<Vec<PointLight>> {
-    let tables = typed_tables(top, "lights", ALL_LIGHT_KEYS, LIGHT_TYPES)?;
+    let (keys, types) = (light_keys(), light_types());
+    let tables = typed_tables(top, "lights", &keys, &types)?;
     let mut lights = Vec::with_capacity(tables.len());
     for table in tables {
         let (t, ty) = table?;
-        match ty {
-            "point" => t.check_keys(&["type", "position", "intensity"], Some("a point light"))?,
-            "spot" => t.check_keys(ALL_LIGHT_KEYS, Some("a spot light"))?,
-            other => {
-                return Err(t.err(t.at("type"), unknown_name("light type", other, LIGHT_TYPES)));
-            }
-        }
-        let position = t.require("position", t.vec3("position", ok)?)?;
-        if !t.table.contains_key("intensity") {
-            return Err(t.err(t.here(), "missing required key `intensity`"));
-        }
-        let intensity = colour(&t, "intensity", 0.0, check_nonneg)?;
-        let spot = if ty == "spot" {
-            let direction = t.require("direction", t.vec3("direction", ok)?)?;
-            if !usable_length_squared(direction.length_squared()) {
-                return Err(t.err(t.at("direction"), "must not be zero"));
-            }
-            let cutoff_angle = t.float("cutoff_angle", check_cutoff)?.unwrap_or(20.0);
-            let beam_width = t.float("beam_width", check_nonneg)?;
-            let beam_width = beam_width.unwrap_or(cutoff_angle * 3.0 / 4.0);
-            if beam_width > cutoff_angle {
-                return Err(t.err(
-                    t.at("beam_width"),
-                    format!(
-                        "must not exceed `cutoff_angle` ({}), got {}",
-                        fmt_num(cutoff_angle),
-                        fmt_num(beam_width)
-                    ),
-                ));
-            }
-            Some(Spot {
-                direction: direction.normalize(),
-                cutoff_angle,
-                beam_width,
-            })
-        } else {
-            None
-        };
-        lights.push(PointLight {
-            position,
-            intensity,
-            spot,
-        });
+        lights.push(PointLight::parse(&t, ty)?);
     }
     Ok(lights)
 }
@@ -1014,6 +956,7 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Spot;
 
     const CORNELL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml"));
     const BOXES: &str = include_str!(concat!(
