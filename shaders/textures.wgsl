@@ -1,4 +1,4 @@
-// Textures on material colours (`scene::texture`, packed by `kinds::texture`),
+// Textures on material colours (`kinds::texture`: one file per kind, which packs it),
 // with Mitsuba 3's semantics: a checkerboard, or a bitmap looked up bilinearly
 // (or at the nearest texel) with its integer texel coordinates wrapped.
 

@@ -502,6 +502,59 @@ impl ImageInput {
     }
 }
 
+/// Reads `path` (`.exr`: the R, G, B channels of the first layer; `.hdr`:
+/// Radiance RGBE) into linear RGB texels, row-major from the top row, each
+/// finite and >= 0: an environment map, or a texture's linear image. The error
+/// names the image file and the problem; `what` the image, where the extension
+/// is neither.
+pub fn read_linear_image(path: &Path, what: &str) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
+    let shown = path.display();
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let format_name = match extension.as_str() {
+        "exr" => "OpenEXR",
+        "hdr" => "Radiance HDR",
+        _ => {
+            return Err(format!(
+                "{shown}: unknown {what} format {extension:?} (supported: .exr, .hdr)"
+            ));
+        }
+    };
+    let unreadable = |e: ImageReadError| match e {
+        ImageReadError::Open(e) => format!("{shown}: cannot read the image file: {e}"),
+        ImageReadError::Format(e) => format!("{shown}: cannot read the {format_name} image: {e}"),
+        e => format!("{shown}: {e}"),
+    };
+    let input = open_image(path).map_err(unreadable)?;
+    let (width, height, texels) = if extension == "exr" {
+        let (image, _) = input.read_exr().map_err(unreadable)?;
+        (image.width, image.height, image.pixels)
+    } else {
+        let image = input.decode().map_err(unreadable)?.into_rgb32f();
+        let (width, height) = image.dimensions();
+        (width, height, image.pixels().map(|p| p.0).collect())
+    };
+    if width == 0 || height == 0 {
+        return Err(format!(
+            "{shown}: the image has no texels ({width}x{height})"
+        ));
+    }
+    if let Some((i, texel)) = texels
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.iter().any(|c| !c.is_finite() || *c < 0.0))
+    {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        return Err(format!(
+            "{shown}: texel ({x}, {y}) is [{}, {}, {}]: texel values must be finite and >= 0",
+            texel[0], texel[1], texel[2]
+        ));
+    }
+    Ok((width, height, texels))
+}
+
 /// Reads the R, G, B channels (f32, f16 or u32, converted to f32) of the first layer.
 pub fn read_exr(path: &Path) -> Result<Image, OutputError> {
     read_exr_with_attributes(path).map(|(image, _)| image)

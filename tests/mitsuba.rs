@@ -4,9 +4,9 @@
 
 mod common;
 
+use pathmix::kinds::{Checkerboard, TextureKind};
 use pathmix::output::{Image, read_exr};
 use pathmix::scene::mitsuba::{Converted, Define};
-use pathmix::scene::texture::TextureKind;
 use pathmix::scene::{MaterialKind, Sampler, Scene};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -281,7 +281,7 @@ fn textured_scene_matches_mitsuba() {
     eprintln!("textured.xml against Mitsuba: {}", agreed.unwrap());
     let mut swapped = 0;
     for material in &mut scene.materials {
-        if let Some(TextureKind::Checkerboard { color0, color1 }) =
+        if let Some(TextureKind::Checkerboard(Checkerboard { color0, color1 })) =
             material.texture.as_mut().map(|t| &mut t.kind)
         {
             std::mem::swap(color0, color1);

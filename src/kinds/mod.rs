@@ -1,6 +1,7 @@
-//! The kinds of primitive, material, texture and pixel filter pathmix renders,
-//! each described once, with how scene files name it: `params` is the table
-//! reader every kind and the scene read with, `transform` where an object sits.
+//! The kinds of primitive, material, texture, point light and pixel filter
+//! pathmix renders, each described once, with how scene files name it:
+//! `params` is the table reader every kind and the scene read with,
+//! `transform` where an object sits.
 //!
 //! A kind's description names its WGSL module and packed struct and says what it
 //! supports; the kernel's presence flags, modules, scene arrays, bindings, baked
@@ -23,11 +24,18 @@
 //! - `src/kinds/material/mod.rs`: `mod NAME;` and its entry in
 //!   `material_kinds!` (its [`MaterialKind`] variant, with its parameters).
 //!
-//! Either also documents its type and keys in `docs/scene-format.md`
+//! A new **texture kind** touches `shaders/textures.wgsl`,
+//! `src/kinds/texture/NAME.rs` (its manual, its type, its `TextureModel` and
+//! `TextureValue`, its test) and its lines in `src/kinds/texture/mod.rs`
+//! (`texture_kinds!`, `TEXTURE_CONSTANTS`). Point and spot lights are
+//! `delta_light.rs`.
+//!
+//! Any of them also documents its type and keys in `docs/scene-format.md`
 //! (`scene::format_doc` fails on one it lacks); ARCHITECTURE.md says what else
 //! may follow (a Mitsuba plugin, the checkpoint identity's version).
 
 mod coat;
+mod delta_light;
 mod disk;
 pub(crate) mod filter;
 mod material;
@@ -39,6 +47,11 @@ pub(crate) mod transform;
 mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
+// For the format's page.
+#[cfg(test)]
+pub(crate) use delta_light::LIGHT_TYPES;
+pub use delta_light::{PointLight, Spot};
+pub(crate) use delta_light::{light_keys, light_types};
 pub use disk::{Disk, PackedDisk};
 pub use filter::{
     FILTER_FLAGS, FILTER_MODULE, FILTER_TABLE_BINS, Filter, FilterTable, GaussianFilterTerms,
@@ -55,10 +68,13 @@ pub(crate) use material::{NAMED_CONDUCTORS, material_keys, material_types};
 pub use params::{SceneError, excerpt};
 pub use quad::{PackedQuad, Quad};
 pub use sphere::{PackedSphere, Sphere};
+// For the format's page.
+#[cfg(test)]
+pub(crate) use texture::TEXTURE_KINDS;
 pub use texture::{
-    Bitmap, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT, MAX_TEXTURES,
-    TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo, TextureKind, TextureTables,
-    UvTransform, WrapMode, serialize_texels,
+    Bitmap, Checkerboard, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT,
+    MAX_TEXTURES, TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo, TextureKind,
+    TextureTables, UvTransform, WrapMode, serialize_texels,
 };
 pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 
@@ -446,6 +462,16 @@ fn read_object(kind: &PrimitiveKind, body: &str) -> Result<Shapes> {
     let mut shapes = Shapes::default();
     (object.parse)(&t, &Transform::parse(&t)?, 0, false, &mut shapes)?;
     Ok(shapes)
+}
+
+/// A kind's manual: the doc comment at the top of its file's `source`.
+#[cfg(test)]
+fn manual(source: &str) -> String {
+    source
+        .lines()
+        .map_while(|line| line.strip_prefix("//!"))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@
 //! bilinearly between those centres, as Mitsuba does (`shaders/environment.wgsl`).
 
 use crate::kinds::serialize_texels;
-use crate::output::{self, ImageReadError};
+use crate::output;
 use glam::Mat3;
 use serde::Serialize;
 use std::fmt;
@@ -71,55 +71,9 @@ pub fn row_edge(y: u32, height: u32) -> f64 {
     }
 }
 
-/// Reads `path` (`.exr`: the R, G, B channels of the first layer; `.hdr`:
-/// Radiance RGBE) into linear RGB texels, row-major from the top row. The error
-/// names the image file and the problem.
+/// Reads the map `path` (`output::read_linear_image`).
 pub fn load_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
-    let shown = path.display();
-    let extension = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    let format_name = match extension.as_str() {
-        "exr" => "OpenEXR",
-        "hdr" => "Radiance HDR",
-        _ => {
-            return Err(format!(
-                "{shown}: unknown environment map format {extension:?} (supported: .exr, .hdr)"
-            ));
-        }
-    };
-    let unreadable = |e: ImageReadError| match e {
-        ImageReadError::Open(e) => format!("{shown}: cannot read the image file: {e}"),
-        ImageReadError::Format(e) => format!("{shown}: cannot read the {format_name} image: {e}"),
-        e => format!("{shown}: {e}"),
-    };
-    let input = output::open_image(path).map_err(unreadable)?;
-    let (width, height, texels) = if extension == "exr" {
-        let (image, _) = input.read_exr().map_err(unreadable)?;
-        (image.width, image.height, image.pixels)
-    } else {
-        let image = input.decode().map_err(unreadable)?.into_rgb32f();
-        let (width, height) = image.dimensions();
-        (width, height, image.pixels().map(|p| p.0).collect())
-    };
-    if width == 0 || height == 0 {
-        return Err(format!(
-            "{shown}: the image has no texels ({width}x{height})"
-        ));
-    }
-    if let Some((i, texel)) = texels
-        .iter()
-        .enumerate()
-        .find(|(_, t)| t.iter().any(|c| !c.is_finite() || *c < 0.0))
-    {
-        let (x, y) = (i as u32 % width, i as u32 / width);
-        return Err(format!(
-            "{shown}: texel ({x}, {y}) is [{}, {}, {}]: texel values must be finite and >= 0",
-            texel[0], texel[1], texel[2]
-        ));
-    }
-    Ok((width, height, texels))
+    output::read_linear_image(path, "environment map")
 }
 
 #[cfg(test)]

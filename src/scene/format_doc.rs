@@ -1,14 +1,17 @@
 //! docs/scene-format.md against the parser: every table, type and key the
 //! TOML reader accepts is documented there (the kinds' types and keys as
 //! their registrations list them). A kind or key added to the parser without
-//! its documentation fails here.
+//! its documentation fails here, and so does a texture or light type whose
+//! entry (the list item `type = "NAME"`: ...) does not name its own keys.
 
 use super::parse::{
-    ALL_LIGHT_KEYS, BITMAP_KEYS, CAMERA_KEYS, CHECKERBOARD_KEYS, ENVIRONMENT_KEYS, LIGHT_TYPES,
-    RENDER_KEYS, SCENE_KEYS, TEXTURE_TYPES, TOP_KEYS, object_keys, object_type_names,
+    CAMERA_KEYS, ENVIRONMENT_KEYS, RENDER_KEYS, SCENE_KEYS, TOP_KEYS, object_keys,
+    object_type_names,
 };
 use crate::kinds::filter::{FILTER_KEYS, filter_types};
-use crate::kinds::{material_keys, material_types};
+use crate::kinds::{
+    LIGHT_TYPES, TEXTURE_KINDS, light_keys, light_types, material_keys, material_types,
+};
 
 fn document() -> String {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scene-format.md");
@@ -40,6 +43,7 @@ fn every_table_type_and_key_is_documented() {
     };
     let type_name = |name: &str| vec![format!("`\"{name}\"`"), format!("`type = \"{name}\"`")];
     let key = |name: &str| vec![format!("`{name}`")];
+    let texture_types: Vec<&str> = TEXTURE_KINDS.iter().map(|kind| kind.name).collect();
     let mut missing = Vec::new();
     missing.extend(
         undocumented(&document, TOP_KEYS, table)
@@ -49,9 +53,9 @@ fn every_table_type_and_key_is_documented() {
     for types in [
         &filter_types()[..],
         &material_types(),
-        LIGHT_TYPES,
+        &light_types(),
         &object_type_names(),
-        TEXTURE_TYPES,
+        &texture_types,
     ] {
         missing.extend(
             undocumented(&document, types, type_name)
@@ -59,6 +63,10 @@ fn every_table_type_and_key_is_documented() {
                 .map(|n| format!("type \"{n}\"")),
         );
     }
+    let texture_keys: Vec<&str> = TEXTURE_KINDS
+        .iter()
+        .flat_map(|kind| kind.all_keys())
+        .collect();
     let filter_keys: Vec<&str> = FILTER_KEYS
         .iter()
         .flat_map(|(_, keys)| *keys)
@@ -71,10 +79,9 @@ fn every_table_type_and_key_is_documented() {
         RENDER_KEYS,
         ENVIRONMENT_KEYS,
         &material_keys(),
-        ALL_LIGHT_KEYS,
+        &light_keys(),
         &object_keys(),
-        CHECKERBOARD_KEYS,
-        BITMAP_KEYS,
+        &texture_keys,
     ] {
         missing.extend(
             undocumented(&document, keys, key)
@@ -89,6 +96,45 @@ fn every_table_type_and_key_is_documented() {
     );
 }
 
+/// The entry of `document` for the type `name`: from its line, the list item
+/// that starts with `type = "NAME"`, to the next item or paragraph.
+fn entry<'a>(document: &'a str, name: &str) -> Option<&'a str> {
+    let start = document.find(&format!("\n- `type = \"{name}\"`"))? + 1;
+    let rest = &document[start..];
+    let end = ["\n- ", "\n\n"]
+        .iter()
+        .filter_map(|next| rest.find(next))
+        .min()
+        .unwrap_or(rest.len());
+    Some(&rest[..end])
+}
+
+/// Each texture and light type has an entry of its own that names its own
+/// keys (those besides every texture's `type` and `to_uv`, every light's
+/// `type`, `position` and `intensity`), as its registration lists them.
+#[test]
+fn each_texture_and_light_type_documents_its_keys() {
+    let document = document();
+    let textures = TEXTURE_KINDS.iter().map(|kind| (kind.name, kind.keys));
+    let lights = LIGHT_TYPES.iter().map(|light| (light.name, light.keys));
+    let mut missing = Vec::new();
+    for (name, keys) in textures.chain(lights) {
+        match entry(&document, name) {
+            None => missing.push(format!("an entry `type = \"{name}\"`")),
+            Some(entry) => missing.extend(
+                undocumented(entry, keys, |key| vec![format!("`{key}`")])
+                    .into_iter()
+                    .map(|key| format!("key `{key}` in the entry of \"{name}\"")),
+            ),
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "docs/scene-format.md lacks: {}",
+        missing.join(", ")
+    );
+}
+
 /// The check can fail: a name the document lacks is found missing.
 #[test]
 fn an_undocumented_name_is_found() {
@@ -97,4 +143,8 @@ fn an_undocumented_name_is_found() {
         undocumented("`spp` and `seed`", &["spp", "seed", "zz"], key),
         ["zz"]
     );
+    let document = "text\n- `type = \"a\"`: `x`\n- `type = \"b\"`: `y`\n\nmore `z`";
+    assert_eq!(entry(document, "a"), Some("- `type = \"a\"`: `x`"));
+    assert_eq!(entry(document, "b"), Some("- `type = \"b\"`: `y`"));
+    assert_eq!(entry(document, "c"), None);
 }

@@ -1252,7 +1252,8 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// `<emitter type="point">` and `"spot"`: a `[[lights]]` entry. The position is
+    /// `<emitter type="point">` and `"spot"`: a `[[lights]]` entry, which
+    /// `kinds::PointLight` reads as it reads the TOML's. The position is
     /// `position` (point only) or `to_world`'s translation; a spot's axis is
     /// `to_world`'s z axis, its cone kept circular (Mitsuba's falloff is taken in
     /// the light's own frame, which a shear or an uneven scale would distort).

@@ -11,7 +11,6 @@ mod parse;
 mod prune;
 mod spectrum;
 mod sphere_field;
-pub mod texture;
 
 use glam::Vec3;
 use serde::Serialize;
@@ -19,13 +18,12 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Disk, Distribution, Filter, Material, MaterialKind, Quad, SceneError, Shapes, Sphere, Triangle,
-    excerpt,
+    Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, SceneError, Shapes,
+    Sphere, Spot, Texture, Triangle, excerpt,
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
 pub use sphere_field::{sphere_field, sphere_field_toml};
-pub use texture::Texture;
 
 /// How a diffuse bounce picks its direction (docs/estimator.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -203,32 +201,6 @@ impl RenderSettings {
             Roulette::From(depth) => Some(depth),
         }
     }
-}
-
-/// A light at a point (Mitsuba's `point` and `spot` emitters): a delta light,
-/// which no sampled direction can hit, so every strategy estimates it by a
-/// shadow ray (next-event estimation) at each vertex with a smooth lobe.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct PointLight {
-    pub position: Vec3,
-    /// Radiant intensity (W/sr) per RGB channel; irradiance at distance d,
-    /// facing it, is intensity / d^2.
-    pub intensity: Vec3,
-    /// A spot light's cone; `None`: the same intensity in every direction.
-    pub spot: Option<Spot>,
-}
-
-/// A spot light's cone, with Mitsuba's smooth falloff: full intensity within
-/// `beam_width` of the axis, none beyond `cutoff_angle`, linear in the angle
-/// between them.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Spot {
-    /// The cone's axis, unit length, pointing away from the light.
-    pub direction: Vec3,
-    /// Degrees, in (0, 180).
-    pub cutoff_angle: f32,
-    /// Degrees, in [0, cutoff_angle].
-    pub beam_width: f32,
 }
 
 /// A validated scene: world-space primitives after box expansion and transforms.

@@ -1,7 +1,9 @@
 //! The scene file format: TOML, parsed by hand into a validated [`Scene`].
-//! Each material kind reads its own table, and each primitive kind its objects
-//! (`kinds`); this file reads the rest, dispatches to them by `type`, and
-//! reads boxes and meshes.
+//! Each kind reads its own table (`kinds`): a material kind its
+//! `[materials.NAME]`, a primitive kind its `[[objects]]`, a texture kind the
+//! texture a material names, a point or spot light its `[[lights]]` and the
+//! pixel filter `camera.filter`; this file reads the rest (the sections, the
+//! environment), dispatches to them by `type`, and reads boxes and meshes.
 //!
 //! The reference for every table and key (meaning, default, range) is
 //! docs/scene-format.md: keep it in step with the parser. Unknown keys are errors
@@ -16,21 +18,17 @@ use toml::{Table, Value};
 
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
-use super::texture::{
-    Bitmap, TextureFilter, TextureKind, UvTransform, WrapMode, load_texture_image,
-};
 use super::{
     AdaptiveMetric, Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
-    Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Spot, Strategy, Texture, Triangle,
-    excerpt,
+    Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle, excerpt,
 };
 use crate::kinds::MAX_TEXTURES;
 use crate::kinds::params::{
     ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
-    colour, fmt_num, fmt_vec, list, named, number, ok, reflectance, type_name, unknown_name,
+    fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
 };
 use crate::kinds::transform::{TRANSFORM_KEYS, Transform, matrix, rotation};
-use crate::kinds::{self, DEGENERATE, Shape, usable_length_squared};
+use crate::kinds::{self, DEGENERATE, Shape, light_keys, light_types, usable_length_squared};
 use std::cell::RefCell;
 
 // Mitsuba's reader takes these from here, as the TOML reader does from the kinds.
@@ -88,15 +86,6 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "sampler",
     "adaptive",
     "adaptive_metric",
-];
-pub(super) const LIGHT_TYPES: &[&str] = &["point", "spot"];
-pub(super) const ALL_LIGHT_KEYS: &[&str] = &[
-    "type",
-    "position",
-    "intensity",
-    "direction",
-    "cutoff_angle",
-    "beam_width",
 ];
 // ---------------------------------------------------------------------------------
 // Entry points
@@ -455,7 +444,7 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
     let mut textures = 0;
     for name in names {
         let t = mats.sub(name)?.expect("key exists");
-        let material = Material::parse(name, &t, parse_texture)?;
+        let material = Material::parse(name, &t)?;
         textures += material.texture.is_some() as usize + material.bump.is_some() as usize;
         if textures > MAX_TEXTURES {
             return Err(t.err(
@@ -468,158 +457,6 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
         out.push(material);
     }
     Ok(out)
-}
-
-/// Textures in device memory: one storage binding holds every texel (three
-/// floats each), and wgpu's default limit on a binding, lavapipe's too, is 128 MiB.
-pub const MAX_TEXTURE_TEXELS: u64 = (128 << 20) / 12;
-
-/// `{ type = "checkerboard" | "bitmap", ... }` (`scene::texture`).
-pub(super) const TEXTURE_TYPES: &[&str] = &["checkerboard", "bitmap"];
-pub(super) const CHECKERBOARD_KEYS: &[&str] = &["type", "color0", "color1", "to_uv"];
-pub(super) const BITMAP_KEYS: &[&str] =
-    &["type", "file", "wrap_mode", "filter_type", "raw", "to_uv"];
-
-fn parse_texture(s: &ParamTable) -> Result<Texture> {
-    let Some(ty) = s.string("type")? else {
-        return Err(s.err(
-            s.here(),
-            format!(
-                "missing required key `type` for a texture (expected one of {})",
-                list(TEXTURE_TYPES)
-            ),
-        ));
-    };
-    let kind = match ty {
-        "checkerboard" => {
-            s.check_keys(CHECKERBOARD_KEYS, Some("a checkerboard texture"))?;
-            TextureKind::Checkerboard {
-                color0: reflectance(s, "color0", 0.4)?,
-                color1: reflectance(s, "color1", 0.2)?,
-            }
-        }
-        "bitmap" => {
-            s.check_keys(BITMAP_KEYS, Some("a bitmap texture"))?;
-            let file = s.require("file", s.string("file")?)?;
-            let raw = s.boolean("raw")?.unwrap_or(false);
-            let wrap = named(
-                s,
-                "wrap_mode",
-                &WrapMode::ALL,
-                WrapMode::name,
-                WrapMode::from_name,
-            )?
-            .unwrap_or(WrapMode::Repeat);
-            let filter = named(
-                s,
-                "filter_type",
-                &TextureFilter::ALL,
-                TextureFilter::name,
-                TextureFilter::from_name,
-            )?
-            .unwrap_or(TextureFilter::Bilinear);
-            let path = s.input(file);
-            let (width, height, texels) =
-                load_texture_image(&path, raw).map_err(|m| s.err(s.at("file"), m))?;
-            if width as u64 * height as u64 > MAX_TEXTURE_TEXELS {
-                return Err(s.err(
-                    s.at("file"),
-                    format!(
-                        "{}: {width}x{height} texels do not fit the 128 MiB storage binding                          that holds a scene's textures (at most {MAX_TEXTURE_TEXELS} texels):                          scale the image down",
-                        path.display()
-                    ),
-                ));
-            }
-            TextureKind::Bitmap(Bitmap {
-                file: file.to_string(),
-                width,
-                height,
-                texels: std::sync::Arc::new(texels),
-                raw,
-                wrap,
-                filter,
-            })
-        }
-        other => {
-            return Err(s.err(
-                s.at("type"),
-                unknown_name("texture type", other, TEXTURE_TYPES),
-            ));
-        }
-    };
-    let to_uv = match s.sub("to_uv")? {
-        Some(u) => parse_to_uv(&u)?,
-        None => UvTransform::IDENTITY,
-    };
-    Ok(Texture { kind, to_uv })
-}
-
-/// `to_uv = { scale = [su, sv], translate = [tu, tv] }` (u' = su u + tu; one
-/// number scales both), or `{ matrix = [[a, b, c], [d, e, f]] }` (u' = a u + b v
-/// + c, v' = d u + e v + f): Mitsuba's `to_uv` transform.
-fn parse_to_uv(u: &ParamTable) -> Result<UvTransform> {
-    u.check_keys(&["scale", "translate", "matrix"], Some("to_uv"))?;
-    if let Some(rows) = u.table.get("matrix") {
-        if let Some(key) = ["scale", "translate"]
-            .into_iter()
-            .find(|k| u.table.contains_key(*k))
-        {
-            return Err(u.err(
-                u.at(key),
-                "give either `matrix` or `scale`/`translate`, not both",
-            ));
-        }
-        let bad = || {
-            u.err(
-                u.at("matrix"),
-                "expected two rows of three numbers, [[a, b, c], [d, e, f]]",
-            )
-        };
-        let Value::Array(rows) = rows else {
-            return Err(bad());
-        };
-        let mut m = [[0.0f32; 3]; 2];
-        if rows.len() != 2 {
-            return Err(bad());
-        }
-        for (r, row) in rows.iter().enumerate() {
-            let Value::Array(row) = row else {
-                return Err(bad());
-            };
-            if row.len() != 3 {
-                return Err(bad());
-            }
-            for (c, x) in row.iter().enumerate() {
-                m[r][c] =
-                    number(x).map_err(|e| u.err(format!("{}[{r}][{c}]", u.at("matrix")), e))?;
-            }
-        }
-        return Ok(UvTransform(m));
-    }
-    let scale = match u.table.get("scale") {
-        Some(Value::Array(_)) => u.numbers::<2>("scale")?,
-        Some(_) => [u.float("scale", check_finite)?.expect("present"); 2],
-        None => [1.0; 2],
-    };
-    let translate = match u.table.get("translate") {
-        Some(_) => u.numbers::<2>("translate")?,
-        None => [0.0; 2],
-    };
-    Ok(UvTransform([
-        [scale[0], 0.0, translate[0]],
-        [0.0, scale[1], translate[1]],
-    ]))
-}
-
-fn check_cutoff(x: f32) -> std::result::Result<(), String> {
-    if x > 0.0 && x < 180.0 {
-        Ok(())
-    } else {
-        Err(format!(
-            "must be in (0, 180) degrees, exclusive, got {}",
-            fmt_num(x)
-        ))
-    }
 }
 
 /// The tables of the top-level array `key` (`[[key]]`, none when absent), each
@@ -670,55 +507,15 @@ fn typed_tables<'a, 'b>(
     }))
 }
 
-/// The `[[lights]]`: point and spot lights.
+/// The `[[lights]]`: point and spot lights, each read by its type
+/// (`kinds::PointLight`).
 fn parse_lights(top: &ParamTable) -> Result<Vec<PointLight>> {
-    let tables = typed_tables(top, "lights", ALL_LIGHT_KEYS, LIGHT_TYPES)?;
+    let (keys, types) = (light_keys(), light_types());
+    let tables = typed_tables(top, "lights", &keys, &types)?;
     let mut lights = Vec::with_capacity(tables.len());
     for table in tables {
         let (t, ty) = table?;
-        match ty {
-            "point" => t.check_keys(&["type", "position", "intensity"], Some("a point light"))?,
-            "spot" => t.check_keys(ALL_LIGHT_KEYS, Some("a spot light"))?,
-            other => {
-                return Err(t.err(t.at("type"), unknown_name("light type", other, LIGHT_TYPES)));
-            }
-        }
-        let position = t.require("position", t.vec3("position", ok)?)?;
-        if !t.table.contains_key("intensity") {
-            return Err(t.err(t.here(), "missing required key `intensity`"));
-        }
-        let intensity = colour(&t, "intensity", 0.0, check_nonneg)?;
-        let spot = if ty == "spot" {
-            let direction = t.require("direction", t.vec3("direction", ok)?)?;
-            if !usable_length_squared(direction.length_squared()) {
-                return Err(t.err(t.at("direction"), "must not be zero"));
-            }
-            let cutoff_angle = t.float("cutoff_angle", check_cutoff)?.unwrap_or(20.0);
-            let beam_width = t.float("beam_width", check_nonneg)?;
-            let beam_width = beam_width.unwrap_or(cutoff_angle * 3.0 / 4.0);
-            if beam_width > cutoff_angle {
-                return Err(t.err(
-                    t.at("beam_width"),
-                    format!(
-                        "must not exceed `cutoff_angle` ({}), got {}",
-                        fmt_num(cutoff_angle),
-                        fmt_num(beam_width)
-                    ),
-                ));
-            }
-            Some(Spot {
-                direction: direction.normalize(),
-                cutoff_angle,
-                beam_width,
-            })
-        } else {
-            None
-        };
-        lights.push(PointLight {
-            position,
-            intensity,
-            spot,
-        });
+        lights.push(PointLight::parse(&t, ty)?);
     }
     Ok(lights)
 }
@@ -1173,6 +970,7 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Spot;
 
     const CORNELL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml"));
     const BOXES: &str = include_str!(concat!(

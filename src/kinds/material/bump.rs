@@ -32,7 +32,6 @@
 //! `use_shadowing_function`, `materials.wgsl`'s `bump_shadowing`), so light
 //! does not reach the bump's terminator where the true geometry would shadow it.
 
-use super::common::ReadTexture;
 use crate::kinds::Texture;
 use crate::kinds::TextureKind;
 use crate::kinds::params::{ParamTable, Result, check_finite};
@@ -68,8 +67,8 @@ impl Bump {
 /// The keys every scattering material takes for its shading normal.
 pub(crate) const BUMP_KEYS: &[&str] = &["bump", "normal_map"];
 
-/// The material's `bump` or `normal_map` (not both), read by `read_texture`.
-pub(crate) fn parse_bump(t: &ParamTable, read_texture: ReadTexture) -> Result<Option<Bump>> {
+/// The material's `bump` or `normal_map` (not both).
+pub(crate) fn parse_bump(t: &ParamTable) -> Result<Option<Bump>> {
     if t.table.contains_key("bump") && t.table.contains_key("normal_map") {
         return Err(t.err(
             t.at("normal_map"),
@@ -81,7 +80,7 @@ pub(crate) fn parse_bump(t: &ParamTable, read_texture: ReadTexture) -> Result<Op
         let Some(s) = b.sub("texture")? else {
             return Err(b.err(b.here(), "missing required key `texture`"));
         };
-        let texture = read_texture(&s)?;
+        let texture = Texture::parse(&s)?;
         if !matches!(texture.kind, TextureKind::Bitmap(_)) {
             return Err(s.err(
                 s.at("type"),
@@ -92,7 +91,7 @@ pub(crate) fn parse_bump(t: &ParamTable, read_texture: ReadTexture) -> Result<Op
         return Ok(Some(Bump::Height { texture, scale }));
     }
     if let Some(s) = t.sub("normal_map")? {
-        let texture = read_texture(&s)?;
+        let texture = Texture::parse(&s)?;
         if !matches!(texture.kind, TextureKind::Bitmap(_)) {
             return Err(s.err(s.at("type"), "a normal map must be a `bitmap`"));
         }

@@ -313,25 +313,14 @@ pub(super) fn nonlinear_flag(nonlinear: bool) -> u32 {
 // ---------------------------------------------------------------------------------
 // Textures
 
-/// How the scene reads a texture table (`scene` loads its image; kinds read
-/// no files).
-pub(crate) type ReadTexture = fn(&ParamTable) -> Result<Texture>;
-
 /// The one colour of a material that may be a texture (`Material::texture`),
 /// which its kind reads through this.
+#[derive(Default)]
 pub(crate) struct TextureSlot {
-    read: ReadTexture,
     pub texture: Option<Texture>,
 }
 
 impl TextureSlot {
-    pub fn new(read: ReadTexture) -> TextureSlot {
-        TextureSlot {
-            read,
-            texture: None,
-        }
-    }
-
     /// The book's `albedo`: a vector in [0, 1] or a texture (whose mean it
     /// gives); `None` when absent.
     pub fn albedo(&mut self, t: &ParamTable, key: &str) -> Result<Option<Vec3>> {
@@ -355,7 +344,7 @@ impl TextureSlot {
         if !t.table.get(key).is_some_and(Value::is_table) {
             return Ok(None);
         }
-        let texture = (self.read)(&t.sub(key)?.expect("a table"))?;
+        let texture = Texture::parse(&t.sub(key)?.expect("a table"))?;
         let mean = texture.mean();
         self.texture = Some(texture);
         Ok(Some(mean))

@@ -25,7 +25,7 @@ pub use bump::Bump;
 pub use common::Distribution;
 #[cfg(test)]
 pub(crate) use common::NAMED_CONDUCTORS;
-pub(crate) use common::{NAMED_IORS, ReadTexture};
+pub(crate) use common::NAMED_IORS;
 
 use super::Texture;
 use super::coat::CoatTables;
@@ -283,9 +283,8 @@ impl Material {
 
     /// The material `name` of table `t` (`[materials.NAME]`): `type` names its
     /// kind, which reads the rest; `one_sided` (default false) where the kind
-    /// takes it, and `opacity` (default 1) on every kind. `read_texture` reads
-    /// the texture its colour may be.
-    pub(crate) fn parse(name: &str, t: &ParamTable, read_texture: ReadTexture) -> Result<Material> {
+    /// takes it, and `opacity` (default 1) on every kind.
+    pub(crate) fn parse(name: &str, t: &ParamTable) -> Result<Material> {
         let Some(ty) = t.string("type")? else {
             t.check_keys(&material_keys(), None)?;
             return Err(t.err(
@@ -309,10 +308,10 @@ impl Material {
             keys.extend(bump::BUMP_KEYS);
         }
         t.check_keys(&keys, Some(&model.what()))?;
-        let mut slot = TextureSlot::new(read_texture);
+        let mut slot = TextureSlot::default();
         let Parsed { kind, albedo, emit } = (model.parse)(t, &mut slot)?;
         let bump = match scatters {
-            true => bump::parse_bump(t, read_texture)?,
+            true => bump::parse_bump(t)?,
             false => None,
         };
         Ok(Material {
@@ -431,8 +430,8 @@ pub fn pack_material(material: &Material, tables: &mut MaterialTables) -> Packed
     }
 }
 
-/// `body` read as the table `[materials.red]` of `scenes/x.toml`, without
-/// textures: for the kinds' tests.
+/// `body` read as the table `[materials.red]` of `scenes/x.toml`: for the
+/// kinds' tests.
 #[cfg(test)]
 fn read(body: &str) -> Result<Material> {
     let table: toml::Table = toml::from_str(body).expect("valid TOML");
@@ -443,7 +442,7 @@ fn read(body: &str) -> Result<Material> {
         path: "materials.red".to_string(),
         inputs: &inputs,
     };
-    Material::parse("red", &t, |_| panic!("no texture in these tests"))
+    Material::parse("red", &t)
 }
 
 #[cfg(test)]

@@ -1,0 +1,174 @@
+//! Point and spot lights (`[[lights]]`), Mitsuba 3's `point` and `spot`
+//! emitters: lights at a point, delta lights, which no sampled direction can
+//! hit (and no camera ray sees), so every strategy estimates them by a shadow
+//! ray at each path vertex with a smooth lobe (the kernel's `DELTA_LIGHTS`;
+//! `lights::pack_delta_lights` packs them).
+//!
+//! ```toml
+//! [[lights]]
+//! type = "spot"
+//! position = [0, 3, 0]
+//! direction = [0, -1, 0]
+//! intensity = [10, 9, 8]
+//! cutoff_angle = 30
+//! ```
+//!
+//! - `type = "point"`: `position` (vector, required) and `intensity` (radiant
+//!   intensity in W/sr: a vector, or one number for grey, components >= 0,
+//!   required). A surface at distance `d` whose normal makes the angle `theta`
+//!   with the direction to the light receives the irradiance `intensity
+//!   cos(theta) / d^2`.
+//! - `type = "spot"`: the same, and `direction` (vector, not zero: the cone's
+//!   axis, pointing away from the light), `cutoff_angle` (degrees in (0, 180),
+//!   default 20) and `beam_width` (degrees in [0, cutoff_angle], default
+//!   `cutoff_angle * 3/4`). The intensity toward a direction at the angle `a`
+//!   from the axis is multiplied by Mitsuba's falloff (`spot.cpp`): 1 within
+//!   the beam width, 0 at and beyond the cutoff, `(cutoff - a) / (cutoff -
+//!   beam_width)` between.
+//!
+//! `[scene] scale` moves them with the geometry and multiplies their intensity
+//! by `scale^2`. Mitsuba's `point` and `spot` emitters become `[[lights]]`
+//! tables read here (`scene::mitsuba`).
+
+use super::params::{ParamTable, Result, check_nonneg, colour, fmt_num, ok, unknown_name};
+use super::usable_length_squared;
+use glam::Vec3;
+use serde::Serialize;
+
+/// A light at a point: a delta light, which no sampled direction can hit, so
+/// every strategy estimates it by a shadow ray (next-event estimation) at each
+/// vertex with a smooth lobe.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PointLight {
+    pub position: Vec3,
+    /// Radiant intensity (W/sr) per RGB channel; irradiance at distance d,
+    /// facing it, is intensity / d^2.
+    pub intensity: Vec3,
+    /// A spot light's cone; `None`: the same intensity in every direction.
+    pub spot: Option<Spot>,
+}
+
+/// A spot light's cone, with Mitsuba's smooth falloff: full intensity within
+/// `beam_width` of the axis, none beyond `cutoff_angle`, linear in the angle
+/// between them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Spot {
+    /// The cone's axis, unit length, pointing away from the light.
+    pub direction: Vec3,
+    /// Degrees, in (0, 180).
+    pub cutoff_angle: f32,
+    /// Degrees, in [0, cutoff_angle].
+    pub beam_width: f32,
+}
+
+/// A `type` of `[[lights]]` table: its keys besides [`LIGHT_KEYS`], and how it
+/// reads them.
+pub(crate) struct LightType {
+    pub name: &'static str,
+    pub keys: &'static [&'static str],
+    /// Reads a spot's cone (none for a point light).
+    cone: fn(&ParamTable) -> Result<Option<Spot>>,
+}
+
+/// The keys of every light, in the order an unknown key's message lists them.
+const LIGHT_KEYS: &[&str] = &["type", "position", "intensity"];
+
+/// The light types, in the order messages list them.
+pub(crate) const LIGHT_TYPES: &[LightType] = &[
+    LightType {
+        name: "point",
+        keys: &[],
+        cone: no_cone,
+    },
+    LightType {
+        name: "spot",
+        keys: &["direction", "cutoff_angle", "beam_width"],
+        cone: spot_cone,
+    },
+];
+
+/// The scene files' light types, in the order messages list them.
+pub(crate) fn light_types() -> Vec<&'static str> {
+    LIGHT_TYPES.iter().map(|light| light.name).collect()
+}
+
+/// Every key of some light type: what a light without a `type` may hold.
+pub(crate) fn light_keys() -> Vec<&'static str> {
+    let own = LIGHT_TYPES.iter().flat_map(|light| light.keys);
+    LIGHT_KEYS.iter().chain(own).copied().collect()
+}
+
+impl PointLight {
+    /// The `[[lights]]` table `t` of type `ty`.
+    pub(crate) fn parse(t: &ParamTable, ty: &str) -> Result<PointLight> {
+        let Some(light) = LIGHT_TYPES.iter().find(|light| light.name == ty) else {
+            return Err(t.err(t.at("type"), unknown_name("light type", ty, &light_types())));
+        };
+        let keys: Vec<&str> = LIGHT_KEYS.iter().chain(light.keys).copied().collect();
+        t.check_keys(&keys, Some(&format!("a {ty} light")))?;
+        let position = t.require("position", t.vec3("position", ok)?)?;
+        if !t.table.contains_key("intensity") {
+            return Err(t.err(t.here(), "missing required key `intensity`"));
+        }
+        let intensity = colour(t, "intensity", 0.0, check_nonneg)?;
+        Ok(PointLight {
+            position,
+            intensity,
+            spot: (light.cone)(t)?,
+        })
+    }
+}
+
+fn no_cone(_: &ParamTable) -> Result<Option<Spot>> {
+    Ok(None)
+}
+
+fn spot_cone(t: &ParamTable) -> Result<Option<Spot>> {
+    let direction = t.require("direction", t.vec3("direction", ok)?)?;
+    if !usable_length_squared(direction.length_squared()) {
+        return Err(t.err(t.at("direction"), "must not be zero"));
+    }
+    let cutoff_angle = t.float("cutoff_angle", check_cutoff)?.unwrap_or(20.0);
+    let beam_width = t.float("beam_width", check_nonneg)?;
+    let beam_width = beam_width.unwrap_or(cutoff_angle * 3.0 / 4.0);
+    if beam_width > cutoff_angle {
+        return Err(t.err(
+            t.at("beam_width"),
+            format!(
+                "must not exceed `cutoff_angle` ({}), got {}",
+                fmt_num(cutoff_angle),
+                fmt_num(beam_width)
+            ),
+        ));
+    }
+    Ok(Some(Spot {
+        direction: direction.normalize(),
+        cutoff_angle,
+        beam_width,
+    }))
+}
+
+fn check_cutoff(x: f32) -> std::result::Result<(), String> {
+    if x > 0.0 && x < 180.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be in (0, 180) degrees, exclusive, got {}",
+            fmt_num(x)
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The manual above names every key a light reads.
+    #[test]
+    fn the_manual_names_every_key() {
+        let manual = super::super::manual(include_str!("delta_light.rs"));
+        for key in light_keys() {
+            assert!(manual.contains(&format!("`{key}")), "`{key}`");
+        }
+    }
+}

@@ -1,0 +1,104 @@
+//! Checkerboards, Mitsuba 3's `checkerboard` texture: `color0` where the
+//! fractional parts of u and v are both above one half or both not, `color1`
+//! elsewhere.
+//!
+//! ```toml
+//! albedo = { type = "checkerboard", color0 = [0.8, 0.8, 0.75], color1 = 0.1, to_uv = { scale = 10 } }
+//! ```
+//!
+//! `color0` (default 0.4) and `color1` (default 0.2): reflectances, a vector
+//! or one number for grey, in [0, 1]; `to_uv` as every texture. Its mean is
+//! the two colours' average. Mitsuba's `checkerboard` becomes one.
+
+use super::{TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue, constant};
+use crate::kinds::params::{ParamTable, Result, reflectance};
+use glam::{Vec2, Vec3};
+use serde::Serialize;
+
+pub(super) const CHECKERBOARD: TextureModel = TextureModel {
+    name: "checkerboard",
+    keys: &["color0", "color1"],
+    parse,
+};
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Checkerboard {
+    pub color0: Vec3,
+    pub color1: Vec3,
+}
+
+fn parse(s: &ParamTable) -> Result<TextureKind> {
+    Ok(TextureKind::Checkerboard(Checkerboard {
+        color0: reflectance(s, "color0", 0.4)?,
+        color1: reflectance(s, "color1", 0.2)?,
+    }))
+}
+
+impl TextureValue for Checkerboard {
+    fn mean(&self) -> Vec3 {
+        0.5 * (self.color0 + self.color1)
+    }
+
+    fn eval(&self, uv: Vec2) -> Vec3 {
+        let f = uv - uv.floor();
+        if (f.x > 0.5) == (f.y > 0.5) {
+            self.color0
+        } else {
+            self.color1
+        }
+    }
+
+    fn pack(&self, info: &mut TextureInfo, _: &mut TextureTables) {
+        info.kind = constant("TEXTURE_CHECKERBOARD");
+        info.color0 = self.color0.to_array();
+        info.color1 = self.color1.to_array();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinds::{Texture, UvTransform};
+
+    #[test]
+    fn checkerboard_matches_mitsuba() {
+        let (red, blue) = (Vec3::X, Vec3::Z);
+        let t = Texture {
+            kind: TextureKind::Checkerboard(Checkerboard {
+                color0: red,
+                color1: blue,
+            }),
+            to_uv: UvTransform::IDENTITY,
+        };
+        assert_eq!(t.eval(Vec2::new(0.25, 0.25)), red);
+        assert_eq!(t.eval(Vec2::new(0.75, 0.25)), blue);
+        assert_eq!(t.eval(Vec2::new(0.25, 0.75)), blue);
+        assert_eq!(t.eval(Vec2::new(0.75, 0.75)), red);
+        assert_eq!(t.mean(), Vec3::new(0.5, 0.0, 0.5));
+        // Mitsuba's to_uv: translate(0.5, 0) after scale(2, 1): u' = 2u + 0.5.
+        let shifted = Texture {
+            to_uv: UvTransform([[2.0, 0.0, 0.5], [0.0, 1.0, 0.0]]),
+            ..t
+        };
+        assert_eq!(shifted.eval(Vec2::new(0.1, 0.1)), blue);
+        assert_eq!(shifted.eval(Vec2::new(0.3, 0.1)), red);
+    }
+
+    /// The checkpoint identity encodes it as it did the variant's fields
+    /// (`Checkerboard { color0, color1 }`): its variant index, then the six
+    /// floats' bits.
+    #[test]
+    fn its_encoding_is_the_variant_index_and_the_colours() {
+        let kind = TextureKind::Checkerboard(Checkerboard {
+            color0: Vec3::new(1.0, 2.0, 3.0),
+            color1: Vec3::new(4.0, 5.0, 6.0),
+        });
+        let mut buffer = [0u8; 64];
+        let encoded = postcard::to_slice(&kind, &mut buffer).expect("it fits");
+        let mut expected = vec![0u8];
+        for x in [1.0f32, 2.0, 3.0, 4.0, 5.0, 6.0] {
+            expected.extend(x.to_le_bytes());
+        }
+        assert_eq!(encoded, &expected[..]);
+    }
+}
