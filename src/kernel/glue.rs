@@ -15,7 +15,7 @@ use crate::kinds::{
     ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
     MATERIAL_KINDS, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX,
     MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES,
-    TEXTURE_CONSTANTS,
+    texture_constants,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -56,8 +56,8 @@ pub fn shared_constants() -> String {
     constant("MASK_RAY_HITS", MASK_RAY_HITS);
     constant("MATERIAL_TEXTURE_BITS", MATERIAL_TEXTURE_BITS);
     constant("MATERIAL_BUMP_SHIFT", MATERIAL_BUMP_SHIFT);
-    for &(name, value) in TEXTURE_CONSTANTS {
-        constant(name, value);
+    for (name, value) in texture_constants() {
+        constant(&name, value);
     }
     constant("ROUGH_TRANSMITTANCE_RES", ROUGH_TRANSMITTANCE_RES as u32);
     constant("BVH_LEAF_KIND_SHIFT", accel::LEAF_KIND_SHIFT);

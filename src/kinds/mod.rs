@@ -27,7 +27,8 @@
 //! A new **texture kind** touches `shaders/textures.wgsl`,
 //! `src/kinds/texture/NAME.rs` (its manual, its type, its `TextureModel` and
 //! `TextureValue`, its test) and its lines in `src/kinds/texture/mod.rs`
-//! (`texture_kinds!`, `TEXTURE_CONSTANTS`). Point and spot lights are
+//! (`mod`, `pub use`, one `texture_kinds!` line, whose place is its id, the
+//! WGSL constant `TEXTURE_NAME`). Point and spot lights are
 //! `delta_light.rs`.
 //!
 //! Any of them also documents its type and keys in `docs/scene-format.md`
@@ -73,8 +74,8 @@ pub use sphere::{PackedSphere, Sphere};
 pub(crate) use texture::TEXTURE_KINDS;
 pub use texture::{
     Bitmap, Checkerboard, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT,
-    MAX_TEXTURES, TEXTURE_CONSTANTS, Texture, TextureFilter, TextureInfo, TextureKind,
-    TextureTables, UvTransform, WrapMode, serialize_texels,
+    MAX_TEXTURES, Texture, TextureFilter, TextureInfo, TextureKind, TextureTables, UvTransform,
+    WrapMode, serialize_texels, texture_constants,
 };
 pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 

@@ -23,7 +23,7 @@
 //! one; it is the texture bump and normal maps take (`kinds::Bump`).
 
 use super::{
-    TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue, constant, serialize_texels,
+    TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue, serialize_texels,
 };
 use crate::kinds::params::{ParamTable, Result, named};
 use crate::output::{self, ImageReadError};
@@ -43,6 +43,7 @@ pub(super) const BITMAP: TextureModel = TextureModel {
 /// floats each), and wgpu's default limit on a binding, lavapipe's too, is 128 MiB.
 const MAX_TEXTURE_TEXELS: u64 = (128 << 20) / 12;
 
+/// Its discriminant is `TextureInfo::wrap` (`texture_constants`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 pub enum WrapMode {
     Repeat,
@@ -152,7 +153,9 @@ fn parse(s: &ParamTable) -> Result<TextureKind> {
         return Err(s.err(
             s.at("file"),
             format!(
-                "{}: {width}x{height} texels do not fit the 128 MiB storage binding                          that holds a scene's textures (at most {MAX_TEXTURE_TEXELS} texels):                          scale the image down",
+                "{}: {width}x{height} texels do not fit the 128 MiB storage binding \
+                 that holds a scene's textures (at most {MAX_TEXTURE_TEXELS} texels): \
+                 scale the image down",
                 path.display()
             ),
         ));
@@ -215,12 +218,7 @@ impl TextureValue for Bitmap {
                 offset
             }
         };
-        info.kind = constant("TEXTURE_BITMAP");
-        info.wrap = constant(match self.wrap {
-            WrapMode::Repeat => "TEXTURE_WRAP_REPEAT",
-            WrapMode::Mirror => "TEXTURE_WRAP_MIRROR",
-            WrapMode::Clamp => "TEXTURE_WRAP_CLAMP",
-        });
+        info.wrap = self.wrap as u32;
         info.width = self.width;
         info.height = self.height;
         info.offset = offset;

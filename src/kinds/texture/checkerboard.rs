@@ -10,7 +10,7 @@
 //! or one number for grey, in [0, 1]; `to_uv` as every texture. Its mean is
 //! the two colours' average. Mitsuba's `checkerboard` becomes one.
 
-use super::{TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue, constant};
+use super::{TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue};
 use crate::kinds::params::{ParamTable, Result, reflectance};
 use glam::{Vec2, Vec3};
 use serde::Serialize;
@@ -49,7 +49,6 @@ impl TextureValue for Checkerboard {
     }
 
     fn pack(&self, info: &mut TextureInfo, _: &mut TextureTables) {
-        info.kind = constant("TEXTURE_CHECKERBOARD");
         info.color0 = self.color0.to_array();
         info.color1 = self.color1.to_array();
     }

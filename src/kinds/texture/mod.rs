@@ -150,7 +150,7 @@ trait TextureValue {
     fn mean(&self) -> Vec3;
     /// [`Texture::eval`] at `uv` after `to_uv`.
     fn eval(&self, uv: Vec2) -> Vec3;
-    /// Fills its `kind` and parameters in `info`, its texels in `tables`.
+    /// Fills its parameters in `info`, its texels in `tables`.
     fn pack(&self, info: &mut TextureInfo, tables: &mut TextureTables);
 }
 
@@ -173,6 +173,17 @@ macro_rules! texture_kinds {
             fn value(&self) -> &dyn TextureValue {
                 match self {
                     $(TextureKind::$variant(kind) => kind,)*
+                }
+            }
+
+            /// Its index in `TEXTURE_KINDS`: `TextureInfo::kind`, and in WGSL
+            /// the constant `TEXTURE_NAME` ([`texture_constants`]).
+            fn id(&self) -> u32 {
+                enum Id {
+                    $($variant,)*
+                }
+                match self {
+                    $(TextureKind::$variant(_) => Id::$variant as u32,)*
                 }
             }
         }
@@ -244,21 +255,18 @@ pub const MATERIAL_BUMP_SHIFT: u32 = MATERIAL_TEXTURE_SHIFT + MATERIAL_TEXTURE_B
 /// index + 1 fits [`MATERIAL_TEXTURE_BITS`].
 pub const MAX_TEXTURES: usize = (1 << MATERIAL_TEXTURE_BITS) - 1;
 
-/// The constants `TextureInfo::kind` and `wrap` take, shared with WGSL.
-pub const TEXTURE_CONSTANTS: &[(&str, u32)] = &[
-    ("TEXTURE_CHECKERBOARD", 0),
-    ("TEXTURE_BITMAP", 1),
-    ("TEXTURE_WRAP_REPEAT", 0),
-    ("TEXTURE_WRAP_MIRROR", 1),
-    ("TEXTURE_WRAP_CLAMP", 2),
-];
-
-fn constant(name: &str) -> u32 {
-    TEXTURE_CONSTANTS
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|&(_, v)| v)
-        .expect("a texture constant")
+/// The constants `TextureInfo::kind` and `wrap` take, shared with WGSL: each
+/// kind's id as `TEXTURE_NAME` (its place in `texture_kinds!`), and the wrap modes.
+pub fn texture_constants() -> Vec<(String, u32)> {
+    let kinds = (TEXTURE_KINDS.iter().enumerate())
+        .map(|(id, kind)| (format!("TEXTURE_{}", kind.name.to_uppercase()), id as u32));
+    let wraps = (WrapMode::ALL.into_iter()).map(|wrap| {
+        (
+            format!("TEXTURE_WRAP_{}", wrap.name().to_uppercase()),
+            wrap as u32,
+        )
+    });
+    kinds.chain(wraps).collect()
 }
 
 gpu_struct! {
@@ -301,6 +309,7 @@ impl TextureTables {
             to_uv_v: v,
             ..TextureInfo::default()
         };
+        info.kind = texture.kind.id();
         texture.kind.value().pack(&mut info, self);
         self.infos.push(info);
         (self.infos.len() - 1) as u32
