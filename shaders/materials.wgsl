@@ -122,3 +122,37 @@ fn bump_shadowing(frame: Frame, wi: vec3<f32>) -> f32 {
     return 2.0 / (1.0 + sqrt(1.0 + frame.bump_alpha2 * tan2));
 }
 #endif
+
+#if NESTED_MATERIALS
+// The material a hit scatters by, and the side it sees as its front.
+struct Resolved {
+    material: Material,
+    front_face: bool,
+}
+
+// A hit on material `found`, on the side `front_face` says: the material it
+// scatters by, through the materials made of others (`kinds::packed_nested`,
+// their indices in `color2`) in at most MATERIAL_NESTING steps (the scene's
+// materials nest no deeper): `twosided` takes its front or back material, the
+// back one seeing the flipped frame as its front. The result has its kind's id
+// alone (no transparency) and `found`'s emission: a surface's emission and
+// opacity are the outer material's.
+fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
+    var m = found;
+    var front = front_face;
+    for (var step = 0u; step < MATERIAL_NESTING; step++) {
+        let kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
+#if TWOSIDED
+        if kind == MATERIAL_TWOSIDED {
+            m = materials_at(u32(select(m.color2.y, m.color2.x, front)));
+            front = true;
+            continue;
+        }
+#endif
+        break;
+    }
+    m.kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
+    m.emit = found.emit;
+    return Resolved(m, front);
+}
+#endif

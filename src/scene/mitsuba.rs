@@ -1101,6 +1101,43 @@ enum Surface {
         transmits: bool,
         one_sided: bool,
     },
+    /// A material made of others (`twosided` with two BSDFs), which are in
+    /// the document's materials already: its TOML table, `type` included;
+    /// `textured`: whether one of those is.
+    Nested { table: Table, textured: bool },
+}
+
+/// A surface's material table, as a BSDF inside another's (no emission, no
+/// opacity: those are the outer material's).
+fn surface_table(surface: &Surface) -> Table {
+    match surface {
+        Surface::Lambertian {
+            albedo,
+            one_sided,
+            bump,
+        } => {
+            let mut table = Table::new();
+            table.insert("type".into(), Value::String("lambertian".into()));
+            table.insert("albedo".into(), albedo.clone());
+            if let Some((key, value)) = bump {
+                table.insert(key.to_string(), value.clone());
+            }
+            if *one_sided {
+                table.insert("one_sided".into(), Value::Boolean(true));
+            }
+            table
+        }
+        Surface::Mitsuba {
+            table, one_sided, ..
+        } => {
+            let mut table = table.clone();
+            if *one_sided {
+                table.insert("one_sided".into(), Value::Boolean(true));
+            }
+            table
+        }
+        Surface::Nested { table, .. } => table.clone(),
+    }
 }
 
 impl Surface {
@@ -1109,6 +1146,7 @@ impl Surface {
         match self {
             Surface::Lambertian { albedo, bump, .. } => albedo.is_table() || bump.is_some(),
             Surface::Mitsuba { table, .. } => table.values().any(Value::is_table),
+            Surface::Nested { textured, .. } => *textured,
         }
     }
 }
@@ -1388,16 +1426,34 @@ impl<'a> Builder<'a> {
                     1.0,
                 )
             }
-            "twosided" => {
-                let inner = props.objects(&["bsdf", "ref"]);
-                let [inner] = inner[..] else {
+            "twosided" => match props.objects(&["bsdf", "ref"])[..] {
+                [inner] => {
+                    let inner = self.resolve(inner)?;
+                    self.surface(inner, true)?
+                }
+                // The first BSDF on the front, the second (seeing the flipped
+                // frame, as one-sided as it is alone) on the back.
+                [front, back] => {
+                    let (front, front_textured) = self.nested_material(front, false)?;
+                    let (back, back_textured) = self.nested_material(back, false)?;
+                    let mut table = Table::new();
+                    table.insert("type".into(), Value::String("twosided".into()));
+                    table.insert("front".into(), Value::String(front));
+                    table.insert("back".into(), Value::String(back));
+                    (
+                        Surface::Nested {
+                            table,
+                            textured: front_textured || back_textured,
+                        },
+                        1.0,
+                    )
+                }
+                _ => {
                     return Err(e.origin.error(
-                        "a twosided BSDF with other than one nested BSDF is not supported",
+                        "a twosided BSDF with other than one or two nested BSDFs is not supported",
                     ));
-                };
-                let inner = self.resolve(inner)?;
-                self.surface(inner, true)?
-            }
+                }
+            },
             // Mitsuba's null lobe is two-sided whether or not its BSDF is, so a
             // `twosided` around a mask (which Mitsuba 3 refuses, as a BSDF that
             // transmits) reads as the same surface as one inside it.
@@ -1433,6 +1489,38 @@ impl<'a> Builder<'a> {
         };
         props.finish()?;
         Ok(surface)
+    }
+
+    /// A BSDF inside one made of others (`twosided` with two): its material,
+    /// added to the document under its element's name (`~2` and on where that
+    /// name holds another material already), and whether it is textured. It
+    /// may not be masked: the surface's opacity is the outer material's.
+    fn nested_material(&mut self, child: &'a Elem, twosided: bool) -> Result<(String, bool)> {
+        let target = self.resolve(child)?;
+        let (surface, opacity) = self.surface(target, twosided)?;
+        if opacity < 1.0 {
+            return Err(child.origin.error(
+                "a mask inside a BSDF made of two is not supported (put the mask around it)",
+            ));
+        }
+        let table = surface_table(&surface);
+        let base = self.name_of(target);
+        let mut name = base.clone();
+        for n in 2.. {
+            match self.materials.get(&name) {
+                Some(Value::Table(existing)) if *existing == table => {
+                    return Ok((name, surface.is_textured()));
+                }
+                Some(_) => name = format!("{base}~{n}"),
+                None => break,
+            }
+        }
+        let origin = target.origin.clone();
+        self.origins
+            .push((format!("materials.{name}"), origin.clone()));
+        self.origins.push((format!("materials.\"{name}\""), origin));
+        self.materials.insert(name.clone(), Value::Table(table));
+        Ok((name, surface.is_textured()))
     }
 
     /// Mitsuba's `bumpmap` (a height texture of any name, `scale`) or
@@ -1512,6 +1600,12 @@ impl<'a> Builder<'a> {
                 let taken = BUMP_KEYS.iter().any(|k| table.contains_key(*k));
                 table.insert(bump.0.into(), bump.1);
                 taken
+            }
+            Surface::Nested { .. } => {
+                return Err(e.origin.error(
+                    "a bumpmap or normalmap around a BSDF made of two is not supported (put \
+                     it around each of them)",
+                ));
             }
         };
         if taken {
@@ -1711,7 +1805,11 @@ impl<'a> Builder<'a> {
                 }
                 base
             }
-            (Surface::Mitsuba { .. }, Some(_)) => {
+            (Surface::Nested { table: params, .. }, None) => {
+                table = params.clone();
+                base
+            }
+            (Surface::Mitsuba { .. } | Surface::Nested { .. }, Some(_)) => {
                 return Err(shape.origin.error(
                     "an area emitter on a non-diffuse BSDF is not supported (pathmix's \
                      emitters are diffuse)",
@@ -1778,7 +1876,7 @@ impl<'a> Builder<'a> {
                 } | Surface::Mitsuba {
                     one_sided: true,
                     ..
-                }
+                } | Surface::Nested { .. }
             );
         let mirrors = to_world.determinant() < 0.0;
         let mut object = Table::new();
@@ -3339,6 +3437,60 @@ mod tests {
             r#"<shape type="rectangle"><bsdf type="mask"/></shape>"#,
         );
         assert!(e.contains("other than one nested BSDF"), "{e}");
+    }
+
+    /// `twosided` with two BSDFs becomes a `twosided` material naming the
+    /// two BSDFs' materials (each one-sided, as alone: the back one sees the
+    /// flipped frame), which a mask around it makes masked; a mask inside,
+    /// a third BSDF or an emitter on it are refused at their elements.
+    #[test]
+    fn twosided_with_two_bsdfs_names_its_front_and_back() {
+        let s = scene(
+            "twosided-pair",
+            r#"<bsdf type="diffuse" id="top"><rgb name="reflectance" value="0.2"/></bsdf>
+               <shape type="rectangle"><bsdf type="mask"><float name="opacity" value="0.5"/>
+               <bsdf type="twosided" id="leaf"><ref id="top"/>
+               <bsdf type="roughconductor"/></bsdf></bsdf></shape>"#,
+        );
+        let by_name = |name: &str| s.materials.iter().find(|m| m.name == name).unwrap();
+        let leaf = &s.materials[s.shapes.quads[0].material as usize];
+        assert_eq!(leaf.kind, crate::scene::MaterialKind::TwoSided);
+        assert_eq!(leaf.opacity, 0.5);
+        let [front, back] = [&leaf.nested[0], &leaf.nested[1]].map(|n| by_name(n));
+        assert_eq!(
+            (front.name.as_str(), front.albedo, front.one_sided),
+            ("top", Vec3::splat(0.2), true)
+        );
+        assert!(matches!(
+            back.kind,
+            crate::scene::MaterialKind::RoughConductor { .. }
+        ));
+        assert!(back.one_sided);
+
+        let e = error(
+            "twosided-three",
+            "<shape type=\"rectangle\">\n<bsdf type=\"twosided\"><bsdf type=\"diffuse\"/>\
+             <bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <bsdf type=\"twosided\">: a twosided BSDF with other than one or two"),
+            "{e}"
+        );
+        let e = error(
+            "twosided-mask-inside",
+            "<shape type=\"rectangle\"><bsdf type=\"twosided\">\n<bsdf type=\"mask\">\
+             <bsdf type=\"diffuse\"/></bsdf><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <bsdf type=\"mask\">: a mask inside a BSDF made of two"),
+            "{e}"
+        );
+        let e = error(
+            "twosided-emitter",
+            r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="diffuse"/>
+               <bsdf type="diffuse"/></bsdf><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+        );
+        assert!(e.contains("an area emitter on a non-diffuse BSDF"), "{e}");
     }
 
     /// `point` and `spot` emitters become `[[lights]]` with Mitsuba's defaults
