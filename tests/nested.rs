@@ -222,3 +222,125 @@ fn nested_materials_are_checked_where_they_are_named() {
         "{e}"
     );
 }
+
+/// Two-sided Lambertian materials `dull` (0.3) and `pale` (0.7), a rough
+/// conductor `shiny`, and `[materials.mix]`, a blend of `first` and `second`
+/// with `weight` (a TOML value).
+fn blend(weight: &str, first: &str, second: &str) -> String {
+    format!(
+        r#"
+        [materials.dull]
+        type = "lambertian"
+        albedo = [0.3, 0.3, 0.3]
+        [materials.pale]
+        type = "lambertian"
+        albedo = [0.7, 0.7, 0.7]
+        [materials.shiny]
+        type = "roughconductor"
+        alpha = 0.3
+        [materials.mix]
+        type = "blend"
+        weight = {weight}
+        first = "{first}"
+        second = "{second}"
+        "#
+    )
+}
+
+/// A blend of weight 0 is its first material, of weight 1 its second, every
+/// sample of it (the plane under the sky: exactly the albedo picked).
+#[test]
+fn a_blend_of_weight_0_or_1_is_one_of_its_materials() {
+    let ctx = gpu_or_skip!();
+    for (weight, albedo) in [("0", 0.3), ("1", 0.7)] {
+        let scene = plane_under_sky(&blend(weight, "dull", "pale"), "mix", true);
+        let acc = common::render(ctx, &scene, &common::with_variance());
+        common::assert_every_pixel_is(&acc, albedo, 1e-6, &format!("weight {weight}"));
+    }
+}
+
+/// A blend of weight w renders as (1 - w) A + w B of its two materials
+/// rendered apart: the floor patch under the disk light, a Lambertian and a
+/// rough conductor blended at 0.25, under every strategy (the light sample's
+/// MIS against the material picked), within 4 standard errors of the
+/// difference (the three renders' errors combined).
+#[test]
+fn a_blend_renders_as_the_blend_of_its_materials_rendered_apart() {
+    let w = 0.25;
+    for strategy in STRATEGIES {
+        let materials = blend(&w.to_string(), "dull", "shiny");
+        let floor = |material: &str| lit_floor(&materials, material, false, strategy);
+        let (Some(a), Some(b), Some(mixed)) = (floor("dull"), floor("shiny"), floor("mix")) else {
+            return;
+        };
+        let expected = (1.0 - w) * a.0 + w * b.0;
+        let error = (mixed.1.powi(2) + ((1.0 - w) * a.1).powi(2) + (w * b.1).powi(2)).sqrt();
+        println!(
+            "blend {strategy}: {:.6} ± {:.6}, expected {expected:.6} (A {:.6}, B {:.6})",
+            mixed.0, mixed.1, a.0, b.0
+        );
+        assert!(
+            (mixed.0 - expected).abs() < 4.0 * error,
+            "{strategy}: {} against {expected} ± {error}",
+            mixed.0
+        );
+        // Far enough apart for the test to tell a blend from either alone.
+        assert!((a.0 - b.0).abs() > 20.0 * error, "{a:?} {b:?}");
+    }
+}
+
+/// A checkerboard weight of 0 and 1 gives the first material on its squares
+/// of 0 and the second on those of 1: a plane under the sky whose view the
+/// checkerboard's four squares split into four 4x4 quadrants, each pixel
+/// exactly one of the two albedos, the quadrants alternating.
+#[test]
+fn a_textured_weight_picks_a_material_per_checker_square() {
+    let ctx = gpu_or_skip!();
+    let weight = "{ type = \"checkerboard\", color0 = [0, 0, 0], color1 = [1, 1, 1] }";
+    let scene = common::scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 0.5, 0]
+        lookat = [0, 0, 0]
+        vup = [0, 0, -1]
+        vfov = 20
+        width = 8
+        height = 8
+        filter = "box"
+        [render]
+        spp = 64
+        max_depth = 4
+        strategy = "bsdf"
+        sampler = "independent"
+        background = [1, 1, 1]
+        {}
+        [[objects]]
+        type = "quad"
+        q = [-0.1, 0, -0.1]
+        u = [0, 0, 0.2]
+        v = [0.2, 0, 0]
+        material = "mix"
+        "#,
+        blend(weight, "dull", "pale")
+    ));
+    let acc = common::render(ctx, &scene, &common::with_variance());
+    let image = acc.mean();
+    let at = |x: usize, y: usize| image.pixels[y * 8 + x][0];
+    for y in 0..8 {
+        for x in 0..8 {
+            let diagonal = (x < 4) == (y < 4);
+            let expected = if diagonal { at(0, 0) } else { at(7, 0) };
+            assert!(
+                (at(x, y) - expected).abs() <= 1e-6,
+                "({x}, {y}): {} != {expected}",
+                at(x, y)
+            );
+        }
+    }
+    let mut corners = [at(0, 0), at(7, 0)];
+    corners.sort_by(f32::total_cmp);
+    assert!(
+        (corners[0] - 0.3).abs() < 1e-6 && (corners[1] - 0.7).abs() < 1e-6,
+        "{corners:?}"
+    );
+}

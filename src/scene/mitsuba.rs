@@ -53,7 +53,7 @@ const VERSIONS: [u32; 2] = [2, 3];
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
                                thindielectric, plastic, roughplastic, twosided, mask, bumpmap, \
-                               normalmap";
+                               normalmap, blendbsdf";
 /// The material keys a `bumpmap` or `normalmap` sets (`kinds::Bump`).
 const BUMP_KEYS: [&str; 2] = ["bump", "normal_map"];
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
@@ -1101,7 +1101,7 @@ enum Surface {
         transmits: bool,
         one_sided: bool,
     },
-    /// A material made of others (`twosided` with two BSDFs), which are in
+    /// A material made of others (`twosided` with two BSDFs, `blendbsdf`), which are in
     /// the document's materials already: its TOML table, `type` included;
     /// `textured`: whether one of those is.
     Nested { table: Table, textured: bool },
@@ -1481,6 +1481,7 @@ impl<'a> Builder<'a> {
                 (surface, opacity * inner_opacity)
             }
             ty @ ("bumpmap" | "normalmap") => self.bumped(&mut props, ty, twosided)?,
+            "blendbsdf" => (self.blend(&mut props, twosided)?, 1.0),
             _ => {
                 return Err(e
                     .origin
@@ -1491,7 +1492,61 @@ impl<'a> Builder<'a> {
         Ok(surface)
     }
 
-    /// A BSDF inside one made of others (`twosided` with two): its material,
+    /// Mitsuba's `blendbsdf`: `weight` (a float in [0, 1], default 0.5, or a
+    /// texture) between two nested BSDFs, in document order (Mitsuba's, for
+    /// nested BSDFs without a `name`; by name where both have one), each
+    /// inside the same `twosided` as the blend.
+    fn blend(&mut self, props: &mut Props<'a>, twosided: bool) -> Result<Surface> {
+        let e = props.elem;
+        // A `<ref name="weight">` is the weight's texture, not a BSDF.
+        let mut children: Vec<&Elem> = props
+            .objects(&["bsdf", "ref"])
+            .into_iter()
+            .filter(|c| c.name() != Some("weight"))
+            .collect();
+        let [_, _] = children[..] else {
+            return Err(e
+                .origin
+                .error("a blendbsdf with other than two nested BSDFs is not supported"));
+        };
+        if let [Some(a), Some(b)] = [children[0].name(), children[1].name()]
+            && b < a
+        {
+            children.swap(0, 1);
+        }
+        let weight = match props.texture("weight") {
+            Some(reference) => {
+                let target = self.resolve(reference)?;
+                if target.tag != "texture" {
+                    return Err(reference.origin.error(format!(
+                        "`weight` refers to a <{}>, not a <texture>",
+                        target.tag
+                    )));
+                }
+                self.texture(target)?
+            }
+            None => {
+                let weight = props.float("weight")?.unwrap_or(0.5);
+                if !(0.0..=1.0).contains(&weight) {
+                    return Err(e
+                        .origin
+                        .error(format!("`weight` must be in [0, 1], got {weight}")));
+                }
+                Value::Float(weight)
+            }
+        };
+        let (first, first_textured) = self.nested_material(children[0], twosided)?;
+        let (second, second_textured) = self.nested_material(children[1], twosided)?;
+        let textured = weight.is_table() || first_textured || second_textured;
+        let mut table = Table::new();
+        table.insert("type".into(), Value::String("blend".into()));
+        table.insert("weight".into(), weight);
+        table.insert("first".into(), Value::String(first));
+        table.insert("second".into(), Value::String(second));
+        Ok(Surface::Nested { table, textured })
+    }
+
+    /// A BSDF inside one made of others (`twosided` with two, `blendbsdf`): its material,
     /// added to the document under its element's name (`~2` and on where that
     /// name holds another material already), and whether it is textured. It
     /// may not be masked: the surface's opacity is the outer material's.
@@ -3491,6 +3546,61 @@ mod tests {
                <bsdf type="diffuse"/></bsdf><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
         );
         assert!(e.contains("an area emitter on a non-diffuse BSDF"), "{e}");
+    }
+
+    /// `blendbsdf` becomes a `blend` material of its weight (a float, default
+    /// 0.5, or a texture) and its two BSDFs' materials, in document order
+    /// (by `name` where both have one), two-sided inside a `twosided`; a weight
+    /// outside [0, 1] and other than two BSDFs are refused at the element.
+    #[test]
+    fn blendbsdf_becomes_a_blend_of_its_two_bsdfs() {
+        use crate::scene::MaterialKind;
+        let s = scene(
+            "blend",
+            r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="blendbsdf">
+               <float name="weight" value="0.25"/>
+               <bsdf type="diffuse"><rgb name="reflectance" value="0.2"/></bsdf>
+               <bsdf type="roughconductor"/></bsdf></bsdf></shape>
+               <shape type="rectangle"><bsdf type="blendbsdf">
+               <texture name="weight" type="checkerboard"/>
+               <bsdf type="conductor" name="bsdf_1"/>
+               <bsdf type="diffuse" name="bsdf_0"/></bsdf></shape>"#,
+        );
+        let by_name = |name: &str| s.materials.iter().find(|m| m.name == name).unwrap();
+        let blend = &s.materials[s.shapes.quads[0].material as usize];
+        assert_eq!(blend.kind, MaterialKind::Blend { weight: 0.25 });
+        let [first, second] = [&blend.nested[0], &blend.nested[1]].map(|n| by_name(n));
+        assert_eq!((first.albedo, first.one_sided), (Vec3::splat(0.2), false));
+        assert!(matches!(second.kind, MaterialKind::RoughConductor { .. }));
+        assert!(!second.one_sided);
+        let textured = &s.materials[s.shapes.quads[1].material as usize];
+        assert!(textured.texture.is_some());
+        let [first, second] = [&textured.nested[0], &textured.nested[1]].map(|n| by_name(n));
+        assert_eq!(
+            (first.kind, first.one_sided),
+            (MaterialKind::Lambertian, true)
+        );
+        assert!(matches!(second.kind, MaterialKind::Conductor { .. }));
+
+        let e = error(
+            "blend-weight",
+            "<shape type=\"rectangle\">\n<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"1.5\"/>\
+             <bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains(
+                "scene.xml:3:1: <bsdf type=\"blendbsdf\">: `weight` must be in [0, 1], got 1.5"
+            ),
+            "{e}"
+        );
+        let e = error(
+            "blend-one",
+            "<shape type=\"rectangle\">\n<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <bsdf type=\"blendbsdf\">: a blendbsdf with other than two nested BSDFs"),
+            "{e}"
+        );
     }
 
     /// `point` and `spot` emitters become `[[lights]]` with Mitsuba's defaults

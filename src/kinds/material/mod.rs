@@ -7,6 +7,7 @@
 //! [`MATERIAL_KINDS`] (its id in the kernel), and so the scene files' type
 //! names and keys. What several kinds share is in `common.rs`.
 
+mod blend;
 mod bump;
 mod common;
 mod conductor;
@@ -216,6 +217,10 @@ material_kinds! {
     /// the normal faces, `back` (seeing the flipped frame) on the other
     /// ([`Material::nested`]).
     TwoSided = twosided::TWOSIDED,
+    /// Mitsuba's `blendbsdf`: `(1 - weight) first + weight second`, resolved
+    /// at the hit by picking one ([`Material::nested`]; `weight` the constant,
+    /// or the mean of its texture's luminance).
+    Blend { weight: f32 } = blend::BLEND,
 }
 
 /// The scene files' material types, in [`MATERIAL_KINDS`] order.
@@ -277,14 +282,14 @@ pub struct Material {
     /// A texture on the kind's colour that `kinds::pack_material` packs as
     /// `albedo` (lambertian and metal `albedo`, conductors' and rough
     /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
-    /// which then holds the texture's mean.
+    /// which then holds the texture's mean; `blend`'s `weight`.
     pub texture: Option<Texture>,
     /// A bump or normal map (Mitsuba's `bumpmap`, `normalmap`). Left out of
     /// the serialized material when absent, so the checkpoint identities of
     /// scenes without one are as before.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bump: Option<Bump>,
-    /// The materials a `twosided` material is made of, by name (the values
+    /// The materials a `twosided` or `blend` material is made of, by name (the values
     /// of its kind's `MaterialModel::nested` keys, in that order); empty for
     /// the others, and then left out of the serialized material.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -534,6 +539,8 @@ mod tests {
                 ("emit", "[1, 1, 1]"),
                 ("ior", "1.5"),
                 ("front", "\"a\""),
+                ("first", "\"a\""),
+                ("second", "\"b\""),
                 ("back", "\"b\""),
             ]
             .iter()

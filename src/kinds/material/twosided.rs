@@ -13,7 +13,7 @@
 //! ```
 //!
 //! - `front`, `back` (strings, required): names of `[materials.NAME]` tables.
-//!   These may be any kind, `twosided` too, at most
+//!   These may be any kind, `twosided` and `blend` too, at most
 //!   `MATERIAL_NESTING` (4) deep, with no cycle; they may not emit nor be
 //!   masked (`opacity` below 1): a surface's emission and opacity are the
 //!   outer material's, whichever side scatters;
