@@ -211,6 +211,22 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #endif
             path_done = true;
         } else {
+#if NESTED_MATERIALS
+            // The side hit picks the material before anything else is done
+            // here (materials.wgsl); the emission and opacity are the hit
+            // material's own.
+            let front_face = dot(ray.dir, hit.normal) < 0.0;
+            let found = materials_at(hit.material);
+            let resolved = resolve_material(found, front_face, hit);
+#if MASK
+            let transparency = material_transparency(found);
+#endif
+#if TEXTURES
+            let material = textured(resolved.material, hit.uv);
+#else
+            let material = resolved.material;
+#endif
+#else
 #if MASK
             let found = materials_at(hit.material);
             let transparency = material_transparency(found);
@@ -227,6 +243,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #endif
 #endif
             let front_face = dot(ray.dir, hit.normal) < 0.0;
+#endif
             if front_face {
 #if STRATEGY_NEE
                 // After a smooth bounce the shadow ray could have found this emitter too.
@@ -281,7 +298,11 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #endif
                 let frame = Frame(
                     select(-shading_normal, shading_normal, front_face),
+#if NESTED_MATERIALS
+                    resolved.front_face,
+#else
                     front_face,
+#endif
                     select(-hit.normal, hit.normal, front_face),
 #if BUMP_MAPS
                     select(-hit.shading_normal, hit.shading_normal, front_face),

@@ -122,3 +122,68 @@ fn bump_shadowing(frame: Frame, wi: vec3<f32>) -> f32 {
     return 2.0 / (1.0 + sqrt(1.0 + frame.bump_alpha2 * tan2));
 }
 #endif
+
+#if NESTED_MATERIALS
+// The material a hit scatters by, and the side it sees as its front.
+struct Resolved {
+    material: Material,
+    front_face: bool,
+}
+
+// A hit on material `found`, on the side `front_face` says: the material it
+// scatters by, through the materials made of others (`kinds::packed_nested`,
+// their indices in `color2`) in at most MATERIAL_NESTING steps (the scene's
+// materials nest no deeper): `twosided` takes its front or back material, the
+// back one seeing the flipped frame as its front; `blend` takes its second
+// material with probability `weight`, its first otherwise (pbrt-v4's
+// MixMaterial: in expectation the blended BSDF). The result has its kind's id
+// alone (no transparency) and `found`'s emission: a surface's emission and
+// opacity are the outer material's.
+fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
+    var m = found;
+    var front = front_face;
+#if BLEND
+    // The blends' random number in [0, 1), once drawn.
+    var u = -1.0;
+#endif
+    for (var step = 0u; step < MATERIAL_NESTING; step++) {
+        let kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
+#if TWOSIDED
+        if kind == MATERIAL_TWOSIDED {
+            m = materials_at(u32(select(m.color2.y, m.color2.x, front)));
+            front = true;
+            continue;
+        }
+#endif
+#if BLEND
+        if kind == MATERIAL_BLEND {
+            // `second` with probability `weight` (its texture's luminance at
+            // the hit, else the constant): one random number per hit, drawn at
+            // the first blend, its rest reused by blends nested below.
+            var weight = m.param;
+#if TEXTURES
+            let texture = (m.flags >> MATERIAL_TEXTURE_SHIFT) & ((1u << MATERIAL_TEXTURE_BITS) - 1u);
+            if texture != 0u {
+                weight = clamp(dot(texture_eval(texture - 1u, hit.uv), vec3<f32>(0.212671, 0.715160, 0.072169)), 0.0, 1.0);
+            }
+#endif
+            if u < 0.0 {
+                u = sample_1d();
+            }
+            if u < weight {
+                u = u / weight;
+                m = materials_at(u32(m.color2.y));
+            } else {
+                u = (u - weight) / (1.0 - weight);
+                m = materials_at(u32(m.color2.x));
+            }
+            continue;
+        }
+#endif
+        break;
+    }
+    m.kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
+    m.emit = found.emit;
+    return Resolved(m, front);
+}
+#endif

@@ -9,7 +9,7 @@ use crate::environment::EnvironmentTables;
 use crate::kinds::{
     Bump, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT,
     PRIMITIVE_KINDS, PackedArray, PrimitiveKind, TextureInfo, TextureTables, pack_material,
-    packed_is_masked, packed_kind_id,
+    packed_is_masked, packed_kind_id, packed_nested,
 };
 use crate::lights::{DeltaLight, LightBvh, LightTables, pack_delta_lights};
 use crate::scene::{Camera, MaterialKind, Scene};
@@ -79,6 +79,11 @@ impl SceneData {
                     if matches!(bump, Bump::NormalMap { .. }) {
                         packed.flags |= material_flag("MATERIAL_NORMAL_MAP");
                     }
+                }
+                // The materials it is made of, by index (`kinds::packed_nested`).
+                for (slot, name) in m.nested.iter().enumerate() {
+                    let index = scene.materials.iter().position(|n| &n.name == name);
+                    packed.color2[slot] = index.expect("a validated scene's material") as f32;
                 }
                 packed
             })
@@ -212,23 +217,51 @@ impl SceneData {
         self.lights.iter().map(PackedArray::len).sum()
     }
 
-    /// The material kinds referenced by geometry the kernel sees.
-    pub fn material_kinds(&self) -> KindSet {
-        self.geometry
+    /// The materials a hit can scatter by, by index: those of the geometry
+    /// the kernel sees, and those they are made of (`kinds::packed_nested`).
+    pub fn reachable_materials(&self) -> Vec<bool> {
+        let mut reached = vec![false; self.materials.len()];
+        let mut stack: Vec<u32> = self
+            .geometry
             .primitives
             .iter()
-            .flat_map(|array| &array.materials)
-            .map(|&m| packed_kind_id(&self.materials[m as usize]))
+            .flat_map(|array| array.materials.iter().copied())
+            .collect();
+        while let Some(m) = stack.pop() {
+            if !std::mem::replace(&mut reached[m as usize], true) {
+                stack.extend(packed_nested(&self.materials[m as usize]));
+            }
+        }
+        reached
+    }
+
+    /// The material kinds of `reachable_materials`.
+    pub fn material_kinds(&self) -> KindSet {
+        self.reachable_materials()
+            .iter()
+            .enumerate()
+            .filter(|&(_, &reached)| reached)
+            .map(|(m, _)| packed_kind_id(&self.materials[m]))
             .collect()
     }
 
-    /// Whether a material rays can hit is one-sided.
+    /// Whether a material of `reachable_materials` is one-sided.
     pub fn has_one_sided_materials(&self) -> bool {
-        self.geometry
-            .primitives
+        self.reachable_materials()
             .iter()
-            .flat_map(|array| &array.materials)
-            .any(|&m| self.materials[m as usize].flags & material_flag("MATERIAL_ONE_SIDED") != 0)
+            .enumerate()
+            .any(|(m, &reached)| {
+                reached && self.materials[m].flags & material_flag("MATERIAL_ONE_SIDED") != 0
+            })
+    }
+
+    /// Whether a material of `reachable_materials` is made of others
+    /// (`twosided`): the kernel resolves them at a hit (`NESTED_MATERIALS`).
+    pub fn has_nested_materials(&self) -> bool {
+        self.reachable_materials()
+            .iter()
+            .enumerate()
+            .any(|(m, &reached)| reached && !packed_nested(&self.materials[m]).is_empty())
     }
 
     /// Whether a material rays can hit is masked (`Material::opacity` below 1).

@@ -79,6 +79,7 @@ impl Setup {
                 opacity: 1.0,
                 texture: None,
                 bump: None,
+                nested: Vec::new(),
             },
             &mut material_tables,
         );

@@ -13,9 +13,9 @@ use crate::abi::{
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
     ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
-    MATERIAL_KINDS, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX,
-    MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT, PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES,
-    texture_constants,
+    MATERIAL_KINDS, MATERIAL_NESTING, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT,
+    MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT, PRIMITIVE_KINDS,
+    PrimitiveKind, ROUGH_TRANSMITTANCE_RES, texture_constants,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -54,6 +54,7 @@ pub fn shared_constants() -> String {
     constant("MATERIAL_TRANSPARENCY_SHIFT", MATERIAL_TRANSPARENCY_SHIFT);
     constant("MATERIAL_TRANSPARENCY_MAX", MATERIAL_TRANSPARENCY_MAX);
     constant("MASK_RAY_HITS", MASK_RAY_HITS);
+    constant("MATERIAL_NESTING", MATERIAL_NESTING);
     constant("MATERIAL_TEXTURE_BITS", MATERIAL_TEXTURE_BITS);
     constant("MATERIAL_BUMP_SHIFT", MATERIAL_BUMP_SHIFT);
     for (name, value) in texture_constants() {

@@ -59,6 +59,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "DELTA_LIGHTS_PICK",
     "TEXTURES",
     "BUMP_MAPS",
+    "NESTED_MATERIALS",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -672,6 +673,15 @@ impl KernelConfig {
         }
     }
 
+    /// Whether a material kind made of other materials (`twosided`) is
+    /// compiled in: the kernel resolves the material at each hit
+    /// (`resolve_material`, materials.wgsl).
+    pub fn nested_materials(&self) -> bool {
+        self.material_kinds
+            .iter()
+            .any(|k| !MATERIAL_KINDS[k].nested.is_empty())
+    }
+
     /// Whether shading normals differ from the geometric ones anywhere:
     /// interpolated on smooth meshes, or perturbed by bump and normal maps.
     pub fn shading_normals(&self) -> bool {
@@ -784,6 +794,7 @@ impl KernelConfig {
             ),
             ("TEXTURES", self.textures),
             ("BUMP_MAPS", self.bump_maps),
+            ("NESTED_MATERIALS", self.nested_materials()),
         ];
         for (flag, on) in features {
             if on {
@@ -928,7 +939,13 @@ impl KernelConfig {
             primitive_kinds: KindSet::default(),
             // Light sampling on: the dispatch then has `bsdf_eval` and `bsdf_pdf`.
             light_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
-            material_kinds: material_kinds.with(lambertian),
+            // Kinds made of others have no BSDF of their own to probe (and the
+            // probe no scene to resolve them in).
+            material_kinds: material_kinds
+                .iter()
+                .filter(|&k| MATERIAL_KINDS[k].nested.is_empty())
+                .collect::<KindSet>()
+                .with(lambertian),
             sampler: Sampler::Independent,
             environment: false,
             light_environment: false,

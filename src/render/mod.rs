@@ -16,7 +16,7 @@ use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{
     AccumulatorKind, ArrayMemory, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE,
 };
-use crate::kinds::{MASK_RAY_HITS, PRIMITIVE_KINDS};
+use crate::kinds::{MASK_RAY_HITS, MATERIAL_NESTING, PRIMITIVE_KINDS};
 use crate::pack::{CameraFrame, SceneData};
 use crate::scene::{Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
@@ -1473,6 +1473,10 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
     // path-loop iterations after each bounce, each a closest hit.
     if config.masked {
         inner_loops += (u64::from(MASK_RAY_HITS) - 1) * (closest_hit + 1);
+    }
+    // Resolving a material made of others: up to MATERIAL_NESTING steps.
+    if config.nested_materials() {
+        inner_loops += u64::from(MATERIAL_NESTING);
     }
     // One spare iteration per vertex, for safety.
     inner_loops + 2

@@ -53,7 +53,7 @@ const VERSIONS: [u32; 2] = [2, 3];
 
 const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
                                thindielectric, plastic, roughplastic, twosided, mask, bumpmap, \
-                               normalmap";
+                               normalmap, blendbsdf";
 /// The material keys a `bumpmap` or `normalmap` sets (`kinds::Bump`).
 const BUMP_KEYS: [&str; 2] = ["bump", "normal_map"];
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
@@ -1104,6 +1104,43 @@ enum Surface {
         transmits: bool,
         one_sided: bool,
     },
+    /// A material made of others (`twosided` with two BSDFs, `blendbsdf`), which are in
+    /// the document's materials already: its TOML table, `type` included;
+    /// `textured`: whether one of those is.
+    Nested { table: Table, textured: bool },
+}
+
+/// A surface's material table, as a BSDF inside another's (no emission, no
+/// opacity: those are the outer material's).
+fn surface_table(surface: &Surface) -> Table {
+    match surface {
+        Surface::Lambertian {
+            albedo,
+            one_sided,
+            bump,
+        } => {
+            let mut table = Table::new();
+            table.insert("type".into(), Value::String("lambertian".into()));
+            table.insert("albedo".into(), albedo.clone());
+            if let Some((key, value)) = bump {
+                table.insert(key.to_string(), value.clone());
+            }
+            if *one_sided {
+                table.insert("one_sided".into(), Value::Boolean(true));
+            }
+            table
+        }
+        Surface::Mitsuba {
+            table, one_sided, ..
+        } => {
+            let mut table = table.clone();
+            if *one_sided {
+                table.insert("one_sided".into(), Value::Boolean(true));
+            }
+            table
+        }
+        Surface::Nested { table, .. } => table.clone(),
+    }
 }
 
 impl Surface {
@@ -1112,6 +1149,7 @@ impl Surface {
         match self {
             Surface::Lambertian { albedo, bump, .. } => albedo.is_table() || bump.is_some(),
             Surface::Mitsuba { table, .. } => table.values().any(Value::is_table),
+            Surface::Nested { textured, .. } => *textured,
         }
     }
 }
@@ -1395,16 +1433,34 @@ impl<'a> Builder<'a> {
                     1.0,
                 )
             }
-            "twosided" => {
-                let inner = props.objects(&["bsdf", "ref"]);
-                let [inner] = inner[..] else {
+            "twosided" => match props.objects(&["bsdf", "ref"])[..] {
+                [inner] => {
+                    let inner = self.resolve(inner)?;
+                    self.surface(inner, true)?
+                }
+                // The first BSDF on the front, the second (seeing the flipped
+                // frame, as one-sided as it is alone) on the back.
+                [front, back] => {
+                    let (front, front_textured) = self.nested_material(front, false)?;
+                    let (back, back_textured) = self.nested_material(back, false)?;
+                    let mut table = Table::new();
+                    table.insert("type".into(), Value::String("twosided".into()));
+                    table.insert("front".into(), Value::String(front));
+                    table.insert("back".into(), Value::String(back));
+                    (
+                        Surface::Nested {
+                            table,
+                            textured: front_textured || back_textured,
+                        },
+                        1.0,
+                    )
+                }
+                _ => {
                     return Err(e.origin.error(
-                        "a twosided BSDF with other than one nested BSDF is not supported",
+                        "a twosided BSDF with other than one or two nested BSDFs is not supported",
                     ));
-                };
-                let inner = self.resolve(inner)?;
-                self.surface(inner, true)?
-            }
+                }
+            },
             // Mitsuba's null lobe is two-sided whether or not its BSDF is, so a
             // `twosided` around a mask (which Mitsuba 3 refuses, as a BSDF that
             // transmits) reads as the same surface as one inside it.
@@ -1432,6 +1488,7 @@ impl<'a> Builder<'a> {
                 (surface, opacity * inner_opacity)
             }
             ty @ ("bumpmap" | "normalmap") => self.bumped(&mut props, ty, twosided)?,
+            "blendbsdf" => (self.blend(&mut props, twosided)?, 1.0),
             _ => {
                 return Err(e
                     .origin
@@ -1440,6 +1497,92 @@ impl<'a> Builder<'a> {
         };
         props.finish()?;
         Ok(surface)
+    }
+
+    /// Mitsuba's `blendbsdf`: `weight` (a float in [0, 1], default 0.5, or a
+    /// texture) between two nested BSDFs, in document order (Mitsuba's, for
+    /// nested BSDFs without a `name`; by name where both have one), each
+    /// inside the same `twosided` as the blend.
+    fn blend(&mut self, props: &mut Props<'a>, twosided: bool) -> Result<Surface> {
+        let e = props.elem;
+        // A `<ref name="weight">` is the weight's texture, not a BSDF.
+        let mut children: Vec<&Elem> = props
+            .objects(&["bsdf", "ref"])
+            .into_iter()
+            .filter(|c| c.name() != Some("weight"))
+            .collect();
+        let [_, _] = children[..] else {
+            return Err(e
+                .origin
+                .error("a blendbsdf with other than two nested BSDFs is not supported"));
+        };
+        if let [Some(a), Some(b)] = [children[0].name(), children[1].name()]
+            && b < a
+        {
+            children.swap(0, 1);
+        }
+        let weight = match props.texture("weight") {
+            Some(reference) => {
+                let target = self.resolve(reference)?;
+                if target.tag != "texture" {
+                    return Err(reference.origin.error(format!(
+                        "`weight` refers to a <{}>, not a <texture>",
+                        target.tag
+                    )));
+                }
+                self.texture(target)?
+            }
+            None => {
+                let weight = props.float("weight")?.unwrap_or(0.5);
+                if !(0.0..=1.0).contains(&weight) {
+                    return Err(e
+                        .origin
+                        .error(format!("`weight` must be in [0, 1], got {weight}")));
+                }
+                Value::Float(weight)
+            }
+        };
+        let (first, first_textured) = self.nested_material(children[0], twosided)?;
+        let (second, second_textured) = self.nested_material(children[1], twosided)?;
+        let textured = weight.is_table() || first_textured || second_textured;
+        let mut table = Table::new();
+        table.insert("type".into(), Value::String("blend".into()));
+        table.insert("weight".into(), weight);
+        table.insert("first".into(), Value::String(first));
+        table.insert("second".into(), Value::String(second));
+        Ok(Surface::Nested { table, textured })
+    }
+
+    /// A BSDF inside one made of others (`twosided` with two, `blendbsdf`): its material,
+    /// added to the document under its element's name (`~2` and on where that
+    /// name holds another material already), and whether it is textured. It
+    /// may not be masked: the surface's opacity is the outer material's.
+    fn nested_material(&mut self, child: &'a Elem, twosided: bool) -> Result<(String, bool)> {
+        let target = self.resolve(child)?;
+        let (surface, opacity) = self.surface(target, twosided)?;
+        if opacity < 1.0 {
+            return Err(child.origin.error(
+                "a mask inside a BSDF made of two is not supported (put the mask around it)",
+            ));
+        }
+        let table = surface_table(&surface);
+        let base = self.name_of(target);
+        let mut name = base.clone();
+        for n in 2.. {
+            match self.materials.get(&name) {
+                Some(Value::Table(existing)) if *existing == table => {
+                    return Ok((name, surface.is_textured()));
+                }
+                Some(_) => name = format!("{base}~{n}"),
+                None => break,
+            }
+        }
+        let origin = target.origin.clone();
+        self.origins
+            .push((format!("materials.{name}"), origin.clone()));
+        self.origins.push((format!("materials.\"{name}\""), origin));
+        self.materials.insert(name.clone(), Value::Table(table));
+        Ok((name, surface.is_textured()))
     }
 
     /// Mitsuba's `bumpmap` (a height texture of any name, `scale`) or
@@ -1519,6 +1662,12 @@ impl<'a> Builder<'a> {
                 let taken = BUMP_KEYS.iter().any(|k| table.contains_key(*k));
                 table.insert(bump.0.into(), bump.1);
                 taken
+            }
+            Surface::Nested { .. } => {
+                return Err(e.origin.error(
+                    "a bumpmap or normalmap around a BSDF made of two is not supported (put \
+                     it around each of them)",
+                ));
             }
         };
         if taken {
@@ -1718,7 +1867,11 @@ impl<'a> Builder<'a> {
                 }
                 base
             }
-            (Surface::Mitsuba { .. }, Some(_)) => {
+            (Surface::Nested { table: params, .. }, None) => {
+                table = params.clone();
+                base
+            }
+            (Surface::Mitsuba { .. } | Surface::Nested { .. }, Some(_)) => {
                 return Err(shape.origin.error(
                     "an area emitter on a non-diffuse BSDF is not supported (pathmix's \
                      emitters are diffuse)",
@@ -1785,7 +1938,7 @@ impl<'a> Builder<'a> {
                 } | Surface::Mitsuba {
                     one_sided: true,
                     ..
-                }
+                } | Surface::Nested { .. }
             );
         let mirrors = to_world.determinant() < 0.0;
         let mut object = Table::new();
@@ -3356,6 +3509,115 @@ mod tests {
             r#"<shape type="rectangle"><bsdf type="mask"/></shape>"#,
         );
         assert!(e.contains("other than one nested BSDF"), "{e}");
+    }
+
+    /// `twosided` with two BSDFs becomes a `twosided` material naming the
+    /// two BSDFs' materials (each one-sided, as alone: the back one sees the
+    /// flipped frame), which a mask around it makes masked; a mask inside,
+    /// a third BSDF or an emitter on it are refused at their elements.
+    #[test]
+    fn twosided_with_two_bsdfs_names_its_front_and_back() {
+        let s = scene(
+            "twosided-pair",
+            r#"<bsdf type="diffuse" id="top"><rgb name="reflectance" value="0.2"/></bsdf>
+               <shape type="rectangle"><bsdf type="mask"><float name="opacity" value="0.5"/>
+               <bsdf type="twosided" id="leaf"><ref id="top"/>
+               <bsdf type="roughconductor"/></bsdf></bsdf></shape>"#,
+        );
+        let by_name = |name: &str| s.materials.iter().find(|m| m.name == name).unwrap();
+        let leaf = &s.materials[s.shapes.quads[0].material as usize];
+        assert_eq!(leaf.kind, crate::scene::MaterialKind::TwoSided);
+        assert_eq!(leaf.opacity, 0.5);
+        let [front, back] = [&leaf.nested[0], &leaf.nested[1]].map(|n| by_name(n));
+        assert_eq!(
+            (front.name.as_str(), front.albedo, front.one_sided),
+            ("top", Vec3::splat(0.2), true)
+        );
+        assert!(matches!(
+            back.kind,
+            crate::scene::MaterialKind::RoughConductor { .. }
+        ));
+        assert!(back.one_sided);
+
+        let e = error(
+            "twosided-three",
+            "<shape type=\"rectangle\">\n<bsdf type=\"twosided\"><bsdf type=\"diffuse\"/>\
+             <bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <bsdf type=\"twosided\">: a twosided BSDF with other than one or two"),
+            "{e}"
+        );
+        let e = error(
+            "twosided-mask-inside",
+            "<shape type=\"rectangle\"><bsdf type=\"twosided\">\n<bsdf type=\"mask\">\
+             <bsdf type=\"diffuse\"/></bsdf><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <bsdf type=\"mask\">: a mask inside a BSDF made of two"),
+            "{e}"
+        );
+        let e = error(
+            "twosided-emitter",
+            r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="diffuse"/>
+               <bsdf type="diffuse"/></bsdf><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#,
+        );
+        assert!(e.contains("an area emitter on a non-diffuse BSDF"), "{e}");
+    }
+
+    /// `blendbsdf` becomes a `blend` material of its weight (a float, default
+    /// 0.5, or a texture) and its two BSDFs' materials, in document order
+    /// (by `name` where both have one), two-sided inside a `twosided`; a weight
+    /// outside [0, 1] and other than two BSDFs are refused at the element.
+    #[test]
+    fn blendbsdf_becomes_a_blend_of_its_two_bsdfs() {
+        use crate::scene::MaterialKind;
+        let s = scene(
+            "blend",
+            r#"<shape type="rectangle"><bsdf type="twosided"><bsdf type="blendbsdf">
+               <float name="weight" value="0.25"/>
+               <bsdf type="diffuse"><rgb name="reflectance" value="0.2"/></bsdf>
+               <bsdf type="roughconductor"/></bsdf></bsdf></shape>
+               <shape type="rectangle"><bsdf type="blendbsdf">
+               <texture name="weight" type="checkerboard"/>
+               <bsdf type="conductor" name="bsdf_1"/>
+               <bsdf type="diffuse" name="bsdf_0"/></bsdf></shape>"#,
+        );
+        let by_name = |name: &str| s.materials.iter().find(|m| m.name == name).unwrap();
+        let blend = &s.materials[s.shapes.quads[0].material as usize];
+        assert_eq!(blend.kind, MaterialKind::Blend { weight: 0.25 });
+        let [first, second] = [&blend.nested[0], &blend.nested[1]].map(|n| by_name(n));
+        assert_eq!((first.albedo, first.one_sided), (Vec3::splat(0.2), false));
+        assert!(matches!(second.kind, MaterialKind::RoughConductor { .. }));
+        assert!(!second.one_sided);
+        let textured = &s.materials[s.shapes.quads[1].material as usize];
+        assert!(textured.texture.is_some());
+        let [first, second] = [&textured.nested[0], &textured.nested[1]].map(|n| by_name(n));
+        assert_eq!(
+            (first.kind, first.one_sided),
+            (MaterialKind::Lambertian, true)
+        );
+        assert!(matches!(second.kind, MaterialKind::Conductor { .. }));
+
+        let e = error(
+            "blend-weight",
+            "<shape type=\"rectangle\">\n<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"1.5\"/>\
+             <bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains(
+                "scene.xml:3:1: <bsdf type=\"blendbsdf\">: `weight` must be in [0, 1], got 1.5"
+            ),
+            "{e}"
+        );
+        let e = error(
+            "blend-one",
+            "<shape type=\"rectangle\">\n<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(
+            e.contains("scene.xml:3:1: <bsdf type=\"blendbsdf\">: a blendbsdf with other than two nested BSDFs"),
+            "{e}"
+        );
     }
 
     /// `point` and `spot` emitters become `[[lights]]` with Mitsuba's defaults

@@ -22,13 +22,13 @@ use super::{
     AdaptiveMetric, Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
     Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle, excerpt,
 };
-use crate::kinds::MAX_TEXTURES;
 use crate::kinds::params::{
     ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
     fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
 };
 use crate::kinds::transform::{TRANSFORM_KEYS, Transform, matrix, rotation};
 use crate::kinds::{self, DEGENERATE, Shape, light_keys, light_types, usable_length_squared};
+use crate::kinds::{MATERIAL_KINDS, MATERIAL_NESTING, MAX_TEXTURES};
 use std::cell::RefCell;
 
 // Mitsuba's reader takes these from here, as the TOML reader does from the kinds.
@@ -456,7 +456,84 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
         }
         out.push(material);
     }
+    check_nested_materials(&mats, &out)?;
     Ok(out)
+}
+
+/// The materials `twosided` materials are made of (`Material::nested`):
+/// each names a material of the scene that neither emits nor is masked (the
+/// surface's emission and opacity are the outer material's), with no cycle and
+/// at most `MATERIAL_NESTING` deep.
+fn check_nested_materials(mats: &ParamTable, materials: &[Material]) -> Result<()> {
+    let index = |name: &str| materials.iter().position(|m| m.name == name);
+    for material in materials {
+        let t = mats.sub(&material.name)?.expect("key exists");
+        let model = &MATERIAL_KINDS[material.kind.id()];
+        for (&key, name) in model.nested.iter().zip(&material.nested) {
+            let Some(i) = index(name) else {
+                let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+                return Err(t.err(t.at(key), unknown_name("material", name, &names)));
+            };
+            let inner = &materials[i];
+            if inner.emits() || inner.opacity < 1.0 {
+                return Err(t.err(
+                    t.at(key),
+                    format!(
+                        "material `{}` {} inside a {} material: its emission and opacity would \
+                         be the {} material's (give them to `{}`)",
+                        excerpt(name),
+                        if inner.emits() { "emits" } else { "is masked" },
+                        model.name,
+                        model.name,
+                        excerpt(&material.name),
+                    ),
+                ));
+            }
+        }
+        // How deep the materials below this one go: a chain of nested
+        // materials longer than the kernel resolves, or a cycle.
+        let mut chain = vec![material.name.as_str()];
+        let mut frontier: Vec<Vec<&str>> = vec![chain.clone()];
+        while let Some(path) = frontier.pop() {
+            let last = &materials[index(path[path.len() - 1]).expect("checked")];
+            for name in &last.nested {
+                if path.contains(&name.as_str()) {
+                    let cycle: Vec<String> = path
+                        .iter()
+                        .chain([&name.as_str()])
+                        .map(|n| format!("`{}`", excerpt(n)))
+                        .collect();
+                    return Err(t.err(
+                        t.here(),
+                        format!("its materials make a cycle: {}", cycle.join(" -> ")),
+                    ));
+                }
+                let mut longer = path.clone();
+                longer.push(name);
+                if longer.len() > chain.len() {
+                    chain = longer.clone();
+                }
+                // Far enough to know it is too deep: a DAG's paths stay few.
+                if longer.len() <= MATERIAL_NESTING as usize + 2 {
+                    frontier.push(longer);
+                }
+            }
+        }
+        // The chain's last material scatters; each before it is a step.
+        if chain.len() - 1 > MATERIAL_NESTING as usize {
+            let chain: Vec<String> = chain.iter().map(|n| format!("`{}`", excerpt(n))).collect();
+            return Err(t.err(
+                t.here(),
+                format!(
+                    "its materials nest {} deep ({}), deeper than the {MATERIAL_NESTING} \
+                     the kernel resolves",
+                    chain.len() - 1,
+                    chain.join(" -> ")
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The tables of the top-level array `key` (`[[key]]`, none when absent), each
@@ -799,6 +876,7 @@ fn file_materials(t: &ParamTable, mesh: &super::mesh::Mesh, base: u32) -> Result
                 opacity: 1.0,
                 texture: None,
                 bump: None,
+                nested: Vec::new(),
             })
         })
         .collect()

@@ -29,12 +29,23 @@ impl Scene {
         (scene, dropped)
     }
 
-    /// Whether some object uses each material, by index.
+    /// Whether some object uses each material, by index, or a material used
+    /// is made of it (`twosided`).
     pub fn used_materials(&self) -> Vec<bool> {
         let mut used = vec![false; self.materials.len()];
         let references = self.shapes.iter().map(|shape| shape.material());
-        for material in references {
-            used[material as usize] = true;
+        let mut stack: Vec<usize> = references.map(|m| m as usize).collect();
+        // And the materials those are made of (`Material::nested`).
+        while let Some(material) = stack.pop() {
+            if used[material] {
+                continue;
+            }
+            used[material] = true;
+            for name in &self.materials[material].nested {
+                if let Some(inner) = self.materials.iter().position(|m| &m.name == name) {
+                    stack.push(inner);
+                }
+            }
         }
         used
     }

@@ -1232,6 +1232,7 @@ mod tests {
             opacity: 1.0,
             texture: None,
             bump: None,
+            nested: Vec::new(),
         };
         Scene {
             source: "small.toml".into(),

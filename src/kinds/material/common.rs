@@ -340,7 +340,7 @@ impl TextureSlot {
     }
 
     /// The texture at `key`, kept, and its mean; `None` where `key` holds no table.
-    fn texture(&mut self, t: &ParamTable, key: &str) -> Result<Option<Vec3>> {
+    pub(super) fn texture(&mut self, t: &ParamTable, key: &str) -> Result<Option<Vec3>> {
         if !t.table.get(key).is_some_and(Value::is_table) {
             return Ok(None);
         }

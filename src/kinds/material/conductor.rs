@@ -34,6 +34,7 @@ pub(super) const CONDUCTOR: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    nested: &[],
     parse,
     pack,
 };

@@ -7,6 +7,7 @@
 //! [`MATERIAL_KINDS`] (its id in the kernel), and so the scene files' type
 //! names and keys. What several kinds share is in `common.rs`.
 
+mod blend;
 mod bump;
 mod common;
 mod conductor;
@@ -20,6 +21,7 @@ mod roughdielectric;
 mod roughplastic;
 mod smoothdielectric;
 mod thindielectric;
+mod twosided;
 
 pub use bump::Bump;
 pub use common::Distribution;
@@ -79,6 +81,11 @@ pub struct MaterialModel {
     pub keys: &'static [&'static str],
     /// What an unknown key's message adds about the keys (`isotropic: ...`).
     pub keys_note: Option<&'static str>,
+    /// The keys (of `keys`, required) that name the materials it is made of
+    /// (`twosided`'s `front` and `back`): [`Material::nested`], in this order,
+    /// which the kernel resolves at the hit (`resolve_material`,
+    /// materials.wgsl) before anything else is done there.
+    pub nested: &'static [&'static str],
     /// Reads its parameters from its table, whose keys are checked; the
     /// generic part (`one_sided`, the texture) is [`Material::parse`]'s.
     pub(crate) parse: fn(&ParamTable, &mut TextureSlot) -> Result<Parsed>,
@@ -206,6 +213,14 @@ material_kinds! {
         specular_reflectance: Vec3,
         specular_transmittance: Vec3,
     } = smoothdielectric::SMOOTHDIELECTRIC,
+    /// Mitsuba's `twosided` with two BSDFs: the material `front` on the side
+    /// the normal faces, `back` (seeing the flipped frame) on the other
+    /// ([`Material::nested`]).
+    TwoSided = twosided::TWOSIDED,
+    /// Mitsuba's `blendbsdf`: `(1 - weight) first + weight second`, resolved
+    /// at the hit by picking one ([`Material::nested`]; `weight` the constant,
+    /// or the mean of its texture's luminance).
+    Blend { weight: f32 } = blend::BLEND,
 }
 
 /// The scene files' material types, in [`MATERIAL_KINDS`] order.
@@ -267,13 +282,18 @@ pub struct Material {
     /// A texture on the kind's colour that `kinds::pack_material` packs as
     /// `albedo` (lambertian and metal `albedo`, conductors' and rough
     /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
-    /// which then holds the texture's mean.
+    /// which then holds the texture's mean; `blend`'s `weight`.
     pub texture: Option<Texture>,
     /// A bump or normal map (Mitsuba's `bumpmap`, `normalmap`). Left out of
     /// the serialized material when absent, so the checkpoint identities of
     /// scenes without one are as before.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bump: Option<Bump>,
+    /// The materials a `twosided` or `blend` material is made of, by name (the values
+    /// of its kind's `MaterialModel::nested` keys, in that order); empty for
+    /// the others, and then left out of the serialized material.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub nested: Vec<String>,
 }
 
 impl Material {
@@ -314,6 +334,11 @@ impl Material {
             true => bump::parse_bump(t)?,
             false => None,
         };
+        let nested = model
+            .nested
+            .iter()
+            .map(|&key| Ok(t.require(key, t.string(key)?)?.to_string()))
+            .collect::<Result<Vec<String>>>()?;
         Ok(Material {
             name: name.to_string(),
             kind,
@@ -323,6 +348,7 @@ impl Material {
             opacity: t.float(OPACITY, check_unit)?.unwrap_or(1.0),
             texture: slot.texture,
             bump,
+            nested,
         })
     }
 }
@@ -362,6 +388,20 @@ pub fn packed_kind_id(m: &PackedMaterial) -> usize {
 /// Whether a packed material is masked (some transparency).
 pub fn packed_is_masked(m: &PackedMaterial) -> bool {
     m.kind >> MATERIAL_TRANSPARENCY_SHIFT != 0
+}
+
+/// The most materials one hit passes through to the material it scatters by
+/// (`twosided` inside `twosided`, ...): the kernel's resolving loop
+/// (`resolve_material`, materials.wgsl) takes at most this many steps, and a
+/// scene whose materials nest deeper is refused.
+pub const MATERIAL_NESTING: u32 = 4;
+
+/// The materials a packed material is made of (`Material::nested`, which
+/// `SceneData::pack` stores as floats in `color2`), by index; none for the
+/// kinds without.
+pub fn packed_nested(m: &PackedMaterial) -> Vec<u32> {
+    let count = MATERIAL_KINDS[packed_kind_id(m)].nested.len();
+    m.color2[..count].iter().map(|&i| i as u32).collect()
 }
 
 /// A coat's distribution, alpha and eta (as bits).
@@ -497,6 +537,10 @@ mod tests {
                 ("albedo", "[0.5, 0.5, 0.5]"),
                 ("emit", "[1, 1, 1]"),
                 ("ior", "1.5"),
+                ("front", "\"a\""),
+                ("first", "\"a\""),
+                ("second", "\"b\""),
+                ("back", "\"b\""),
             ]
             .iter()
             .filter(|(key, _)| model.keys.contains(key))

@@ -42,6 +42,7 @@ pub(super) const PLASTIC: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    nested: &[],
     parse,
     pack,
 };

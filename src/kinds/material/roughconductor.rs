@@ -39,6 +39,7 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    nested: &[],
     parse,
     pack,
 };

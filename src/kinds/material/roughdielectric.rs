@@ -43,6 +43,7 @@ pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
         "specular_transmittance",
     ],
     keys_note: None,
+    nested: &[],
     parse,
     pack,
 };

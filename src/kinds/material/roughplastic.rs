@@ -43,6 +43,7 @@ pub(super) const ROUGHPLASTIC: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: Some("isotropic: `alpha` only"),
+    nested: &[],
     parse,
     pack,
 };
