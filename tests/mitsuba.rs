@@ -591,7 +591,7 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
         (
             "hair",
             "<scene version=\"3.0.0\">\n<bsdf type=\"hair\"/>\n</scene>",
-            ":2:1: <bsdf type=\"hair\">: not supported (supported: diffuse, dielectric, conductor",
+            ":2:1: <bsdf type=\"hair\">: not supported (supported: diffuse, conductor, dielectric",
         ),
         (
             "param",

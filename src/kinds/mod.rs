@@ -20,7 +20,8 @@
 //! A new **material kind** touches:
 //! - `shaders/NAME.wgsl` (the interface is in `shaders/materials.wgsl`);
 //! - `src/kinds/material/NAME.rs`: its manual, its [`MaterialModel`] (lobes,
-//!   keys, how it reads its table and packs), and its test;
+//!   keys, how it reads its table and packs, the Mitsuba plugin it is), and
+//!   its test;
 //! - `src/kinds/material/mod.rs`: `mod NAME;` and its entry in
 //!   `material_kinds!` (its [`MaterialKind`] variant, with its parameters).
 //!
@@ -61,7 +62,7 @@ pub(crate) use material::NAMED_IORS;
 pub use material::{
     Bump, Distribution, Lobe, MASK_RAY_HITS, MATERIAL_KINDS, MATERIAL_NESTING,
     MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, Material, MaterialKind, MaterialModel,
-    MaterialTables, pack_material, packed_is_masked, packed_kind_id, packed_nested,
+    MaterialTables, MitsubaPlugin, pack_material, packed_is_masked, packed_kind_id, packed_nested,
 };
 // For the scene's tests of Mitsuba's conductors and of the format's page.
 #[cfg(test)]

@@ -28,6 +28,7 @@ mod upgrade;
 use super::parse::{IMAGE_SIDE, NAMED_IORS, sin_cos_degrees};
 use super::spectrum::{self, Role, Spectrum};
 use super::{Sampler, SceneError, excerpt};
+use crate::kinds::{MATERIAL_KINDS, MaterialModel, MitsubaPlugin};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -51,9 +52,15 @@ pub const MAX_TEXT_BYTES: usize = 256 << 20;
 /// (older files are upgraded first, `upgrade::UPGRADED_VERSIONS`).
 const VERSIONS: [u32; 2] = [2, 3];
 
-const SUPPORTED_BSDFS: &str = "diffuse, dielectric, conductor, roughconductor, roughdielectric, \
-                               thindielectric, plastic, roughplastic, twosided, mask, bumpmap, \
-                               normalmap, blendbsdf";
+/// The BSDF plugins read here, besides those that are material kinds (`mitsuba_kind`).
+const BSDFS_READ_HERE: [&str; 6] = [
+    "diffuse",
+    "twosided",
+    "mask",
+    "bumpmap",
+    "normalmap",
+    "blendbsdf",
+];
 /// The material keys a `bumpmap` or `normalmap` sets (`kinds::Bump`).
 const BUMP_KEYS: [&str; 2] = ["bump", "normal_map"];
 const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
@@ -1408,22 +1415,11 @@ impl<'a> Builder<'a> {
                     1.0,
                 )
             }
-            ty @ ("conductor" | "roughconductor" | "dielectric" | "roughdielectric"
-            | "thindielectric" | "plastic" | "roughplastic") => {
-                let transmits = ty.ends_with("dielectric");
-                let textured = match ty {
-                    "plastic" | "roughplastic" => Some("diffuse_reflectance"),
-                    "dielectric" | "thindielectric" => None,
-                    _ => Some("specular_reflectance"),
-                };
-                let texture = match textured {
-                    Some(name) => self.texturable(&mut props, name)?,
-                    None => None,
-                };
-                let mut table = mitsuba_material(ty, &mut props)?;
-                if let (Some(name), Some(texture)) = (textured, texture) {
-                    table.insert(name.into(), texture);
-                }
+            ty if mitsuba_kind(ty).is_some() => {
+                let (model, plugin) = mitsuba_kind(ty).expect("matched");
+                // A kind that cannot be one-sided has sides by nature: glass's inside.
+                let transmits = !model.keys.contains(&"one_sided");
+                let table = self.kind_table(model, plugin, &mut props)?;
                 (
                     Surface::Mitsuba {
                         table,
@@ -1492,7 +1488,7 @@ impl<'a> Builder<'a> {
             _ => {
                 return Err(e
                     .origin
-                    .error(format!("not supported (supported: {SUPPORTED_BSDFS})")));
+                    .error(format!("not supported (supported: {})", supported_bsdfs())));
             }
         };
         props.finish()?;
@@ -1695,6 +1691,44 @@ impl<'a> Builder<'a> {
             }
             None => Ok(props.color(name)?.map(color_value)),
         }
+    }
+
+    /// A BSDF that is a material kind (`mitsuba_kind`): the kind's table, each of
+    /// its keys from the parameter of the same name as Mitsuba reads it: spectra
+    /// (a conductor's `eta` and `k` unbounded, the others reflectances; the
+    /// plugin's texture parameter a texture too), roughnesses, indices of
+    /// refraction (numbers or Mitsuba's names), names and flags. An absent one
+    /// takes the kind's default, which is Mitsuba's; a parameter the kind lacks
+    /// is refused as unread (`Props::finish`).
+    fn kind_table(
+        &mut self,
+        model: &MaterialModel,
+        plugin: &MitsubaPlugin,
+        props: &mut Props<'a>,
+    ) -> Result<Table> {
+        let mut table = Table::new();
+        table.insert("type".into(), Value::String(model.name.into()));
+        for &key in model.keys {
+            let value = match key {
+                // `one_sided` is the surface's (`twosided`); `material` below.
+                "type" | "one_sided" | "material" => None,
+                "alpha" | "alpha_u" | "alpha_v" => props.float(key)?.map(Value::Float),
+                "distribution" => (props.string(key)?).map(|(d, _)| Value::String(d.into())),
+                "nonlinear" => props.boolean(key)?.map(Value::Boolean),
+                "int_ior" | "ext_ior" => ior(props, key)?.map(Value::Float),
+                _ if plugin.texture == Some(key) => self.texturable(props, key)?,
+                // Mitsuba reads a conductor's `eta` and `k` as unbounded textures.
+                "eta" | "k" => (props.color_for(key, Role::Unbounded)?).map(color_value),
+                _ => (props.color_for(key, Role::Reflectance)?).map(color_value),
+            };
+            if let Some(value) = value {
+                table.insert(key.into(), value);
+            }
+        }
+        if model.keys.contains(&"material") {
+            conductor_preset(props, &mut table)?;
+        }
+        Ok(table)
     }
 
     /// `<texture type="bitmap">` (`filename`, `wrap_mode`, `filter_type`, `raw`,
@@ -2468,92 +2502,26 @@ impl<'a> Builder<'a> {
 /// `roughplastic`: the same parameter names (the TOML parser
 /// validates them and fills Mitsuba's defaults), IORs given by name turned into
 /// numbers; a conductor's named `material` stays a name.
-fn mitsuba_material(ty: &str, props: &mut Props) -> Result<Table> {
-    let mut table = Table::new();
-    // Mitsuba's smooth `dielectric` is not the book's (Schlick's) `dielectric`.
-    let kind = match ty {
-        "dielectric" => "smoothdielectric",
-        other => other,
-    };
-    table.insert("type".into(), Value::String(kind.into()));
-    let rough = ty.starts_with("rough");
-    let colors: &[&str] = match ty {
-        "conductor" | "roughconductor" => &["eta", "k", "specular_reflectance"],
-        "dielectric" | "roughdielectric" | "thindielectric" => {
-            &["specular_reflectance", "specular_transmittance"]
-        }
-        _ => &["diffuse_reflectance", "specular_reflectance"],
-    };
-    for &name in colors {
-        // Mitsuba reads a conductor's `eta` and `k` as unbounded textures.
-        let role = match name {
-            "eta" | "k" => Role::Unbounded,
-            _ => Role::Reflectance,
-        };
-        if let Some(c) = props.color_for(name, role)? {
-            table.insert(name.into(), color_value(c));
-        }
-    }
-    if rough {
-        for name in ["alpha", "alpha_u", "alpha_v"] {
-            if ty == "roughplastic" && name != "alpha" {
-                if let Some(e) = props.get(name) {
-                    return Err(e
-                        .origin
-                        .error("`roughplastic` is isotropic (as in Mitsuba): give `alpha`"));
-                }
-            }
-            if let Some(a) = props.float(name)? {
-                table.insert(name.into(), Value::Float(a));
-            }
-        }
-        if let Some((d, _)) = props.string("distribution")? {
-            table.insert("distribution".into(), Value::String(d.into()));
-        }
-    }
-    match ty {
-        "conductor" | "roughconductor" => {
-            // `none` is Mitsuba's default, which `eta` and `k` may go with. The
-            // presets the TOML format does not name become their `eta` and `k`.
-            if let Some((name, at)) = props.string("material")? {
-                let unlisted = spectrum::UNLISTED_CONDUCTORS
-                    .iter()
-                    .find(|(n, _, _)| *n == name);
-                match unlisted {
-                    Some(&(_, eta, k)) => {
-                        if table.contains_key("eta") || table.contains_key("k") {
-                            return Err(at.origin.error(format!(
-                                "give either `material` (here `{name}`) or `eta` and `k`, not both"
-                            )));
-                        }
-                        table.insert("eta".into(), color_value(eta.map(f64::from)));
-                        table.insert("k".into(), color_value(k.map(f64::from)));
-                    }
-                    None if name != "none" => {
-                        table.insert("material".into(), Value::String(name.into()));
-                    }
-                    None => {}
-                }
-            }
-        }
-        _ => {
-            let int_default = if ty.ends_with("plastic") {
-                1.49
-            } else {
-                1.5046
-            };
-            let int_ior = ior(props, "int_ior", int_default)?;
-            let ext_ior = ior(props, "ext_ior", 1.000277)?;
-            table.insert("int_ior".into(), Value::Float(int_ior));
-            table.insert("ext_ior".into(), Value::Float(ext_ior));
-            if ty.ends_with("plastic") {
-                if let Some(n) = props.boolean("nonlinear")? {
-                    table.insert("nonlinear".into(), Value::Boolean(n));
-                }
-            }
-        }
-    }
-    Ok(table)
+/// Every BSDF plugin pathmix reads, for messages.
+fn supported_bsdfs() -> String {
+    let mut kinds: Vec<&str> = (MATERIAL_KINDS.iter())
+        .filter_map(|m| Some(m.mitsuba?.name))
+        .collect();
+    kinds.sort_unstable();
+    let mut names = vec![BSDFS_READ_HERE[0]];
+    names.extend(kinds);
+    names.extend(&BSDFS_READ_HERE[1..]);
+    names.join(", ")
+}
+
+/// The material kind that Mitsuba's BSDF plugin `ty` is (`MaterialModel::mitsuba`).
+fn mitsuba_kind(ty: &str) -> Option<(&'static MaterialModel, &'static MitsubaPlugin)> {
+    MATERIAL_KINDS
+        .iter()
+        .find_map(|model| match &model.mitsuba {
+            Some(plugin) if plugin.name == ty => Some((model, plugin)),
+            _ => None,
+        })
 }
 
 fn gaussian_filter(stddev: f64) -> Value {
@@ -2563,8 +2531,33 @@ fn gaussian_filter(stddev: f64) -> Value {
     Value::Table(t.into_iter().collect())
 }
 
+/// A conductor's `material`: `none` is Mitsuba's default, which `eta` and `k` may
+/// go with; the presets the TOML format does not name become their `eta` and `k`.
+fn conductor_preset(props: &mut Props, table: &mut Table) -> Result<()> {
+    let Some((name, at)) = props.string("material")? else {
+        return Ok(());
+    };
+    let unlisted = (spectrum::UNLISTED_CONDUCTORS.iter()).find(|(n, _, _)| *n == name);
+    match unlisted {
+        Some(&(_, eta, k)) => {
+            if table.contains_key("eta") || table.contains_key("k") {
+                return Err(at.origin.error(format!(
+                    "give either `material` (here `{name}`) or `eta` and `k`, not both"
+                )));
+            }
+            table.insert("eta".into(), color_value(eta.map(f64::from)));
+            table.insert("k".into(), color_value(k.map(f64::from)));
+        }
+        None if name != "none" => {
+            table.insert("material".into(), Value::String(name.into()));
+        }
+        None => {}
+    }
+    Ok(())
+}
+
 /// An `int_ior`/`ext_ior`: a number or one of Mitsuba's named materials.
-fn ior(props: &mut Props, name: &str, default: f64) -> Result<f64> {
+fn ior(props: &mut Props, name: &str) -> Result<Option<f64>> {
     if let Some(e) = props.get(name) {
         e.check_attrs(&["name", "value"])?;
         let value = e.require("value")?;
@@ -2589,9 +2582,9 @@ fn ior(props: &mut Props, name: &str, default: f64) -> Result<f64> {
         if ior <= 0.0 {
             return Err(e.origin.error(format!("must be > 0, got {ior}")));
         }
-        return Ok(ior);
+        return Ok(Some(ior));
     }
-    Ok(default)
+    Ok(None)
 }
 
 /// Mitsuba's cube, `[-1, 1]^3`: each face as a corner and two edges, `u x v` outwards.

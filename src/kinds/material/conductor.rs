@@ -14,7 +14,7 @@
 //! (each at most `MAX_CONDUCTOR_INDEX`). WGSL: `shaders/conductor.wgsl`.
 
 use super::common::{FRESNEL, TextureSlot, conductor_index, conductor_ior};
-use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
+use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result};
 use crate::shader::shader_module;
@@ -34,6 +34,10 @@ pub(super) const CONDUCTOR: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    mitsuba: Some(MitsubaPlugin {
+        name: "conductor",
+        texture: Some("specular_reflectance"),
+    }),
     nested: &[],
     parse,
     pack,

@@ -81,6 +81,9 @@ pub struct MaterialModel {
     pub keys: &'static [&'static str],
     /// What an unknown key's message adds about the keys (`isotropic: ...`).
     pub keys_note: Option<&'static str>,
+    /// The Mitsuba 3 plugin it is, parameter for parameter (the book's kinds and
+    /// pathmix's own: none).
+    pub mitsuba: Option<MitsubaPlugin>,
     /// The keys (of `keys`, required) that name the materials it is made of
     /// (`twosided`'s `front` and `back`): [`Material::nested`], in this order,
     /// which the kernel resolves at the hit (`resolve_material`,
@@ -92,6 +95,16 @@ pub struct MaterialModel {
     /// Its packed material, but for what every kind packs alike
     /// ([`pack_material`]): each kind's file says which fields it fills.
     pub(crate) pack: fn(&Material, &mut MaterialTables) -> PackedMaterial,
+}
+
+/// A Mitsuba BSDF plugin that is a material kind: a Mitsuba file's `<bsdf
+/// type="NAME">` reads as the kind, each of the kind's keys from the parameter of
+/// the same name, as Mitsuba reads it (`scene::mitsuba`).
+#[derive(Clone, Copy, Debug)]
+pub struct MitsubaPlugin {
+    pub name: &'static str,
+    /// The parameter that may be a texture.
+    pub texture: Option<&'static str>,
 }
 
 impl MaterialModel {

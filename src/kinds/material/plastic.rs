@@ -21,7 +21,7 @@ use super::common::{
     FRESNEL, IOR_POLYPROPYLENE, TextureSlot, iors, nonlinear, nonlinear_flag,
     specular_sampling_weight,
 };
-use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
+use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result, reflectance};
 use crate::shader::shader_module;
@@ -42,6 +42,10 @@ pub(super) const PLASTIC: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    mitsuba: Some(MitsubaPlugin {
+        name: "plastic",
+        texture: Some("diffuse_reflectance"),
+    }),
     nested: &[],
     parse,
     pack,

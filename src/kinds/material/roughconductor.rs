@@ -15,7 +15,7 @@ use super::common::{
     FRESNEL, MICROFACET, MIN_ALPHA, TextureSlot, beckmann_flag, conductor_index, conductor_ior,
     distribution, roughness,
 };
-use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
+use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result};
 use crate::shader::shader_module;
@@ -39,6 +39,10 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    mitsuba: Some(MitsubaPlugin {
+        name: "roughconductor",
+        texture: Some("specular_reflectance"),
+    }),
     nested: &[],
     parse,
     pack,

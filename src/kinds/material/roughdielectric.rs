@@ -20,7 +20,7 @@ use super::common::{
     FRESNEL, IOR_BK7, MICROFACET, MIN_ALPHA, TextureSlot, beckmann_flag, distribution, iors,
     roughness,
 };
-use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
+use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result, fmt_num, reflectance};
 use crate::shader::shader_module;
@@ -43,6 +43,10 @@ pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
         "specular_transmittance",
     ],
     keys_note: None,
+    mitsuba: Some(MitsubaPlugin {
+        name: "roughdielectric",
+        texture: Some("specular_reflectance"),
+    }),
     nested: &[],
     parse,
     pack,

@@ -20,7 +20,7 @@ use super::common::{
     FRESNEL, IOR_POLYPROPYLENE, MICROFACET, MIN_ALPHA, TextureSlot, beckmann_flag, check_roughness,
     distribution, iors, nonlinear, nonlinear_flag, specular_sampling_weight,
 };
-use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
+use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result, reflectance};
 use crate::shader::shader_module;
@@ -43,6 +43,10 @@ pub(super) const ROUGHPLASTIC: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: Some("isotropic: `alpha` only"),
+    mitsuba: Some(MitsubaPlugin {
+        name: "roughplastic",
+        texture: Some("diffuse_reflectance"),
+    }),
     nested: &[],
     parse,
     pack,

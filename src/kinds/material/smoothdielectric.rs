@@ -20,7 +20,7 @@
 //! `shaders/smoothdielectric.wgsl`.
 
 use super::common::{FRESNEL, INTERFACE_KEYS, Interface, TextureSlot};
-use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
+use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result};
 use crate::shader::shader_module;
@@ -33,6 +33,10 @@ pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
     tables: false,
     keys: INTERFACE_KEYS,
     keys_note: None,
+    mitsuba: Some(MitsubaPlugin {
+        name: "dielectric",
+        texture: None,
+    }),
     nested: &[],
     parse,
     pack,

@@ -17,7 +17,7 @@
 //! (int_ior / ext_ior). WGSL: `shaders/thindielectric.wgsl`.
 
 use super::common::{FRESNEL, INTERFACE_KEYS, Interface, TextureSlot};
-use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed};
+use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result};
 use crate::shader::shader_module;
@@ -30,6 +30,10 @@ pub(super) const THINDIELECTRIC: MaterialModel = MaterialModel {
     tables: false,
     keys: INTERFACE_KEYS,
     keys_note: None,
+    mitsuba: Some(MitsubaPlugin {
+        name: "thindielectric",
+        texture: None,
+    }),
     nested: &[],
     parse,
     pack,

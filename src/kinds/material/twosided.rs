@@ -43,6 +43,7 @@ pub(super) const TWOSIDED: MaterialModel = MaterialModel {
     tables: false,
     keys: &["type", "front", "back", "emit"],
     keys_note: None,
+    mitsuba: None,
     nested: &["front", "back"],
     parse,
     pack,
