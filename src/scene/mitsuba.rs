@@ -238,6 +238,13 @@ impl Converted {
         for warning in &self.warnings {
             let _ = writeln!(text, "# approximated: {warning}");
         }
+        if let Some(sampler) = self.file_sampler {
+            let _ = writeln!(
+                text,
+                "# the file's {sampler} sampler is pathmix's sobol: the same expected image \
+                 with less noise (render.sampler = \"{sampler}\" for the file's)"
+            );
+        }
         text.push('\n');
         text + &toml::to_string(&document).expect("a TOML table serializes")
     }
