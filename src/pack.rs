@@ -248,7 +248,8 @@ impl SceneData {
     }
 }
 
-/// Camera terms of `Params`: the book's camera, focus distance 1.
+/// Camera terms of `Params`: the book's camera (its image plane 1 ahead) and
+/// the thin lens.
 pub struct CameraFrame {
     pub origin: Vec3,
     /// From `origin` to the centre of pixel (0, 0) on the image plane. Relative, not
@@ -258,6 +259,10 @@ pub struct CameraFrame {
     pub to_pixel00: Vec3,
     pub delta_u: Vec3,
     pub delta_v: Vec3,
+    /// The thin lens's radius (0: a pinhole) and distance to the plane in
+    /// focus, along the view axis.
+    pub lens_radius: f32,
+    pub focus_distance: f32,
 }
 
 impl CameraFrame {
@@ -277,6 +282,8 @@ impl CameraFrame {
             to_pixel00: to_upper_left + 0.5 * (delta_u + delta_v),
             delta_u,
             delta_v,
+            lens_radius: camera.aperture_radius,
+            focus_distance: camera.focus_distance(),
         }
     }
 }

@@ -16,7 +16,7 @@ use crate::kinds::{
 };
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::pack::SceneData;
-use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
+use crate::scene::{CameraModel, Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -59,6 +59,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "DELTA_LIGHTS_PICK",
     "TEXTURES",
     "BUMP_MAPS",
+    "THIN_LENS",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -366,6 +367,8 @@ pub struct KernelConfig {
     pub light_bvh_stack: u32,
     /// The pixel filter camera rays are drawn from.
     pub filter: Filter,
+    /// How camera rays leave the camera (`camera_ray`).
+    pub camera: CameraModel,
     /// Some material of the scene is one-sided (black from behind).
     pub one_sided: bool,
     /// Some material of the scene is masked (`Material::opacity` below 1): rays
@@ -536,6 +539,7 @@ impl KernelConfig {
         strategy: Strategy,
         settings: &RenderSettings,
         filter: Filter,
+        camera: CameraModel,
         accumulator: AccumulatorKind,
         variance: bool,
         scene_storage: SceneStorage,
@@ -595,6 +599,7 @@ impl KernelConfig {
                 .map_or(accel::MAX_DEPTH, |bvh| bvh.depth + 1),
             light_bvh_stack,
             filter,
+            camera,
             one_sided: data.has_one_sided_materials(),
             masked: data.has_masked_materials(),
             environment,
@@ -659,6 +664,7 @@ impl KernelConfig {
             bvh_stack: accel::MAX_DEPTH,
             light_bvh_stack: accel::MAX_DEPTH,
             filter: Filter::Box,
+            camera: CameraModel::Pinhole,
             one_sided: true,
             masked: true,
             environment: true,
@@ -784,6 +790,7 @@ impl KernelConfig {
             ),
             ("TEXTURES", self.textures),
             ("BUMP_MAPS", self.bump_maps),
+            ("THIN_LENS", self.camera == CameraModel::ThinLens),
         ];
         for (flag, on) in features {
             if on {
@@ -1261,6 +1268,7 @@ pub(crate) mod tests {
             strategy,
             settings,
             Filter::Box,
+            CameraModel::Pinhole,
             AccumulatorKind::Buffer,
             false,
             storage,
@@ -1606,6 +1614,7 @@ pub(crate) mod tests {
                 Strategy::Mixture,
                 &scene.render,
                 scene.camera.filter,
+                scene.camera.model(),
                 AccumulatorKind::Buffer,
                 false,
                 SceneStorage::Baked,
@@ -1833,6 +1842,31 @@ pub(crate) mod tests {
 
     /// Each filter's code, with both samplers, and its probe: they validate
     /// with their override constants set. Only the scene's filter is compiled in.
+    /// Each camera model's kernel validates, with each filter and sampler, and
+    /// only the thin lens's reads the lens.
+    #[test]
+    fn camera_kernels_validate() {
+        for camera in [CameraModel::Pinhole, CameraModel::ThinLens] {
+            for filter in [Filter::Box, Filter::Gaussian { stddev: 0.5 }] {
+                for sampler in Sampler::ALL {
+                    let config = KernelConfig {
+                        filter,
+                        sampler,
+                        camera,
+                        ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+                    };
+                    validate(&config);
+                    let source = config.source().unwrap();
+                    assert_eq!(
+                        source.contains("params.lens_radius"),
+                        camera == CameraModel::ThinLens,
+                        "{camera:?}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn filter_kernels_validate() {
         for filter in FILTERS {

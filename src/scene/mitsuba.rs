@@ -2063,9 +2063,9 @@ impl<'a> Builder<'a> {
     /// `[camera]`, and the sampler's part of `[render]`.
     fn camera(&mut self, e: &'a Elem) -> Result<(Table, Table)> {
         e.check_attrs(&["type", "id"])?;
-        if e.ty() != "perspective" {
+        if !["perspective", "thinlens"].contains(&e.ty()) {
             return Err(e.origin.error(format!(
-                "sensor `{}`: not supported (supported: perspective)",
+                "sensor `{}`: not supported (supported: perspective, thinlens)",
                 excerpt(e.ty())
             )));
         }
@@ -2075,15 +2075,24 @@ impl<'a> Builder<'a> {
             .float("fov")?
             .ok_or_else(|| e.origin.error("missing <float name=\"fov\">"))?;
         let axis = props.string("fov_axis")?;
-        // A pinhole has no focal plane: Mitsuba's perspective sensor ignores it too.
-        props.float("focus_distance")?;
+        let mut far_clip = None;
         for clip in ["near_clip", "far_clip"] {
-            if props.float(clip)?.is_some() {
+            if let Some(value) = props.float(clip)? {
                 self.warn(
                     "near_clip and far_clip are ignored: pathmix does not clip camera rays".into(),
                 );
+                if clip == "far_clip" {
+                    far_clip = Some(value);
+                }
             }
         }
+        // A pinhole has no focal plane: Mitsuba's perspective sensor ignores it too.
+        let focus_distance = props.float("focus_distance")?;
+        let lens = if e.ty() == "thinlens" {
+            Some(thin_lens(&mut props, e, focus_distance, far_clip)?)
+        } else {
+            None
+        };
         let mut film = None;
         let mut sampler = None;
         for child in props.objects(&["film", "sampler", "ref"]) {
@@ -2146,6 +2155,10 @@ impl<'a> Builder<'a> {
             2.0 * ((fov.to_radians() / 2.0).tan() * ratio).atan().to_degrees()
         };
         camera.insert("vfov".into(), Value::Float(vfov));
+        if let Some((aperture_radius, focus_distance)) = lens {
+            camera.insert("aperture_radius".into(), Value::Float(aperture_radius));
+            camera.insert("focus_distance".into(), Value::Float(focus_distance));
+        }
         // Mitsuba's camera looks along +z with +y up, and the image's right is -x.
         if to_world.determinant() < 0.0 {
             return Err(e.origin.error(
@@ -2475,6 +2488,34 @@ const CUBE_FACES: [[DVec3; 3]; 6] = [
     ],
 ];
 
+/// A `thinlens` sensor's `aperture_radius` (required, as in Mitsuba; 0 makes
+/// the pinhole Mitsuba approximates by an epsilon) and `focus_distance`
+/// (Mitsuba's default: `far_clip`, itself 1e4 by default).
+fn thin_lens<'e>(
+    props: &mut Props<'e>,
+    e: &'e Elem,
+    focus_distance: Option<f64>,
+    far_clip: Option<f64>,
+) -> Result<(f64, f64)> {
+    let aperture = props
+        .float("aperture_radius")?
+        .ok_or_else(|| e.origin.error("missing <float name=\"aperture_radius\">"))?;
+    let at = |props: &mut Props<'e>, name: &str| props.get(name).unwrap_or(e).origin.clone();
+    if !(aperture >= 0.0 && aperture.is_finite()) {
+        return Err(at(props, "aperture_radius").error(format!(
+            "aperture_radius must be a finite length >= 0, got {aperture}"
+        )));
+    }
+    if let Some(d) = focus_distance
+        && !(d > 0.0 && d.is_finite())
+    {
+        return Err(at(props, "focus_distance").error(format!(
+            "focus_distance must be a finite distance > 0, got {d}"
+        )));
+    }
+    Ok((aperture, focus_distance.or(far_clip).unwrap_or(1e4)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -2553,6 +2594,76 @@ mod tests {
         assert_eq!(s.camera.vfov_degrees, 30.0);
         assert_eq!(s.camera.filter, Filter::Gaussian { stddev: 0.5 });
         assert_eq!((s.render.spp, s.render.seed), (4, 0));
+    }
+
+    /// A `thinlens` sensor is a perspective one with a lens: its aperture radius
+    /// and focus distance (by default Mitsuba's `far_clip`, 1e4 by default);
+    /// bad values are errors at their element.
+    #[test]
+    fn thinlens_sensor_becomes_a_thin_lens_camera() {
+        let sensor = |props: &str| {
+            format!(
+                r#"<sensor type="thinlens"><float name="fov" value="30"/>
+                   <string name="fov_axis" value="y"/>{props}</sensor>"#
+            )
+        };
+        let s = scene(
+            "thinlens",
+            &sensor(
+                r#"<float name="aperture_radius" value="0.25"/><float name="focus_distance" value="3"/>"#,
+            ),
+        );
+        assert_eq!(s.camera.vfov_degrees, 30.0);
+        assert_eq!(s.camera.aperture_radius, 0.25);
+        assert_eq!(s.camera.focus_distance, Some(3.0));
+        assert_eq!(s.camera.model(), crate::scene::CameraModel::ThinLens);
+        let s = scene(
+            "thinlens-far",
+            &sensor(
+                r#"<float name="aperture_radius" value="0.1"/><float name="far_clip" value="50"/>"#,
+            ),
+        );
+        assert_eq!(s.camera.focus_distance, Some(50.0));
+        let s = scene(
+            "thinlens-default",
+            &sensor(r#"<float name="aperture_radius" value="0"/>"#),
+        );
+        assert_eq!(s.camera.focus_distance, Some(1e4));
+        assert_eq!(s.camera.model(), crate::scene::CameraModel::Pinhole);
+        // A perspective sensor ignores focus_distance, as Mitsuba's does.
+        let s = scene(
+            "perspective-focus",
+            r#"<sensor type="perspective"><float name="fov" value="30"/>
+               <float name="focus_distance" value="3"/></sensor>"#,
+        );
+        assert_eq!(
+            (s.camera.aperture_radius, s.camera.focus_distance),
+            (0.0, None)
+        );
+
+        let e = error("no-aperture", &sensor(""));
+        assert!(
+            e.contains("missing <float name=\"aperture_radius\">"),
+            "{e}"
+        );
+        let e = error(
+            "negative-aperture",
+            &sensor("\n<float name=\"aperture_radius\" value=\"-1\"/>"),
+        );
+        assert!(
+            e.contains(":4:1: <float name=\"aperture_radius\">: aperture_radius must be a finite length >= 0, got -1"),
+            "{e}"
+        );
+        let e = error(
+            "zero-focus",
+            &sensor(
+                r#"<float name="aperture_radius" value="1"/><float name="focus_distance" value="0"/>"#,
+            ),
+        );
+        assert!(
+            e.contains("<float name=\"focus_distance\">: focus_distance must be a finite distance > 0, got 0"),
+            "{e}"
+        );
     }
 
     /// Without `up` (or with a zero one) Mitsuba's lookat takes the first axis of

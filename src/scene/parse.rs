@@ -73,7 +73,15 @@ pub(super) const TOP_KEYS: &[&str] = &[
 pub(super) const ENVIRONMENT_KEYS: &[&str] = &["file", "scale", "rotate_y", "rotate", "matrix"];
 pub(super) const SCENE_KEYS: &[&str] = &["scale"];
 pub(super) const CAMERA_KEYS: &[&str] = &[
-    "lookfrom", "lookat", "vup", "vfov", "width", "height", "filter",
+    "lookfrom",
+    "lookat",
+    "vup",
+    "vfov",
+    "width",
+    "height",
+    "filter",
+    "aperture_radius",
+    "focus_distance",
 ];
 pub(super) const RENDER_KEYS: &[&str] = &[
     "spp",
@@ -276,7 +284,8 @@ impl Scene {
         Ok(())
     }
 
-    /// The same scene with every position and length (camera `lookfrom`/`lookat`,
+    /// The same scene with every position and length (camera `lookfrom`/`lookat`
+    /// and its lens's radius and focus distance,
     /// every shape's geometry (`Shape::scale`), light positions) multiplied by
     /// `factor`, and point and spot lights' intensities by `factor^2`, so that
     /// the irradiance they give, and the image, stay the same.
@@ -284,6 +293,8 @@ impl Scene {
         let mut s = self.clone();
         s.camera.lookfrom *= factor;
         s.camera.lookat *= factor;
+        s.camera.aperture_radius *= factor;
+        s.camera.focus_distance = s.camera.focus_distance.map(|d| d * factor);
         for shape in s.shapes.iter_mut() {
             shape.scale(factor);
         }
@@ -308,6 +319,8 @@ fn parse_camera(t: &ParamTable) -> Result<Camera> {
         width: t.int("width", IMAGE_SIDE)?.unwrap_or(600),
         height: t.int("height", IMAGE_SIDE)?.unwrap_or(600),
         filter: Filter::parse(t)?,
+        aperture_radius: t.float("aperture_radius", check_nonneg)?.unwrap_or(0.0),
+        focus_distance: t.float("focus_distance", check_positive)?,
     };
     if let Some((key, problem)) = camera_problem(&camera) {
         return Err(t.err(t.at(key), problem));
@@ -903,6 +916,20 @@ fn camera_problem(c: &Camera) -> Option<(&'static str, String)> {
             ),
         ));
     }
+    if !c.aperture_radius.is_finite() {
+        return Some(("aperture_radius", "overflows a 32-bit float".to_string()));
+    }
+    if let Some(d) = c.focus_distance
+        && !(d > 0.0 && d.is_finite())
+    {
+        return Some((
+            "focus_distance",
+            format!(
+                "must be a positive distance a 32-bit float holds, got {}",
+                fmt_num(d)
+            ),
+        ));
+    }
     let (w, up) = (dir.as_dvec3().normalize(), c.vup.as_dvec3().normalize());
     if w.cross(up).length() <= DEGENERATE {
         return Some((
@@ -970,7 +997,7 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Spot;
+    use crate::scene::{CameraModel, Spot};
 
     const CORNELL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml"));
     const BOXES: &str = include_str!(concat!(
@@ -1070,6 +1097,33 @@ material = "white"
 
     fn normal(q: &Quad) -> Vec3 {
         q.u.cross(q.v).normalize()
+    }
+
+    /// A pinhole unless `aperture_radius` is above 0; the plane in focus is at
+    /// `lookat` unless `focus_distance` says; `[scene] scale` scales both.
+    #[test]
+    fn thin_lens_keys_and_defaults() {
+        let s = parse(BASE);
+        assert_eq!(
+            (s.camera.aperture_radius, s.camera.focus_distance),
+            (0.0, None)
+        );
+        assert_eq!(s.camera.model(), CameraModel::Pinhole);
+        let s = parse(&BASE.replace(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\naperture_radius = 0.5",
+        ));
+        assert_eq!(s.camera.model(), CameraModel::ThinLens);
+        assert_eq!(s.camera.focus_distance(), 5.0);
+        let text = BASE.replace(
+            "[camera]",
+            "[scene]\nscale = 2\n[camera]\naperture_radius = 0.5\nfocus_distance = 3",
+        );
+        let s = parse(&text);
+        assert_eq!(
+            (s.camera.aperture_radius, s.camera.focus_distance()),
+            (1.0, 6.0)
+        );
     }
 
     #[test]
@@ -1669,6 +1723,16 @@ material = "white"
         assert_error(&e, "camera.vfov", &["(0, 180)", "got 180"]);
         let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nvfov = 0");
         assert_error(&e, "camera.vfov", &["got 0"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\naperture_radius = -0.1",
+        );
+        assert_error(&e, "camera.aperture_radius", &["must be >= 0, got -0.1"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nfocus_distance = 0",
+        );
+        assert_error(&e, "camera.focus_distance", &["got 0"]);
         let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nwidth = 0");
         assert_error(&e, "camera.width", &["between 1 and 65536, got 0"]);
         let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nheight = 65537");

@@ -1243,6 +1243,8 @@ mod tests {
                 width: 8,
                 height: 6,
                 filter: Filter::Gaussian { stddev: 0.5 },
+                aperture_radius: 0.0,
+                focus_distance: None,
             },
             render: RenderSettings {
                 spp: 16,
