@@ -70,8 +70,14 @@ fn camera_ray(pixel: vec2<u32>) -> CameraRay {
 }
 
 // The ray through the point `to_film` of the image plane (from the eye, which
-// the plane is 1 ahead of).
+// the plane is 1 ahead of; for the orthographic view, the plane through it).
 fn camera_ray_through(to_film: vec3<f32>) -> Ray {
+#if ORTHOGRAPHIC
+    // Mitsuba's `orthographic`: along the view axis (delta_u x delta_v: the
+    // image's right is u and its rows go down v, so u x -v = -w), from the
+    // point of the plane through the eye.
+    return Ray(params.origin + to_film, normalize(cross(params.delta_u, params.delta_v)));
+#else
 #if THIN_LENS
     // Mitsuba's `thinlens`: from a uniform point of the lens disk (the path's
     // second sample dimension, after the pixel's) through the point the pinhole
@@ -82,6 +88,7 @@ fn camera_ray_through(to_film: vec3<f32>) -> Ray {
     return Ray(params.origin + lens, normalize(params.focus_distance * to_film - lens));
 #else
     return Ray(params.origin, normalize(to_film));
+#endif
 #endif
 }
 

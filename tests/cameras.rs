@@ -1,5 +1,6 @@
 //! The cameras against what their geometry predicts: the thin lens's depth of
-//! field (Mitsuba's `thinlens`).
+//! field (Mitsuba's `thinlens`) and the orthographic view's scale (Mitsuba's
+//! `orthographic`).
 
 mod common;
 
@@ -196,5 +197,50 @@ fn thin_lens_conserves_a_uniform_plane_s_radiance() {
         ));
         let acc = common::render(ctx, &scene, &RenderOptions::default());
         common::assert_every_pixel_is(&acc, 0.5, 1e-6, lens);
+    }
+}
+
+/// Seen orthographically, a sphere of radius r covers pi r^2 of the view
+/// whatever its distance: the lit pixels of an emitting sphere, times the
+/// pixel's area, within 1% (at 1/32 of the radius a pixel, the boundary's
+/// pixels are about 6% of the disk's, each counted when more than half lit).
+/// A perspective view at these distances would show it 1 and 1/10 as large.
+#[test]
+fn orthographic_view_shows_a_sphere_at_its_size_at_any_distance() {
+    let ctx = gpu_or_skip!();
+    let (radius, view_width, side) = (1.0f64, 4.0f64, 128u32);
+    for distance in [2.0f64, 20.0] {
+        let scene = common::scene_text(&format!(
+            r#"
+            [camera]
+            lookfrom = [0, 0, {distance}]
+            lookat = [0, 0, 0]
+            projection = "orthographic"
+            view_width = {view_width}
+            width = {side}
+            height = {side}
+            [render]
+            spp = 16
+            max_depth = 0
+            [materials.glow]
+            type = "light"
+            emit = [1, 1, 1]
+            [[objects]]
+            type = "sphere"
+            center = [0.3, -0.2, 0]
+            radius = {radius}
+            material = "glow"
+            "#
+        ));
+        let acc = common::render(ctx, &scene, &RenderOptions::default());
+        let lit = acc.mean().pixels.iter().filter(|p| p[0] > 0.5).count();
+        let pixel = view_width / side as f64;
+        let area = lit as f64 * pixel * pixel;
+        let expected = PI * radius * radius;
+        println!("distance {distance}: {lit} pixels, area {area:.4} against {expected:.4}");
+        assert!(
+            (area / expected - 1.0).abs() < 0.01,
+            "distance {distance}: {area} against {expected}"
+        );
     }
 }

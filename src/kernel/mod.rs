@@ -60,6 +60,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "TEXTURES",
     "BUMP_MAPS",
     "THIN_LENS",
+    "ORTHOGRAPHIC",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -791,6 +792,7 @@ impl KernelConfig {
             ("TEXTURES", self.textures),
             ("BUMP_MAPS", self.bump_maps),
             ("THIN_LENS", self.camera == CameraModel::ThinLens),
+            ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
         ];
         for (flag, on) in features {
             if on {
@@ -1843,10 +1845,15 @@ pub(crate) mod tests {
     /// Each filter's code, with both samplers, and its probe: they validate
     /// with their override constants set. Only the scene's filter is compiled in.
     /// Each camera model's kernel validates, with each filter and sampler, and
-    /// only the thin lens's reads the lens.
+    /// only the thin lens's reads the lens, only the orthographic's aims every
+    /// ray one way.
     #[test]
     fn camera_kernels_validate() {
-        for camera in [CameraModel::Pinhole, CameraModel::ThinLens] {
+        for camera in [
+            CameraModel::Pinhole,
+            CameraModel::ThinLens,
+            CameraModel::Orthographic,
+        ] {
             for filter in [Filter::Box, Filter::Gaussian { stddev: 0.5 }] {
                 for sampler in Sampler::ALL {
                     let config = KernelConfig {
@@ -1860,6 +1867,11 @@ pub(crate) mod tests {
                     assert_eq!(
                         source.contains("params.lens_radius"),
                         camera == CameraModel::ThinLens,
+                        "{camera:?}"
+                    );
+                    assert_eq!(
+                        source.contains("cross(params.delta_u, params.delta_v)"),
+                        camera == CameraModel::Orthographic,
                         "{camera:?}"
                     );
                 }

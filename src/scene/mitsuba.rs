@@ -2063,18 +2063,23 @@ impl<'a> Builder<'a> {
     /// `[camera]`, and the sampler's part of `[render]`.
     fn camera(&mut self, e: &'a Elem) -> Result<(Table, Table)> {
         e.check_attrs(&["type", "id"])?;
-        if !["perspective", "thinlens"].contains(&e.ty()) {
+        if !["perspective", "thinlens", "orthographic"].contains(&e.ty()) {
             return Err(e.origin.error(format!(
-                "sensor `{}`: not supported (supported: perspective, thinlens)",
+                "sensor `{}`: not supported (supported: perspective, thinlens, orthographic)",
                 excerpt(e.ty())
             )));
         }
+        let orthographic = e.ty() == "orthographic";
         let mut props = Props::new(e, self.search);
         let to_world = props.transform("to_world")?;
-        let fov = props
-            .float("fov")?
-            .ok_or_else(|| e.origin.error("missing <float name=\"fov\">"))?;
-        let axis = props.string("fov_axis")?;
+        let (fov, axis) = if orthographic {
+            (0.0, None)
+        } else {
+            let fov = props
+                .float("fov")?
+                .ok_or_else(|| e.origin.error("missing <float name=\"fov\">"))?;
+            (fov, props.string("fov_axis")?)
+        };
         let mut far_clip = None;
         for clip in ["near_clip", "far_clip"] {
             if let Some(value) = props.float(clip)? {
@@ -2086,7 +2091,8 @@ impl<'a> Builder<'a> {
                 }
             }
         }
-        // A pinhole has no focal plane: Mitsuba's perspective sensor ignores it too.
+        // A pinhole has no focal plane: Mitsuba's perspective and orthographic
+        // sensors ignore it too.
         let focus_distance = props.float("focus_distance")?;
         let lens = if e.ty() == "thinlens" {
             Some(thin_lens(&mut props, e, focus_distance, far_clip)?)
@@ -2154,7 +2160,15 @@ impl<'a> Builder<'a> {
         } else {
             2.0 * ((fov.to_radians() / 2.0).tan() * ratio).atan().to_degrees()
         };
-        camera.insert("vfov".into(), Value::Float(vfov));
+        if orthographic {
+            camera.insert("projection".into(), Value::String("orthographic".into()));
+            camera.insert(
+                "view_width".into(),
+                Value::Float(orthographic_width(&to_world, e)?),
+            );
+        } else {
+            camera.insert("vfov".into(), Value::Float(vfov));
+        }
         if let Some((aperture_radius, focus_distance)) = lens {
             camera.insert("aperture_radius".into(), Value::Float(aperture_radius));
             camera.insert("focus_distance".into(), Value::Float(focus_distance));
@@ -2488,6 +2502,22 @@ const CUBE_FACES: [[DVec3; 3]; 6] = [
     ],
 ];
 
+/// An `orthographic` sensor's view width: its view is [-1, 1] along the
+/// camera's x and [-1/aspect, 1/aspect] along y, scaled by `to_world`, so
+/// twice the scale along x; the scale along y must be the same (pathmix's
+/// pixels are square).
+fn orthographic_width(to_world: &DMat4, e: &Elem) -> Result<f64> {
+    let sx = to_world.transform_vector3(DVec3::X).length();
+    let sy = to_world.transform_vector3(DVec3::Y).length();
+    if !(sx > 0.0 && sx.is_finite()) || (sx - sy).abs() > 1e-6 * sx {
+        return Err(e.origin.error(format!(
+            "an orthographic sensor's to_world must scale its x and y alike and by more than 0 \
+             (pathmix's pixels are square), got {sx} and {sy}"
+        )));
+    }
+    Ok(2.0 * sx)
+}
+
 /// A `thinlens` sensor's `aperture_radius` (required, as in Mitsuba; 0 makes
 /// the pinhole Mitsuba approximates by an epsilon) and `focus_distance`
 /// (Mitsuba's default: `far_clip`, itself 1e4 by default).
@@ -2662,6 +2692,29 @@ mod tests {
         );
         assert!(
             e.contains("<float name=\"focus_distance\">: focus_distance must be a finite distance > 0, got 0"),
+            "{e}"
+        );
+    }
+
+    /// An `orthographic` sensor's view is twice its `to_world`'s scale along x
+    /// wide; an uneven x and y scale is an error at the sensor.
+    #[test]
+    fn orthographic_sensor_takes_its_width_from_the_scale() {
+        let sensor = |scale: &str| {
+            format!(
+                r#"<sensor type="orthographic"><transform name="to_world">
+                   <scale {scale}/><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/>
+                   </transform></sensor>"#
+            )
+        };
+        let s = scene("orthographic", &sensor(r#"x="3" y="3""#));
+        assert_eq!(s.camera.view_width, Some(6.0));
+        assert_eq!(s.camera.model(), crate::scene::CameraModel::Orthographic);
+        assert_eq!(s.camera.lookfrom, Vec3::new(0.0, 0.0, 5.0));
+        assert_eq!(s.camera.lookat, Vec3::new(0.0, 0.0, 4.0));
+        let e = error("orthographic-uneven", &sensor(r#"x="3" y="2""#));
+        assert!(
+            e.contains("<sensor type=\"orthographic\">: an orthographic sensor's to_world must scale its x and y alike"),
             "{e}"
         );
     }

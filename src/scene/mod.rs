@@ -157,7 +157,8 @@ impl fmt::Display for Sampler {
 }
 
 /// The book's pinhole camera (right-handed; `vfov` is vertical, in degrees),
-/// or a thin lens (Mitsuba's `thinlens`) where `aperture_radius` is above 0.
+/// a thin lens (Mitsuba's `thinlens`) where `aperture_radius` is above 0, or
+/// an orthographic view (Mitsuba's `orthographic`) where `view_width` is set.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Camera {
     pub lookfrom: Vec3,
@@ -176,6 +177,11 @@ pub struct Camera {
     /// distance from `lookfrom` to `lookat` (`Camera::focus_distance`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub focus_distance: Option<f32>,
+    /// The orthographic projection: the width in scene units of the view the
+    /// image covers (its height follows from the image's aspect ratio);
+    /// `None`: the perspective projection. Left out of the encoding when `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub view_width: Option<f32>,
 }
 
 fn is_zero(x: &f32) -> bool {
@@ -191,11 +197,16 @@ pub enum CameraModel {
     /// Rays from a point of the lens disk through the point in focus
     /// (`THIN_LENS`).
     ThinLens,
+    /// Parallel rays along the view axis from the points of a plane through
+    /// `lookfrom` (`ORTHOGRAPHIC`).
+    Orthographic,
 }
 
 impl Camera {
     pub fn model(&self) -> CameraModel {
-        if self.aperture_radius > 0.0 {
+        if self.view_width.is_some() {
+            CameraModel::Orthographic
+        } else if self.aperture_radius > 0.0 {
             CameraModel::ThinLens
         } else {
             CameraModel::Pinhole

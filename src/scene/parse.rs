@@ -82,6 +82,8 @@ pub(super) const CAMERA_KEYS: &[&str] = &[
     "filter",
     "aperture_radius",
     "focus_distance",
+    "projection",
+    "view_width",
 ];
 pub(super) const RENDER_KEYS: &[&str] = &[
     "spp",
@@ -285,7 +287,7 @@ impl Scene {
     }
 
     /// The same scene with every position and length (camera `lookfrom`/`lookat`
-    /// and its lens's radius and focus distance,
+    /// and its lens's radius and focus distance, its orthographic view's width,
     /// every shape's geometry (`Shape::scale`), light positions) multiplied by
     /// `factor`, and point and spot lights' intensities by `factor^2`, so that
     /// the irradiance they give, and the image, stay the same.
@@ -295,6 +297,7 @@ impl Scene {
         s.camera.lookat *= factor;
         s.camera.aperture_radius *= factor;
         s.camera.focus_distance = s.camera.focus_distance.map(|d| d * factor);
+        s.camera.view_width = s.camera.view_width.map(|w| w * factor);
         for shape in s.shapes.iter_mut() {
             shape.scale(factor);
         }
@@ -321,11 +324,49 @@ fn parse_camera(t: &ParamTable) -> Result<Camera> {
         filter: Filter::parse(t)?,
         aperture_radius: t.float("aperture_radius", check_nonneg)?.unwrap_or(0.0),
         focus_distance: t.float("focus_distance", check_positive)?,
+        view_width: parse_projection(t)?,
     };
     if let Some((key, problem)) = camera_problem(&camera) {
         return Err(t.err(t.at(key), problem));
     }
     Ok(camera)
+}
+
+/// The projection's names, in the order messages list them.
+const PROJECTIONS: &[&str] = &["perspective", "orthographic"];
+
+/// `camera.projection`: the orthographic view's width (`view_width`,
+/// required there), or `None` for the perspective projection. The keys of
+/// the other projection are errors, not silently ignored.
+fn parse_projection(t: &ParamTable) -> Result<Option<f32>> {
+    match t.string("projection")? {
+        None | Some("perspective") => {
+            if t.table.contains_key("view_width") {
+                return Err(t.err(
+                    t.at("view_width"),
+                    "applies only to `projection = \"orthographic\"`",
+                ));
+            }
+            Ok(None)
+        }
+        Some("orthographic") => {
+            for key in ["vfov", "aperture_radius", "focus_distance"] {
+                if t.table.contains_key(key) {
+                    return Err(t.err(
+                        t.at(key),
+                        "does not apply to `projection = \"orthographic\"`, whose view is \
+                         `view_width` wide",
+                    ));
+                }
+            }
+            let width = t.float("view_width", check_positive)?;
+            Ok(Some(t.require("view_width", width)?))
+        }
+        Some(other) => Err(t.err(
+            t.at("projection"),
+            kinds::params::unknown_name("projection", other, PROJECTIONS),
+        )),
+    }
 }
 
 fn default_render() -> RenderSettings {
@@ -919,6 +960,17 @@ fn camera_problem(c: &Camera) -> Option<(&'static str, String)> {
     if !c.aperture_radius.is_finite() {
         return Some(("aperture_radius", "overflows a 32-bit float".to_string()));
     }
+    if let Some(width) = c.view_width
+        && !(width > 0.0 && width.is_finite())
+    {
+        return Some((
+            "view_width",
+            format!(
+                "must be a positive width a 32-bit float holds, got {}",
+                fmt_num(width)
+            ),
+        ));
+    }
     if let Some(d) = c.focus_distance
         && !(d > 0.0 && d.is_finite())
     {
@@ -1124,6 +1176,54 @@ material = "white"
             (s.camera.aperture_radius, s.camera.focus_distance()),
             (1.0, 6.0)
         );
+    }
+
+    /// `projection = "orthographic"` needs `view_width`, which `[scene] scale`
+    /// scales; the other projection's keys are errors.
+    #[test]
+    fn orthographic_projection_keys() {
+        let ortho = |keys: &str| {
+            BASE.replace(
+                "lookat = [0, 0, 0]",
+                &format!("lookat = [0, 0, 0]\nprojection = \"orthographic\"\n{keys}"),
+            )
+        };
+        let s = parse(&ortho("view_width = 4"));
+        assert_eq!(s.camera.view_width, Some(4.0));
+        assert_eq!(s.camera.model(), CameraModel::Orthographic);
+        let s =
+            parse(&ortho("view_width = 4").replace("[camera]", "[scene]\nscale = 0.5\n[camera]"));
+        assert_eq!(s.camera.view_width, Some(2.0));
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthographic\"",
+        );
+        assert_error(&e, "camera", &["missing required key `view_width`"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthographic\"\nview_width = 0",
+        );
+        assert_error(&e, "camera.view_width", &["got 0"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthographic\"\nview_width = 1\nvfov = 30",
+        );
+        assert_error(
+            &e,
+            "camera.vfov",
+            &["does not apply to `projection = \"orthographic\"`"],
+        );
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nview_width = 1");
+        assert_error(
+            &e,
+            "camera.view_width",
+            &["applies only to `projection = \"orthographic\"`"],
+        );
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthografic\"",
+        );
+        assert_error(&e, "camera.projection", &["did you mean `orthographic`?"]);
     }
 
     #[test]

@@ -1245,6 +1245,7 @@ mod tests {
                 filter: Filter::Gaussian { stddev: 0.5 },
                 aperture_radius: 0.0,
                 focus_distance: None,
+                view_width: None,
             },
             render: RenderSettings {
                 spp: 16,
