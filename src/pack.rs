@@ -95,7 +95,7 @@ impl SceneData {
                 .environment
                 .as_ref()
                 .map(|map| Arc::new(EnvironmentTables::build(map))),
-            delta_lights: pack_delta_lights(&scene.point_lights),
+            delta_lights: pack_delta_lights(&scene.point_lights, scene.extent()),
             ..SceneData::default()
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {

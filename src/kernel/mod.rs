@@ -57,6 +57,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "LIGHT_ENVIRONMENT",
     "DELTA_LIGHTS",
     "DELTA_LIGHTS_PICK",
+    "DIRECTIONAL_LIGHTS",
     "TEXTURES",
     "BUMP_MAPS",
     "THIN_LENS",
@@ -382,6 +383,8 @@ pub struct KernelConfig {
     /// Point and spot lights, estimated by shadow rays at every vertex with a
     /// smooth lobe whatever the strategy (none without a smooth material).
     pub delta_lights: bool,
+    /// Some of them is directional (at infinity): its shadow ray has no end.
+    pub directional_lights: bool,
     /// More than [`KernelConfig::MAX_DELTA_SHADOW_RAYS`] of them: one shadow ray
     /// per vertex, toward a light picked by power, instead of one toward each.
     pub delta_light_pick: bool,
@@ -535,6 +538,7 @@ impl KernelConfig {
     pub const LIGHT_POINTS_MIN: usize = 32;
 
     /// The kernel for `data`; `strategy` must have objects to aim at unless it is `bsdf`.
+    #[allow(clippy::too_many_arguments)] // the scene's parts and the run's choices, each plain
     pub fn for_scene(
         data: &SceneData,
         strategy: Strategy,
@@ -606,6 +610,7 @@ impl KernelConfig {
             environment,
             light_environment: samples_lights && environment,
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
+            directional_lights: data.delta_lights.iter().any(|l| l.infinite != 0.0),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
             bump_maps: data
@@ -671,6 +676,7 @@ impl KernelConfig {
             environment: true,
             light_environment: strategy != Strategy::Bsdf,
             delta_lights: true,
+            directional_lights: true,
             delta_light_pick: false,
             textures: true,
             bump_maps: true,
@@ -788,6 +794,10 @@ impl KernelConfig {
             (
                 "DELTA_LIGHTS_PICK",
                 self.delta_lights && self.delta_light_pick,
+            ),
+            (
+                "DIRECTIONAL_LIGHTS",
+                self.delta_lights && self.directional_lights,
             ),
             ("TEXTURES", self.textures),
             ("BUMP_MAPS", self.bump_maps),
@@ -1342,6 +1352,7 @@ pub(crate) mod tests {
                             environment: false,
                             light_environment: false,
                             delta_lights: variance && has_smooth_lobe(material_kinds),
+                            directional_lights: variance,
                             // Both ways of estimating them, on the BVH bit.
                             delta_light_pick: mask >> (primitives + 1) != 0,
                             textures: variance,
@@ -1918,6 +1929,7 @@ pub(crate) mod tests {
             environment: false,
             light_environment: false,
             delta_lights: false,
+            directional_lights: false,
             textures: false,
             bump_maps: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)

@@ -1240,9 +1240,10 @@ impl<'a> Builder<'a> {
                 }
                 "envmap" => self.envmap(e),
                 "point" | "spot" => self.delta_light(e),
-                _ => Err(e
-                    .origin
-                    .error("not supported (supported: area, constant, envmap, point, spot)")),
+                "directional" => self.directional(e),
+                _ => Err(e.origin.error(
+                    "not supported (supported: area, constant, directional, envmap, point, spot)",
+                )),
             },
             // A definition, used through <ref>; checked here as bsdfs are.
             "texture" => self.texture(e).map(drop),
@@ -1305,6 +1306,39 @@ impl<'a> Builder<'a> {
             }
         }
         props.finish()?;
+        self.origins
+            .push((format!("lights[{}]", self.lights.len()), e.origin.clone()));
+        self.lights.push(Value::Table(light));
+        Ok(())
+    }
+
+    /// `<emitter type="directional">`: `irradiance` (default 1) and `direction`
+    /// or `to_world` (whose +z it shines along; not both, as Mitsuba) as a
+    /// `[[lights]]` table of type `directional`.
+    fn directional(&mut self, e: &'a Elem) -> Result<()> {
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e, self.search);
+        let irradiance = props.emitted("irradiance")?.unwrap_or([1.0; 3]);
+        let direction = props.point("direction")?;
+        let to_world = props.transform("to_world")?;
+        let direction = match direction {
+            Some(_) if to_world != DMat4::IDENTITY => {
+                return Err(e
+                    .origin
+                    .error("give either `direction` or `to_world`, not both (as Mitsuba)"));
+            }
+            Some(d) => d,
+            None => to_world.transform_vector3(DVec3::Z),
+        };
+        if !(direction.length_squared() > 0.0 && direction.is_finite()) {
+            let at = props.get("direction").unwrap_or(e);
+            return Err(at.origin.error("the direction must not be zero"));
+        }
+        props.finish()?;
+        let mut light = Table::new();
+        light.insert("type".into(), Value::String("directional".into()));
+        light.insert("direction".into(), vec_value(direction));
+        light.insert("irradiance".into(), color_value(irradiance));
         self.origins
             .push((format!("lights[{}]", self.lights.len()), e.origin.clone()));
         self.lights.push(Value::Table(light));
@@ -2719,6 +2753,29 @@ mod tests {
         );
     }
 
+    /// A `directional` emitter: its irradiance and the way it shines, given
+    /// as `direction` or as `to_world`'s +z.
+    #[test]
+    fn directional_emitter_becomes_a_directional_light() {
+        let s = scene(
+            "directional",
+            r#"<emitter type="directional"><vector name="direction" value="0, -2, 0"/>
+                 <rgb name="irradiance" value="1, 2, 3"/></emitter>
+               <emitter type="directional"><transform name="to_world">
+                 <lookat origin="0, 0, 0" target="1, 0, 0" up="0, 1, 0"/></transform></emitter>"#,
+        );
+        assert_eq!(s.point_lights[0].directional, Some(Vec3::NEG_Y));
+        assert_eq!(s.point_lights[0].intensity, Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(s.point_lights[1].directional, Some(Vec3::X));
+        assert_eq!(s.point_lights[1].intensity, Vec3::ONE);
+        let e = error(
+            "directional-both",
+            r#"<emitter type="directional"><vector name="direction" value="0, -1, 0"/>
+                 <transform name="to_world"><translate x="1"/></transform></emitter>"#,
+        );
+        assert!(e.contains("give either `direction` or `to_world`"), "{e}");
+    }
+
     /// Without `up` (or with a zero one) Mitsuba's lookat takes the first axis of
     /// its `coordinate_system` of the view direction: +x looking down -z, and a
     /// view straight down is no error.
@@ -3543,6 +3600,7 @@ mod tests {
                 position: Vec3::new(1.0, 2.0, 3.0),
                 intensity: Vec3::new(4.0, 5.0, 6.0),
                 spot: None,
+                directional: None,
             }
         );
         assert_eq!(s.point_lights[1].position, Vec3::new(-1.0, 0.0, 0.0));

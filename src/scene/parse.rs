@@ -290,7 +290,8 @@ impl Scene {
     /// and its lens's radius and focus distance, its orthographic view's width,
     /// every shape's geometry (`Shape::scale`), light positions) multiplied by
     /// `factor`, and point and spot lights' intensities by `factor^2`, so that
-    /// the irradiance they give, and the image, stay the same.
+    /// the irradiance they give, and the image, stay the same (a directional
+    /// light's irradiance stays as it is).
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
         s.camera.lookfrom *= factor;
@@ -301,7 +302,11 @@ impl Scene {
         for shape in s.shapes.iter_mut() {
             shape.scale(factor);
         }
-        for l in &mut s.point_lights {
+        for l in s
+            .point_lights
+            .iter_mut()
+            .filter(|l| l.directional.is_none())
+        {
             l.position *= factor;
             l.intensity *= factor * factor;
         }
@@ -2267,6 +2272,7 @@ material = "white"
                 position: Vec3::new(1.0, 2.0, 3.0),
                 intensity: Vec3::splat(5.0),
                 spot: None,
+                directional: None,
             }
         );
         assert_eq!(
@@ -2284,6 +2290,14 @@ material = "white"
         assert_eq!(scaled.point_lights[0].position, Vec3::new(10.0, 20.0, 30.0));
         assert_eq!(scaled.point_lights[0].intensity, Vec3::splat(500.0));
         assert!(s.extent() >= 3.0);
+        // A directional light: its direction unit, its irradiance kept by a scale.
+        let s = parse(&format!(
+            "{BASE}\n[[lights]]\ntype = \"directional\"\ndirection = [0, -3, 0]\nirradiance = 2\n"
+        ));
+        assert_eq!(s.point_lights[0].directional, Some(Vec3::NEG_Y));
+        let scaled = s.scaled(10.0);
+        assert_eq!(scaled.point_lights[0].intensity, Vec3::splat(2.0));
+        assert_eq!(scaled.point_lights[0].position, Vec3::ZERO);
     }
 
     #[test]
@@ -2347,6 +2361,22 @@ material = "white"
                     .into(),
                 "lights[0].direction",
                 &["must not be zero"],
+            ),
+            (
+                "type = \"directional\"\nirradiance = 1\ndirection = [0, 0, 0]".into(),
+                "lights[0].direction",
+                &["must not be zero"],
+            ),
+            (
+                "type = \"directional\"\ndirection = [0, -1, 0]".into(),
+                "lights[0]",
+                &["missing required key `irradiance`"],
+            ),
+            (
+                "type = \"directional\"\nirradiance = 1\ndirection = [0, -1, 0]\nposition = [0, 0, 0]"
+                    .into(),
+                "lights[0]",
+                &["unknown key `position` for a directional light"],
             ),
         ];
         for (body, location, parts) in cases {

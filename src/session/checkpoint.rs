@@ -1329,6 +1329,7 @@ mod tests {
                     position: Vec3::new(0.0, 3.0, 0.0),
                     intensity: Vec3::splat(10.0),
                     spot: None,
+                    directional: None,
                 },
                 PointLight {
                     position: Vec3::new(2.0, 3.0, 0.0),
@@ -1338,6 +1339,7 @@ mod tests {
                         cutoff_angle: 30.0,
                         beam_width: 20.0,
                     }),
+                    directional: None,
                 },
             ],
             environment: Some(EnvironmentMap {
