@@ -40,8 +40,10 @@ struct Params {
     // The dispatch's workgroup row r covers the tile's row of workgroups
     // r * step mod rows (kernel.wgsl).
     workgroup_row_step: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // The thin lens's radius and distance to the plane in focus (read only
+    // under THIN_LENS: `camera_ray`).
+    lens_radius: f32,
+    focus_distance: f32,
     _pad2: u32,
 }
 

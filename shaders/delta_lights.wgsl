@@ -1,4 +1,5 @@
-// Point and spot lights (Mitsuba's `point` and `spot`): delta lights, which no
+// Point, spot and directional lights (Mitsuba's `point`, `spot` and
+// `directional`; the last under DIRECTIONAL_LIGHTS): delta lights, which no
 // sampled direction can hit. Whatever the strategy, each vertex with a smooth
 // lobe sends shadow rays toward them (`delta_shadow_rays`); the kernel traces
 // them and adds what they carry where nothing is in the way.
@@ -14,7 +15,9 @@ struct DeltaLight {
     inv_transition: f32,
     pmf: f32,
     cdf: f32,
-    _pad: f32,
+    // 1: a directional light (at infinity, shining along `direction`,
+    // `intensity` its irradiance); 0: a point or spot light.
+    infinite: f32,
 }
 
 struct DeltaShadow {
@@ -73,6 +76,16 @@ fn delta_light_chosen(i: u32) -> DeltaLight {
 
 // The shadow ray toward `light` from the point `hit`.
 fn delta_light_shadow(m: Material, frame: Frame, wo: vec3<f32>, hit: Hit, light: DeltaLight) -> DeltaShadow {
+#if DIRECTIONAL_LIGHTS
+    if light.infinite != 0.0 {
+        // At infinity: toward it, with no end (a ray that escapes is unoccluded),
+        // the irradiance times f |cos|, no falloff, no distance.
+        let wi = -light.direction;
+        let f = bsdf_eval(m, frame, wo, wi);
+        let origin = offset_origin(hit.p, hit.normal, wi, hit.offset);
+        return DeltaShadow(Ray(origin, wi), F32_MAX, f * light.intensity / light.pmf);
+    }
+#endif
     let to_light = light.position - hit.p;
     let distance_sqr = dot(to_light, to_light);
     let wi = to_light * inverseSqrt(distance_sqr);

@@ -137,8 +137,10 @@ gpu_struct! {
         /// The dispatch's workgroup row `r` covers the tile's row of workgroups
         /// `r × step mod rows` (`render::workgroup_row_step`).
         pub workgroup_row_step: u32,
-        pub _pad0: u32,
-        pub _pad1: u32,
+        /// The thin lens's radius (`CameraFrame`; 0 and unread for a pinhole).
+        pub lens_radius: f32,
+        /// The thin lens's distance to the plane in focus (unread for a pinhole).
+        pub focus_distance: f32,
         pub _pad2: u32,
     }
 }

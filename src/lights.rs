@@ -16,6 +16,7 @@ use crate::accel::PrimitiveArrays;
 use crate::accel::{Bvh, WideBvh};
 use crate::kinds::PackedArray;
 use crate::scene::PointLight;
+use glam::Vec3;
 use std::sync::OnceLock;
 
 gpu_struct! {
@@ -52,8 +53,9 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// A point or spot light as the kernel reads it (`shaders/delta_lights.wgsl`).
-    /// A point light is a spot whose cone covers every direction.
+    /// A point, spot or directional light as the kernel reads it
+    /// (`shaders/delta_lights.wgsl`). A point light is a spot whose cone covers
+    /// every direction; a directional one has `infinite` set.
     pub struct DeltaLight {
         pub position: [f32; 3],
         /// Cosine of the cutoff angle: dark at and beyond it (-2 for a point light).
@@ -71,17 +73,24 @@ gpu_struct! {
         pub pmf: f32,
         /// The probabilities of the lights up to this one, included (1 for the last).
         pub cdf: f32,
-        pub _pad: f32,
+        /// 1 for a directional light (at infinity, shining along `direction`,
+        /// `intensity` its irradiance), else 0.
+        pub infinite: f32,
     }
 }
 
 /// The packed delta lights, each picked in proportion to its power: the
 /// intensity's luminance times the solid angle it lights (a spot's counted to
 /// the middle of its falloff). Lights that all have no power are picked uniformly.
-pub fn pack_delta_lights(lights: &[PointLight]) -> Vec<DeltaLight> {
+pub fn pack_delta_lights(lights: &[PointLight], extent: f32) -> Vec<DeltaLight> {
     let power: Vec<f64> = lights
         .iter()
         .map(|l| {
+            if l.directional.is_some() {
+                // Mitsuba's: its irradiance over the scene's bounding disk.
+                let radius = extent as f64;
+                return luminance(l.intensity.to_array()) * std::f64::consts::PI * radius * radius;
+            }
             let solid_angle = match l.spot {
                 None => 4.0 * std::f64::consts::PI,
                 Some(spot) => {
@@ -107,7 +116,13 @@ pub fn pack_delta_lights(lights: &[PointLight]) -> Vec<DeltaLight> {
             cumulative += pmf;
             // As Mitsuba computes them: f32 radians, then cosines.
             let (cos_cutoff, cos_beam, direction, cutoff, inv_transition) = match l.spot {
-                None => (-2.0, -2.0, [0.0, 0.0, 1.0], 0.0, 0.0),
+                None => (
+                    -2.0,
+                    -2.0,
+                    l.directional.unwrap_or(Vec3::Z).to_array(),
+                    0.0,
+                    0.0,
+                ),
                 Some(spot) => {
                     let (cutoff, beam) =
                         (spot.cutoff_angle.to_radians(), spot.beam_width.to_radians());
@@ -139,7 +154,7 @@ pub fn pack_delta_lights(lights: &[PointLight]) -> Vec<DeltaLight> {
                 } else {
                     cumulative as f32
                 },
-                _pad: 0.0,
+                infinite: if l.directional.is_some() { 1.0 } else { 0.0 },
             }
         })
         .collect()
@@ -284,13 +299,14 @@ mod tests {
             position: Vec3::ZERO,
             intensity: Vec3::splat(i),
             spot: None,
+            directional: None,
         };
-        let packed = pack_delta_lights(&[point(1.0), point(3.0), point(0.0)]);
+        let packed = pack_delta_lights(&[point(1.0), point(3.0), point(0.0)], 1.0);
         let pmf: Vec<f32> = packed.iter().map(|l| l.pmf).collect();
         let cdf: Vec<f32> = packed.iter().map(|l| l.cdf).collect();
         assert_eq!(pmf, [0.25, 0.75, 0.0]);
         assert_eq!(cdf, [0.25, 1.0, 1.0]);
-        let dark = pack_delta_lights(&[point(0.0), point(0.0)]);
+        let dark = pack_delta_lights(&[point(0.0), point(0.0)], 1.0);
         assert_eq!((dark[0].pmf, dark[1].cdf), (0.5, 1.0));
         // A spot of 90 degrees lights half the sphere a point light does.
         let spot = PointLight {
@@ -301,9 +317,19 @@ mod tests {
             }),
             ..point(1.0)
         };
-        let packed = pack_delta_lights(&[point(1.0), spot]);
+        let packed = pack_delta_lights(&[point(1.0), spot], 1.0);
         assert!((packed[0].pmf - 2.0 / 3.0).abs() < 1e-6, "{packed:?}");
         assert_eq!(packed[1].inv_transition, 0.0);
+        // A directional light's power: its irradiance over the disk of the
+        // scene's extent (pi 2^2 against 4 pi: an even pick).
+        let sun = PointLight {
+            directional: Some(Vec3::NEG_Y),
+            ..point(1.0)
+        };
+        let packed = pack_delta_lights(&[point(1.0), sun], 2.0);
+        assert!((packed[1].pmf - 0.5).abs() < 1e-6, "{packed:?}");
+        assert_eq!((packed[0].infinite, packed[1].infinite), (0.0, 1.0));
+        assert_eq!(packed[1].direction, [0.0, -1.0, 0.0]);
     }
 
     #[test]

@@ -100,7 +100,7 @@ impl SceneData {
                 .environment
                 .as_ref()
                 .map(|map| Arc::new(EnvironmentTables::build(map))),
-            delta_lights: pack_delta_lights(&scene.point_lights),
+            delta_lights: pack_delta_lights(&scene.point_lights, scene.extent()),
             ..SceneData::default()
         };
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
@@ -281,22 +281,33 @@ impl SceneData {
     }
 }
 
-/// Camera terms of `Params`: the book's camera, focus distance 1.
+/// Camera terms of `Params`: the book's camera (its image plane 1 ahead) and
+/// the thin lens.
 pub struct CameraFrame {
     pub origin: Vec3,
-    /// From `origin` to the centre of pixel (0, 0) on the image plane. Relative, not
+    /// From `origin` to the centre of pixel (0, 0) on the image plane (for the
+    /// orthographic projection, on the plane through `origin`). Relative, not
     /// a point: the image plane is 1 from the eye whatever the scene's scale, and
     /// a point there, next to a large `origin`, would lose the pixel grid to
     /// rounding (at `lookfrom` 8e6 the f32 spacing is 0.5, coarser than the pixels).
     pub to_pixel00: Vec3,
     pub delta_u: Vec3,
     pub delta_v: Vec3,
+    /// The thin lens's radius (0: a pinhole) and distance to the plane in
+    /// focus, along the view axis.
+    pub lens_radius: f32,
+    pub focus_distance: f32,
 }
 
 impl CameraFrame {
     pub fn new(camera: &Camera) -> CameraFrame {
-        let viewport_height = 2.0 * (camera.vfov_degrees.to_radians() / 2.0).tan();
-        let viewport_width = viewport_height * camera.width as f32 / camera.height as f32;
+        let (viewport_width, viewport_height) = match camera.view_width {
+            Some(width) => (width, width * camera.height as f32 / camera.width as f32),
+            None => {
+                let height = 2.0 * (camera.vfov_degrees.to_radians() / 2.0).tan();
+                (height * camera.width as f32 / camera.height as f32, height)
+            }
+        };
         let w = (camera.lookfrom - camera.lookat).normalize();
         let u = camera.vup.cross(w).normalize();
         let v = w.cross(u);
@@ -304,12 +315,20 @@ impl CameraFrame {
         let viewport_v = -viewport_height * v;
         let delta_u = viewport_u / camera.width as f32;
         let delta_v = viewport_v / camera.height as f32;
-        let to_upper_left = -w - viewport_u / 2.0 - viewport_v / 2.0;
+        // The orthographic view's pixels lie on the plane through the eye.
+        let ahead = if camera.view_width.is_some() {
+            Vec3::ZERO
+        } else {
+            -w
+        };
+        let to_upper_left = ahead - viewport_u / 2.0 - viewport_v / 2.0;
         CameraFrame {
             origin: camera.lookfrom,
             to_pixel00: to_upper_left + 0.5 * (delta_u + delta_v),
             delta_u,
             delta_v,
+            lens_radius: camera.aperture_radius,
+            focus_distance: camera.focus_distance(),
         }
     }
 }

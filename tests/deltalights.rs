@@ -1,5 +1,5 @@
-//! Point and spot lights (delta lights, estimated by shadow rays under every
-//! strategy) and the `thindielectric` and `smoothdielectric` materials, against
+//! Point, spot and directional lights (delta lights, estimated by shadow rays
+//! under every strategy) and the `thindielectric` and `smoothdielectric` materials, against
 //! analytic answers.
 
 mod common;
@@ -433,4 +433,92 @@ fn bad_lights_exit_2_naming_file_and_field() {
         }
         assert!(!dir.join("out.png").exists());
     }
+}
+
+/// A Lambertian floor of albedo a under a directional light of irradiance E
+/// at the angle theta from its normal has the radiance a E cos(theta) / pi,
+/// under every strategy, whatever the scene's size (a far-off sphere widens it).
+#[test]
+fn directional_light_gives_its_irradiance_times_the_cosine() {
+    let ctx = gpu_or_skip!();
+    let (albedo, irradiance, theta) = (0.6f64, 3.0f64, 35.0f64);
+    let (sin, cos) = theta.to_radians().sin_cos();
+    let lights = format!(
+        "[materials.dark]\ntype = \"lambertian\"\nalbedo = [0, 0, 0]\n\
+         [[objects]]\ntype = \"sphere\"\ncenter = [500, 900, 0]\nradius = 1\nmaterial = \"dark\"\n\
+         [[lights]]\ntype = \"directional\"\ndirection = [{sin}, {}, 0]\nirradiance = {irradiance}\n",
+        -cos
+    );
+    let expected = albedo * irradiance * cos / PI;
+    common::assert_floor_patch(ctx, (albedo, 1.0), &lights, (expected, 0.0), "directional");
+}
+
+/// A black occluder at height 1 over the floor's half x < 0, under a
+/// directional light 45 degrees off the vertical toward +x: the floor's
+/// shadow ends at x = 1 with a sharp edge, the columns dark to its left and
+/// lit to its right (a E cos / pi, exactly), one column between at most.
+#[test]
+fn directional_light_casts_sharp_shadows() {
+    let ctx = gpu_or_skip!();
+    let (albedo, irradiance) = (0.5f64, 2.0f64);
+    let half = std::f64::consts::FRAC_1_SQRT_2;
+    // 4.4 of the floor across 32 columns (the image is 8 times as wide as high).
+    let vfov = 2.0 * (4.4f64 / 8.0 / 2.0 / 10.0).atan().to_degrees();
+    let scene = common::scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, 10, 0]
+        lookat = [0, 0, 0]
+        vup = [0, 0, -1]
+        vfov = {vfov}
+        width = 32
+        height = 4
+        [render]
+        spp = 16
+        max_depth = 1
+        [materials.floor]
+        type = "lambertian"
+        albedo = [{albedo}, {albedo}, {albedo}]
+        [materials.black]
+        type = "lambertian"
+        albedo = [0, 0, 0]
+        [[objects]]
+        type = "quad"
+        q = [-10, 0, -10]
+        u = [0, 0, 20]
+        v = [20, 0, 0]
+        material = "floor"
+        [[objects]]
+        type = "quad"
+        q = [-10, 1, -10]
+        u = [0, 0, 20]
+        v = [10, 0, 0]
+        material = "black"
+        [[lights]]
+        type = "directional"
+        direction = [{half}, -{half}, 0]
+        irradiance = {irradiance}
+        "#
+    ));
+    let acc = common::render(ctx, &scene, &RenderOptions::default());
+    let image = acc.mean();
+    let lit = (albedo * irradiance * half / PI) as f32;
+    let row: Vec<f32> = (0..32).map(|x| image.pixels[x][0]).collect();
+    println!("{row:?}");
+    let dark = row.iter().take_while(|&&v| v == 0.0).count();
+    let bright = row
+        .iter()
+        .rev()
+        .take_while(|&&v| (v - lit).abs() <= 1e-5 * lit)
+        .count();
+    assert!(
+        dark + bright >= 31,
+        "more than one column between dark and lit: {row:?}"
+    );
+    // The edge at x = 1 on the floor: 3.2 of 4.4 from the image's left, in
+    // column 23 of 32.
+    assert!(
+        (22..=24).contains(&dark),
+        "shadow edge after column {dark}: {row:?}"
+    );
 }

@@ -654,9 +654,14 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             ":2:1: <shape type=\"cylinder\">: not supported (supported: obj, ply, rectangle, cube, disk, sphere)",
         ),
         (
+            "projector",
+            "<scene version=\"3.0.0\">\n<emitter type=\"projector\"/>\n</scene>",
+            ":2:1: <emitter type=\"projector\">: not supported (supported: area, constant, directional, envmap, point, spot)",
+        ),
+        (
             "directional",
-            "<scene version=\"3.0.0\">\n<emitter type=\"directional\"/>\n</scene>",
-            ":2:1: <emitter type=\"directional\">: not supported (supported: area, constant, envmap, point, spot)",
+            "<scene version=\"3.0.0\">\n<emitter type=\"directional\">\n<vector name=\"direction\" value=\"0, 0, 0\"/></emitter>\n</scene>",
+            ":3:1: <vector name=\"direction\">: the direction must not be zero",
         ),
         (
             "envmap",

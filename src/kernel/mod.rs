@@ -16,7 +16,7 @@ use crate::kinds::{
 };
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::pack::SceneData;
-use crate::scene::{Filter, RenderSettings, Sampler, Strategy};
+use crate::scene::{CameraModel, Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -57,9 +57,12 @@ const FEATURE_FLAGS: &[&str] = &[
     "LIGHT_ENVIRONMENT",
     "DELTA_LIGHTS",
     "DELTA_LIGHTS_PICK",
+    "DIRECTIONAL_LIGHTS",
     "TEXTURES",
     "BUMP_MAPS",
     "NESTED_MATERIALS",
+    "THIN_LENS",
+    "ORTHOGRAPHIC",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -367,6 +370,8 @@ pub struct KernelConfig {
     pub light_bvh_stack: u32,
     /// The pixel filter camera rays are drawn from.
     pub filter: Filter,
+    /// How camera rays leave the camera (`camera_ray`).
+    pub camera: CameraModel,
     /// Some material of the scene is one-sided (black from behind).
     pub one_sided: bool,
     /// Some material of the scene is masked (`Material::opacity` below 1): rays
@@ -379,6 +384,8 @@ pub struct KernelConfig {
     /// Point and spot lights, estimated by shadow rays at every vertex with a
     /// smooth lobe whatever the strategy (none without a smooth material).
     pub delta_lights: bool,
+    /// Some of them is directional (at infinity): its shadow ray has no end.
+    pub directional_lights: bool,
     /// More than [`KernelConfig::MAX_DELTA_SHADOW_RAYS`] of them: one shadow ray
     /// per vertex, toward a light picked by power, instead of one toward each.
     pub delta_light_pick: bool,
@@ -532,11 +539,13 @@ impl KernelConfig {
     pub const LIGHT_POINTS_MIN: usize = 32;
 
     /// The kernel for `data`; `strategy` must have objects to aim at unless it is `bsdf`.
+    #[allow(clippy::too_many_arguments)] // the scene's parts and the run's choices, each plain
     pub fn for_scene(
         data: &SceneData,
         strategy: Strategy,
         settings: &RenderSettings,
         filter: Filter,
+        camera: CameraModel,
         accumulator: AccumulatorKind,
         variance: bool,
         scene_storage: SceneStorage,
@@ -596,11 +605,13 @@ impl KernelConfig {
                 .map_or(accel::MAX_DEPTH, |bvh| bvh.depth + 1),
             light_bvh_stack,
             filter,
+            camera,
             one_sided: data.has_one_sided_materials(),
             masked: data.has_masked_materials(),
             environment,
             light_environment: samples_lights && environment,
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
+            directional_lights: data.delta_lights.iter().any(|l| l.infinite != 0.0),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
             bump_maps: data
@@ -660,11 +671,13 @@ impl KernelConfig {
             bvh_stack: accel::MAX_DEPTH,
             light_bvh_stack: accel::MAX_DEPTH,
             filter: Filter::Box,
+            camera: CameraModel::Pinhole,
             one_sided: true,
             masked: true,
             environment: true,
             light_environment: strategy != Strategy::Bsdf,
             delta_lights: true,
+            directional_lights: true,
             delta_light_pick: false,
             textures: true,
             bump_maps: true,
@@ -792,9 +805,15 @@ impl KernelConfig {
                 "DELTA_LIGHTS_PICK",
                 self.delta_lights && self.delta_light_pick,
             ),
+            (
+                "DIRECTIONAL_LIGHTS",
+                self.delta_lights && self.directional_lights,
+            ),
             ("TEXTURES", self.textures),
             ("BUMP_MAPS", self.bump_maps),
             ("NESTED_MATERIALS", self.nested_materials()),
+            ("THIN_LENS", self.camera == CameraModel::ThinLens),
+            ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
         ];
         for (flag, on) in features {
             if on {
@@ -1278,6 +1297,7 @@ pub(crate) mod tests {
             strategy,
             settings,
             Filter::Box,
+            CameraModel::Pinhole,
             AccumulatorKind::Buffer,
             false,
             storage,
@@ -1349,6 +1369,7 @@ pub(crate) mod tests {
                             environment: false,
                             light_environment: false,
                             delta_lights: variance && has_smooth_lobe(material_kinds),
+                            directional_lights: variance,
                             // Both ways of estimating them, on the BVH bit.
                             delta_light_pick: mask >> (primitives + 1) != 0,
                             textures: variance,
@@ -1623,6 +1644,7 @@ pub(crate) mod tests {
                 Strategy::Mixture,
                 &scene.render,
                 scene.camera.filter,
+                scene.camera.model(),
                 AccumulatorKind::Buffer,
                 false,
                 SceneStorage::Baked,
@@ -1850,6 +1872,41 @@ pub(crate) mod tests {
 
     /// Each filter's code, with both samplers, and its probe: they validate
     /// with their override constants set. Only the scene's filter is compiled in.
+    /// Each camera model's kernel validates, with each filter and sampler, and
+    /// only the thin lens's reads the lens, only the orthographic's aims every
+    /// ray one way.
+    #[test]
+    fn camera_kernels_validate() {
+        for camera in [
+            CameraModel::Pinhole,
+            CameraModel::ThinLens,
+            CameraModel::Orthographic,
+        ] {
+            for filter in [Filter::Box, Filter::Gaussian { stddev: 0.5 }] {
+                for sampler in Sampler::ALL {
+                    let config = KernelConfig {
+                        filter,
+                        sampler,
+                        camera,
+                        ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
+                    };
+                    validate(&config);
+                    let source = config.source().unwrap();
+                    assert_eq!(
+                        source.contains("params.lens_radius"),
+                        camera == CameraModel::ThinLens,
+                        "{camera:?}"
+                    );
+                    assert_eq!(
+                        source.contains("cross(params.delta_u, params.delta_v)"),
+                        camera == CameraModel::Orthographic,
+                        "{camera:?}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn filter_kernels_validate() {
         for filter in FILTERS {
@@ -1889,6 +1946,7 @@ pub(crate) mod tests {
             environment: false,
             light_environment: false,
             delta_lights: false,
+            directional_lights: false,
             textures: false,
             bump_maps: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)

@@ -1,8 +1,8 @@
-//! Point and spot lights (`[[lights]]`), Mitsuba 3's `point` and `spot`
-//! emitters: lights at a point, delta lights, which no sampled direction can
-//! hit (and no camera ray sees), so every strategy estimates them by a shadow
-//! ray at each path vertex with a smooth lobe (the kernel's `DELTA_LIGHTS`;
-//! `lights::pack_delta_lights` packs them).
+//! Point, spot and directional lights (`[[lights]]`), Mitsuba 3's `point`,
+//! `spot` and `directional` emitters: delta lights, which no sampled direction
+//! can hit (and no camera ray sees), so every strategy estimates them by a
+//! shadow ray at each path vertex with a smooth lobe (the kernel's
+//! `DELTA_LIGHTS`; `lights::pack_delta_lights` packs them).
 //!
 //! ```toml
 //! [[lights]]
@@ -25,9 +25,19 @@
 //!   from the axis is multiplied by Mitsuba's falloff (`spot.cpp`): 1 within
 //!   the beam width, 0 at and beyond the cutoff, `(cutoff - a) / (cutoff -
 //!   beam_width)` between.
+//! - `type = "directional"`: a light at infinity (the sun), `direction` (vector,
+//!   not zero, required: the way its light travels) and `irradiance` (W/m^2 on
+//!   a surface facing it: a vector, or one number for grey, components >= 0,
+//!   required). A surface whose normal makes the angle `theta` with `-direction`
+//!   receives `irradiance cos(theta)` wherever nothing stands between it and
+//!   the light: its shadow ray has no end. The scene's size plays no part (as
+//!   in Mitsuba, whose `irradiance` is per unit area perpendicular to the
+//!   direction), except in how often a vertex picks it among many delta lights
+//!   (by `irradiance` times the area of the disk of the scene's extent).
 //!
-//! `[scene] scale` moves them with the geometry and multiplies their intensity
-//! by `scale^2`. Mitsuba's `point` and `spot` emitters become `[[lights]]`
+//! `[scene] scale` moves point and spot lights with the geometry and multiplies
+//! their intensity by `scale^2`; a directional light's irradiance stays.
+//! Mitsuba's `point`, `spot` and `directional` emitters become `[[lights]]`
 //! tables read here (`scene::mitsuba`).
 
 use super::params::{ParamTable, Result, check_nonneg, colour, fmt_num, ok, unknown_name};
@@ -46,6 +56,11 @@ pub struct PointLight {
     pub intensity: Vec3,
     /// A spot light's cone; `None`: the same intensity in every direction.
     pub spot: Option<Spot>,
+    /// A directional light: the way its light travels (unit), `intensity`
+    /// then its irradiance (W/m^2) and `position` unused (zero). Left out of
+    /// the checkpoint identity's encoding when `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub directional: Option<Vec3>,
 }
 
 /// A spot light's cone, with Mitsuba's smooth falloff: full intensity within
@@ -66,24 +81,35 @@ pub struct Spot {
 pub(crate) struct LightType {
     pub name: &'static str,
     pub keys: &'static [&'static str],
-    /// Reads a spot's cone (none for a point light).
-    cone: fn(&ParamTable) -> Result<Option<Spot>>,
+    /// Reads its table (the keys checked).
+    read: fn(&ParamTable) -> Result<PointLight>,
 }
 
 /// The keys of every light, in the order an unknown key's message lists them.
-const LIGHT_KEYS: &[&str] = &["type", "position", "intensity"];
+const LIGHT_KEYS: &[&str] = &["type"];
 
 /// The light types, in the order messages list them.
 pub(crate) const LIGHT_TYPES: &[LightType] = &[
     LightType {
         name: "point",
-        keys: &[],
-        cone: no_cone,
+        keys: &["position", "intensity"],
+        read: read_point,
     },
     LightType {
         name: "spot",
-        keys: &["direction", "cutoff_angle", "beam_width"],
-        cone: spot_cone,
+        keys: &[
+            "position",
+            "intensity",
+            "direction",
+            "cutoff_angle",
+            "beam_width",
+        ],
+        read: read_spot,
+    },
+    LightType {
+        name: "directional",
+        keys: &["direction", "irradiance"],
+        read: read_directional,
     },
 ];
 
@@ -95,7 +121,13 @@ pub(crate) fn light_types() -> Vec<&'static str> {
 /// Every key of some light type: what a light without a `type` may hold.
 pub(crate) fn light_keys() -> Vec<&'static str> {
     let own = LIGHT_TYPES.iter().flat_map(|light| light.keys);
-    LIGHT_KEYS.iter().chain(own).copied().collect()
+    let mut keys: Vec<&str> = Vec::new();
+    for &key in LIGHT_KEYS.iter().chain(own) {
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    keys
 }
 
 impl PointLight {
@@ -106,28 +138,57 @@ impl PointLight {
         };
         let keys: Vec<&str> = LIGHT_KEYS.iter().chain(light.keys).copied().collect();
         t.check_keys(&keys, Some(&format!("a {ty} light")))?;
-        let position = t.require("position", t.vec3("position", ok)?)?;
-        if !t.table.contains_key("intensity") {
-            return Err(t.err(t.here(), "missing required key `intensity`"));
-        }
-        let intensity = colour(t, "intensity", 0.0, check_nonneg)?;
-        Ok(PointLight {
-            position,
-            intensity,
-            spot: (light.cone)(t)?,
-        })
+        (light.read)(t)
     }
 }
 
-fn no_cone(_: &ParamTable) -> Result<Option<Spot>> {
-    Ok(None)
+/// The required colour `key` (components >= 0).
+fn required_colour(t: &ParamTable, key: &str) -> Result<Vec3> {
+    if !t.table.contains_key(key) {
+        return Err(t.err(t.here(), format!("missing required key `{key}`")));
+    }
+    colour(t, key, 0.0, check_nonneg)
 }
 
-fn spot_cone(t: &ParamTable) -> Result<Option<Spot>> {
+/// The required `direction`, unit length.
+fn direction(t: &ParamTable) -> Result<Vec3> {
     let direction = t.require("direction", t.vec3("direction", ok)?)?;
     if !usable_length_squared(direction.length_squared()) {
         return Err(t.err(t.at("direction"), "must not be zero"));
     }
+    Ok(direction.normalize())
+}
+
+fn read_point(t: &ParamTable) -> Result<PointLight> {
+    let position = t.require("position", t.vec3("position", ok)?)?;
+    Ok(PointLight {
+        position,
+        intensity: required_colour(t, "intensity")?,
+        spot: None,
+        directional: None,
+    })
+}
+
+fn read_spot(t: &ParamTable) -> Result<PointLight> {
+    let light = read_point(t)?;
+    Ok(PointLight {
+        spot: Some(spot_cone(t)?),
+        ..light
+    })
+}
+
+fn read_directional(t: &ParamTable) -> Result<PointLight> {
+    let direction = direction(t)?;
+    Ok(PointLight {
+        position: Vec3::ZERO,
+        intensity: required_colour(t, "irradiance")?,
+        spot: None,
+        directional: Some(direction),
+    })
+}
+
+fn spot_cone(t: &ParamTable) -> Result<Spot> {
+    let direction = direction(t)?;
     let cutoff_angle = t.float("cutoff_angle", check_cutoff)?.unwrap_or(20.0);
     let beam_width = t.float("beam_width", check_nonneg)?;
     let beam_width = beam_width.unwrap_or(cutoff_angle * 3.0 / 4.0);
@@ -141,11 +202,11 @@ fn spot_cone(t: &ParamTable) -> Result<Option<Spot>> {
             ),
         ));
     }
-    Ok(Some(Spot {
-        direction: direction.normalize(),
+    Ok(Spot {
+        direction,
         cutoff_angle,
         beam_width,
-    }))
+    })
 }
 
 fn check_cutoff(x: f32) -> std::result::Result<(), String> {

@@ -1292,9 +1292,10 @@ impl<'a> Builder<'a> {
                 }
                 "envmap" => self.envmap(e),
                 "point" | "spot" => self.delta_light(e),
-                _ => Err(e
-                    .origin
-                    .error("not supported (supported: area, constant, envmap, point, spot)")),
+                "directional" => self.directional(e),
+                _ => Err(e.origin.error(
+                    "not supported (supported: area, constant, directional, envmap, point, spot)",
+                )),
             },
             // A definition, used through <ref>; checked here as bsdfs are.
             "texture" => self.texture(e).map(drop),
@@ -1357,6 +1358,39 @@ impl<'a> Builder<'a> {
             }
         }
         props.finish()?;
+        self.origins
+            .push((format!("lights[{}]", self.lights.len()), e.origin.clone()));
+        self.lights.push(Value::Table(light));
+        Ok(())
+    }
+
+    /// `<emitter type="directional">`: `irradiance` (default 1) and `direction`
+    /// or `to_world` (whose +z it shines along; not both, as Mitsuba) as a
+    /// `[[lights]]` table of type `directional`.
+    fn directional(&mut self, e: &'a Elem) -> Result<()> {
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e, self.search);
+        let irradiance = props.emitted("irradiance")?.unwrap_or([1.0; 3]);
+        let direction = props.point("direction")?;
+        let to_world = props.transform("to_world")?;
+        let direction = match direction {
+            Some(_) if to_world != DMat4::IDENTITY => {
+                return Err(e
+                    .origin
+                    .error("give either `direction` or `to_world`, not both (as Mitsuba)"));
+            }
+            Some(d) => d,
+            None => to_world.transform_vector3(DVec3::Z),
+        };
+        if !(direction.length_squared() > 0.0 && direction.is_finite()) {
+            let at = props.get("direction").unwrap_or(e);
+            return Err(at.origin.error("the direction must not be zero"));
+        }
+        props.finish()?;
+        let mut light = Table::new();
+        light.insert("type".into(), Value::String("directional".into()));
+        light.insert("direction".into(), vec_value(direction));
+        light.insert("irradiance".into(), color_value(irradiance));
         self.origins
             .push((format!("lights[{}]", self.lights.len()), e.origin.clone()));
         self.lights.push(Value::Table(light));
@@ -2257,27 +2291,42 @@ impl<'a> Builder<'a> {
     /// `[camera]`, and the sampler's part of `[render]`.
     fn camera(&mut self, e: &'a Elem) -> Result<(Table, Table)> {
         e.check_attrs(&["type", "id"])?;
-        if e.ty() != "perspective" {
+        if !["perspective", "thinlens", "orthographic"].contains(&e.ty()) {
             return Err(e.origin.error(format!(
-                "sensor `{}`: not supported (supported: perspective)",
+                "sensor `{}`: not supported (supported: perspective, thinlens, orthographic)",
                 excerpt(e.ty())
             )));
         }
+        let orthographic = e.ty() == "orthographic";
         let mut props = Props::new(e, self.search);
         let to_world = props.transform("to_world")?;
-        let fov = props
-            .float("fov")?
-            .ok_or_else(|| e.origin.error("missing <float name=\"fov\">"))?;
-        let axis = props.string("fov_axis")?;
-        // A pinhole has no focal plane: Mitsuba's perspective sensor ignores it too.
-        props.float("focus_distance")?;
+        let (fov, axis) = if orthographic {
+            (0.0, None)
+        } else {
+            let fov = props
+                .float("fov")?
+                .ok_or_else(|| e.origin.error("missing <float name=\"fov\">"))?;
+            (fov, props.string("fov_axis")?)
+        };
+        let mut far_clip = None;
         for clip in ["near_clip", "far_clip"] {
-            if props.float(clip)?.is_some() {
+            if let Some(value) = props.float(clip)? {
                 self.warn(
                     "near_clip and far_clip are ignored: pathmix does not clip camera rays".into(),
                 );
+                if clip == "far_clip" {
+                    far_clip = Some(value);
+                }
             }
         }
+        // A pinhole has no focal plane: Mitsuba's perspective and orthographic
+        // sensors ignore it too.
+        let focus_distance = props.float("focus_distance")?;
+        let lens = if e.ty() == "thinlens" {
+            Some(thin_lens(&mut props, e, focus_distance, far_clip)?)
+        } else {
+            None
+        };
         let mut film = None;
         let mut sampler = None;
         for child in props.objects(&["film", "sampler", "ref"]) {
@@ -2339,7 +2388,19 @@ impl<'a> Builder<'a> {
         } else {
             2.0 * ((fov.to_radians() / 2.0).tan() * ratio).atan().to_degrees()
         };
-        camera.insert("vfov".into(), Value::Float(vfov));
+        if orthographic {
+            camera.insert("projection".into(), Value::String("orthographic".into()));
+            camera.insert(
+                "view_width".into(),
+                Value::Float(orthographic_width(&to_world, e)?),
+            );
+        } else {
+            camera.insert("vfov".into(), Value::Float(vfov));
+        }
+        if let Some((aperture_radius, focus_distance)) = lens {
+            camera.insert("aperture_radius".into(), Value::Float(aperture_radius));
+            camera.insert("focus_distance".into(), Value::Float(focus_distance));
+        }
         // Mitsuba's camera looks along +z with +y up, and the image's right is -x.
         if to_world.determinant() < 0.0 {
             return Err(e.origin.error(
@@ -2628,6 +2689,50 @@ const CUBE_FACES: [[DVec3; 3]; 6] = [
     ],
 ];
 
+/// An `orthographic` sensor's view width: its view is [-1, 1] along the
+/// camera's x and [-1/aspect, 1/aspect] along y, scaled by `to_world`, so
+/// twice the scale along x; the scale along y must be the same (pathmix's
+/// pixels are square).
+fn orthographic_width(to_world: &DMat4, e: &Elem) -> Result<f64> {
+    let sx = to_world.transform_vector3(DVec3::X).length();
+    let sy = to_world.transform_vector3(DVec3::Y).length();
+    if !(sx > 0.0 && sx.is_finite()) || (sx - sy).abs() > 1e-6 * sx {
+        return Err(e.origin.error(format!(
+            "an orthographic sensor's to_world must scale its x and y alike and by more than 0 \
+             (pathmix's pixels are square), got {sx} and {sy}"
+        )));
+    }
+    Ok(2.0 * sx)
+}
+
+/// A `thinlens` sensor's `aperture_radius` (required, as in Mitsuba; 0 makes
+/// the pinhole Mitsuba approximates by an epsilon) and `focus_distance`
+/// (Mitsuba's default: `far_clip`, itself 1e4 by default).
+fn thin_lens<'e>(
+    props: &mut Props<'e>,
+    e: &'e Elem,
+    focus_distance: Option<f64>,
+    far_clip: Option<f64>,
+) -> Result<(f64, f64)> {
+    let aperture = props
+        .float("aperture_radius")?
+        .ok_or_else(|| e.origin.error("missing <float name=\"aperture_radius\">"))?;
+    let at = |props: &mut Props<'e>, name: &str| props.get(name).unwrap_or(e).origin.clone();
+    if !(aperture >= 0.0 && aperture.is_finite()) {
+        return Err(at(props, "aperture_radius").error(format!(
+            "aperture_radius must be a finite length >= 0, got {aperture}"
+        )));
+    }
+    if let Some(d) = focus_distance
+        && !(d > 0.0 && d.is_finite())
+    {
+        return Err(at(props, "focus_distance").error(format!(
+            "focus_distance must be a finite distance > 0, got {d}"
+        )));
+    }
+    Ok((aperture, focus_distance.or(far_clip).unwrap_or(1e4)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -2706,6 +2811,122 @@ mod tests {
         assert_eq!(s.camera.vfov_degrees, 30.0);
         assert_eq!(s.camera.filter, Filter::Gaussian { stddev: 0.5 });
         assert_eq!((s.render.spp, s.render.seed), (4, 0));
+    }
+
+    /// A `thinlens` sensor is a perspective one with a lens: its aperture radius
+    /// and focus distance (by default Mitsuba's `far_clip`, 1e4 by default);
+    /// bad values are errors at their element.
+    #[test]
+    fn thinlens_sensor_becomes_a_thin_lens_camera() {
+        let sensor = |props: &str| {
+            format!(
+                r#"<sensor type="thinlens"><float name="fov" value="30"/>
+                   <string name="fov_axis" value="y"/>{props}</sensor>"#
+            )
+        };
+        let s = scene(
+            "thinlens",
+            &sensor(
+                r#"<float name="aperture_radius" value="0.25"/><float name="focus_distance" value="3"/>"#,
+            ),
+        );
+        assert_eq!(s.camera.vfov_degrees, 30.0);
+        assert_eq!(s.camera.aperture_radius, 0.25);
+        assert_eq!(s.camera.focus_distance, Some(3.0));
+        assert_eq!(s.camera.model(), crate::scene::CameraModel::ThinLens);
+        let s = scene(
+            "thinlens-far",
+            &sensor(
+                r#"<float name="aperture_radius" value="0.1"/><float name="far_clip" value="50"/>"#,
+            ),
+        );
+        assert_eq!(s.camera.focus_distance, Some(50.0));
+        let s = scene(
+            "thinlens-default",
+            &sensor(r#"<float name="aperture_radius" value="0"/>"#),
+        );
+        assert_eq!(s.camera.focus_distance, Some(1e4));
+        assert_eq!(s.camera.model(), crate::scene::CameraModel::Pinhole);
+        // A perspective sensor ignores focus_distance, as Mitsuba's does.
+        let s = scene(
+            "perspective-focus",
+            r#"<sensor type="perspective"><float name="fov" value="30"/>
+               <float name="focus_distance" value="3"/></sensor>"#,
+        );
+        assert_eq!(
+            (s.camera.aperture_radius, s.camera.focus_distance),
+            (0.0, None)
+        );
+
+        let e = error("no-aperture", &sensor(""));
+        assert!(
+            e.contains("missing <float name=\"aperture_radius\">"),
+            "{e}"
+        );
+        let e = error(
+            "negative-aperture",
+            &sensor("\n<float name=\"aperture_radius\" value=\"-1\"/>"),
+        );
+        assert!(
+            e.contains(":4:1: <float name=\"aperture_radius\">: aperture_radius must be a finite length >= 0, got -1"),
+            "{e}"
+        );
+        let e = error(
+            "zero-focus",
+            &sensor(
+                r#"<float name="aperture_radius" value="1"/><float name="focus_distance" value="0"/>"#,
+            ),
+        );
+        assert!(
+            e.contains("<float name=\"focus_distance\">: focus_distance must be a finite distance > 0, got 0"),
+            "{e}"
+        );
+    }
+
+    /// An `orthographic` sensor's view is twice its `to_world`'s scale along x
+    /// wide; an uneven x and y scale is an error at the sensor.
+    #[test]
+    fn orthographic_sensor_takes_its_width_from_the_scale() {
+        let sensor = |scale: &str| {
+            format!(
+                r#"<sensor type="orthographic"><transform name="to_world">
+                   <scale {scale}/><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/>
+                   </transform></sensor>"#
+            )
+        };
+        let s = scene("orthographic", &sensor(r#"x="3" y="3""#));
+        assert_eq!(s.camera.view_width, Some(6.0));
+        assert_eq!(s.camera.model(), crate::scene::CameraModel::Orthographic);
+        assert_eq!(s.camera.lookfrom, Vec3::new(0.0, 0.0, 5.0));
+        assert_eq!(s.camera.lookat, Vec3::new(0.0, 0.0, 4.0));
+        let e = error("orthographic-uneven", &sensor(r#"x="3" y="2""#));
+        assert!(
+            e.contains("<sensor type=\"orthographic\">: an orthographic sensor's to_world must scale its x and y alike"),
+            "{e}"
+        );
+    }
+
+    /// A `directional` emitter: its irradiance and the way it shines, given
+    /// as `direction` or as `to_world`'s +z.
+    #[test]
+    fn directional_emitter_becomes_a_directional_light() {
+        let s = scene(
+            "directional",
+            r#"<emitter type="directional"><vector name="direction" value="0, -2, 0"/>
+                 <rgb name="irradiance" value="1, 2, 3"/></emitter>
+               <emitter type="directional"><transform name="to_world">
+                 <lookat origin="0, 0, 0" target="1, 0, 0" up="0, 1, 0"/></transform></emitter>"#,
+        );
+        assert_eq!(s.point_lights[0].directional, Some(Vec3::NEG_Y));
+        assert_eq!(s.point_lights[0].intensity, Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(s.point_lights[1].directional, Some(Vec3::X));
+        assert_eq!(s.point_lights[1].intensity, Vec3::ONE);
+        let e = error(
+            "directional-both",
+            r#"<emitter type="directional"><vector name="direction" value="0, -1, 0"/>
+                 <transform name="to_world"><translate x="1"/></transform></emitter>"#,
+        );
+        assert!(e.contains("give either `direction` or `to_world`"), "{e}");
     }
 
     /// Without `up` (or with a zero one) Mitsuba's lookat takes the first axis of
@@ -3641,6 +3862,7 @@ mod tests {
                 position: Vec3::new(1.0, 2.0, 3.0),
                 intensity: Vec3::new(4.0, 5.0, 6.0),
                 spot: None,
+                directional: None,
             }
         );
         assert_eq!(s.point_lights[1].position, Vec3::new(-1.0, 0.0, 0.0));

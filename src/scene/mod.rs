@@ -156,7 +156,9 @@ impl fmt::Display for Sampler {
     }
 }
 
-/// The book's pinhole camera (right-handed; `vfov` is vertical, in degrees).
+/// The book's pinhole camera (right-handed; `vfov` is vertical, in degrees),
+/// a thin lens (Mitsuba's `thinlens`) where `aperture_radius` is above 0, or
+/// an orthographic view (Mitsuba's `orthographic`) where `view_width` is set.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Camera {
     pub lookfrom: Vec3,
@@ -166,6 +168,56 @@ pub struct Camera {
     pub width: u32,
     pub height: u32,
     pub filter: Filter,
+    /// The thin lens's radius in scene units; 0: a pinhole. Left out of the
+    /// checkpoint identity's encoding at 0, so that a pinhole scene's identity
+    /// is what it was before lenses.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub aperture_radius: f32,
+    /// From the lens to the plane in focus, along the view axis; `None`: the
+    /// distance from `lookfrom` to `lookat` (`Camera::focus_distance`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub focus_distance: Option<f32>,
+    /// The orthographic projection: the width in scene units of the view the
+    /// image covers (its height follows from the image's aspect ratio);
+    /// `None`: the perspective projection. Left out of the encoding when `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub view_width: Option<f32>,
+}
+
+fn is_zero(x: &f32) -> bool {
+    *x == 0.0
+}
+
+/// How camera rays leave the camera: each model's code is compiled into the
+/// kernel only for the scenes that use it (its kernel flag).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CameraModel {
+    /// Every ray from `lookfrom`.
+    Pinhole,
+    /// Rays from a point of the lens disk through the point in focus
+    /// (`THIN_LENS`).
+    ThinLens,
+    /// Parallel rays along the view axis from the points of a plane through
+    /// `lookfrom` (`ORTHOGRAPHIC`).
+    Orthographic,
+}
+
+impl Camera {
+    pub fn model(&self) -> CameraModel {
+        if self.view_width.is_some() {
+            CameraModel::Orthographic
+        } else if self.aperture_radius > 0.0 {
+            CameraModel::ThinLens
+        } else {
+            CameraModel::Pinhole
+        }
+    }
+
+    /// The distance from the lens to the plane in focus.
+    pub fn focus_distance(&self) -> f32 {
+        self.focus_distance
+            .unwrap_or_else(|| (self.lookat - self.lookfrom).length())
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]

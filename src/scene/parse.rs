@@ -73,7 +73,17 @@ pub(super) const TOP_KEYS: &[&str] = &[
 pub(super) const ENVIRONMENT_KEYS: &[&str] = &["file", "scale", "rotate_y", "rotate", "matrix"];
 pub(super) const SCENE_KEYS: &[&str] = &["scale"];
 pub(super) const CAMERA_KEYS: &[&str] = &[
-    "lookfrom", "lookat", "vup", "vfov", "width", "height", "filter",
+    "lookfrom",
+    "lookat",
+    "vup",
+    "vfov",
+    "width",
+    "height",
+    "filter",
+    "aperture_radius",
+    "focus_distance",
+    "projection",
+    "view_width",
 ];
 pub(super) const RENDER_KEYS: &[&str] = &[
     "spp",
@@ -276,18 +286,27 @@ impl Scene {
         Ok(())
     }
 
-    /// The same scene with every position and length (camera `lookfrom`/`lookat`,
+    /// The same scene with every position and length (camera `lookfrom`/`lookat`
+    /// and its lens's radius and focus distance, its orthographic view's width,
     /// every shape's geometry (`Shape::scale`), light positions) multiplied by
     /// `factor`, and point and spot lights' intensities by `factor^2`, so that
-    /// the irradiance they give, and the image, stay the same.
+    /// the irradiance they give, and the image, stay the same (a directional
+    /// light's irradiance stays as it is).
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
         s.camera.lookfrom *= factor;
         s.camera.lookat *= factor;
+        s.camera.aperture_radius *= factor;
+        s.camera.focus_distance = s.camera.focus_distance.map(|d| d * factor);
+        s.camera.view_width = s.camera.view_width.map(|w| w * factor);
         for shape in s.shapes.iter_mut() {
             shape.scale(factor);
         }
-        for l in &mut s.point_lights {
+        for l in s
+            .point_lights
+            .iter_mut()
+            .filter(|l| l.directional.is_none())
+        {
             l.position *= factor;
             l.intensity *= factor * factor;
         }
@@ -308,11 +327,51 @@ fn parse_camera(t: &ParamTable) -> Result<Camera> {
         width: t.int("width", IMAGE_SIDE)?.unwrap_or(600),
         height: t.int("height", IMAGE_SIDE)?.unwrap_or(600),
         filter: Filter::parse(t)?,
+        aperture_radius: t.float("aperture_radius", check_nonneg)?.unwrap_or(0.0),
+        focus_distance: t.float("focus_distance", check_positive)?,
+        view_width: parse_projection(t)?,
     };
     if let Some((key, problem)) = camera_problem(&camera) {
         return Err(t.err(t.at(key), problem));
     }
     Ok(camera)
+}
+
+/// The projection's names, in the order messages list them.
+const PROJECTIONS: &[&str] = &["perspective", "orthographic"];
+
+/// `camera.projection`: the orthographic view's width (`view_width`,
+/// required there), or `None` for the perspective projection. The keys of
+/// the other projection are errors, not silently ignored.
+fn parse_projection(t: &ParamTable) -> Result<Option<f32>> {
+    match t.string("projection")? {
+        None | Some("perspective") => {
+            if t.table.contains_key("view_width") {
+                return Err(t.err(
+                    t.at("view_width"),
+                    "applies only to `projection = \"orthographic\"`",
+                ));
+            }
+            Ok(None)
+        }
+        Some("orthographic") => {
+            for key in ["vfov", "aperture_radius", "focus_distance"] {
+                if t.table.contains_key(key) {
+                    return Err(t.err(
+                        t.at(key),
+                        "does not apply to `projection = \"orthographic\"`, whose view is \
+                         `view_width` wide",
+                    ));
+                }
+            }
+            let width = t.float("view_width", check_positive)?;
+            Ok(Some(t.require("view_width", width)?))
+        }
+        Some(other) => Err(t.err(
+            t.at("projection"),
+            kinds::params::unknown_name("projection", other, PROJECTIONS),
+        )),
+    }
 }
 
 fn default_render() -> RenderSettings {
@@ -981,6 +1040,31 @@ fn camera_problem(c: &Camera) -> Option<(&'static str, String)> {
             ),
         ));
     }
+    if !c.aperture_radius.is_finite() {
+        return Some(("aperture_radius", "overflows a 32-bit float".to_string()));
+    }
+    if let Some(width) = c.view_width
+        && !(width > 0.0 && width.is_finite())
+    {
+        return Some((
+            "view_width",
+            format!(
+                "must be a positive width a 32-bit float holds, got {}",
+                fmt_num(width)
+            ),
+        ));
+    }
+    if let Some(d) = c.focus_distance
+        && !(d > 0.0 && d.is_finite())
+    {
+        return Some((
+            "focus_distance",
+            format!(
+                "must be a positive distance a 32-bit float holds, got {}",
+                fmt_num(d)
+            ),
+        ));
+    }
     let (w, up) = (dir.as_dvec3().normalize(), c.vup.as_dvec3().normalize());
     if w.cross(up).length() <= DEGENERATE {
         return Some((
@@ -1048,7 +1132,7 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Spot;
+    use crate::scene::{CameraModel, Spot};
 
     const CORNELL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml"));
     const BOXES: &str = include_str!(concat!(
@@ -1148,6 +1232,81 @@ material = "white"
 
     fn normal(q: &Quad) -> Vec3 {
         q.u.cross(q.v).normalize()
+    }
+
+    /// A pinhole unless `aperture_radius` is above 0; the plane in focus is at
+    /// `lookat` unless `focus_distance` says; `[scene] scale` scales both.
+    #[test]
+    fn thin_lens_keys_and_defaults() {
+        let s = parse(BASE);
+        assert_eq!(
+            (s.camera.aperture_radius, s.camera.focus_distance),
+            (0.0, None)
+        );
+        assert_eq!(s.camera.model(), CameraModel::Pinhole);
+        let s = parse(&BASE.replace(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\naperture_radius = 0.5",
+        ));
+        assert_eq!(s.camera.model(), CameraModel::ThinLens);
+        assert_eq!(s.camera.focus_distance(), 5.0);
+        let text = BASE.replace(
+            "[camera]",
+            "[scene]\nscale = 2\n[camera]\naperture_radius = 0.5\nfocus_distance = 3",
+        );
+        let s = parse(&text);
+        assert_eq!(
+            (s.camera.aperture_radius, s.camera.focus_distance()),
+            (1.0, 6.0)
+        );
+    }
+
+    /// `projection = "orthographic"` needs `view_width`, which `[scene] scale`
+    /// scales; the other projection's keys are errors.
+    #[test]
+    fn orthographic_projection_keys() {
+        let ortho = |keys: &str| {
+            BASE.replace(
+                "lookat = [0, 0, 0]",
+                &format!("lookat = [0, 0, 0]\nprojection = \"orthographic\"\n{keys}"),
+            )
+        };
+        let s = parse(&ortho("view_width = 4"));
+        assert_eq!(s.camera.view_width, Some(4.0));
+        assert_eq!(s.camera.model(), CameraModel::Orthographic);
+        let s =
+            parse(&ortho("view_width = 4").replace("[camera]", "[scene]\nscale = 0.5\n[camera]"));
+        assert_eq!(s.camera.view_width, Some(2.0));
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthographic\"",
+        );
+        assert_error(&e, "camera", &["missing required key `view_width`"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthographic\"\nview_width = 0",
+        );
+        assert_error(&e, "camera.view_width", &["got 0"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthographic\"\nview_width = 1\nvfov = 30",
+        );
+        assert_error(
+            &e,
+            "camera.vfov",
+            &["does not apply to `projection = \"orthographic\"`"],
+        );
+        let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nview_width = 1");
+        assert_error(
+            &e,
+            "camera.view_width",
+            &["applies only to `projection = \"orthographic\"`"],
+        );
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nprojection = \"orthografic\"",
+        );
+        assert_error(&e, "camera.projection", &["did you mean `orthographic`?"]);
     }
 
     #[test]
@@ -1747,6 +1906,16 @@ material = "white"
         assert_error(&e, "camera.vfov", &["(0, 180)", "got 180"]);
         let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nvfov = 0");
         assert_error(&e, "camera.vfov", &["got 0"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\naperture_radius = -0.1",
+        );
+        assert_error(&e, "camera.aperture_radius", &["must be >= 0, got -0.1"]);
+        let e = error(
+            "lookat = [0, 0, 0]",
+            "lookat = [0, 0, 0]\nfocus_distance = 0",
+        );
+        assert_error(&e, "camera.focus_distance", &["got 0"]);
         let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nwidth = 0");
         assert_error(&e, "camera.width", &["between 1 and 65536, got 0"]);
         let e = error("lookat = [0, 0, 0]", "lookat = [0, 0, 0]\nheight = 65537");
@@ -2181,6 +2350,7 @@ material = "white"
                 position: Vec3::new(1.0, 2.0, 3.0),
                 intensity: Vec3::splat(5.0),
                 spot: None,
+                directional: None,
             }
         );
         assert_eq!(
@@ -2198,6 +2368,14 @@ material = "white"
         assert_eq!(scaled.point_lights[0].position, Vec3::new(10.0, 20.0, 30.0));
         assert_eq!(scaled.point_lights[0].intensity, Vec3::splat(500.0));
         assert!(s.extent() >= 3.0);
+        // A directional light: its direction unit, its irradiance kept by a scale.
+        let s = parse(&format!(
+            "{BASE}\n[[lights]]\ntype = \"directional\"\ndirection = [0, -3, 0]\nirradiance = 2\n"
+        ));
+        assert_eq!(s.point_lights[0].directional, Some(Vec3::NEG_Y));
+        let scaled = s.scaled(10.0);
+        assert_eq!(scaled.point_lights[0].intensity, Vec3::splat(2.0));
+        assert_eq!(scaled.point_lights[0].position, Vec3::ZERO);
     }
 
     #[test]
@@ -2261,6 +2439,22 @@ material = "white"
                     .into(),
                 "lights[0].direction",
                 &["must not be zero"],
+            ),
+            (
+                "type = \"directional\"\nirradiance = 1\ndirection = [0, 0, 0]".into(),
+                "lights[0].direction",
+                &["must not be zero"],
+            ),
+            (
+                "type = \"directional\"\ndirection = [0, -1, 0]".into(),
+                "lights[0]",
+                &["missing required key `irradiance`"],
+            ),
+            (
+                "type = \"directional\"\nirradiance = 1\ndirection = [0, -1, 0]\nposition = [0, 0, 0]"
+                    .into(),
+                "lights[0]",
+                &["unknown key `position` for a directional light"],
             ),
         ];
         for (body, location, parts) in cases {

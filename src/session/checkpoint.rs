@@ -1244,6 +1244,9 @@ mod tests {
                 width: 8,
                 height: 6,
                 filter: Filter::Gaussian { stddev: 0.5 },
+                aperture_radius: 0.0,
+                focus_distance: None,
+                view_width: None,
             },
             render: RenderSettings {
                 spp: 16,
@@ -1327,6 +1330,7 @@ mod tests {
                     position: Vec3::new(0.0, 3.0, 0.0),
                     intensity: Vec3::splat(10.0),
                     spot: None,
+                    directional: None,
                 },
                 PointLight {
                     position: Vec3::new(2.0, 3.0, 0.0),
@@ -1336,6 +1340,7 @@ mod tests {
                         cutoff_angle: 30.0,
                         beam_width: 20.0,
                     }),
+                    directional: None,
                 },
             ],
             environment: Some(EnvironmentMap {
