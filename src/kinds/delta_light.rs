@@ -40,7 +40,9 @@
 //! Mitsuba's `point`, `spot` and `directional` emitters become `[[lights]]`
 //! tables read here (`scene::mitsuba`).
 
-use super::params::{ParamTable, Result, check_nonneg, colour, fmt_num, ok, unknown_name};
+use super::params::{
+    ParamTable, Result, check_nonneg, check_open_angle, colour, fmt_num, ok, unknown_name,
+};
 use super::usable_length_squared;
 use glam::Vec3;
 use serde::Serialize;
@@ -189,7 +191,7 @@ fn read_directional(t: &ParamTable) -> Result<PointLight> {
 
 fn spot_cone(t: &ParamTable) -> Result<Spot> {
     let direction = direction(t)?;
-    let cutoff_angle = t.float("cutoff_angle", check_cutoff)?.unwrap_or(20.0);
+    let cutoff_angle = t.float("cutoff_angle", check_open_angle)?.unwrap_or(20.0);
     let beam_width = t.float("beam_width", check_nonneg)?;
     let beam_width = beam_width.unwrap_or(cutoff_angle * 3.0 / 4.0);
     if beam_width > cutoff_angle {
@@ -207,17 +209,6 @@ fn spot_cone(t: &ParamTable) -> Result<Spot> {
         cutoff_angle,
         beam_width,
     })
-}
-
-fn check_cutoff(x: f32) -> std::result::Result<(), String> {
-    if x > 0.0 && x < 180.0 {
-        Ok(())
-    } else {
-        Err(format!(
-            "must be in (0, 180) degrees, exclusive, got {}",
-            fmt_num(x)
-        ))
-    }
 }
 
 #[cfg(test)]

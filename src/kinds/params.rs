@@ -79,6 +79,18 @@ pub(crate) fn check_nonneg(x: f32) -> std::result::Result<(), String> {
     }
 }
 
+/// An angle in degrees strictly between 0 and 180 (a field of view, a cone).
+pub(crate) fn check_open_angle(x: f32) -> std::result::Result<(), String> {
+    if x > 0.0 && x < 180.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be in (0, 180) degrees, exclusive, got {}",
+            fmt_num(x)
+        ))
+    }
+}
+
 pub(crate) fn check_unit(x: f32) -> std::result::Result<(), String> {
     if (0.0..=1.0).contains(&x) {
         Ok(())

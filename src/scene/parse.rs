@@ -23,8 +23,8 @@ use super::{
     Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle, excerpt,
 };
 use crate::kinds::params::{
-    ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_positive, check_unit,
-    fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
+    ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_open_angle,
+    check_positive, check_unit, fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
 };
 use crate::kinds::transform::{TRANSFORM_KEYS, Transform, matrix, rotation};
 use crate::kinds::{self, DEGENERATE, Shape, light_keys, light_types, usable_length_squared};
@@ -323,7 +323,7 @@ fn parse_camera(t: &ParamTable) -> Result<Camera> {
         lookfrom: t.require("lookfrom", t.vec3("lookfrom", ok)?)?,
         lookat: t.require("lookat", t.vec3("lookat", ok)?)?,
         vup: t.vec3("vup", ok)?.unwrap_or(Vec3::Y),
-        vfov_degrees: t.float("vfov", check_vfov)?.unwrap_or(40.0),
+        vfov_degrees: t.float("vfov", check_open_angle)?.unwrap_or(40.0),
         width: t.int("width", IMAGE_SIDE)?.unwrap_or(600),
         height: t.int("height", IMAGE_SIDE)?.unwrap_or(600),
         filter: Filter::parse(t)?,
@@ -1077,20 +1077,6 @@ fn camera_problem(c: &Camera) -> Option<(&'static str, String)> {
         ));
     }
     None
-}
-
-// ---------------------------------------------------------------------------------
-// Value checks (the others are `kinds::params`')
-
-fn check_vfov(x: f32) -> std::result::Result<(), String> {
-    if x > 0.0 && x < 180.0 {
-        Ok(())
-    } else {
-        Err(format!(
-            "must be in (0, 180) degrees, exclusive, got {}",
-            fmt_num(x)
-        ))
-    }
 }
 
 // ---------------------------------------------------------------------------------
