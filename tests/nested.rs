@@ -181,6 +181,13 @@ fn nested_materials_are_checked_where_they_are_named() {
         e.contains("test.toml: materials.t.back: unknown material `b`"),
         "{e}"
     );
+    // An unknown name below another nested material (was a panic: the depth
+    // walk followed it before it was checked).
+    let e = error(
+        "[materials.s]\ntype = \"twosided\"\nfront = \"t\"\nback = \"a\"\n\
+         [materials.t]\ntype = \"twosided\"\nfront = \"x\"\nback = \"a\"",
+    );
+    assert!(e.contains("materials.t.front: unknown material `x`"), "{e}");
     let e = error(
         "[materials.lamp]\ntype = \"light\"\nemit = [1, 1, 1]\n\
          [materials.t]\ntype = \"twosided\"\nfront = \"lamp\"\nback = \"a\"",

@@ -525,6 +525,7 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
 /// at most `MATERIAL_NESTING` deep.
 fn check_nested_materials(mats: &ParamTable, materials: &[Material]) -> Result<()> {
     let index = |name: &str| materials.iter().position(|m| m.name == name);
+    // Every name first: the depth walk below follows them all.
     for material in materials {
         let t = mats.sub(&material.name)?.expect("key exists");
         let model = &MATERIAL_KINDS[material.kind.id()];
@@ -549,6 +550,9 @@ fn check_nested_materials(mats: &ParamTable, materials: &[Material]) -> Result<(
                 ));
             }
         }
+    }
+    for material in materials {
+        let t = mats.sub(&material.name)?.expect("key exists");
         // How deep the materials below this one go: a chain of nested
         // materials longer than the kernel resolves, or a cycle.
         let mut chain = vec![material.name.as_str()];
