@@ -1,8 +1,10 @@
-// The pixel filters' offset samplers (src/kinds/filter.rs): `filter_offset(u)`
-// turns two uniform numbers into an offset from the pixel centre (in pixels,
-// xy) and the weight its sample carries (z), whose mean is 1, so that a pixel's
-// mean is the filter's weighted average of the radiance around it. Only the
-// scene's filter is compiled in; the box filter needs none of this.
+// The pixel filters (src/kinds/filter.rs): `filter_eval(x)`, the profile at
+// |offset| x along one axis (what splatting weighs by, splat.wgsl), and the
+// offset samplers of filter importance sampling: `filter_offset(u)` turns two
+// uniform numbers into an offset from the pixel centre (in pixels, xy) and the
+// weight its sample carries (z), whose mean is 1, so that a pixel's mean is the
+// filter's weighted average of the radiance around it. Only the scene's filter
+// is compiled in; the box filter needs none of this.
 
 #if FILTER_GAUSSIAN
 // Terms computed on the host (`GaussianFilterTerms` in src/kinds/filter.rs).
@@ -12,6 +14,13 @@ override FILTER_ERF_RADIUS: f32;
 override FILTER_FLOOR: f32;
 override FILTER_WEIGHT_SCALE: f32;
 
+// At x >= 0: the Gaussian less its value at the radius (`Filter::eval`).
+fn filter_eval(x: f32) -> f32 {
+    let g = exp(-0.5 * (x / FILTER_STDDEV) * (x / FILTER_STDDEV));
+    return max(g - FILTER_FLOOR, 0.0);
+}
+
+#if FILTER_OFFSET
 // Offsets (in pixels) drawn from the Gaussian truncated to [-r, r] by inverting its
 // CDF per axis, and the weight f/g * Z_g/Z_f that makes the estimate the one of the
 // filter f = g - g(r) (mean weight 1).
@@ -26,10 +35,17 @@ fn filter_offset(u: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(x, weight.x * weight.y);
 }
 #endif
+#endif
 
 #if FILTER_TENT
 override FILTER_RADIUS: f32;
 
+// At x >= 0.
+fn filter_eval(x: f32) -> f32 {
+    return max(1.0 - x / FILTER_RADIUS, 0.0);
+}
+
+#if FILTER_OFFSET
 // The tent max(0, 1 - |x| / r) exactly, per axis: a side from the sign of
 // v = 2u - 1, then the inverse of the CDF 1 - (1 - |x| / r)^2 of the half
 // tent at |v|. The density is the filter normalised, so the weight is 1.
@@ -38,6 +54,7 @@ fn filter_offset(u: vec2<f32>) -> vec3<f32> {
     let x = sign(v) * FILTER_RADIUS * (1.0 - sqrt(1.0 - abs(v)));
     return vec3<f32>(x, 1.0);
 }
+#endif
 #endif
 
 #if FILTER_MITCHELL
@@ -76,8 +93,11 @@ fn filter_eval(x: f32) -> f32 {
 // Generated (`glue::filter_table`, from `FilterTable` in src/kinds/filter.rs):
 // FILTER_TABLE_BINS (N) and `filter_bins_at(j)`, the bounds (q_j, q_j+1) of bin
 // j, the quantiles of |f| over [0, r] (|f| holds j / N of its mass below q_j);
-// FILTER_TABLE_SCALE is N / (integral of f over [0, r]).
+// FILTER_TABLE_SCALE is N / (integral of f over [0, r]). Declared for the
+// splatting pass too, which gets the filter's constants but draws nothing.
 override FILTER_TABLE_SCALE: f32;
+
+#if FILTER_OFFSET
 
 // One axis of a filter with negative lobes, drawn from |f|: the side from the
 // sign of v = 2u - 1, then |x| uniform in the table's bin at |v|, of density
@@ -98,4 +118,5 @@ fn filter_offset(u: vec2<f32>) -> vec3<f32> {
     let y = filter_table_axis(u.y);
     return vec3<f32>(x.x, y.x, x.y * y.y);
 }
+#endif
 #endif

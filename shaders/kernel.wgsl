@@ -2,53 +2,15 @@
 // in sample-index order. A lane whose path ends starts its next sample at once
 // instead of idling until the longest path of its SIMD group is done.
 //
-// Running sums are compensated (Kahan): the accumulator holds each sum and its
-// compensation, so the mean stays exact to f32 rounding after any number of
-// samples, and the arithmetic per pixel does not depend on how samples are split
-// across dispatches.
+// The running sums are compensated (`shaders/sums.wgsl`).
 
-struct CompensatedSum {
-    sum: vec3<f32>,
-    compensation: vec3<f32>,
-}
-
-// Driver compilers simplify `((s + y) - s) - y` to zero, which silently turns
-// this into a plain sum; `params.zero_bits` (always 0, unknown at compile
-// time) hides that `t` is `s + y`, so the rounding error is really computed.
-fn compensated_add(acc: ptr<function, CompensatedSum>, value: vec3<f32>) {
-    let y = value - (*acc).compensation;
-    let t = bitcast<vec3<f32>>(bitcast<vec3<u32>>((*acc).sum + y) ^ vec3<u32>(params.zero_bits));
-    (*acc).compensation = (t - (*acc).sum) - y;
-    (*acc).sum = t;
-}
-
-fn load_sum(pixel: vec2<u32>, layer: u32, compensation_layer: u32, reset: bool) -> CompensatedSum {
-    if reset {
-        return CompensatedSum(vec3<f32>(0.0), vec3<f32>(0.0));
-    }
-    return CompensatedSum(
-        accumulator_load(pixel, layer).xyz,
-        accumulator_load(pixel, compensation_layer).xyz,
-    );
-}
-
-fn store_sum(pixel: vec2<u32>, layer: u32, compensation_layer: u32, acc: CompensatedSum) {
-    accumulator_store(pixel, layer, vec4<f32>(acc.sum, 0.0));
-    accumulator_store(pixel, compensation_layer, vec4<f32>(acc.compensation, 0.0));
-}
-
-// Tested on the bits (all-ones exponent: NaN or infinity), which no
-// floating-point optimisation of the driver's compiler can assume away.
-fn all_finite(v: vec3<f32>) -> bool {
-    let exponent = bitcast<vec3<u32>>(v) & vec3<u32>(0x7f800000u);
-    return all(exponent != vec3<u32>(0x7f800000u));
-}
-
-// A camera ray and the weight its sample carries (filter importance sampling:
-// the offset from the pixel centre is drawn from the pixel filter).
+// A camera ray, the weight its sample carries (filter importance sampling:
+// the offset from the pixel centre is drawn from the pixel filter) and, for
+// splatting, where in its pixel it left ([0, 1)^2).
 struct CameraRay {
     ray: Ray,
     weight: f32,
+    position: vec2<f32>,
 }
 
 fn camera_ray(pixel: vec2<u32>) -> CameraRay {
@@ -58,19 +20,18 @@ fn camera_ray(pixel: vec2<u32>) -> CameraRay {
     let to_film = params.to_pixel00
         + (f32(pixel.x) + offset.x) * params.delta_u
         + (f32(pixel.y) + offset.y) * params.delta_v;
-    return CameraRay(camera_ray_through(to_film), offset.z);
+    return CameraRay(camera_ray_through(to_film), offset.z, offset.xy + 0.5);
 #else
-    // Box filter: a uniformly jittered point of the pixel.
+    // Box filter, or splatting (which weighs the sample into every pixel its
+    // filter reaches, splat.wgsl): a uniformly jittered point of the pixel.
     let jitter = sample_2d();
     let to_film = params.to_pixel00
         + (f32(pixel.x) + jitter.x - 0.5) * params.delta_u
         + (f32(pixel.y) + jitter.y - 0.5) * params.delta_v;
-    return CameraRay(camera_ray_through(to_film), 1.0);
+    return CameraRay(camera_ray_through(to_film), 1.0, jitter);
 #endif
 }
 
-// The ray through the point `to_film` of the image plane (from the eye, which
-// the plane is 1 ahead of; for the orthographic view, the plane through it).
 fn camera_ray_through(to_film: vec3<f32>) -> Ray {
 #if ORTHOGRAPHIC
     // Mitsuba's `orthographic`: along the view axis (delta_u x delta_v: the
@@ -178,6 +139,11 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
     let reset = params.reset != 0u;
 #endif
 
+#if SPLAT
+    // Each sample goes to the splatting pass, which adds it to the sums of
+    // every pixel its filter reaches (splat.wgsl).
+    let image_pixels = params.width * params.height;
+#else
     var radiance_sum = load_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, reset);
 #if VARIANCE
     var squares_sum = load_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, reset);
@@ -189,11 +155,12 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
         replicate_sums[r] = load_sum(pixel, LAYER_REPLICATES + 2u * r, LAYER_REPLICATES + 2u * r + 1u, reset);
     }
 #endif
+#endif
 
     var samples_done = 0u;
     var segments = 0u;
     sampler_begin(pixel_index, sample_start);
-    let camera = camera_ray(pixel);
+    var camera = camera_ray(pixel);
     var ray = camera.ray;
     var throughput = vec3<f32>(camera.weight);
     var radiance = vec3<f32>(0.0);
@@ -447,6 +414,10 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 atomicAdd(&counters.discarded, 1u);
                 radiance = vec3<f32>(0.0);
             }
+#if SPLAT
+            splat_samples[samples_done * image_pixels + pixel_index] =
+                SplatSample(radiance.x, radiance.y, radiance.z, camera.position.x, camera.position.y);
+#else
             compensated_add(&radiance_sum, radiance);
 #if VARIANCE
 #if ADAPTIVE
@@ -472,12 +443,13 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                 }
             }
 #endif
+#endif
             samples_done += 1u;
             if samples_done == params.sample_count {
                 break;
             }
             sampler_begin(pixel_index, sample_start + samples_done);
-            let camera = camera_ray(pixel);
+            camera = camera_ray(pixel);
             ray = camera.ray;
             throughput = vec3<f32>(camera.weight);
             radiance = vec3<f32>(0.0);
@@ -501,6 +473,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
     if before > 0xffffffffu - segments {
         atomicAdd(&counters.segments_high, 1u);
     }
+#if !SPLAT
     store_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, radiance_sum);
 #if VARIANCE
     store_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, squares_sum);
@@ -509,5 +482,6 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
     for (var r = 0u; r < REPLICATES - 1u; r++) {
         store_sum(pixel, LAYER_REPLICATES + 2u * r, LAYER_REPLICATES + 2u * r + 1u, replicate_sums[r]);
     }
+#endif
 #endif
 }

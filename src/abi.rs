@@ -209,6 +209,12 @@ pub const BINDING_ACCUMULATOR: u32 = 1;
 pub const BINDING_COUNTERS: u32 = 2;
 /// Only in an adaptive kernel: the active-pixel list (kernel.wgsl).
 pub const BINDING_ACTIVE_PIXELS: u32 = 3;
+/// Only in a splatting kernel: the submission's samples (sums.wgsl).
+pub const BINDING_SPLAT_SAMPLES: u32 = 4;
+/// Bytes of one sample there (`SplatSample`: radiance and position, 5 × f32).
+pub const SPLAT_SAMPLE_BYTES: u64 = 20;
+/// The splatting pass's entry point (`shaders/splat.wgsl`).
+pub const SPLAT_ENTRY_POINT: &str = "splat";
 
 /// The accumulator's layers: each running sum and its Kahan compensation (the
 /// sum minus the compensation is the sum without the rounding losses).

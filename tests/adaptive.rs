@@ -5,7 +5,7 @@
 mod common;
 
 use pathmix::render::{self, AccumulatorState, RenderOptions, Renderer, StopReason, StopRule};
-use pathmix::scene::{AdaptiveMetric, Sampler, Scene, SceneOverrides};
+use pathmix::scene::{AdaptiveMetric, Reconstruction, Sampler, Scene, SceneOverrides};
 use pathmix::session::checkpoint;
 use pathmix::stats::Accumulation;
 
@@ -324,6 +324,8 @@ fn a_target_error_stops_sooner_where_the_rounds_win() {
         sampler: Some(Sampler::Sobol),
         // The error the target measures, as a session would choose.
         adaptive_metric: Some(AdaptiveMetric::Absolute),
+        // As the adaptive run reconstructs: the rounds against uniform sampling.
+        reconstruction: Some(Reconstruction::Importance),
         ..Default::default()
     }))
     .unwrap();

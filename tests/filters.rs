@@ -331,6 +331,9 @@ fn a_wrong_filter_fails_the_tests() {
     assert!(as_tent.weight_p_value < 1e-6, "{as_tent:?}");
 }
 
+/// Both ways a filter makes pixels of samples (`render.reconstruction`).
+const RECONSTRUCTIONS: [&str; 2] = ["splat", "importance"];
+
 fn filter_toml(filter: Filter) -> String {
     match filter {
         Filter::Box => "\"box\"".into(),
@@ -343,12 +346,15 @@ fn filter_toml(filter: Filter) -> String {
 }
 
 /// Under a constant radiance of 1 (the background, no objects) every filter's
-/// image is 1: the mean weight is 1, over the image within 4 standard errors
+/// image is 1, splatted or drawn from: the mean weight is 1, over the image within 4 standard errors
 /// and in every pixel within 5.
 #[test]
 fn a_constant_scene_renders_its_constant() {
     let ctx = gpu_or_skip!();
-    for filter in FILTERS {
+    for (filter, reconstruction) in FILTERS
+        .iter()
+        .flat_map(|&f| RECONSTRUCTIONS.map(|r| (f, r)))
+    {
         let scene = common::scene_text(&format!(
             r#"
             [camera]
@@ -362,23 +368,24 @@ fn a_constant_scene_renders_its_constant() {
             max_depth = 0
             background = [1, 1, 1]
             sampler = "independent"
+            reconstruction = "{reconstruction}"
             "#,
             filter_toml(filter)
         ));
         assert_eq!(scene.camera.filter, filter);
         let acc = common::render(ctx, &scene, &common::with_variance());
         let (mean, error) = common::image_mean_and_error(&acc);
-        println!("{filter:?}: {mean:.5} ± {error:.5}");
+        println!("{filter:?} by {reconstruction}: {mean:.5} ± {error:.5}");
         assert!(
             (mean - 1.0).abs() < 4.0 * error + 1e-6,
-            "{filter:?}: {mean} ± {error}"
+            "{filter:?} by {reconstruction}: {mean} ± {error}"
         );
         let (means, errors) = (acc.mean(), acc.standard_error().unwrap());
         for (m, e) in means.pixels.iter().zip(&errors.pixels) {
             let (m, e) = (f64::from(m[0]), f64::from(e[0]));
             assert!(
                 (m - 1.0).abs() < 5.0 * e + 1e-6,
-                "{filter:?}: a pixel {m} ± {e}"
+                "{filter:?} by {reconstruction}: a pixel {m} ± {e}"
             );
         }
     }
@@ -397,7 +404,9 @@ fn tent_cdf(radius: f64, t: f64) -> f64 {
 /// the filter's share on the light's side, `∫_{-r}^{-d} f / ∫ f` for the pixel
 /// centre at `d` pixels from the edge: the tent's in closed form, the others'
 /// by quadrature, overshoot and undershoot included (within 4 standard errors).
-/// Pixels beyond the radius are exactly 0, or 1 on average.
+/// Pixels beyond the radius are exactly 0, or 1 on average. Both ways of
+/// reconstruction: splatting's share at the image's edge is of the filter
+/// truncated there, which here is all lit or all dark alike.
 #[test]
 fn a_light_edge_is_the_filters_integral() {
     let ctx = gpu_or_skip!();
@@ -408,8 +417,11 @@ fn a_light_edge_is_the_filters_integral() {
             Filter::Tent { radius } => tent_cdf(radius.into(), t),
             _ => integral(&*f, -r, t.clamp(-r, r)) / total,
         };
-        let what = format!("{filter:?}");
-        common::assert_light_edge(ctx, (12, 65536), &filter_toml(filter), r, share, &what);
+        for reconstruction in RECONSTRUCTIONS {
+            let what = format!("{filter:?} by {reconstruction}");
+            let filter = (&filter_toml(filter)[..], reconstruction);
+            common::assert_light_edge(ctx, (12, 65536), filter, r, share, &what);
+        }
     }
 }
 

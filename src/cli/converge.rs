@@ -61,7 +61,8 @@ pub struct ConvergeArgs {
     pub reference_spp: u32,
     /// Comma-separated strategies to measure: cosine, light, nee-mis, mixture (weight
     /// 0.5), mixture:W; each with `+adaptive` for adaptive sampling (rungs are then
-    /// sample budgets: the uniform run's total), e.g. mixture,mixture+adaptive. Default:
+    /// sample budgets: the uniform run's total) and `+importance` for offsets drawn
+    /// from the pixel filter instead of splatting, e.g. mixture,mixture+adaptive. Default:
     /// cosine,light,nee-mis,mixture:0.25,mixture:0.5,mixture:0.75.
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = Variant::parse)]
     pub variants: Option<Vec<Variant>>,

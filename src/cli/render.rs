@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::{RenderError, RenderOptions, RunSummary, StopReason, StopRule};
 use pathmix::scene::mitsuba::Define;
-use pathmix::scene::{AdaptiveMetric, Sampler, SceneOverrides, Strategy};
+use pathmix::scene::{AdaptiveMetric, Reconstruction, Sampler, SceneOverrides, Strategy};
 use pathmix::session::checkpoint;
 use pathmix::session::pilot::{self, Pilot};
 use pathmix::session::shard;
@@ -63,6 +63,12 @@ pub struct RenderArgs {
     /// (bright pixels take most samples) [scene: render.adaptive_metric].
     #[arg(long, value_enum)]
     pub adaptive_metric: Option<AdaptiveMetricArg>,
+    /// How a filter wider than a pixel makes each pixel of the samples around
+    /// it: splat (default: each sample weighted into every pixel the filter
+    /// reaches, as Mitsuba does) or importance (each sample's offset drawn from
+    /// the filter, kept by its own pixel) [scene: render.reconstruction].
+    #[arg(long, value_enum)]
+    pub reconstruction: Option<ReconstructionArg>,
     /// With adaptive sampling: also write each pixel's sample count (OpenEXR, in
     /// every channel).
     #[arg(long, value_name = "FILE")]
@@ -215,6 +221,23 @@ impl From<AdaptiveMetricArg> for AdaptiveMetric {
         match arg {
             AdaptiveMetricArg::Relative => AdaptiveMetric::Relative,
             AdaptiveMetricArg::Absolute => AdaptiveMetric::Absolute,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ReconstructionArg {
+    /// Each sample weighted into every pixel its filter reaches (the default).
+    Splat,
+    /// Each sample's offset drawn from the filter, the sample kept by its pixel.
+    Importance,
+}
+
+impl From<ReconstructionArg> for Reconstruction {
+    fn from(arg: ReconstructionArg) -> Reconstruction {
+        match arg {
+            ReconstructionArg::Splat => Reconstruction::Splat,
+            ReconstructionArg::Importance => Reconstruction::Importance,
         }
     }
 }
@@ -399,6 +422,7 @@ fn request(args: &RenderArgs) -> Request {
             rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
             sampler: args.sampler.map(Sampler::from),
             adaptive_metric: args.adaptive_metric.map(AdaptiveMetric::from),
+            reconstruction: args.reconstruction.map(Reconstruction::from),
         },
         spp: args.spp,
         auto_strategy: matches!(args.strategy, Some(StrategyArg::Auto)),

@@ -2,13 +2,19 @@
 //! layouts derived from the same config as the WGSL.
 
 use super::context::GpuContext;
-use crate::abi::{BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS};
+use crate::abi::{
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
+    BINDING_SPLAT_SAMPLES, SPLAT_ENTRY_POINT,
+};
 use crate::kernel::{AccumulatorKind, ENTRY_POINT, KernelConfig};
 use crate::shader::ComposeError;
 
 pub struct Kernel {
     pub config: KernelConfig,
     pub pipeline: wgpu::ComputePipeline,
+    /// With `config.splat`: the splatting pass, run after each submission's
+    /// samples (same bind groups).
+    pub splat_pipeline: Option<wgpu::ComputePipeline>,
     pub frame_layout: wgpu::BindGroupLayout,
     pub scene_layout: wgpu::BindGroupLayout,
 }
@@ -69,6 +75,9 @@ impl Kernel {
         if config.adaptive {
             frame_entries.push(compute_entry(BINDING_ACTIVE_PIXELS, storage_buffer(true)));
         }
+        if config.splat {
+            frame_entries.push(compute_entry(BINDING_SPLAT_SAMPLES, storage_buffer(false)));
+        }
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -110,9 +119,36 @@ impl Kernel {
                 },
                 cache: None,
             });
+        let splat_pipeline = match config.splat {
+            true => {
+                let module = ctx
+                    .device
+                    .create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some("splatting"),
+                        source: wgpu::ShaderSource::Wgsl(config.splat_source()?.into()),
+                    });
+                let constants = config.filter.constants();
+                Some(
+                    ctx.device
+                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some("splatting"),
+                            layout: Some(&layout),
+                            module: &module,
+                            entry_point: Some(SPLAT_ENTRY_POINT),
+                            compilation_options: wgpu::PipelineCompilationOptions {
+                                constants: &constants,
+                                zero_initialize_workgroup_memory: false,
+                            },
+                            cache: None,
+                        }),
+                )
+            }
+            false => None,
+        };
         Ok(Kernel {
             config,
             pipeline,
+            splat_pipeline,
             frame_layout,
             scene_layout,
         })

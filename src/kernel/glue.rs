@@ -6,13 +6,13 @@
 use super::{ArraySource, KernelConfig, LightTablePart, SceneArray, WORKGROUP_SIZE};
 use crate::abi::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_ERROR_STRIPS,
-    BINDING_PARAMS, ERROR_STRIP_PIXELS, ERROR_WORKGROUP_SIZE, GpuLayout, LAYER_REPLICATES,
-    LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION, MATERIAL_FLAGS,
-    REPLICATES, TEXTURE_ARRAY_WIDTH, WgslValue,
+    BINDING_PARAMS, BINDING_SPLAT_SAMPLES, ERROR_STRIP_PIXELS, ERROR_WORKGROUP_SIZE, GpuLayout,
+    LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
+    MATERIAL_FLAGS, REPLICATES, TEXTURE_ARRAY_WIDTH, WgslValue,
 };
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
-    ErasedLayout, FILTER_TABLE_BINS, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
+    ErasedLayout, FILTER_TABLE_BINS, Filter, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
     MATERIAL_KINDS, MATERIAL_NESTING, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT,
     MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT, PRIMITIVE_KINDS,
     PrimitiveKind, ROUGH_TRANSMITTANCE_RES, texture_constants,
@@ -35,6 +35,7 @@ pub fn shared_constants() -> String {
     constant("BINDING_ACCUMULATOR", BINDING_ACCUMULATOR);
     constant("BINDING_COUNTERS", BINDING_COUNTERS);
     constant("BINDING_ACTIVE_PIXELS", BINDING_ACTIVE_PIXELS);
+    constant("BINDING_SPLAT_SAMPLES", BINDING_SPLAT_SAMPLES);
     constant("BINDING_ERROR_STRIPS", BINDING_ERROR_STRIPS);
     constant("ERROR_STRIP_PIXELS", ERROR_STRIP_PIXELS);
     constant("ERROR_WORKGROUP_SIZE", ERROR_WORKGROUP_SIZE);
@@ -83,6 +84,27 @@ pub fn filter_table(table: &FilterTable) -> String {
     }
     out.push_str("fn filter_bins_at(i: u32) -> vec2<f32> {\n");
     index_tree(&mut out, "filter_bins", 0..FILTER_TABLE_BINS, "    ");
+    out.push_str("}\n");
+    out
+}
+
+/// The splatting pass's reach and edge integrals (`shaders/splat.wgsl`):
+/// `SPLAT_REACH` and `splat_edge_integral(j)`, `Filter::splat_edge_integrals`
+/// bit for bit, through a tree of `if`s like the filter's table.
+pub fn splat_window(filter: Filter) -> String {
+    let integrals = filter.splat_edge_integrals();
+    let mut out = format!("const SPLAT_REACH: u32 = {}u;\n", filter.splat_reach());
+    for (j, integral) in integrals.iter().enumerate() {
+        let constant = element_constant("splat_edge", j);
+        writeln!(
+            out,
+            "const {constant}: f32 = {};",
+            (*integral as f32).wgsl_value()
+        )
+        .unwrap();
+    }
+    out.push_str("fn splat_edge_integral(i: u32) -> f32 {\n");
+    index_tree(&mut out, "splat_edge", 0..integrals.len(), "    ");
     out.push_str("}\n");
     out
 }

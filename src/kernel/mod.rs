@@ -30,6 +30,8 @@ pub const STRATEGY: ShaderModule = shader_module!("strategy");
 pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture");
 pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
 pub const KERNEL: ShaderModule = shader_module!("kernel");
+pub const SUMS: ShaderModule = shader_module!("sums");
+pub const SPLAT: ShaderModule = shader_module!("splat");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
@@ -63,6 +65,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "NESTED_MATERIALS",
     "THIN_LENS",
     "ORTHOGRAPHIC",
+    "SPLAT",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -368,8 +371,11 @@ pub struct KernelConfig {
     pub bvh_stack: u32,
     /// The same for the light groups' BVHs (the deepest's levels).
     pub light_bvh_stack: u32,
-    /// The pixel filter camera rays are drawn from.
+    /// The pixel filter camera rays are drawn from, or their samples splatted by.
     pub filter: Filter,
+    /// Samples are splatted into the pixels around by the filter
+    /// (`Reconstruction::Splat`, `shaders/splat.wgsl`) rather than drawn from it.
+    pub splat: bool,
     /// How camera rays leave the camera (`camera_ray`).
     pub camera: CameraModel,
     /// Some material of the scene is one-sided (black from behind).
@@ -605,6 +611,7 @@ impl KernelConfig {
                 .map_or(accel::MAX_DEPTH, |bvh| bvh.depth + 1),
             light_bvh_stack,
             filter,
+            splat: false,
             camera,
             one_sided: data.has_one_sided_materials(),
             masked: data.has_masked_materials(),
@@ -671,6 +678,7 @@ impl KernelConfig {
             bvh_stack: accel::MAX_DEPTH,
             light_bvh_stack: accel::MAX_DEPTH,
             filter: Filter::Box,
+            splat: false,
             camera: CameraModel::Pinhole,
             one_sided: true,
             masked: true,
@@ -814,13 +822,20 @@ impl KernelConfig {
             ("NESTED_MATERIALS", self.nested_materials()),
             ("THIN_LENS", self.camera == CameraModel::ThinLens),
             ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
+            ("SPLAT", self.splat),
         ];
         for (flag, on) in features {
             if on {
                 flags.insert(flag.to_string());
             }
         }
-        flags.extend(self.filter.flags().iter().map(|flag| flag.to_string()));
+        // A splatting kernel draws no offsets; its pass evaluates the filter.
+        let filter_flags = self.filter.flags().iter();
+        flags.extend(
+            filter_flags
+                .filter(|&&flag| !(self.splat && flag == "FILTER_OFFSET"))
+                .map(|flag| flag.to_string()),
+        );
         flags
     }
 
@@ -858,9 +873,33 @@ impl KernelConfig {
         }
         modules.push(STRATEGY);
         modules.push(self.accumulate_module());
-        modules.extend(self.filter_modules());
+        modules.push(SUMS);
+        if !self.splat {
+            modules.extend(self.filter_modules());
+        }
         modules.push(KERNEL);
         modules
+    }
+
+    /// The splatting pass over this kernel's samples and accumulator
+    /// (`shaders/splat.wgsl`), whose override constants are `filter.constants()`.
+    pub fn splat_source(&self) -> Result<String, ComposeError> {
+        let mut modules = vec![
+            ShaderModule {
+                name: "constants",
+                source: glue::shared_constants().into(),
+            },
+            COMMON,
+            self.accumulate_module(),
+            SUMS,
+        ];
+        modules.extend(self.filter_modules());
+        modules.push(ShaderModule {
+            name: "splat_window",
+            source: glue::splat_window(self.filter).into(),
+        });
+        modules.push(SPLAT);
+        self.compose(&modules)
     }
 
     /// The pixel filter's sampler and, for a tabulated filter, its table;
@@ -1197,7 +1236,9 @@ impl KernelConfig {
             ("LIGHT_WEIGHT", self.light_weight as f64),
             ("RR_DEPTH", self.rr_depth.unwrap_or(u32::MAX) as f64),
         ];
-        constants.extend(self.filter.constants());
+        if !self.splat {
+            constants.extend(self.filter.constants());
+        }
         constants
     }
 
@@ -1441,6 +1482,7 @@ pub(crate) mod tests {
             sampler: Sampler::Sobol,
             adaptive: false,
             adaptive_metric: None,
+            reconstruction: None,
         };
         for strategy in Strategy::ALL {
             for storage in [

@@ -57,6 +57,7 @@ pub(crate) use delta_light::{light_keys, light_types};
 pub use disk::{Disk, PackedDisk};
 pub use filter::{
     FILTER_FLAGS, FILTER_MODULE, FILTER_TABLE_BINS, Filter, FilterTable, GaussianFilterTerms,
+    Reconstruction,
 };
 pub(crate) use material::NAMED_IORS;
 pub use material::{

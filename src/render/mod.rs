@@ -4,8 +4,9 @@
 pub mod adaptive;
 
 use crate::abi::{
-    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, Counters,
-    LAYER_SQUARES, LAYER_SUM, Params, RAY_OFFSET_RELATIVE, REPLICATES, replicate_layer,
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
+    BINDING_SPLAT_SAMPLES, Counters, LAYER_SQUARES, LAYER_SUM, Params, RAY_OFFSET_RELATIVE,
+    REPLICATES, SPLAT_SAMPLE_BYTES, replicate_layer,
 };
 use crate::accel::{self, WideBvh};
 use crate::gpu::accumulator::{Accumulator, compensated_sums, map_read};
@@ -18,7 +19,7 @@ use crate::kernel::{
 };
 use crate::kinds::{MASK_RAY_HITS, MATERIAL_NESTING, PRIMITIVE_KINDS};
 use crate::pack::{CameraFrame, SceneData};
-use crate::scene::{Sampler, Scene, Strategy};
+use crate::scene::{Filter, Reconstruction, Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
 use crate::stats::{Accumulation, Replicates};
 use std::cell::OnceCell;
@@ -227,6 +228,8 @@ pub struct Renderer<'a> {
     paths_per_submission: u64,
     /// Most samples one dispatch may trace per pixel (see `LOOP_ITERATION_BUDGET`).
     max_samples_per_dispatch: u32,
+    /// A splatting kernel's samples of a submission, and how many per pixel it holds.
+    splat_samples: Option<(wgpu::Buffer, u32)>,
     submission_seconds: f64,
     /// The error estimate's pipeline, built at the first `error_sums`.
     error_estimator: OnceCell<ErrorEstimator>,
@@ -293,6 +296,17 @@ impl<'a> Renderer<'a> {
                 | wgpu::BufferUsages::COPY_DST,
         });
         let pixels = width as usize * height as usize;
+        let splat_samples = kernel.config.splat.then(|| {
+            let samples = splat_samples_per_submission(ctx, kernel.config.filter, width, height)
+                .expect("`plan_kernel` splats only what fits");
+            let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("splat samples"),
+                size: pixels as u64 * samples as u64 * SPLAT_SAMPLE_BYTES,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            });
+            (buffer, samples)
+        });
         let adaptive = kernel.config.adaptive.then(|| AdaptiveRun {
             counts: vec![0; pixels],
             round: Vec::new(),
@@ -326,6 +340,12 @@ impl<'a> Renderer<'a> {
             frame_entries.push(wgpu::BindGroupEntry {
                 binding: BINDING_ACTIVE_PIXELS,
                 resource: adaptive.list.as_entire_binding(),
+            });
+        }
+        if let Some((buffer, _)) = &splat_samples {
+            frame_entries.push(wgpu::BindGroupEntry {
+                binding: BINDING_SPLAT_SAMPLES,
+                resource: buffer.as_entire_binding(),
             });
         }
         let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -438,6 +458,7 @@ impl<'a> Renderer<'a> {
             first_sample: 0,
             paths_per_submission: 1 << 18,
             max_samples_per_dispatch,
+            splat_samples,
             submission_seconds: options.submission_seconds,
             error_estimator: OnceCell::new(),
             warnings,
@@ -504,11 +525,14 @@ impl<'a> Renderer<'a> {
         }
         let max_samples = max_samples.min(submission_samples);
         let (width, height) = self.size();
+        let splat_limit = self.splat_samples.as_ref().map_or(u32::MAX, |(_, n)| *n);
         let (samples, rows) = submission_shape(
             self.paths_per_submission,
             width,
             height,
-            max_samples.min(self.max_samples_per_dispatch),
+            max_samples
+                .min(self.max_samples_per_dispatch)
+                .min(splat_limit),
         );
         let started = Instant::now();
         let mut row = 0;
@@ -517,6 +541,7 @@ impl<'a> Renderer<'a> {
             self.dispatch([0, row], [width, tile_rows], samples);
             row += tile_rows;
         }
+        self.splat(samples);
         self.wait();
         self.samples += samples;
         let paths = width as u64 * height as u64 * samples as u64;
@@ -581,6 +606,7 @@ impl<'a> Renderer<'a> {
         let width = self.size().0;
         for _ in 0..2 {
             self.dispatch([0, 0], [width, 1], 1);
+            self.splat(1);
             self.wait();
         }
         self.reset();
@@ -596,6 +622,38 @@ impl<'a> Renderer<'a> {
             ..self.params
         };
         self.submit(params);
+    }
+
+    /// A splatting kernel's pass over the `samples` per pixel just traced
+    /// (`shaders/splat.wgsl`); nothing for other kernels.
+    fn splat(&mut self, samples: u32) {
+        let Some(pipeline) = &self.kernel.splat_pipeline else {
+            return;
+        };
+        let (width, height) = self.size();
+        let params = Params {
+            sample_start: self.first_sample.saturating_add(self.samples),
+            sample_count: samples,
+            tile_size: [width, height],
+            reset: (self.samples == 0) as u32,
+            ..self.params
+        };
+        self.ctx
+            .queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.frame_group, &[]);
+            pass.set_bind_group(1, &self.scene_group, &[]);
+            pass.dispatch_workgroups(
+                width.div_ceil(WORKGROUP_SIZE.0),
+                height.div_ceil(WORKGROUP_SIZE.1),
+                1,
+            );
+        }
+        self.ctx.queue.submit([encoder.finish()]);
     }
 
     /// The adaptive kernel's submission: `samples` samples from the round's
@@ -1071,9 +1129,11 @@ pub fn plan_kernel(
     if options.adaptive && config.sampler != Sampler::Sobol {
         return Err(RenderError::AdaptiveNeedsSobol);
     }
+    let mut warnings = warnings;
     let config = KernelConfig {
         variance: config.variance || options.adaptive,
         adaptive: options.adaptive,
+        splat: choose_splat(ctx, scene, options, &mut warnings),
         ..config
     };
     let config = KernelConfig {
@@ -1088,6 +1148,38 @@ pub fn plan_kernel(
         warnings,
         dropped_materials,
     })
+}
+
+/// Whether the run splats its samples (`Reconstruction::Splat`): by default
+/// wherever the filter is wider than a pixel (splatting with the box filter is
+/// filter importance sampling), unless the run is adaptive, whose pixels'
+/// sample counts differ, or the image is too large for it; a note where the
+/// scene asked for it and cannot have it.
+fn choose_splat(
+    ctx: &GpuContext,
+    scene: &Scene,
+    options: &RenderOptions,
+    warnings: &mut Vec<String>,
+) -> bool {
+    let filter = scene.camera.filter;
+    if scene.render.reconstruction_with(filter) == Reconstruction::Importance {
+        return false;
+    }
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let reason = if options.adaptive {
+        "adaptive sampling's pixels take different numbers of samples"
+    } else if splat_samples_per_submission(ctx, filter, width, height).is_none() {
+        "one sample of every pixel is more than the device can hold in one buffer"
+    } else {
+        return true;
+    };
+    if scene.render.reconstruction == Some(Reconstruction::Splat) {
+        warnings.push(format!(
+            "the {} filter is applied by importance sampling, not splatting: {reason}",
+            filter.name()
+        ));
+    }
+    false
 }
 
 /// Refuses, before the device is asked, a scene whose buffers exceed the
@@ -1389,6 +1481,32 @@ const LOOP_ITERATION_BUDGET: u64 = 32768;
 
 /// lavapipe's limit itself: loop iterations of one invocation, all loops together.
 const DRIVER_LOOP_LIMIT: u64 = 65535;
+
+/// Bytes a splatting kernel's buffer of samples may take: a submission traces
+/// at most as many samples per pixel as fit (at least one).
+const SPLAT_BUFFER_BYTES: u64 = 64 << 20;
+
+/// Samples per pixel a splatting submission may trace (`Renderer::splat`), or
+/// `None` where splatting cannot run: where one sample of every pixel exceeds
+/// the device's largest storage binding, or one sample's pass over the pixels
+/// around (`(2 reach + 1) (2 reach + 2) + 1` loop iterations) the loop budget.
+pub fn splat_samples_per_submission(
+    ctx: &GpuContext,
+    filter: Filter,
+    width: u32,
+    height: u32,
+) -> Option<u32> {
+    let one_sample = width as u64 * height as u64 * SPLAT_SAMPLE_BYTES;
+    let limits = ctx.limits();
+    let binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let window = 2 * filter.splat_reach() as u64 + 1;
+    let pass_iterations = window * (window + 1) + 1;
+    let samples = (SPLAT_BUFFER_BYTES.max(one_sample).min(binding) / one_sample)
+        .min(LOOP_ITERATION_BUDGET / pass_iterations);
+    (samples >= 1).then(|| samples.min(u32::MAX as u64) as u32)
+}
 
 /// Loop iterations allowed for one ray's BVH traversal at least (see
 /// `max_samples_per_dispatch`).

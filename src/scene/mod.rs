@@ -18,8 +18,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, SceneError, Shapes,
-    Sphere, Spot, Texture, Triangle, excerpt,
+    Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
+    SceneError, Shapes, Sphere, Spot, Texture, Triangle, excerpt,
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
@@ -242,9 +242,25 @@ pub struct RenderSettings {
     /// The error adaptive sampling lowers; `None`: the run's, the one its
     /// stopping rule measures (absolute for a target error, else relative).
     pub adaptive_metric: Option<AdaptiveMetric>,
+    /// How pixels are made of the samples around them; `None`: splatting
+    /// where the filter is wider than a pixel and the run allows it
+    /// (`render::plan_kernel`).
+    pub reconstruction: Option<Reconstruction>,
 }
 
 impl RenderSettings {
+    /// How pixels are made of samples with `filter`, as asked or by default:
+    /// splatting for any filter but the box, by which it is the same as drawing
+    /// offsets from the filter (`render::plan_kernel` may still draw them,
+    /// where a run cannot splat).
+    pub fn reconstruction_with(&self, filter: Filter) -> Reconstruction {
+        match (self.reconstruction, filter) {
+            (_, Filter::Box) => Reconstruction::Importance,
+            (Some(asked), _) => asked,
+            (None, _) => Reconstruction::Splat,
+        }
+    }
+
     /// Russian roulette from this many bounces on (`None`: paths end only at `max_depth`).
     pub fn roulette_depth(&self) -> Option<u32> {
         match self.rr_depth {

@@ -19,8 +19,9 @@ use toml::{Table, Value};
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{load_mesh, vertex_normals};
 use super::{
-    AdaptiveMetric, Camera, Filter, Material, MaterialKind, PointLight, Quad, RenderSettings,
-    Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle, excerpt,
+    AdaptiveMetric, Camera, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
+    RenderSettings, Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle,
+    excerpt,
 };
 use crate::kinds::params::{
     ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_open_angle,
@@ -52,6 +53,7 @@ pub struct SceneOverrides {
     pub rr_depth: Option<Option<u32>>,
     pub sampler: Option<Sampler>,
     pub adaptive_metric: Option<AdaptiveMetric>,
+    pub reconstruction: Option<Reconstruction>,
 }
 
 /// The `render.strategy` that asks for a pilot's choice.
@@ -96,6 +98,7 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "sampler",
     "adaptive",
     "adaptive_metric",
+    "reconstruction",
 ];
 // ---------------------------------------------------------------------------------
 // Entry points
@@ -283,6 +286,9 @@ impl Scene {
         if let Some(v) = o.adaptive_metric {
             self.render.adaptive_metric = Some(v);
         }
+        if let Some(v) = o.reconstruction {
+            self.render.reconstruction = Some(v);
+        }
         Ok(())
     }
 
@@ -387,6 +393,7 @@ fn default_render() -> RenderSettings {
         sampler: Sampler::Sobol,
         adaptive: false,
         adaptive_metric: None,
+        reconstruction: None,
     }
 }
 
@@ -436,6 +443,14 @@ fn parse_render(t: &ParamTable) -> Result<RenderSettings> {
             AdaptiveMetric::from_name,
         )?
         .or(d.adaptive_metric),
+        reconstruction: named(
+            t,
+            "reconstruction",
+            &Reconstruction::ALL,
+            Reconstruction::name,
+            Reconstruction::from_name,
+        )?
+        .or(d.reconstruction),
     })
 }
 
@@ -1977,6 +1992,7 @@ material = "white"
             rr_depth: None,
             sampler: Some(Sampler::Independent),
             adaptive_metric: Some(AdaptiveMetric::Absolute),
+            reconstruction: Some(Reconstruction::Importance),
         };
         s.apply_overrides(&o).unwrap();
         assert_eq!(
@@ -1990,6 +2006,7 @@ material = "white"
         assert_eq!(s.render.light_weight, 1.0);
         assert_eq!(s.render.sampler, Sampler::Independent);
         assert_eq!(s.render.adaptive_metric, Some(AdaptiveMetric::Absolute));
+        assert_eq!(s.render.reconstruction, Some(Reconstruction::Importance));
         s.apply_overrides(&SceneOverrides::default()).unwrap();
         assert_eq!(s.render.spp, 16);
 

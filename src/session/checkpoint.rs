@@ -20,7 +20,9 @@ use crate::kinds::PRIMITIVE_KINDS;
 use crate::output::{self, OutputError};
 use crate::render::adaptive::Choice;
 use crate::render::{AccumulatorState, AdaptiveState};
-use crate::scene::{AdaptiveMetric, RenderSettings, Sampler, Scene, SceneOverrides, Strategy};
+use crate::scene::{
+    AdaptiveMetric, Reconstruction, RenderSettings, Sampler, Scene, SceneOverrides, Strategy,
+};
 use serde::Serialize;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -81,7 +83,7 @@ pub struct SceneIdentity {
     /// mark), and the point lights.
     pub geometry_hash: u64,
     /// Seed, depth, strategy, light weight, background, Russian roulette depth, sampler,
-    /// environment map (its settings and texels).
+    /// environment map (its settings and texels), and splatting where it splats.
     pub settings_hash: u64,
     pub width: u32,
     pub height: u32,
@@ -137,22 +139,40 @@ impl SceneIdentity {
             adaptive: _,
             // Which pixels the rounds sample, not what the run estimates.
             adaptive_metric: _,
+            // Hashed as resolved (`reconstruction_with`), and only where it
+            // splats, so that runs drawing offsets from the filter keep the
+            // hash they had before splatting was a choice.
+            reconstruction: _,
         } = render;
+        let splats = render.reconstruction_with(camera.filter) == Reconstruction::Splat;
         let rr_depth = render.roulette_depth();
         SceneIdentity {
             camera_hash: encoding_hash(camera),
             materials_hash: encoding_hash(materials),
             geometry_hash: encoding_hash(&(shapes, point_lights)),
-            settings_hash: encoding_hash(&(
-                max_depth,
-                strategy,
-                light_weight,
-                background,
-                seed,
-                rr_depth,
-                sampler,
-                environment,
-            )),
+            settings_hash: match splats {
+                false => encoding_hash(&(
+                    max_depth,
+                    strategy,
+                    light_weight,
+                    background,
+                    seed,
+                    rr_depth,
+                    sampler,
+                    environment,
+                )),
+                true => encoding_hash(&(
+                    max_depth,
+                    strategy,
+                    light_weight,
+                    background,
+                    seed,
+                    rr_depth,
+                    sampler,
+                    environment,
+                    Reconstruction::Splat,
+                )),
+            },
             width: camera.width,
             height: camera.height,
             seed: *seed,
@@ -252,7 +272,7 @@ impl SceneIdentity {
                 now.sampler.to_string(),
             );
             if fields.is_empty() {
-                fields.push("background".into());
+                fields.push("background or reconstruction (splatting or not)".into());
             }
             out.push(format!("the render settings differ: {}", fields.join(", ")));
         }
@@ -608,6 +628,9 @@ fn header(c: &Checkpoint) -> String {
     if let Some(m) = o.adaptive_metric {
         overrides.insert("adaptive_metric".into(), m.name().into());
     }
+    if let Some(r) = o.reconstruction {
+        overrides.insert("reconstruction".into(), r.name().into());
+    }
     root.insert("overrides".into(), overrides.into());
     let s = &c.state;
     let mut state = toml::Table::new();
@@ -792,6 +815,7 @@ fn parse_header(
         },
         sampler: named_in(o, "sampler", Sampler::from_name)?,
         adaptive_metric: named_in(o, "adaptive_metric", AdaptiveMetric::from_name)?,
+        reconstruction: named_in(o, "reconstruction", Reconstruction::from_name)?,
     };
     let s = table("state")?;
     let need = |key: &str| u32_in(s, "state", key)?.ok_or_else(|| missing(format!("state.{key}")));
@@ -1260,6 +1284,8 @@ mod tests {
                 sampler: Sampler::Sobol,
                 adaptive: false,
                 adaptive_metric: None,
+                // Its hash from before splatting was a choice (`SceneIdentity::of`).
+                reconstruction: Some(Reconstruction::Importance),
             },
             materials: vec![
                 Material {
@@ -1402,7 +1428,7 @@ mod tests {
     #[test]
     fn each_part_changes_with_a_field_in_it() {
         type Change = fn(&mut Scene);
-        let changes: [(&str, &str, Change); 11] = [
+        let changes: [(&str, &str, Change); 12] = [
             ("camera", "filter", |s| {
                 s.camera.filter = Filter::Gaussian { stddev: 0.6 }
             }),
@@ -1442,6 +1468,9 @@ mod tests {
                 Arc::make_mut(&mut map.texels)[3][0] = 2.5;
             }),
             ("settings", "light weight", |s| s.render.light_weight = 0.25),
+            ("settings", "reconstruction", |s| {
+                s.render.reconstruction = None
+            }),
         ];
         let base = SceneIdentity::of(&small_scene());
         let parts = |i: &SceneIdentity| {

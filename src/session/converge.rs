@@ -18,7 +18,7 @@ mod plot;
 use crate::gpu::GpuContext;
 use crate::output::{self, Image, OutputError};
 use crate::render::{self, Progress, RenderError, RenderOptions, Renderer, StopRule};
-use crate::scene::{Scene, SceneOverrides, Strategy};
+use crate::scene::{Reconstruction, Scene, SceneOverrides, Strategy};
 use crate::session::checkpoint::Fnv64;
 use crate::stats;
 use std::fmt::{self, Write as _};
@@ -29,7 +29,8 @@ use std::time::{Duration, Instant};
 pub use plot::plot_png;
 
 /// A strategy to measure: `cosine`, `light`, `nee-mis`, or `mixture` with its light
-/// weight; uniformly or with adaptive sampling.
+/// weight; uniformly or with adaptive sampling; splatting its samples (where the
+/// scene's filter is wider than a pixel) or drawing offsets from the filter.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Variant {
     pub strategy: Strategy,
@@ -37,6 +38,9 @@ pub struct Variant {
     pub light_weight: Option<f32>,
     /// Adaptive sampling (`crate::render::adaptive`); its rungs are sample budgets.
     pub adaptive: bool,
+    /// Offsets drawn from the pixel filter (`Reconstruction::Importance`)
+    /// instead of the scene's reconstruction.
+    pub importance: bool,
 }
 
 impl Variant {
@@ -47,16 +51,19 @@ impl Variant {
         strategy: Strategy::Bsdf,
         light_weight: None,
         adaptive: false,
+        importance: false,
     };
     pub const LIGHT: Variant = Variant {
         strategy: Strategy::Light,
         light_weight: None,
         adaptive: false,
+        importance: false,
     };
     pub const NEE_MIS: Variant = Variant {
         strategy: Strategy::NeeMis,
         light_weight: None,
         adaptive: false,
+        importance: false,
     };
 
     pub fn mixture(light_weight: f32) -> Variant {
@@ -64,6 +71,7 @@ impl Variant {
             strategy: Strategy::Mixture,
             light_weight: Some(light_weight),
             adaptive: false,
+            importance: false,
         }
     }
 
@@ -80,7 +88,8 @@ impl Variant {
     }
 
     /// `cosine`, `light`, `nee-mis`, `mixture` (weight 0.5) or `mixture:W` with W in
-    /// [0, 1], each with `+adaptive` for adaptive sampling.
+    /// [0, 1], each with `+adaptive` for adaptive sampling and `+importance` for
+    /// offsets drawn from the filter, in either order.
     pub fn parse(text: &str) -> Result<Variant, String> {
         let text = text.trim();
         if let Some(uniform) = text.strip_suffix("+adaptive") {
@@ -90,6 +99,16 @@ impl Variant {
             }
             return Ok(Variant {
                 adaptive: true,
+                ..variant
+            });
+        }
+        if let Some(splatted) = text.strip_suffix("+importance") {
+            let variant = Variant::parse(splatted)?;
+            if variant.importance {
+                return Err(format!("variant `{text}`: `+importance` once"));
+            }
+            return Ok(Variant {
+                importance: true,
                 ..variant
             });
         }
@@ -114,6 +133,7 @@ impl Variant {
                 strategy,
                 light_weight: None,
                 adaptive: false,
+                importance: false,
             }),
             (_, Some(_)) => Err(format!(
                 "variant `{text}`: only the mixture takes a light weight"
@@ -127,10 +147,9 @@ impl Variant {
             Some(w) => format!("{}:{w}", self.strategy),
             None => self.strategy.to_string(),
         };
-        match self.adaptive {
-            true => format!("{strategy}+adaptive"),
-            false => strategy,
-        }
+        let importance = if self.importance { "+importance" } else { "" };
+        let adaptive = if self.adaptive { "+adaptive" } else { "" };
+        format!("{strategy}{importance}{adaptive}")
     }
 }
 
@@ -528,6 +547,7 @@ pub fn measure_variant(
         .apply_overrides(&SceneOverrides {
             strategy: Some(variant.strategy),
             light_weight: variant.light_weight,
+            reconstruction: variant.importance.then_some(Reconstruction::Importance),
             ..Default::default()
         })
         .map_err(|e| ConvergeError::Input(e.to_string()))?;
@@ -894,6 +914,22 @@ mod tests {
             }
         );
         assert_eq!(Variant::parse(&adaptive.name()), Ok(adaptive));
+        let both = Variant {
+            importance: true,
+            ..adaptive
+        };
+        for text in ["nee-mis+adaptive+importance", "nee-mis+importance+adaptive"] {
+            let variant = Variant::parse(text).unwrap();
+            assert_eq!(
+                variant,
+                Variant {
+                    strategy: Strategy::NeeMis,
+                    light_weight: None,
+                    ..both
+                }
+            );
+            assert_eq!(Variant::parse(&variant.name()), Ok(variant));
+        }
         for bad in [
             "uniform",
             "mixture:1.5",
@@ -902,6 +938,7 @@ mod tests {
             "",
             "cosine+adaptive+adaptive",
             "+adaptive",
+            "light+importance+importance",
         ] {
             assert!(Variant::parse(bad).is_err(), "{bad}");
         }

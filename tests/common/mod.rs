@@ -494,14 +494,15 @@ impl ProbeOutput {
 }
 
 /// Renders `width` x 1 pixels across a vertical light edge through the image
-/// centre with the pixel filter `filter` (its TOML value), `spp` samples, and
+/// centre with the pixel filter `filter` (its TOML value) applied by
+/// `reconstruction` (`render.reconstruction`), `spp` samples, and
 /// asserts pixel `k`'s value is `share(-d)` within 4 standard errors, `d` its
 /// centre's distance from the edge in pixels: the filter's share on the
 /// light's side. Pixels `radius` or more beyond the edge are exactly 0.
 pub fn assert_light_edge(
     ctx: &GpuContext,
     (width, spp): (u32, u32),
-    filter: &str,
+    (filter, reconstruction): (&str, &str),
     radius: f64,
     share: impl Fn(f64) -> f64,
     what: &str,
@@ -521,6 +522,7 @@ pub fn assert_light_edge(
         spp = {spp}
         max_depth = 0
         sampler = "independent"
+        reconstruction = "{reconstruction}"
         [materials.glow]
         type = "light"
         emit = [1, 1, 1]
