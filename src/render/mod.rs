@@ -626,7 +626,7 @@ impl<'a> Renderer<'a> {
 
     /// A splatting kernel's pass over the `samples` per pixel just traced
     /// (`shaders/splat.wgsl`); nothing for other kernels.
-    fn splat(&mut self, samples: u32) {
+    fn splat(&self, samples: u32) {
         let Some(pipeline) = &self.kernel.splat_pipeline else {
             return;
         };
@@ -638,22 +638,7 @@ impl<'a> Renderer<'a> {
             reset: (self.samples == 0) as u32,
             ..self.params
         };
-        self.ctx
-            .queue
-            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.frame_group, &[]);
-            pass.set_bind_group(1, &self.scene_group, &[]);
-            pass.dispatch_workgroups(
-                width.div_ceil(WORKGROUP_SIZE.0),
-                height.div_ceil(WORKGROUP_SIZE.1),
-                1,
-            );
-        }
-        self.ctx.queue.submit([encoder.finish()]);
+        self.submit_pass(pipeline, params);
     }
 
     /// The adaptive kernel's submission: `samples` samples from the round's
@@ -761,19 +746,26 @@ impl<'a> Renderer<'a> {
         samples
     }
 
-    fn submit(&mut self, params: Params) {
-        let tile_size = params.tile_size;
+    fn submit(&self, params: Params) {
+        let rows = params.tile_size[1].div_ceil(WORKGROUP_SIZE.1);
         let params = Params {
-            workgroup_row_step: workgroup_row_step(tile_size[1].div_ceil(WORKGROUP_SIZE.1)),
+            workgroup_row_step: workgroup_row_step(rows),
             ..params
         };
+        self.submit_pass(&self.kernel.pipeline, params);
+    }
+
+    /// One dispatch of `pipeline` over `params.tile_size`, with the frame's and
+    /// the scene's bind groups.
+    fn submit_pass(&self, pipeline: &wgpu::ComputePipeline, params: Params) {
+        let tile_size = params.tile_size;
         self.ctx
             .queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&params));
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.kernel.pipeline);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.frame_group, &[]);
             pass.set_bind_group(1, &self.scene_group, &[]);
             pass.dispatch_workgroups(
