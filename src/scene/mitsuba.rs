@@ -1655,7 +1655,9 @@ impl<'a> Builder<'a> {
         let (surface, opacity) = self.surface(target, twosided)?;
         if !opacity.is_opaque() {
             return Err(child.origin.error(
-                "a mask inside a BSDF made of two is not supported (put the mask around it)",
+                "a mask inside a BSDF made of two is not supported: pathmix gives a surface one \
+                 opacity, its outer material's, where this one would depend on the side hit or \
+                 the BSDF the blend picks (a mask around the whole BSDF masks both alike)",
             ));
         }
         let table = surface_table(&surface);
