@@ -59,6 +59,29 @@ fn disk_hit_uv(disk: Disk, point: vec3<f32>) -> vec2<f32> {
 }
 #endif
 
+#if BUMP_MAPS
+// Mitsuba's disk's derivatives along its uv (r, phi / 2 pi) at the local
+// point (a, b) = r (cos phi, sin phi): dp_du = cos phi u + sin phi v and
+// dp_dv = 2 pi r (-sin phi u + cos phi v); both zero at the centre, as
+// Mitsuba's.
+fn disk_hit_tangents(disk: Disk, point: vec3<f32>) -> Tangents {
+    let planar = point - disk.center;
+    let a = dot(disk.w, cross(planar, disk.v));
+    let b = dot(disk.w, cross(disk.u, planar));
+    let r = sqrt(a * a + b * b);
+    var inv_r = 0.0;
+    if r > 0.0 {
+        inv_r = 1.0 / r;
+    }
+    let cos_phi = a * inv_r;
+    let sin_phi = b * inv_r;
+    return Tangents(
+        cos_phi * disk.u + sin_phi * disk.v,
+        (2.0 * PI * r) * (cos_phi * disk.v - sin_phi * disk.u),
+    );
+}
+#endif
+
 // Direction from `origin` to a uniformly chosen point on the disk (the concentric
 // map keeps the unit square's stratification).
 fn disk_light_sample(disk: Disk, origin: vec3<f32>, u: vec2<f32>) -> vec3<f32> {

@@ -56,8 +56,17 @@ fn camera_ray_through(to_film: vec3<f32>) -> Ray {
 #if MASK
 // Mitsuba's `mask`: a masked material holds its transparency (1 - opacity)
 // above MATERIAL_TRANSPARENCY_SHIFT of its kind, in fixed point
-// (`kinds::material::MATERIAL_TRANSPARENCY_SHIFT`).
-fn material_transparency(m: Material) -> f32 {
+// (`kinds::material::MATERIAL_TRANSPARENCY_SHIFT`), or, with the flag
+// MATERIAL_OPACITY_TEXTURE, its opacity texture's index + 1 there: the opacity
+// is then the texture's luminance at the hit, clamped to [0, 1] (Mitsuba's
+// `eval_1` of a bitmap), and the path draws against it as against a constant.
+fn material_transparency(m: Material, hit: Hit) -> f32 {
+#if OPACITY_TEXTURES
+    if (m.flags & MATERIAL_OPACITY_TEXTURE) != 0u {
+        let opacity = dot(texture_eval((m.kind >> MATERIAL_TRANSPARENCY_SHIFT) - 1u, hit.uv), vec3<f32>(0.212671, 0.715160, 0.072169));
+        return 1.0 - clamp(opacity, 0.0, 1.0);
+    }
+#endif
     return f32(m.kind >> MATERIAL_TRANSPARENCY_SHIFT) / f32(MATERIAL_TRANSPARENCY_MAX);
 }
 
@@ -90,7 +99,7 @@ fn shadow_transmittance(ray: Ray, distance: f32, segments: ptr<function, u32>) -
         if hit.t >= distance {
             return transmittance;
         }
-        transmittance *= material_transparency(materials_at(hit.material));
+        transmittance *= material_transparency(materials_at(hit.material), hit);
         if transmittance == 0.0 {
             return 0.0;
         }
@@ -209,7 +218,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
             let found = materials_at(hit.material);
             let resolved = resolve_material(found, front_face, hit);
 #if MASK
-            let transparency = material_transparency(found);
+            let transparency = material_transparency(found, hit);
 #endif
 #if TEXTURES
             let material = textured(resolved.material, hit.uv);
@@ -219,7 +228,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #else
 #if MASK
             let found = materials_at(hit.material);
-            let transparency = material_transparency(found);
+            let transparency = material_transparency(found, hit);
 #if TEXTURES
             let material = textured(material_unmasked(found), hit.uv);
 #else
@@ -369,7 +378,7 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                     if shadow_hit.t == F32_MAX {
                         break;
                     }
-                    transmittance *= material_transparency(materials_at(shadow_hit.material));
+                    transmittance *= material_transparency(materials_at(shadow_hit.material), shadow_hit);
                     if transmittance == 0.0 {
                         break;
                     }

@@ -69,6 +69,25 @@ fn sphere_hit_uv(sphere: Sphere, point: vec3<f32>) -> vec2<f32> {
 }
 #endif
 
+#if BUMP_MAPS
+// Mitsuba's sphere's derivatives along its uv: dp_du = 2 pi r (-y, x, 0) and
+// dp_dv = pi r (z cos phi, z sin phi, -rd) of the local point (x, y, z), rd =
+// sqrt(x^2 + y^2); at the poles (rd = 0) dp_du is zero and dp_dv pi r (1, 0, 0),
+// as Mitsuba's.
+fn sphere_hit_tangents(sphere: Sphere, point: vec3<f32>) -> Tangents {
+    let local = (point - sphere.center) / sphere.radius;
+    let rd = sqrt(local.x * local.x + local.y * local.y);
+    var dp_dv = vec3<f32>(1.0, 0.0, 0.0);
+    if rd > 0.0 {
+        dp_dv = vec3<f32>(local.z * local.x / rd, local.z * local.y / rd, -rd);
+    }
+    return Tangents(
+        (2.0 * PI * sphere.radius) * vec3<f32>(-local.y, local.x, 0.0),
+        (PI * sphere.radius) * dp_dv,
+    );
+}
+#endif
+
 // 1 - cos(theta_max) of the cone the sphere subtends, computed without cancellation
 // so a pin-point sphere still gets a finite density.
 fn sphere_cone_one_minus_cos(radius: f32, dist2: f32) -> f32 {

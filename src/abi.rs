@@ -188,6 +188,9 @@ pub const MATERIAL_FLAGS: &[(&str, u32)] = &[
     ("MATERIAL_ONE_SIDED", 4),
     // Its bump texture (`kinds::Bump`) is a normal map, not a height field.
     ("MATERIAL_NORMAL_MAP", 8),
+    // Its opacity is a texture, whose index + 1 the transparency's bits of
+    // `kind` hold (`kinds::MATERIAL_TRANSPARENCY_SHIFT`).
+    ("MATERIAL_OPACITY_TEXTURE", 16),
 ];
 
 /// The value of the bit named `name` of [`MATERIAL_FLAGS`].

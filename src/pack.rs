@@ -7,9 +7,9 @@ use crate::abi::{GpuLayout, PackedMaterial, material_flag};
 use crate::accel::{PrimitiveArrays, WideBvh};
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
-    Bump, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_SHIFT, MaterialTables, NO_LIGHT,
-    PRIMITIVE_KINDS, PackedArray, PrimitiveKind, TextureInfo, TextureTables, pack_material,
-    packed_is_masked, packed_kind_id, packed_nested,
+    Bump, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_SHIFT,
+    MaterialTables, NO_LIGHT, PRIMITIVE_KINDS, PackedArray, PrimitiveKind, TextureInfo,
+    TextureTables, pack_material, packed_is_masked, packed_kind_id, packed_nested,
 };
 use crate::lights::{DeltaLight, LightBvh, LightTables, pack_delta_lights};
 use crate::scene::{Camera, MaterialKind, Scene};
@@ -79,6 +79,11 @@ impl SceneData {
                     if matches!(bump, Bump::NormalMap { .. }) {
                         packed.flags |= material_flag("MATERIAL_NORMAL_MAP");
                     }
+                }
+                // In the transparency's place (`kinds::MATERIAL_TRANSPARENCY_SHIFT`).
+                if let Some(opacity) = &m.opacity_texture {
+                    packed.kind |= (textures.add(opacity) + 1) << MATERIAL_TRANSPARENCY_SHIFT;
+                    packed.flags |= material_flag("MATERIAL_OPACITY_TEXTURE");
                 }
                 // The materials it is made of, by index (`kinds::packed_nested`).
                 for (slot, name) in m.nested.iter().enumerate() {
@@ -266,11 +271,23 @@ impl SceneData {
 
     /// Whether a material rays can hit is masked (`Material::opacity` below 1).
     pub fn has_masked_materials(&self) -> bool {
+        self.hit_materials().any(packed_is_masked)
+    }
+
+    /// Whether a material rays can hit has a textured opacity
+    /// (`Material::opacity_texture`).
+    pub fn has_opacity_textures(&self) -> bool {
+        let flag = material_flag("MATERIAL_OPACITY_TEXTURE");
+        self.hit_materials().any(|m| m.flags & flag != 0)
+    }
+
+    /// The materials of the primitives rays can hit (with repeats).
+    fn hit_materials(&self) -> impl Iterator<Item = &PackedMaterial> {
         self.geometry
             .primitives
             .iter()
             .flat_map(|array| &array.materials)
-            .any(|&m| packed_is_masked(&self.materials[m as usize]))
+            .map(|&m| &self.materials[m as usize])
     }
 
     /// The primitive kinds in the light density.

@@ -77,6 +77,7 @@ impl Setup {
                 emit: glam::Vec3::ZERO,
                 one_sided: false,
                 opacity: 1.0,
+                opacity_texture: None,
                 texture: None,
                 bump: None,
                 nested: Vec::new(),

@@ -165,9 +165,84 @@ fn a_normal_facing_away_is_mirrored() {
     );
 }
 
+/// Spheres and disks orient bump and normal maps by Mitsuba's derivatives
+/// along their uv (`sphere.cpp`, `disk.cpp`), not by a fixed frame about the
+/// normal. The point below the camera:
+/// - on the disk at (0, 0, -5) with u = (0, 0, 10), v = (10, 0, 0): local
+///   (a, b) = (0.5, 0), uv (0.5, 0), dp_du = u, dp_dv = 2 pi 0.5 v = (10 pi, 0,
+///   0): the normal map's frame (s, n x s, n) = (+z, +x, +y), as the quad's,
+///   and a slope g along u gives the normal along (0, 10, -g);
+/// - on the top of the sphere of radius R = 100 / pi about (0, -R, 0): local
+///   (0, 1, 0), uv (1/4, 1/2), dp_du = 2 pi R (-1, 0, 0), dp_dv = pi R (0, 0,
+///   -1): the frame (-x, +z, +y), and a slope g along u gives (g, 200, 0).
+///
+/// The fixed frame (+x, -z, +y) gives other normals in each case. A flat normal
+/// (texel (0.5, 0.5, 1)) and a constant height leave the normal as it was.
+#[test]
+fn spheres_and_disks_orient_their_maps_by_their_uv_derivatives() {
+    let ctx = gpu_or_skip!();
+    let dir = common::TempDir::new("bump", "sphere-disk");
+    write_ramp(&dir);
+    common::write_exr(&dir.join("flat.exr"), 2, 2, |_, _| [0.3; 3]);
+    let disk = "type = \"disk\"\ncenter = [0, 0, -5]\nu = [0, 0, 10]\nv = [10, 0, 0]";
+    let r = 100.0 / PI;
+    let sphere = format!("type = \"sphere\"\ncenter = [0, {}, 0]\nradius = {r}", -r);
+    // Off the y-z plane, so that a normal's x matters too.
+    let light = [0.5, 1.0, -1.0];
+    let bitmap = "{ type = \"bitmap\", file = \"ramp.exr\", wrap_mode = \"clamp\" }";
+    // (floor, what, tangent-frame texel to world normal, slope g to normal)
+    type Frame = fn([f64; 3]) -> [f64; 3];
+    type Slope = fn(f64) -> [f64; 3];
+    let floors: [(&str, &str, Frame, Slope); 2] = [
+        (disk, "disk", |t| [t[1], t[2], t[0]], |g| [0.0, 10.0, -g]),
+        (
+            &sphere,
+            "sphere",
+            |t| [-t[0], t[2], t[1]],
+            |g| [g, 200.0, 0.0],
+        ),
+    ];
+    for (floor, what, frame, slope) in floors {
+        let render = |bump: &str| {
+            mean(
+                ctx,
+                &floor_scene(&dir, (floor, bump), "nee-mis", (EYE, light)),
+            )
+        };
+        let flat = reflected([0.0, 1.0, 0.0], light);
+        assert_close(render(""), flat, &format!("{what}, unbumped"));
+        let constant = "bump = { texture = { type = \"bitmap\", file = \"flat.exr\" }, scale = 7 }";
+        assert_close(render(constant), flat, &format!("{what}, constant height"));
+        for tangent in [
+            [0.0f64, 0.0, 1.0],
+            [-0.6, 0.0, 0.8],
+            [0.0, 0.6, 0.8],
+            [0.3, 0.0, 0.9],
+        ] {
+            let texel = tangent.map(|c| ((c + 1.0) / 2.0) as f32);
+            common::write_exr(&dir.join("normals.exr"), 2, 2, |_, _| texel);
+            let bump = "normal_map = { type = \"bitmap\", file = \"normals.exr\" }";
+            assert_close(
+                render(bump),
+                reflected(frame(tangent), light),
+                &format!("{what}, normal {tangent:?}"),
+            );
+        }
+        for scale in [125.0, -40.0] {
+            let bump = format!("bump = {{ texture = {bitmap}, scale = {scale} }}");
+            assert_close(
+                render(&bump),
+                reflected(slope(0.08 * scale), light),
+                &format!("{what}, bump scale {scale}"),
+            );
+        }
+    }
+}
+
 /// A height that does not change leaves the shading normal exactly as it was:
 /// the same image, bit for bit, as without the bump map, on a scene with
-/// several bounces and both textured and untextured surfaces.
+/// several bounces and both textured and untextured surfaces (the bump on the
+/// quad floor and on the sphere).
 #[test]
 fn a_constant_height_changes_nothing() {
     let ctx = gpu_or_skip!();
@@ -179,7 +254,7 @@ fn a_constant_height_changes_nothing() {
              [render]\nspp = 16\nmax_depth = 4\nstrategy = \"nee-mis\"\nbackground = [0.2, 0.3, 0.4]\n\
              [materials.floor]\ntype = \"roughplastic\"\nalpha = 0.2\n\
              diffuse_reflectance = {{ type = \"checkerboard\", to_uv = {{ scale = 8 }} }}\n{bump}\n\
-             [materials.ball]\ntype = \"lambertian\"\nalbedo = [0.7, 0.5, 0.3]\n\
+             [materials.ball]\ntype = \"lambertian\"\nalbedo = [0.7, 0.5, 0.3]\n{bump}\n\
              [materials.lamp]\ntype = \"light\"\nemit = [4, 4, 4]\n\
              [[objects]]\n{QUAD}\nmaterial = \"floor\"\n\
              [[objects]]\ntype = \"sphere\"\ncenter = [0, 0.5, 0]\nradius = 0.5\nmaterial = \"ball\"\n\

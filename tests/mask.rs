@@ -78,6 +78,86 @@ fn a_masked_plane_is_seen_in_proportion_to_its_opacity() {
     );
 }
 
+/// An opacity that is a texture (`opacity = { type = ..., ... }`): its
+/// luminance at the hit, drawn against as a constant's. The plane of
+/// `a_masked_plane_is_seen_in_proportion_to_its_opacity` with a checkerboard
+/// of one value for its opacity renders as that constant does: 0, every sample
+/// the sky; 1, every sample the plane; 1/2, their mean within noise. Then a
+/// checkerboard of 0 and 1 whose cells are the pixels (the plane exactly fills
+/// the view, 8 cells across): each pixel is the sky or the plane alone, half of
+/// them each, which a texture read anywhere but at the hit (or by its mean)
+/// cannot give.
+#[test]
+fn a_textured_opacity_is_read_where_the_ray_hits() {
+    let ctx = gpu_or_skip!();
+    let albedo = 0.5;
+    // The half-width of the view at the plane: the camera is 1 above it, vfov 20.
+    let h = 10f64.to_radians().tan();
+    let plane = |opacity: &str| {
+        common::scene_text(&format!(
+            r#"
+            [camera]
+            lookfrom = [0, 1, 0]
+            lookat = [0, 0, 0]
+            vup = [0, 0, -1]
+            vfov = 20
+            width = 8
+            height = 8
+            [render]
+            spp = 1024
+            max_depth = 4
+            strategy = "bsdf"
+            sampler = "independent"
+            background = [1, 1, 1]
+            [materials.plane]
+            type = "lambertian"
+            albedo = [{albedo}, {albedo}, {albedo}]
+            opacity = {opacity}
+            [[objects]]
+            type = "quad"
+            q = [{m}, 0, {m}]
+            u = [0, 0, {w}]
+            v = [{w}, 0, 0]
+            material = "plane"
+            "#,
+            m = -h,
+            w = 2.0 * h,
+        ))
+    };
+    let constant = |o: f64| format!("{{ type = \"checkerboard\", color0 = {o}, color1 = {o} }}");
+    let render = |scene: &Scene| common::render(ctx, scene, &common::with_variance());
+    common::assert_every_pixel_is(&render(&plane(&constant(0.0))), 1.0, 0.0, "texture 0");
+    common::assert_every_pixel_is(
+        &render(&plane(&constant(1.0))),
+        albedo as f32,
+        1e-6,
+        "texture 1",
+    );
+    let expected = 0.5 * 1.0 + 0.5 * albedo;
+    for opacity in [constant(0.5), "0.5".to_string()] {
+        let (mean, error) = common::image_mean_and_error(&render(&plane(&opacity)));
+        println!("opacity {opacity}: {mean:.5} ± {error:.5}, expected {expected}");
+        assert!(
+            (mean - expected).abs() < 4.0 * error,
+            "{opacity}: {mean} ± {error} against {expected}"
+        );
+    }
+    let cells = "{ type = \"checkerboard\", color0 = 0, color1 = 1, to_uv = { scale = 4 } }";
+    let image = render(&plane(cells)).mean();
+    let (mut sky, mut seen) = (0, 0);
+    for pixel in &image.pixels {
+        // A ray near a pixel's edge may round into the next cell: 1%.
+        if pixel.iter().all(|&c| (c - 1.0).abs() < 0.01) {
+            sky += 1;
+        } else if pixel.iter().all(|&c| (c - albedo as f32).abs() < 0.01) {
+            seen += 1;
+        } else {
+            panic!("a pixel neither the sky nor the plane: {pixel:?}");
+        }
+    }
+    assert_eq!((sky, seen), (32, 32));
+}
+
 /// Renders the floor patch of `common::assert_lit_floor`'s scene (albedo
 /// `albedo`, straight below `lights`) with `extra` objects and materials added,
 /// under every strategy, direct light only (`max_depth` 1): a BSDF sample that
@@ -124,7 +204,8 @@ fn disk_light(r: f64, h: f64, emit: f64, opacity: f64, up: bool) -> String {
 /// through: the floor's radiance is `1 - opacity` of the unoccluded one,
 /// under every strategy (under `nee-mis` the shadow ray's transmittance and the
 /// BSDF sample's null events weighed against each other by MIS). For an area
-/// light and for a point light (its shadow ray's transmittance alone).
+/// light and for a point light (its shadow ray's transmittance alone); with a
+/// constant opacity and with a texture of the same value.
 #[test]
 fn a_masked_occluder_lets_its_transparency_of_the_light_through() {
     let (r, h, emit, albedo) = (0.5f64, 2.0f64, 4.0f64, 0.6f64);
@@ -133,13 +214,24 @@ fn a_masked_occluder_lets_its_transparency_of_the_light_through() {
     let point = albedo / PI * intensity / (h * h);
     let point_light =
         format!("[[lights]]\ntype = \"point\"\nposition = [0, {h}, 0]\nintensity = {intensity}\n");
-    for opacity in [0.0, 0.5, 1.0] {
+    // A constant opacity, and a texture of that value (evaluated where the
+    // shadow ray or the path passes the occluder).
+    let opacities = [0.0, 0.5, 1.0].into_iter().flat_map(|o| {
+        [
+            (o, format!("{o}")),
+            (
+                o,
+                format!("{{ type = \"checkerboard\", color0 = {o}, color1 = {o} }}"),
+            ),
+        ]
+    });
+    for (opacity, value) in opacities {
         let occluder = format!(
             r#"
             [materials.occluder]
             type = "lambertian"
             albedo = [0.5, 0.5, 0.5]
-            opacity = {opacity}
+            opacity = {value}
             [[objects]]
             type = "quad"
             q = [-5, 1, -5]
@@ -148,7 +240,7 @@ fn a_masked_occluder_lets_its_transparency_of_the_light_through() {
             material = "occluder"
             "#
         );
-        let what = format!("opacity {opacity}");
+        let what = format!("opacity {value}");
         let expected = (1.0 - opacity) * area;
         assert_floor(
             albedo,
@@ -264,4 +356,93 @@ fn a_stack_of_masks_stays_within_the_loop_budget() {
         disk_light(0.5, 2.0, 4.0, 1.0, false)
     ));
     common::render(ctx, &scene, &RenderOptions::default());
+}
+
+/// A textured opacity whose image is missing, or is no image, is refused with
+/// exit code 2 and nothing written, naming the scene file, the field and the
+/// image (in a Mitsuba scene: the file, the line of the element and the image).
+#[test]
+fn a_bad_opacity_image_is_refused_naming_file_field_and_image() {
+    let dir = common::TempDir::new("mask", "bad-opacity");
+    std::fs::write(dir.join("leaf.png"), "not an image").unwrap();
+    let toml = |file: &str| {
+        format!(
+            r#"
+[camera]
+lookfrom = [0, 1, 0]
+lookat = [0, 0, 0]
+vup = [0, 0, -1]
+[materials.leaf]
+type = "lambertian"
+albedo = [0.5, 0.5, 0.5]
+opacity = {{ type = "bitmap", file = "{file}" }}
+[[objects]]
+type = "quad"
+q = [-1, 0, -1]
+u = [0, 0, 2]
+v = [2, 0, 0]
+material = "leaf"
+"#
+        )
+    };
+    let xml = |file: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+<shape type="rectangle">
+<bsdf type="mask">
+<texture name="opacity" type="bitmap"><string name="filename" value="{file}"/></texture>
+<bsdf type="diffuse"/>
+</bsdf>
+</shape>
+<sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film></sensor>
+</scene>
+"#
+        )
+    };
+    let cases = [
+        (
+            "missing.toml",
+            toml("missing.png"),
+            vec!["missing.toml", "materials.leaf.opacity.file", "missing.png"],
+        ),
+        (
+            "garbage.toml",
+            toml("leaf.png"),
+            vec!["garbage.toml", "materials.leaf.opacity.file", "leaf.png"],
+        ),
+        (
+            "missing.xml",
+            xml("missing.png"),
+            vec!["missing.xml:4:", "missing.png"],
+        ),
+        (
+            "garbage.xml",
+            xml("leaf.png"),
+            vec!["garbage.xml:", "opacity", "leaf.png"],
+        ),
+    ];
+    for (name, text, fragments) in cases {
+        let scene = dir.join(name);
+        std::fs::write(&scene, text).unwrap();
+        let out = dir.join("out.png");
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_pathmix"))
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let message = String::from_utf8_lossy(&output.stderr);
+        println!("{name}: {message}");
+        assert_eq!(output.status.code(), Some(2), "{name}: {message}");
+        for fragment in fragments {
+            assert!(
+                message.contains(fragment),
+                "{name}: lacks {fragment:?}: {message}"
+            );
+        }
+        assert!(!out.exists(), "{name}: an image was written");
+    }
 }

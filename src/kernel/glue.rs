@@ -448,21 +448,16 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         }
         if config.bump_maps {
             let kind = PRIMITIVE_KINDS[k];
-            match kind.uv_tangents {
-                true => {
-                    let uvs = match kind.texture_uvs {
-                        Some(_) => format!("{}_at(hit_index), ", kind.uvs_array()),
-                        None => String::new(),
-                    };
-                    write!(
-                        set,
-                        " hit.tangents = {name}_hit_tangents({}_at(hit_index), {uvs}hit.p);",
-                        kind.array
-                    )
-                    .unwrap();
-                }
-                false => set.push_str(" hit.tangents = tangents_about(hit.normal);"),
-            }
+            let uvs = match kind.texture_uvs {
+                Some(_) => format!("{}_at(hit_index), ", kind.uvs_array()),
+                None => String::new(),
+            };
+            write!(
+                set,
+                " hit.tangents = {name}_hit_tangents({}_at(hit_index), {uvs}hit.p);",
+                kind.array
+            )
+            .unwrap();
         }
         set
     };

@@ -55,6 +55,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "SHADING_NORMALS",
     "ONE_SIDED",
     "MASK",
+    "OPACITY_TEXTURES",
     "ENVIRONMENT",
     "LIGHT_ENVIRONMENT",
     "DELTA_LIGHTS",
@@ -383,6 +384,9 @@ pub struct KernelConfig {
     /// Some material of the scene is masked (`Material::opacity` below 1): rays
     /// pass through it by chance and shadow rays by its transparency.
     pub masked: bool,
+    /// Some masked material's opacity is a texture (`Material::opacity_texture`;
+    /// implies `masked` and `textures`), looked up where a ray finds it.
+    pub opacity_textures: bool,
     /// Escaping rays find an environment map's radiance (else the background).
     pub environment: bool,
     /// The environment map is one object of the light density.
@@ -615,6 +619,7 @@ impl KernelConfig {
             camera,
             one_sided: data.has_one_sided_materials(),
             masked: data.has_masked_materials(),
+            opacity_textures: data.has_opacity_textures(),
             environment,
             light_environment: samples_lights && environment,
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
@@ -682,6 +687,7 @@ impl KernelConfig {
             camera: CameraModel::Pinhole,
             one_sided: true,
             masked: true,
+            opacity_textures: true,
             environment: true,
             light_environment: strategy != Strategy::Bsdf,
             delta_lights: true,
@@ -806,6 +812,7 @@ impl KernelConfig {
             ("SHADING_NORMALS", self.shading_normals()),
             ("ONE_SIDED", self.one_sided),
             ("MASK", self.masked),
+            ("OPACITY_TEXTURES", self.opacity_textures),
             ("ENVIRONMENT", self.environment),
             ("LIGHT_ENVIRONMENT", self.light_environment),
             ("DELTA_LIGHTS", self.delta_lights),
@@ -1009,6 +1016,7 @@ impl KernelConfig {
             light_environment: false,
             textures: false,
             bump_maps: false,
+            opacity_textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let mut modules = probe_prelude();
@@ -1415,6 +1423,7 @@ pub(crate) mod tests {
                             delta_light_pick: mask >> (primitives + 1) != 0,
                             textures: variance,
                             bump_maps: variance,
+                            opacity_textures: variance,
                             ..general.clone()
                         });
                     }
@@ -1991,6 +2000,7 @@ pub(crate) mod tests {
             directional_lights: false,
             textures: false,
             bump_maps: false,
+            opacity_textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
         let source = config.source().unwrap();

@@ -122,7 +122,6 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
     },
     shading_normals: None,
     texture_uvs: None,
-    uv_tangents: false,
     grouped_lights: false,
     // Its hit point (the ray meets it by a plane or sphere equation) errs by a
     // few ulps of the extent.

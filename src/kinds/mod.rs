@@ -198,12 +198,13 @@ primitive_kinds! {
 ///   vec2<f32>`: Mitsuba's texture coordinates of the shape at a hit point; a
 ///   kind with `texture_uvs` takes them from its element `uvs` of the array
 ///   `NAME_uvs` as a second argument;
-/// - with `uv_tangents`, under the flag `BUMP_MAPS`, `fn NAME_hit_tangents(p:
-///   S, point: vec3<f32>) -> Tangents` (with the uvs as `NAME_hit_uv` takes
-///   them): the surface's derivatives along its texture coordinates, Mitsuba's
-///   `dp_du` and `dp_dv`, or any frame about the normal where they are
-///   degenerate. Kinds without it use such a frame everywhere
-///   (`shaders/textures.wgsl`).
+/// - under the flag `BUMP_MAPS`, `fn NAME_hit_tangents(p: S, point:
+///   vec3<f32>) -> Tangents` (with the uvs as `NAME_hit_uv` takes them): the
+///   surface's derivatives along its texture coordinates, Mitsuba's `dp_du`
+///   and `dp_dv` (which bump and normal maps orient and scale their
+///   perturbation by), or any frame about the normal where its uvs give none;
+///   zero where Mitsuba's are (a disk's centre, a sphere's poles), which
+///   `bumped_normal` (`shaders/textures.wgsl`) survives.
 ///
 /// The WGSL struct's first `u32` field named `material` indexes the materials.
 /// A kind with `grouped_lights` also has a `u32` field named `light`: the
@@ -234,9 +235,6 @@ pub struct PrimitiveKind {
     /// whose own geometry does not give them (mesh faces); the array exists
     /// only in kernels of scenes with textures.
     pub texture_uvs: Option<ErasedLayout>,
-    /// Its module defines `NAME_hit_tangents`, which bump and normal maps orient
-    /// and scale their perturbation by.
-    pub uv_tangents: bool,
     /// Its lights come in groups (a mesh's faces), each group one object of the
     /// light density, a member picked by power (`lights::LightTables`). The
     /// module then defines `fn NAME_light_sample` and `NAME_light_pdf` per

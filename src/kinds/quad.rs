@@ -162,7 +162,6 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
     },
     shading_normals: None,
     texture_uvs: None,
-    uv_tangents: true,
     grouped_lights: false,
     // Its hit point (the ray meets it by a plane or sphere equation) errs by a
     // few ulps of the extent.

@@ -136,7 +136,6 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
     },
     shading_normals: None,
     texture_uvs: None,
-    uv_tangents: false,
     grouped_lights: false,
     // Its hit point, reprojected onto the sphere, errs by a few ulps of the extent.
     ray_offset_factor: 1.0,

@@ -111,7 +111,6 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     },
     shading_normals: Some(ErasedLayout::of::<TriangleNormals>()),
     texture_uvs: Some(ErasedLayout::of::<TriangleUvs>()),
-    uv_tangents: true,
     grouped_lights: true,
     // The watertight test's distance errs by the triangle's length over its
     // width: under a uniform sky, slivers of 200 to 800 to one as long as the

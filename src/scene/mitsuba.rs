@@ -1157,6 +1157,46 @@ fn surface_table(surface: &Surface) -> Table {
     }
 }
 
+/// A surface's opacity (Mitsuba's `mask`): a number in [0, 1], or a texture
+/// (the TOML texture table it is read as) whose luminance it is.
+#[derive(Clone, Debug, PartialEq)]
+enum Opacity {
+    Constant(f64),
+    Texture(Value),
+}
+
+impl Opacity {
+    const OPAQUE: Opacity = Opacity::Constant(1.0);
+
+    fn is_opaque(&self) -> bool {
+        *self == Opacity::OPAQUE
+    }
+
+    /// The opacity of a mask of this opacity around a BSDF of `inner`'s: the
+    /// surface is there where each of them is, independently, so constants
+    /// multiply. A texture stays alone (pathmix's opacity texture has no
+    /// factor): with another mask below 1 it is refused at `e`.
+    fn times(self, inner: Opacity, e: &Elem) -> Result<Opacity> {
+        match (self, inner) {
+            (Opacity::Constant(a), Opacity::Constant(b)) => Ok(Opacity::Constant(a * b)),
+            (texture, Opacity::Constant(1.0)) | (Opacity::Constant(1.0), texture) => Ok(texture),
+            _ => Err(e.origin.error(
+                "a mask with a textured opacity inside or around another mask is not \
+                 supported (give one mask the product)",
+            )),
+        }
+    }
+
+    /// The material's `opacity` value, where it is not opaque.
+    fn value(&self) -> Option<Value> {
+        match self {
+            Opacity::Constant(o) if *o >= 1.0 => None,
+            Opacity::Constant(o) => Some(Value::Float(*o)),
+            Opacity::Texture(table) => Some(table.clone()),
+        }
+    }
+}
+
 impl Surface {
     /// Whether one of its colours is a texture (a table among its values).
     fn is_textured(&self) -> bool {
@@ -1439,7 +1479,7 @@ impl<'a> Builder<'a> {
     /// (below 1 inside a `mask`; masks inside masks multiply, as the surface is
     /// there where each of them is, independently). `twosided`: inside a
     /// `twosided` wrapper.
-    fn surface(&mut self, e: &'a Elem, twosided: bool) -> Result<(Surface, f64)> {
+    fn surface(&mut self, e: &'a Elem, twosided: bool) -> Result<(Surface, Opacity)> {
         e.check_attrs(&["type", "id", "name"])?;
         let mut props = Props::new(e, self.search);
         let surface = match e.ty() {
@@ -1453,7 +1493,7 @@ impl<'a> Builder<'a> {
                         one_sided: !twosided,
                         bump: None,
                     },
-                    1.0,
+                    Opacity::OPAQUE,
                 )
             }
             ty if mitsuba_kind(ty).is_some() => {
@@ -1467,7 +1507,7 @@ impl<'a> Builder<'a> {
                         transmits,
                         one_sided: !twosided && !transmits,
                     },
-                    1.0,
+                    Opacity::OPAQUE,
                 )
             }
             "twosided" => match props.objects(&["bsdf", "ref"])[..] {
@@ -1489,7 +1529,7 @@ impl<'a> Builder<'a> {
                             table,
                             textured: front_textured || back_textured,
                         },
-                        1.0,
+                        Opacity::OPAQUE,
                     )
                 }
                 _ => {
@@ -1502,19 +1542,35 @@ impl<'a> Builder<'a> {
             // `twosided` around a mask (which Mitsuba 3 refuses, as a BSDF that
             // transmits) reads as the same surface as one inside it.
             "mask" => {
-                if let Some(texture) = props.texture("opacity") {
-                    return Err(texture.origin.error(
-                        "a textured opacity is not supported (only a <float name=\"opacity\">)",
-                    ));
-                }
-                // Mitsuba's default.
-                let opacity = props.float("opacity")?.unwrap_or(0.5);
-                if !(0.0..=1.0).contains(&opacity) {
-                    return Err(e
-                        .origin
-                        .error(format!("`opacity` must be in [0, 1], got {opacity}")));
-                }
-                let inner = props.objects(&["bsdf", "ref"]);
+                let opacity = match props.texture("opacity") {
+                    // Its luminance, clamped to [0, 1] (Mitsuba's `eval_1`).
+                    Some(reference) => {
+                        let target = self.resolve(reference)?;
+                        if target.tag != "texture" {
+                            return Err(reference.origin.error(format!(
+                                "`opacity` refers to a <{}>, not a <texture>",
+                                target.tag
+                            )));
+                        }
+                        Opacity::Texture(self.texture(target)?)
+                    }
+                    None => {
+                        // Mitsuba's default.
+                        let opacity = props.float("opacity")?.unwrap_or(0.5);
+                        if !(0.0..=1.0).contains(&opacity) {
+                            return Err(e
+                                .origin
+                                .error(format!("`opacity` must be in [0, 1], got {opacity}")));
+                        }
+                        Opacity::Constant(opacity)
+                    }
+                };
+                // A `<ref name="opacity">` is the opacity's texture, not a BSDF.
+                let inner: Vec<&Elem> = props
+                    .objects(&["bsdf", "ref"])
+                    .into_iter()
+                    .filter(|c| c.name() != Some("opacity"))
+                    .collect();
                 let [inner] = inner[..] else {
                     return Err(e
                         .origin
@@ -1522,10 +1578,10 @@ impl<'a> Builder<'a> {
                 };
                 let inner = self.resolve(inner)?;
                 let (surface, inner_opacity) = self.surface(inner, twosided)?;
-                (surface, opacity * inner_opacity)
+                (surface, opacity.times(inner_opacity, e)?)
             }
             ty @ ("bumpmap" | "normalmap") => self.bumped(&mut props, ty, twosided)?,
-            "blendbsdf" => (self.blend(&mut props, twosided)?, 1.0),
+            "blendbsdf" => (self.blend(&mut props, twosided)?, Opacity::OPAQUE),
             _ => {
                 return Err(e
                     .origin
@@ -1597,9 +1653,11 @@ impl<'a> Builder<'a> {
     fn nested_material(&mut self, child: &'a Elem, twosided: bool) -> Result<(String, bool)> {
         let target = self.resolve(child)?;
         let (surface, opacity) = self.surface(target, twosided)?;
-        if opacity < 1.0 {
+        if !opacity.is_opaque() {
             return Err(child.origin.error(
-                "a mask inside a BSDF made of two is not supported (put the mask around it)",
+                "a mask inside a BSDF made of two is not supported: pathmix gives a surface one \
+                 opacity, its outer material's, where this one would depend on the side hit or \
+                 the BSDF the blend picks (a mask around the whole BSDF masks both alike)",
             ));
         }
         let table = surface_table(&surface);
@@ -1632,7 +1690,7 @@ impl<'a> Builder<'a> {
         props: &mut Props<'a>,
         ty: &str,
         twosided: bool,
-    ) -> Result<(Surface, f64)> {
+    ) -> Result<(Surface, Opacity)> {
         let e = props.elem;
         let mut bsdf = None;
         let mut texture = None;
@@ -1861,13 +1919,14 @@ impl<'a> Builder<'a> {
     }
 
     /// The name of a shape's material in the document (added on first use), its
-    /// surface, and whether it emits.
+    /// surface, whether it emits, and whether it is textured (its surface, or
+    /// its opacity).
     fn material(
         &mut self,
         shape: &'a Elem,
         bsdf: Option<&'a Elem>,
         emitter: Option<&'a Elem>,
-    ) -> Result<(String, Surface, bool)> {
+    ) -> Result<(String, Surface, bool, bool)> {
         let (base, (surface, opacity)) = match bsdf {
             Some(b) => (self.name_of(b), self.surface(b, false)?),
             // Mitsuba's default: a one-sided diffuse of reflectance 0.5, or 0 on
@@ -1885,7 +1944,7 @@ impl<'a> Builder<'a> {
                             one_sided: true,
                             bump: None,
                         },
-                        1.0,
+                        Opacity::OPAQUE,
                     ),
                 )
             }
@@ -1953,8 +2012,8 @@ impl<'a> Builder<'a> {
                 ));
             }
         };
-        if opacity < 1.0 {
-            table.insert("opacity".into(), Value::Float(opacity));
+        if let Some(opacity) = opacity.value() {
+            table.insert("opacity".into(), opacity);
         }
         if !self.materials.contains_key(&full_name) {
             if let Some(emitter) = emitter {
@@ -1971,7 +2030,8 @@ impl<'a> Builder<'a> {
             self.materials
                 .insert(full_name.clone(), Value::Table(table));
         }
-        Ok((full_name, surface, emit.is_some()))
+        let textured = surface.is_textured() || matches!(opacity, Opacity::Texture(_));
+        Ok((full_name, surface, emit.is_some(), textured))
     }
 
     fn shape(&mut self, e: &'a Elem) -> Result<()> {
@@ -1998,7 +2058,7 @@ impl<'a> Builder<'a> {
                     .error(format!("a second <{}> in one shape", target.tag)));
             }
         }
-        let (material, surface, emits) = self.material(e, bsdf, emitter)?;
+        let (material, surface, emits, textured) = self.material(e, bsdf, emitter)?;
         // Where pathmix's surfaces have sides: emission, the inside of glass and
         // one-sided BSDFs.
         let sided = emits
@@ -2129,7 +2189,7 @@ impl<'a> Builder<'a> {
                 // Its texture coordinates turn with it; pathmix's spheres keep no rotation.
                 let turned =
                     (0..3).any(|i| (columns[i] - scale * DVec3::AXES[i]).length() > 1e-6 * scale);
-                if turned && surface.is_textured() {
+                if turned && textured {
                     return Err(e.origin.error(
                         "a textured sphere's to_world may only scale and translate \
                          (pathmix's spheres keep no rotation for the texture to turn with)",
@@ -3656,9 +3716,10 @@ mod tests {
         );
     }
 
-    /// `mask` becomes its BSDF's material with `opacity` (Mitsuba's default 0.5),
-    /// inside or around `twosided` alike; masks inside masks multiply; an
-    /// opacity outside [0, 1] or a texture is refused at its element.
+    /// `mask` becomes its BSDF's material with `opacity` (Mitsuba's default 0.5,
+    /// or a texture), inside or around `twosided` alike; constant masks inside
+    /// masks multiply; an opacity outside [0, 1], a textured mask in another
+    /// and an opacity that is no texture are refused at their elements.
     #[test]
     fn mask_becomes_the_opacity_of_its_bsdf() {
         let material = |name: &str, body: &str| {
@@ -3716,13 +3777,51 @@ mod tests {
             e.contains("scene.xml:3:1: <bsdf type=\"mask\">: `opacity` must be in [0, 1], got 1.5"),
             "{e}"
         );
-        let e = error(
+        // A textured opacity (a leaf's mask), nested or referenced: the
+        // material's opacity texture, read where a ray hits (its luminance).
+        let m = material(
             "opacity-texture",
-            "<shape type=\"rectangle\"><bsdf type=\"mask\">\n<texture name=\"opacity\" type=\"checkerboard\"/>\
-             <bsdf type=\"diffuse\"/></bsdf></shape>",
+            r#"<shape type="rectangle"><bsdf type="mask">
+               <texture name="opacity" type="checkerboard"><float name="color0" value="0"/>
+               <rgb name="color1" value="1, 1, 1"/></texture>
+               <bsdf type="diffuse"/></bsdf></shape>"#,
+        );
+        let texture = m.opacity_texture.as_ref().expect("an opacity texture");
+        assert_eq!(m.opacity, 1.0);
+        assert!(m.is_masked());
+        assert_eq!(texture.eval(glam::Vec2::new(0.25, 0.25)), Vec3::ZERO);
+        assert_eq!(texture.eval(glam::Vec2::new(0.25, 0.75)), Vec3::ONE);
+        let map = format!("{}/tests/data/textured-map.png", env!("CARGO_MANIFEST_DIR"));
+        let m = material(
+            "opacity-bitmap",
+            &format!(
+                r#"<texture type="bitmap" id="leaf-mask"><string name="filename" value="{map}"/></texture>
+                   <shape type="rectangle"><bsdf type="mask"><ref name="opacity" id="leaf-mask"/>
+                   <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#
+            ),
+        );
+        let texture = m.opacity_texture.as_ref().expect("an opacity texture");
+        assert!(matches!(texture.kind, crate::kinds::TextureKind::Bitmap(_)));
+        assert_eq!((m.opacity, m.one_sided), (1.0, false));
+        // A textured mask with a constant one below 1 around it is refused.
+        let e = error(
+            "opacity-texture-in-mask",
+            "<shape type=\"rectangle\"><bsdf type=\"mask\"><float name=\"opacity\" value=\"0.5\"/>\n\
+             <bsdf type=\"mask\"><texture name=\"opacity\" type=\"checkerboard\"/>\
+             <bsdf type=\"diffuse\"/></bsdf></bsdf></shape>",
         );
         assert!(
-            e.contains("scene.xml:3:1: <texture type=\"checkerboard\" name=\"opacity\">: a textured opacity is not supported"),
+            e.contains("scene.xml:2:25: <bsdf type=\"mask\">: a mask with a textured opacity inside or around another mask"),
+            "{e}"
+        );
+        let e = error(
+            "opacity-not-a-texture",
+            "<bsdf type=\"diffuse\" id=\"d\"/><shape type=\"rectangle\"><bsdf type=\"mask\">\n\
+             <ref name=\"opacity\" id=\"d\"/><bsdf type=\"diffuse\"/></bsdf></shape>",
+        );
+        assert!(e.contains("scene.xml:3:1: <ref"), "{e}");
+        assert!(
+            e.contains("`opacity` refers to a <bsdf>, not a <texture>"),
             "{e}"
         );
         let e = error(

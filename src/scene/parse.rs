@@ -519,12 +519,14 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
     for name in names {
         let t = mats.sub(name)?.expect("key exists");
         let material = Material::parse(name, &t)?;
-        textures += material.texture.is_some() as usize + material.bump.is_some() as usize;
+        textures += material.texture.is_some() as usize
+            + material.bump.is_some() as usize
+            + material.opacity_texture.is_some() as usize;
         if textures > MAX_TEXTURES {
             return Err(t.err(
                 t.here(),
                 format!(
-                    "more than {MAX_TEXTURES} textures (bump and normal maps included) in one scene"
+                    "more than {MAX_TEXTURES} textures (bump, normal and opacity maps included) in one scene"
                 ),
             ));
         }
@@ -550,7 +552,7 @@ fn check_nested_materials(mats: &ParamTable, materials: &[Material]) -> Result<(
                 return Err(t.err(t.at(key), unknown_name("material", name, &names)));
             };
             let inner = &materials[i];
-            if inner.emits() || inner.opacity < 1.0 {
+            if inner.emits() || inner.is_masked() {
                 return Err(t.err(
                     t.at(key),
                     format!(
@@ -952,6 +954,7 @@ fn file_materials(t: &ParamTable, mesh: &super::mesh::Mesh, base: u32) -> Result
                 emit: m.emission,
                 one_sided: false,
                 opacity: 1.0,
+                opacity_texture: None,
                 texture: None,
                 bump: None,
                 nested: Vec::new(),

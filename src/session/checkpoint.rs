@@ -1254,6 +1254,7 @@ mod tests {
             emit: Vec3::ZERO,
             one_sided: false,
             opacity: 1.0,
+            opacity_texture: None,
             texture: None,
             bump: None,
             nested: Vec::new(),

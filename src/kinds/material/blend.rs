@@ -17,7 +17,7 @@
 //!   bitmap's luminance; keep its texels in [0, 1]): 0 is `first` alone, 1
 //!   `second` alone;
 //! - `emit` (vector, components >= 0, default 0), as `lambertian`'s;
-//! - `opacity` (number in [0, 1], default 1), as on every material.
+//! - `opacity` (number in [0, 1], or a texture; default 1), as on every material.
 //!
 //! The blend is resolved at the hit, as pbrt-v4's `MixMaterial` resolves its
 //! own: the kernel picks `second` with probability `weight` and `first`

@@ -16,10 +16,12 @@
 //!   `raw = true` (its texels are not sRGB colours).
 //!
 //! `dp_du` and `dp_dv` are the surface's tangents along its texture
-//! coordinates: a triangle's from its vertex uvs (Mitsuba's mesh), a quad's
-//! edges. Where they are degenerate (a triangle whose uvs have no area) and on
-//! spheres and disks, any frame about the normal stands in, so a bump map
-//! never makes a NaN.
+//! coordinates, Mitsuba's: a triangle's from its vertex uvs (Mitsuba's mesh),
+//! a quad's edges, a sphere's and a disk's from their parameterisations
+//! (`sphere.cpp`, `disk.cpp`: along phi and theta, along the radius and
+//! around). Where they are degenerate (a triangle whose uvs have no area, a
+//! sphere's poles, a disk's centre), any frame about the normal stands in, so
+//! a bump map never makes a NaN.
 //!
 //! The corrections are Mitsuba's: a normal that turns away from the side the
 //! ray came from is mirrored about the unperturbed one (`flip_invalid_normals`:

@@ -38,6 +38,7 @@ use common::TextureSlot;
 use glam::Vec3;
 use serde::Serialize;
 use std::sync::Mutex;
+use toml::Value;
 
 /// What a material kind's BSDF is made of (the interface is in materials.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -291,7 +292,14 @@ pub struct Material {
     /// The probability that the surface is there (Mitsuba's `mask`): a ray finds
     /// it with this probability and passes through it unchanged otherwise (a
     /// null event), and a shadow ray is let through by `1 - opacity`. 1: opaque.
+    /// 1 where `opacity_texture` gives it instead.
     pub opacity: f32,
+    /// A texture whose luminance at the hit, clamped to [0, 1], is the opacity
+    /// (Mitsuba's `mask` with a textured `opacity`, as its `eval_1` reads it).
+    /// Left out of the serialized material when absent, so the checkpoint
+    /// identities of scenes without one are as before.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub opacity_texture: Option<Texture>,
     /// A texture on the kind's colour that `kinds::pack_material` packs as
     /// `albedo` (lambertian and metal `albedo`, conductors' and rough
     /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
@@ -312,6 +320,11 @@ pub struct Material {
 impl Material {
     pub fn emits(&self) -> bool {
         self.emit.max_element() > 0.0
+    }
+
+    /// Whether rays may pass through it: an opacity below 1, or a texture's.
+    pub fn is_masked(&self) -> bool {
+        self.opacity < 1.0 || self.opacity_texture.is_some()
     }
 
     /// The material `name` of table `t` (`[materials.NAME]`): `type` names its
@@ -347,6 +360,15 @@ impl Material {
             true => bump::parse_bump(t)?,
             false => None,
         };
+        // `opacity`: a number, or a texture whose luminance it is.
+        let opacity_texture = match t.table.get(OPACITY).is_some_and(Value::is_table) {
+            true => Some(Texture::parse(&t.sub(OPACITY)?.expect("a table"))?),
+            false => None,
+        };
+        let opacity = match opacity_texture {
+            Some(_) => 1.0,
+            None => t.float(OPACITY, check_unit)?.unwrap_or(1.0),
+        };
         let nested = model
             .nested
             .iter()
@@ -358,7 +380,8 @@ impl Material {
             albedo,
             emit,
             one_sided: t.boolean("one_sided")?.unwrap_or(false),
-            opacity: t.float(OPACITY, check_unit)?.unwrap_or(1.0),
+            opacity,
+            opacity_texture,
             texture: slot.texture,
             bump,
             nested,
@@ -373,7 +396,10 @@ const OPACITY: &str = "opacity";
 /// 16-bit fixed-point number (of [`MATERIAL_TRANSPARENCY_MAX`]); below it is the
 /// kind's id. `PackedMaterial` has no free field, and 0 there (every unmasked
 /// material) reads as opaque, so no other material's packing changes. The
-/// value is off by at most 2^-17.
+/// value is off by at most 2^-17. A material whose opacity is a texture
+/// (`Material::opacity_texture`) has the flag `MATERIAL_OPACITY_TEXTURE`, and
+/// holds that texture's index + 1 here instead (`SceneData::pack`), which
+/// [`MAX_TEXTURES`](crate::kinds::MAX_TEXTURES) keeps within these 16 bits.
 pub const MATERIAL_TRANSPARENCY_SHIFT: u32 = 16;
 
 /// The transparency 1 in [`MATERIAL_TRANSPARENCY_SHIFT`]'s fixed point.
@@ -398,7 +424,7 @@ pub fn packed_kind_id(m: &PackedMaterial) -> usize {
     (m.kind & MATERIAL_TRANSPARENCY_MAX) as usize
 }
 
-/// Whether a packed material is masked (some transparency).
+/// Whether a packed material is masked (some transparency, or an opacity texture).
 pub fn packed_is_masked(m: &PackedMaterial) -> bool {
     m.kind >> MATERIAL_TRANSPARENCY_SHIFT != 0
 }

@@ -15,11 +15,11 @@
 //! - `front`, `back` (strings, required): names of `[materials.NAME]` tables.
 //!   These may be any kind, `twosided` and `blend` too, at most
 //!   `MATERIAL_NESTING` (4) deep, with no cycle; they may not emit nor be
-//!   masked (`opacity` below 1): a surface's emission and opacity are the
+//!   masked (an `opacity` below 1, or a texture): a surface's emission and opacity are the
 //!   outer material's, whichever side scatters;
 //! - `emit` (vector, components >= 0, default 0): radiance it emits, on the
 //!   side its normal faces, as `lambertian`'s;
-//! - `opacity` (number in [0, 1], default 1), as on every material.
+//! - `opacity` (number in [0, 1], or a texture; default 1), as on every material.
 //!
 //! The kernel picks the side's material at the hit, before anything else is
 //! done there (`resolve_material`, materials.wgsl, under the kernel flag
