@@ -18,8 +18,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, SceneError, Shapes,
-    Sphere, Spot, Texture, Triangle, excerpt,
+    Cylinder, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, SceneError,
+    Shapes, Sphere, Spot, Texture, Triangle, excerpt,
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
