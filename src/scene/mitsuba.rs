@@ -5,7 +5,7 @@
 //!
 //! The subset: `<default>`, `$name` and `-D name=value`, `<include>`, `<path>`,
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
-//! shapes `obj`, `ply`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder` with `to_world`,
+//! shapes `obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
 //! colours as `<rgb>`, `<float>` or `<spectrum>` (reduced to RGB as Mitsuba's RGB
 //! variants reduce it, src/scene/spectrum.rs);
@@ -64,7 +64,7 @@ const BSDFS_READ_HERE: [&str; 6] = [
 ];
 /// The material keys a `bumpmap` or `normalmap` sets (`kinds::Bump`).
 const BUMP_KEYS: [&str; 2] = ["bump", "normal_map"];
-const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere, cylinder";
+const SUPPORTED_SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder";
 const SUPPORTED_TOP: &str =
     "default, include, path, integrator, sensor, shape, bsdf, emitter, texture";
 
@@ -2017,7 +2017,19 @@ impl<'a> Builder<'a> {
             builder.objects.push(Value::Table(object));
         };
         match e.ty() {
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
+                // Which of a `.serialized` file's meshes (Mitsuba's default: the first).
+                if e.ty() == "serialized" {
+                    if let Some(index) = props.integer("shape_index")? {
+                        let index = u32::try_from(index).map_err(|_| {
+                            e.origin.error(format!(
+                                "shape_index must be between 0 and {}, got {index}",
+                                u32::MAX
+                            ))
+                        })?;
+                        object.insert("shape_index".into(), Value::Integer(index.into()));
+                    }
+                }
                 let (name, at) = props
                     .string("filename")?
                     .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
@@ -3068,6 +3080,40 @@ mod tests {
             let centre = q.q + (q.u + q.v) / 2.0;
             assert_eq!(normal(&cube, i), centre, "face {i} faces outwards");
         }
+    }
+
+    /// A `serialized` shape is a mesh object of its file, its `shape_index`
+    /// kept (the file's meshes are read by `scene::mesh`); a negative one is refused.
+    #[test]
+    fn serialized_shapes_keep_their_shape_index() {
+        let shape = |index: &str| {
+            scene_text(&format!(
+                r#"<shape type="serialized"><string name="filename" value="parts.serialized"/>
+                   <integer name="shape_index" value="{index}"/></shape>"#
+            ))
+        };
+        let xml = shape("2");
+        let (_dir, path) = folder(
+            "serialized",
+            &[("scene.xml", &xml), ("parts.serialized", "")],
+        );
+        let converted = Converted::read(&path, &[]).unwrap();
+        let object = &converted.document["objects"][0];
+        assert_eq!(object["type"].as_str(), Some("mesh"));
+        assert_eq!(object["shape_index"].as_integer(), Some(2));
+        assert!(
+            object["file"]
+                .as_str()
+                .unwrap()
+                .ends_with("parts.serialized")
+        );
+        let xml = shape("-1");
+        let (_dir, path) = folder(
+            "serialized-negative",
+            &[("scene.xml", &xml), ("parts.serialized", "")],
+        );
+        let e = Converted::read(&path, &[]).unwrap_err().to_string();
+        assert!(e.contains("shape_index must be between 0 and"), "{e}");
     }
 
     /// Mitsuba's cylinder: `p0`, `p1`, `radius` under `to_world`, which may
