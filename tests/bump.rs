@@ -174,12 +174,16 @@ fn a_normal_facing_away_is_mirrored() {
 ///   and a slope g along u gives the normal along (0, 10, -g);
 /// - on the top of the sphere of radius R = 100 / pi about (0, -R, 0): local
 ///   (0, 1, 0), uv (1/4, 1/2), dp_du = 2 pi R (-1, 0, 0), dp_dv = pi R (0, 0,
-///   -1): the frame (-x, +z, +y), and a slope g along u gives (g, 200, 0).
+///   -1): the frame (-x, +z, +y), and a slope g along u gives (g, 200, 0);
+/// - on the top line of the cylinder of the same radius along x (`p0`, `p1`
+///   at x = -50 and 50): uv (1/4, 1/2), (s, t) = ((0, 0, -1), (0, 1, 0)),
+///   dp_du = 2 pi R (0, 0, 1), dp_dv = (100, 0, 0): the frame (+z, +x, +y),
+///   and a slope g along u gives (0, 200, -g).
 ///
 /// The fixed frame (+x, -z, +y) gives other normals in each case. A flat normal
 /// (texel (0.5, 0.5, 1)) and a constant height leave the normal as it was.
 #[test]
-fn spheres_and_disks_orient_their_maps_by_their_uv_derivatives() {
+fn spheres_disks_and_cylinders_orient_their_maps_by_their_uv_derivatives() {
     let ctx = gpu_or_skip!();
     let dir = common::TempDir::new("bump", "sphere-disk");
     write_ramp(&dir);
@@ -187,14 +191,26 @@ fn spheres_and_disks_orient_their_maps_by_their_uv_derivatives() {
     let disk = "type = \"disk\"\ncenter = [0, 0, -5]\nu = [0, 0, 10]\nv = [10, 0, 0]";
     let r = 100.0 / PI;
     let sphere = format!("type = \"sphere\"\ncenter = [0, {}, 0]\nradius = {r}", -r);
+    // Along x, its top line through the origin at u = 1/4: there (s, t) =
+    // ((0, 0, -1), (0, 1, 0)), dp_du = 2 pi r (0, 0, 1) and dp_dv = (100, 0, 0).
+    let cylinder = format!(
+        "type = \"cylinder\"\np0 = [-50, {}, 0]\np1 = [50, {}, 0]\nradius = {r}",
+        -r, -r
+    );
     // Off the y-z plane, so that a normal's x matters too.
     let light = [0.5, 1.0, -1.0];
     let bitmap = "{ type = \"bitmap\", file = \"ramp.exr\", wrap_mode = \"clamp\" }";
     // (floor, what, tangent-frame texel to world normal, slope g to normal)
     type Frame = fn([f64; 3]) -> [f64; 3];
     type Slope = fn(f64) -> [f64; 3];
-    let floors: [(&str, &str, Frame, Slope); 2] = [
+    let floors: [(&str, &str, Frame, Slope); 3] = [
         (disk, "disk", |t| [t[1], t[2], t[0]], |g| [0.0, 10.0, -g]),
+        (
+            &cylinder,
+            "cylinder",
+            |t| [t[1], t[2], t[0]],
+            |g| [0.0, 200.0, -g],
+        ),
         (
             &sphere,
             "sphere",

@@ -385,7 +385,7 @@ fn gltf_accessors_that_panicked_the_reader_are_refused() {
                 ..Default::default()
             },
         );
-        let mesh = pathmix::scene::mesh::load_mesh(&dir.join("indexed.gltf")).unwrap();
+        let mesh = pathmix::scene::mesh::load_mesh(&dir.join("indexed.gltf"), 0).unwrap();
         assert_eq!(mesh.triangles, vec![[0, 1, 2]], "componentType {ty}");
     }
 }
@@ -515,7 +515,7 @@ fn gltf_versions_transforms_and_attributes_out_of_spec_are_refused() {
         ..Default::default()
     };
     write_gltf(dir, "valid", &valid);
-    let mesh = pathmix::scene::mesh::load_mesh(&dir.join("valid.gltf")).unwrap();
+    let mesh = pathmix::scene::mesh::load_mesh(&dir.join("valid.gltf"), 0).unwrap();
     assert_eq!(mesh.normals.unwrap().len(), 3);
     assert_eq!(mesh.uvs.unwrap().len(), 3);
 }
@@ -870,7 +870,7 @@ fn ply_data_past_the_declared_elements_and_unknown_versions_are_refused() {
     }
     // The binary file with its count right reads both faces.
     std::fs::write(dir.join("fixed.ply"), binary(2)).unwrap();
-    let mesh = pathmix::scene::mesh::load_mesh(&dir.join("fixed.ply")).unwrap();
+    let mesh = pathmix::scene::mesh::load_mesh(&dir.join("fixed.ply"), 0).unwrap();
     assert_eq!(mesh.triangles.len(), 2);
 }
 

@@ -815,11 +815,11 @@ fn an_emitting_cube_lights_the_floor_with_its_bottom_face_alone() {
 /// (PLY), the bunny without vertex normals.
 #[test]
 fn mitsuba_bunny_and_teapot_load() {
-    let bunny = load_mesh(&shared_or_skip!("mitsuba-scenes/meshes/bunny.ply")).unwrap();
+    let bunny = load_mesh(&shared_or_skip!("mitsuba-scenes/meshes/bunny.ply"), 0).unwrap();
     assert_eq!(bunny.positions.len(), 35_947);
     assert_eq!(bunny.triangles.len(), 69_451);
     assert_eq!(bunny.normals, None);
-    let teapot = load_mesh(&shared_or_skip!("mitsuba-scenes/meshes/teapot.ply")).unwrap();
+    let teapot = load_mesh(&shared_or_skip!("mitsuba-scenes/meshes/teapot.ply"), 0).unwrap();
     assert!(!teapot.triangles.is_empty());
 }
 
@@ -832,18 +832,19 @@ fn mitsuba_cornell_box_objs_load() {
     for entry in std::fs::read_dir(back.parent().unwrap()).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "obj") {
-            let mesh = load_mesh(&path).unwrap();
+            let mesh = load_mesh(&path, 0).unwrap();
             assert!(!mesh.triangles.is_empty(), "{}", path.display());
             seen += 1;
         }
     }
     assert!(seen > 1);
-    let back = load_mesh(&back).unwrap();
+    let back = load_mesh(&back, 0).unwrap();
     assert_eq!(back.positions.len(), 4);
     assert_eq!(back.triangles, vec![[0, 1, 2], [0, 2, 3]]);
-    let large = load_mesh(&shared_or_skip!(
-        "mitsuba-scenes/cbox/meshes/cbox_largebox.obj"
-    ))
+    let large = load_mesh(
+        &shared_or_skip!("mitsuba-scenes/cbox/meshes/cbox_largebox.obj"),
+        0,
+    )
     .unwrap();
     assert_eq!(large.triangles.len(), 12);
     assert_eq!(large.normals.map(|n| n.len()), Some(24));

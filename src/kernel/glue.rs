@@ -350,8 +350,12 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         out.push_str("    return hit;\n}\n");
         return;
     }
-    out.push_str("    var hit_keep = vec4<f32>(0.0);\n");
-    let keeps_index = |k: usize| config.normal_kinds.contains(k) || config.textures;
+    let keeps_primitive = |k: usize| PRIMITIVE_KINDS[k].keeps_primitive;
+    if !kinds.iter().all(|&k| keeps_primitive(k)) {
+        out.push_str("    var hit_keep = vec4<f32>(0.0);\n");
+    }
+    let keeps_index =
+        |k: usize| config.normal_kinds.contains(k) || config.textures || keeps_primitive(k);
     if kinds.iter().any(|&k| keeps_index(k)) {
         out.push_str("    var hit_index = 0u;\n");
     }
@@ -377,13 +381,16 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             };
             writeln!(tag, "{indent}    hit.light = {light};").unwrap();
         }
+        let keep = match keeps_primitive(k) {
+            true => String::new(),
+            false => format!("{indent}    hit_keep = {name}_hit_keep(primitive);\n"),
+        };
         format!(
             "{indent}let t = {name}_hit_t(primitive, ray, hit.t);
 {indent}if t > 0.0 {{
 {indent}    hit.t = t;
 {indent}    hit.material = primitive.material;
-{indent}    hit_keep = {name}_hit_keep(primitive);
-{tag}{indent}}}
+{keep}{tag}{indent}}}
 "
         )
     };
@@ -424,12 +431,24 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         };
         let factor = PRIMITIVE_KINDS[k].ray_offset_factor;
         let mut set = String::new();
+        let keep = match keeps_primitive(k) {
+            true => {
+                write!(
+                    set,
+                    "let kept = {}_at(hit_index); ",
+                    PRIMITIVE_KINDS[k].array
+                )
+                .unwrap();
+                "kept"
+            }
+            false => "hit_keep",
+        };
         if PRIMITIVE_KINDS[k].reprojects_hit_point {
-            write!(set, "hit.p = {name}_hit_point(hit_keep, hit.p); ").unwrap();
+            write!(set, "hit.p = {name}_hit_point({keep}, hit.p); ").unwrap();
         }
         write!(
             set,
-            "hit.normal = {name}_hit_normal(hit_keep, hit.p); hit.shading_normal = {shading}; \
+            "hit.normal = {name}_hit_normal({keep}, hit.p); hit.shading_normal = {shading}; \
              hit.offset = {factor:?} * params.ray_offset;"
         )
         .unwrap();

@@ -1094,8 +1094,12 @@ impl KernelConfig {
                 name: kind.array.into(),
                 binding: 1 + k as u32,
                 // The BVH's leaves, and the shading normal and texture
-                // coordinates at the closest hit, look primitives up by index.
-                indexed: self.bvh() || self.normal_kinds.contains(k) || self.textures,
+                // coordinates at the closest hit (the normal itself, for kinds
+                // that keep the primitive), look primitives up by index.
+                indexed: self.bvh()
+                    || self.normal_kinds.contains(k)
+                    || self.textures
+                    || kind.keeps_primitive,
                 source: ArraySource::Primitives(k),
             });
         }
@@ -2127,7 +2131,10 @@ pub(crate) mod tests {
                 .any(|(_, f)| f.name.as_deref() == Some(name))
         };
         for kind in PRIMITIVE_KINDS {
-            let mut functions = vec!["hit_t", "hit_keep", "hit_normal"];
+            let mut functions = vec!["hit_t", "hit_normal"];
+            if !kind.keeps_primitive {
+                functions.push("hit_keep");
+            }
             if kind.light_density {
                 functions.extend(["light_sample", "light_pdf"]);
             }

@@ -127,6 +127,7 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
     // few ulps of the extent.
     ray_offset_factor: 1.0,
     reprojects_hit_point: false,
+    keeps_primitive: false,
     object: Some(ObjectType {
         keys: &["center", "u", "v"],
         parse,

@@ -37,6 +37,7 @@
 //! may follow (a Mitsuba plugin, the checkpoint identity's version).
 
 mod coat;
+mod cylinder;
 mod delta_light;
 mod disk;
 pub(crate) mod filter;
@@ -50,6 +51,7 @@ mod triangle;
 
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
 // For the format's page.
+pub use cylinder::{Cylinder, PackedCylinder};
 #[cfg(test)]
 pub(crate) use delta_light::LIGHT_TYPES;
 pub use delta_light::{PointLight, Spot};
@@ -174,6 +176,7 @@ primitive_kinds! {
     /// Mesh faces, degenerate ones dropped.
     triangles: Triangle = triangle::TRIANGLE,
     disks: Disk = disk::DISK,
+    cylinders: Cylinder = cylinder::CYLINDER,
 }
 
 /// A kind of primitive: what the host packs and what its WGSL module defines.
@@ -254,6 +257,12 @@ pub struct PrimitiveKind {
     /// the ray offset and let a ray leaving it find it again (as Mitsuba's sphere
     /// reprojects its hit point).
     pub reprojects_hit_point: bool,
+    /// What the closest hit keeps is the primitive itself, read again by the
+    /// hit's index once the closest is found, where four floats cannot give the
+    /// normal (a cylinder's axis, radius and side): its module then defines
+    /// `NAME_hit_normal` and `NAME_hit_point` of the primitive `p: S` in place
+    /// of `keep`, and no `NAME_hit_keep`.
+    pub keeps_primitive: bool,
     /// How scene files name one shape of this kind, if they do.
     pub(crate) object: Option<ObjectType>,
 }

@@ -167,6 +167,7 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
     // few ulps of the extent.
     ray_offset_factor: 1.0,
     reprojects_hit_point: false,
+    keeps_primitive: false,
     object: Some(ObjectType {
         keys: &["q", "u", "v"],
         parse,

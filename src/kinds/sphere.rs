@@ -140,6 +140,7 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
     // Its hit point, reprojected onto the sphere, errs by a few ulps of the extent.
     ray_offset_factor: 1.0,
     reprojects_hit_point: true,
+    keeps_primitive: false,
     object: Some(ObjectType {
         keys: &["center", "radius"],
         parse,

@@ -9,6 +9,19 @@ use toml::Value;
 /// The keys of an object's transform.
 pub(crate) const TRANSFORM_KEYS: &[&str] = &["scale", "rotate_y", "rotate", "translate", "matrix"];
 
+/// Mitsuba's `coordinate_system`: two unit vectors across the unit vector `n`,
+/// `(s, t)` with `s x t = n` (Duff et al. 2017, "Building an Orthonormal Basis,
+/// Revisited"), with drjit's sign of zero, +1.
+pub(crate) fn coordinate_system(n: DVec3) -> (DVec3, DVec3) {
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        DVec3::new(n.x * n.x * a * sign + 1.0, b * sign, -n.x * sign),
+        DVec3::new(b, n.y * n.y * a + sign, -n.y),
+    )
+}
+
 /// Object to world: `linear` (scale, then rotation) then `translate`, in f64 so
 /// that composing and applying it rounds once, to f32, at the end.
 pub(crate) struct Transform {
@@ -147,6 +160,23 @@ impl Transform {
             (0..3).all(|i| columns[i].dot(columns[(i + 1) % 3]).abs() <= tolerance * lengths[0]);
         let equal = lengths.iter().all(|&l| (l - lengths[0]).abs() <= tolerance);
         (orthogonal && equal).then_some(lengths[0])
+    }
+
+    /// The factor by which the transform scales every direction across `axis`
+    /// alike while keeping them across the transformed axis (a circle about
+    /// the axis stays a circle about its image, as a cylinder needs), or
+    /// `None` (a shear, or a scale that differs across the axis).
+    pub(crate) fn across(&self, axis: DVec3) -> Option<f64> {
+        let axis = axis.normalize();
+        let first = axis.any_orthonormal_vector();
+        let [x, y, z] = [first, axis.cross(first), axis].map(|v| self.linear * v);
+        let r = x.length();
+        let tolerance = 1e-6 * r;
+        let circular = (y.length() - r).abs() <= tolerance
+            && x.dot(y).abs() <= tolerance * r
+            && x.dot(z).abs() <= tolerance * z.length()
+            && y.dot(z).abs() <= tolerance * z.length();
+        circular.then_some(r)
     }
 
     /// Whether the transform mirrors (turns counter-clockwise windings clockwise).

@@ -117,6 +117,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     // scene hit themselves at 1x (up to 8% of the light lost), never at 10x.
     ray_offset_factor: 10.0,
     reprojects_hit_point: false,
+    keeps_primitive: false,
     object: None,
 };
 

@@ -1,6 +1,7 @@
 //! Mesh files for `type = "mesh"` objects: Wavefront OBJ (read by `tobj`), PLY,
-//! ASCII or binary (read by `ply-rs-bw`), and glTF 2.0, `.gltf` or `.glb` (parsed by
-//! `gltf`, its buffers and accessors read by `gltf_data`), each into one indexed
+//! ASCII or binary (read by `ply-rs-bw`), glTF 2.0, `.gltf` or `.glb` (parsed by
+//! `gltf`, its buffers and accessors read by `gltf_data`), and Mitsuba's
+//! `.serialized` (its zlib streams inflated by `flate2`), each into one indexed
 //! triangle mesh. Every file is opened by `paths::open_input` (regular files only).
 //! Every problem is a [`MeshError`] that names the file and, where the reader
 //! knows it, the line or the element; no input makes these readers panic.
@@ -47,7 +48,7 @@ pub struct MeshMaterial {
 }
 
 /// The extensions [`load_mesh`] reads, for the message that names them.
-const SUPPORTED: &str = ".obj, .ply, .gltf, .glb";
+const SUPPORTED: &str = ".obj, .ply, .gltf, .glb, .serialized";
 
 /// Where in a mesh file a problem lies.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -144,8 +145,16 @@ pub enum MeshError {
     NoTriangles { path: PathBuf },
 }
 
-/// Reads a mesh file, choosing the format by the extension (any case).
-pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
+/// Whether `path` names a Mitsuba `.serialized` file (any case), whose meshes
+/// are picked by index.
+pub fn is_serialized(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("serialized"))
+}
+
+/// Reads a mesh file, choosing the format by the extension (any case); of a
+/// `.serialized` file, its mesh `shape_index` (0 for the other formats).
+pub fn load_mesh(path: &Path, shape_index: u32) -> Result<Mesh, MeshError> {
     let extension = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
@@ -154,6 +163,7 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
         "obj" => load_obj(path)?,
         "ply" => load_ply(path)?,
         "gltf" | "glb" => load_gltf(path)?,
+        "serialized" => load_serialized(path, shape_index)?,
         _ => {
             return Err(MeshError::UnknownFormat {
                 path: path.into(),
@@ -165,6 +175,239 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
         return Err(MeshError::NoTriangles { path: path.into() });
     }
     Ok(mesh)
+}
+
+/// The format identifier that starts each mesh of a `.serialized` file.
+const SERIALIZED_MAGIC: u16 = 0x041C;
+/// Its flags (versions 3 and 4): what each vertex has, and the precision.
+const SERIALIZED_NORMALS: u32 = 0x0001;
+const SERIALIZED_UVS: u32 = 0x0002;
+const SERIALIZED_COLORS: u32 = 0x0008;
+const SERIALIZED_DOUBLE: u32 = 0x2000;
+
+/// Mesh `shape_index` of a Mitsuba `.serialized` file, versions 3 and 4, as
+/// Mitsuba 3 reads it: each mesh a little-endian header (`0x041C`, the
+/// version) and a zlib stream (flags, the name in version 4, the vertex and
+/// triangle counts as `u64`, positions, then normals, texture coordinates and
+/// colours as the flags say, in `f32`, or `f64` under `0x2000`, and `u32`
+/// vertex indices); the file ends with each mesh's byte offset (`u64`, `u32` in
+/// version 3) and their count (`u32`). Colours are skipped, as Mitsuba skips them.
+fn load_serialized(path: &Path, shape_index: u32) -> Result<Mesh, MeshError> {
+    let bytes = crate::paths::read_input(path).map_err(read_error(path))?;
+    let malformed = |message: String| MeshError::Malformed {
+        path: path.into(),
+        at: Location::File,
+        message: format!("mesh {shape_index}: {message}"),
+    };
+    let header = |offset: usize| -> Result<u16, MeshError> {
+        let field = |at: usize| {
+            bytes
+                .get(at..at + 2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        };
+        match (field(offset), field(offset + 2)) {
+            (Some(SERIALIZED_MAGIC), Some(version @ (3 | 4))) => Ok(version),
+            (Some(SERIALIZED_MAGIC), Some(version)) => Err(malformed(format!(
+                "format version {version} (pathmix reads versions 3 and 4)"
+            ))),
+            _ => Err(malformed(format!(
+                "no serialized mesh header (0x041C) at byte {offset}"
+            ))),
+        }
+    };
+    let version = header(0)?;
+    let offset = match shape_index {
+        0 => 0,
+        index => {
+            // The dictionary at the end: the meshes' offsets, then their count.
+            let word = if version == 3 { 4 } else { 8 };
+            let count_at = bytes
+                .len()
+                .checked_sub(4)
+                .ok_or_else(|| malformed("truncated".into()))?;
+            let count = u32::from_le_bytes(bytes[count_at..].try_into().expect("4 bytes"));
+            if index >= count {
+                return Err(malformed(format!(
+                    "no such mesh: the file holds {count} (shape_index counts from 0)"
+                )));
+            }
+            let entry = (count - index) as usize * word;
+            let at = count_at.checked_sub(entry).ok_or_else(|| {
+                malformed("the offsets at the end of the file are cut off".into())
+            })?;
+            let mut offset = [0u8; 8];
+            offset[..word].copy_from_slice(&bytes[at..at + word]);
+            let offset = u64::from_le_bytes(offset);
+            match usize::try_from(offset) {
+                Ok(offset) if offset < bytes.len() => offset,
+                _ => {
+                    return Err(malformed(format!(
+                        "its offset {offset} lies past the end of the file"
+                    )));
+                }
+            }
+        }
+    };
+    if header(offset)? != version {
+        return Err(malformed(
+            "its version differs from the file's first mesh's".into(),
+        ));
+    }
+    let mut stream = SerializedStream {
+        reader: flate2::read::ZlibDecoder::new(&bytes[offset + 4..]),
+        double: false,
+    };
+    let flags = stream
+        .u32()
+        .map_err(|e| stream_error(&malformed, e, "flags"))?;
+    stream.double = flags & SERIALIZED_DOUBLE != 0;
+    if version == 4 {
+        // The shape's name, null-terminated.
+        while stream
+            .u8()
+            .map_err(|e| stream_error(&malformed, e, "name"))?
+            != 0
+        {}
+    }
+    let vertices = stream
+        .u64()
+        .map_err(|e| stream_error(&malformed, e, "vertex count"))?;
+    let triangles = stream
+        .u64()
+        .map_err(|e| stream_error(&malformed, e, "triangle count"))?;
+    let vertices = u32::try_from(vertices).map_err(|_| {
+        malformed(format!(
+            "{vertices} vertices, more than pathmix's 32-bit indices can reach"
+        ))
+    })? as usize;
+    let triangles =
+        usize::try_from(triangles).map_err(|_| malformed(format!("{triangles} triangles")))?;
+    let vectors = |stream: &mut SerializedStream, what: &str| -> Result<Vec<Vec3>, MeshError> {
+        let values = stream
+            .floats(vertices * 3)
+            .map_err(|e| stream_error(&malformed, e, what))?;
+        check_serialized_finite(path, shape_index, &values, what)?;
+        Ok(values.chunks_exact(3).map(Vec3::from_slice).collect())
+    };
+    let positions = vectors(&mut stream, "positions")?;
+    let normals = match flags & SERIALIZED_NORMALS {
+        0 => None,
+        _ => Some(vectors(&mut stream, "normals")?),
+    };
+    let uvs = match flags & SERIALIZED_UVS {
+        0 => None,
+        _ => {
+            let values = stream
+                .floats(vertices * 2)
+                .map_err(|e| stream_error(&malformed, e, "texture coordinates"))?;
+            check_serialized_finite(path, shape_index, &values, "texture coordinates")?;
+            Some(values.chunks_exact(2).map(Vec2::from_slice).collect())
+        }
+    };
+    if flags & SERIALIZED_COLORS != 0 {
+        stream
+            .floats(vertices * 3)
+            .map_err(|e| stream_error(&malformed, e, "colors"))?;
+    }
+    let mut faces = Vec::with_capacity(triangles.min(1 << 20));
+    for face in 0..triangles {
+        let mut triangle = [0u32; 3];
+        for index in &mut triangle {
+            *index = stream
+                .u32()
+                .map_err(|e| stream_error(&malformed, e, "indices"))?;
+            if *index as usize >= vertices {
+                return Err(MeshError::IndexOutOfRange {
+                    path: path.into(),
+                    at: Location::Element {
+                        name: format!("mesh {shape_index}, triangle"),
+                        index: face,
+                        line: None,
+                    },
+                    index: (*index).into(),
+                    count: vertices,
+                    of: "vertices",
+                });
+            }
+        }
+        faces.push(triangle);
+    }
+    // To the stream's end, where its checksum is checked: damaged data that
+    // still inflated is found there.
+    io::copy(&mut stream.reader, &mut io::sink())
+        .map_err(|e| stream_error(&malformed, e, "end (its checksum)"))?;
+    Ok(Mesh {
+        positions,
+        triangles: faces,
+        normals,
+        uvs,
+        materials: Vec::new(),
+        triangle_materials: Vec::new(),
+    })
+}
+
+/// A mesh's inflated stream, little-endian, its floats `f64` or `f32`.
+struct SerializedStream<'a> {
+    reader: flate2::read::ZlibDecoder<&'a [u8]>,
+    double: bool,
+}
+
+impl SerializedStream<'_> {
+    fn bytes<const N: usize>(&mut self) -> io::Result<[u8; N]> {
+        let mut bytes = [0u8; N];
+        self.reader.read_exact(&mut bytes)?;
+        Ok(bytes)
+    }
+
+    fn u8(&mut self) -> io::Result<u8> {
+        Ok(self.bytes::<1>()?[0])
+    }
+
+    fn u32(&mut self) -> io::Result<u32> {
+        Ok(u32::from_le_bytes(self.bytes()?))
+    }
+
+    fn u64(&mut self) -> io::Result<u64> {
+        Ok(u64::from_le_bytes(self.bytes()?))
+    }
+
+    /// `count` floats, grown as they arrive (a count the data does not hold
+    /// ends in an error, not in a huge allocation).
+    fn floats(&mut self, count: usize) -> io::Result<Vec<f32>> {
+        let mut values = Vec::with_capacity(count.min(1 << 20));
+        for _ in 0..count {
+            values.push(match self.double {
+                true => f64::from_le_bytes(self.bytes()?) as f32,
+                false => f32::from_le_bytes(self.bytes()?),
+            });
+        }
+        Ok(values)
+    }
+}
+
+/// A read of `what` that failed: the stream ends early, or does not inflate.
+fn stream_error(malformed: &impl Fn(String) -> MeshError, e: io::Error, what: &str) -> MeshError {
+    match e.kind() {
+        io::ErrorKind::UnexpectedEof => malformed(format!("truncated in its {what}")),
+        _ => malformed(format!("corrupt compressed data in its {what}: {e}")),
+    }
+}
+
+fn check_serialized_finite(
+    path: &Path,
+    shape_index: u32,
+    values: &[f32],
+    what: &str,
+) -> Result<(), MeshError> {
+    match values.iter().find(|v| !v.is_finite()) {
+        Some(&value) => Err(MeshError::NonFinite {
+            path: path.into(),
+            at: Location::File,
+            what: format!("mesh {shape_index}'s {what}"),
+            value,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Smooth vertex normals for a mesh without its own: each face's unit normal
@@ -988,7 +1231,7 @@ mod tests {
     }
 
     fn load(name: &str, bytes: &[u8]) -> Result<Mesh, MeshError> {
-        load_mesh(&Scratch::new().file(name, bytes))
+        load_mesh(&Scratch::new().file(name, bytes), 0)
     }
 
     const CUBE_OBJ: &str = "\
@@ -1399,7 +1642,7 @@ end_header
     #[test]
     fn missing_file_is_named() {
         let path = Scratch::new().0.path().join("absent.ply");
-        let e = load_mesh(&path).unwrap_err();
+        let e = load_mesh(&path, 0).unwrap_err();
         assert!(matches!(e, MeshError::Read { .. }));
         let text = e.to_string();
         assert!(
@@ -1420,7 +1663,8 @@ end_header
             seed ^= seed << 17;
             seed
         };
-        let goods: [(&str, Vec<u8>); 6] = [
+        let goods: [(&str, Vec<u8>); 7] = [
+            ("fuzz.serialized", serialized_quads()),
             ("fuzz.obj", CUBE_OBJ.into()),
             ("fuzz.ply", ASCII_PLY.into()),
             ("fuzz.ply", binary_ply(false, 2)),
@@ -1429,8 +1673,10 @@ end_header
             ("fuzz.glb", glb()),
         ];
         for (name, good) in goods {
+            // A `.serialized` file's second mesh is found through its end.
+            let index = u32::from(name.ends_with(".serialized"));
             for len in 0..good.len() {
-                let _ = load_mesh(&scratch.file(name, &good[..len]));
+                let _ = load_mesh(&scratch.file(name, &good[..len]), index);
             }
             for _ in 0..300 {
                 let mut bytes = good.clone();
@@ -1442,9 +1688,57 @@ end_header
                         _ => random() as u8,
                     };
                 }
-                let _ = load_mesh(&scratch.file(name, &bytes));
+                let _ = load_mesh(&scratch.file(name, &bytes), index);
             }
         }
+        let quads = serialized_quads();
+        let first = load("two.serialized", &quads).unwrap();
+        assert_eq!(
+            (first.triangles.len(), first.normals.map(|n| n[3])),
+            (2, Some(Vec3::Z))
+        );
+    }
+
+    /// A version 4 `.serialized` file of two unit quads (positions, normals,
+    /// uvs in single precision, then positions alone in double).
+    fn serialized_quads() -> Vec<u8> {
+        use std::io::Write;
+        let mut file = Vec::new();
+        let mut offsets = Vec::new();
+        for (flags, double) in [(0x1003u32, false), (0x2000, true)] {
+            offsets.push(file.len() as u64);
+            file.extend_from_slice(&[0x1c, 0x04, 4, 0]);
+            let mut stream = flags.to_le_bytes().to_vec();
+            stream.extend_from_slice(b"quad\0");
+            stream.extend_from_slice(&4u64.to_le_bytes());
+            stream.extend_from_slice(&2u64.to_le_bytes());
+            let arrays: &[&[f64]] = match double {
+                false => &[
+                    &[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.],
+                    &[0., 0., 1., 0., 0., 1., 0., 0., 1., 0., 0., 1.],
+                    &[0., 0., 1., 0., 1., 1., 0., 1.],
+                ],
+                true => &[&[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.]],
+            };
+            for &value in arrays.iter().copied().flatten() {
+                match double {
+                    true => stream.extend_from_slice(&value.to_le_bytes()),
+                    false => stream.extend_from_slice(&(value as f32).to_le_bytes()),
+                }
+            }
+            for index in [0u32, 1, 2, 0, 2, 3] {
+                stream.extend_from_slice(&index.to_le_bytes());
+            }
+            let mut encoder =
+                flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+            encoder.write_all(&stream).unwrap();
+            file.extend_from_slice(&encoder.finish().unwrap());
+        }
+        for offset in offsets {
+            file.extend_from_slice(&offset.to_le_bytes());
+        }
+        file.extend_from_slice(&2u32.to_le_bytes());
+        file
     }
 
     /// Standard base64, for the glTF test files' data URIs.

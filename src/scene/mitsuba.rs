@@ -5,7 +5,7 @@
 //!
 //! The subset: `<default>`, `$name` and `-D name=value`, `<include>`, `<path>`,
 //! `id`/`<ref>`; transforms `translate`, `rotate`, `scale`, `matrix`, `lookat`;
-//! shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`,
+//! shapes `obj`, `ply`, `serialized`, `rectangle`, `cube`, `disk`, `sphere`, `cylinder` with `to_world`,
 //! `flip_normals`, `face_normals` and an area emitter; BSDFs through `Builder::surface`;
 //! colours as `<rgb>`, `<float>` or `<spectrum>` (reduced to RGB as Mitsuba's RGB
 //! variants reduce it, src/scene/spectrum.rs);
@@ -28,6 +28,7 @@ mod upgrade;
 use super::parse::{IMAGE_SIDE, NAMED_IORS, sin_cos_degrees};
 use super::spectrum::{self, Role, Spectrum};
 use super::{Sampler, SceneError, excerpt};
+use crate::kinds::transform::coordinate_system;
 use crate::kinds::{MATERIAL_KINDS, MaterialModel, MitsubaPlugin};
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -63,7 +64,7 @@ const BSDFS_READ_HERE: [&str; 6] = [
 ];
 /// The material keys a `bumpmap` or `normalmap` sets (`kinds::Bump`).
 const BUMP_KEYS: [&str; 2] = ["bump", "normal_map"];
-const SUPPORTED_SHAPES: &str = "obj, ply, rectangle, cube, disk, sphere";
+const SUPPORTED_SHAPES: &str = "obj, ply, serialized, rectangle, cube, disk, sphere, cylinder";
 const SUPPORTED_TOP: &str =
     "default, include, path, integrator, sensor, shape, bsdf, emitter, texture";
 
@@ -927,16 +928,6 @@ fn numbers(e: &Elem, text: &str) -> Result<Vec<f64>> {
         .collect()
 }
 
-/// The first axis Mitsuba's `coordinate_system` builds across the unit vector
-/// `n` (Duff et al. 2017, "Building an Orthonormal Basis, Revisited"), with
-/// drjit's sign of zero, +1.
-fn coordinate_system_first(n: DVec3) -> DVec3 {
-    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    DVec3::new(n.x * n.x * a * sign + 1.0, b * sign, -n.x * sign)
-}
-
 fn three(e: &Elem, text: &str) -> Result<DVec3> {
     match numbers(e, text)?[..] {
         [x, y, z] => Ok(DVec3::new(x, y, z)),
@@ -1031,7 +1022,7 @@ fn transform(e: &Elem) -> Result<DMat4> {
                 };
                 // Without an `up` (or a zero one), Mitsuba takes one across the view.
                 let up = if up == DVec3::ZERO {
-                    coordinate_system_first(dir)
+                    coordinate_system(dir).0
                 } else {
                     up
                 };
@@ -2086,7 +2077,19 @@ impl<'a> Builder<'a> {
             builder.objects.push(Value::Table(object));
         };
         match e.ty() {
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
+                // Which of a `.serialized` file's meshes (Mitsuba's default: the first).
+                if e.ty() == "serialized" {
+                    if let Some(index) = props.integer("shape_index")? {
+                        let index = u32::try_from(index).map_err(|_| {
+                            e.origin.error(format!(
+                                "shape_index must be between 0 and {}, got {index}",
+                                u32::MAX
+                            ))
+                        })?;
+                        object.insert("shape_index".into(), Value::Integer(index.into()));
+                    }
+                }
                 let (name, at) = props
                     .string("filename")?
                     .ok_or_else(|| e.origin.error("missing <string name=\"filename\">"))?;
@@ -2201,6 +2204,45 @@ impl<'a> Builder<'a> {
                     vec_value(to_world.transform_point3(center)),
                 );
                 object.insert("radius".into(), Value::Float(radius * scale));
+                push(self, object);
+            }
+            "cylinder" => {
+                let p0 = props.point("p0")?.unwrap_or(DVec3::ZERO);
+                let p1 = props.point("p1")?.unwrap_or(DVec3::Z);
+                let radius = props.float("radius")?.unwrap_or(1.0);
+                props.finish()?;
+                // Mitsuba's normals point away from the axis under any to_world
+                // (a mirroring one turns both its normal's cross product and,
+                // through `transform_decompose`, its flip), inward with flip_normals:
+                // pathmix's `flip_normals`. The TOML reader refuses a to_world
+                // that makes the cylinder elliptic (Mitsuba warns and renders it
+                // with a circle's area).
+                if surface.is_textured() && to_world != DMat4::IDENTITY {
+                    // Mitsuba's u turns with to_world; pathmix's starts from the
+                    // frame of the world axis.
+                    let (s, t) = coordinate_system((p1 - p0).normalize());
+                    let axis = to_world.transform_vector3(p1 - p0).normalize();
+                    let (world_s, world_t) = coordinate_system(axis);
+                    let turned = [(s, world_s), (t, world_t)].iter().any(|&(local, world)| {
+                        (to_world.transform_vector3(local).normalize() - world).length() > 1e-6
+                    });
+                    if turned {
+                        return Err(e.origin.error(
+                            "a textured cylinder's to_world may not turn it about its axis \
+                             (pathmix starts its u from Mitsuba's frame about the world axis)",
+                        ));
+                    }
+                }
+                object.insert("type".into(), Value::String("cylinder".into()));
+                object.insert("p0".into(), vec_value(p0));
+                object.insert("p1".into(), vec_value(p1));
+                object.insert("radius".into(), Value::Float(radius));
+                if flip {
+                    object.insert("flip_normals".into(), Value::Boolean(true));
+                }
+                if to_world != DMat4::IDENTITY {
+                    object.insert("matrix".into(), row_major(&to_world));
+                }
                 push(self, object);
             }
             _ => {
@@ -3098,6 +3140,102 @@ mod tests {
             let centre = q.q + (q.u + q.v) / 2.0;
             assert_eq!(normal(&cube, i), centre, "face {i} faces outwards");
         }
+    }
+
+    /// A `serialized` shape is a mesh object of its file, its `shape_index`
+    /// kept (the file's meshes are read by `scene::mesh`); a negative one is refused.
+    #[test]
+    fn serialized_shapes_keep_their_shape_index() {
+        let shape = |index: &str| {
+            scene_text(&format!(
+                r#"<shape type="serialized"><string name="filename" value="parts.serialized"/>
+                   <integer name="shape_index" value="{index}"/></shape>"#
+            ))
+        };
+        let xml = shape("2");
+        let (_dir, path) = folder(
+            "serialized",
+            &[("scene.xml", &xml), ("parts.serialized", "")],
+        );
+        let converted = Converted::read(&path, &[]).unwrap();
+        let object = &converted.document["objects"][0];
+        assert_eq!(object["type"].as_str(), Some("mesh"));
+        assert_eq!(object["shape_index"].as_integer(), Some(2));
+        assert!(
+            object["file"]
+                .as_str()
+                .unwrap()
+                .ends_with("parts.serialized")
+        );
+        let xml = shape("-1");
+        let (_dir, path) = folder(
+            "serialized-negative",
+            &[("scene.xml", &xml), ("parts.serialized", "")],
+        );
+        let e = Converted::read(&path, &[]).unwrap_err().to_string();
+        assert!(e.contains("shape_index must be between 0 and"), "{e}");
+    }
+
+    /// Mitsuba's cylinder: `p0`, `p1`, `radius` under `to_world`, which may
+    /// scale along the axis and alike across it; its normals point away from
+    /// the axis unless flip_normals, a mirroring to_world or not.
+    #[test]
+    fn cylinders_keep_mitsubas_shape_and_side() {
+        let cylinder = |name: &str, body: &str| {
+            let s = scene(name, &format!(r#"<shape type="cylinder">{body}</shape>"#));
+            assert_eq!(s.shapes.cylinders.len(), 1);
+            s.shapes.cylinders[0]
+        };
+        let c = cylinder("cylinder", "");
+        assert_eq!(
+            (c.p0, c.p1, c.radius, c.flip_normals),
+            (Vec3::ZERO, Vec3::Z, 1.0, false)
+        );
+        let c = cylinder(
+            "cylinder-placed",
+            r#"<point name="p0" x="0" y="0" z="1"/><point name="p1" x="0" y="0" z="2"/>
+               <float name="radius" value="0.5"/><boolean name="flip_normals" value="true"/>
+               <transform name="to_world"><scale x="2" y="2" z="3"/><translate x="1"/></transform>"#,
+        );
+        assert_eq!(
+            (c.p0, c.p1, c.radius, c.flip_normals),
+            (
+                Vec3::new(1.0, 0.0, 3.0),
+                Vec3::new(1.0, 0.0, 6.0),
+                1.0,
+                true
+            )
+        );
+        let c = cylinder(
+            "cylinder-mirror",
+            r#"<transform name="to_world"><scale x="-1"/></transform>"#,
+        );
+        assert!(!c.flip_normals);
+        let e = error(
+            "cylinder-elliptic",
+            r#"<shape type="cylinder"><transform name="to_world"><scale x="2"/></transform></shape>"#,
+        );
+        assert!(
+            e.contains("<shape type=\"cylinder\">") && e.contains("elliptic"),
+            "{e}"
+        );
+        let e = error(
+            "cylinder-textured",
+            r#"<shape type="cylinder"><transform name="to_world"><rotate z="1" angle="30"/></transform>
+               <bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>"#,
+        );
+        assert!(e.contains("may not turn it about its axis"), "{e}");
+        // Turned about another axis, its frame is Mitsuba's about the world axis.
+        let c = cylinder(
+            "cylinder-textured-upright",
+            r#"<transform name="to_world"><rotate x="1" angle="90"/></transform>
+               <bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf>"#,
+        );
+        assert!(
+            (c.p1 - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-6,
+            "{:?}",
+            c.p1
+        );
     }
 
     /// Mitsuba's disk is the unit disk in z = 0 facing +z, under `to_world`

@@ -18,7 +18,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
+    Cylinder, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
     SceneError, Shapes, Sphere, Spot, Texture, Triangle, excerpt,
 };
 pub use envmap::EnvironmentMap;

@@ -17,7 +17,7 @@ use glam::{DMat3, DVec3, Vec3};
 use toml::{Table, Value};
 
 use super::envmap::{EnvironmentMap, load_image};
-use super::mesh::{load_mesh, vertex_normals};
+use super::mesh::{is_serialized, load_mesh, vertex_normals};
 use super::{
     AdaptiveMetric, Camera, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
     RenderSettings, Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle,
@@ -691,8 +691,10 @@ struct Objects {
 
 /// The object types the scene reads itself, and their keys besides the common
 /// ones: a box (six quads) and a mesh (its file's faces).
-const SCENE_OBJECTS: &[(&str, &[&str])] =
-    &[("box", &["min", "max"]), ("mesh", &["file", "smooth"])];
+const SCENE_OBJECTS: &[(&str, &[&str])] = &[
+    ("box", &["min", "max"]),
+    ("mesh", &["file", "smooth", "shape_index"]),
+];
 
 /// Every object type and its own keys: the primitive kinds'
 /// (`kinds::ObjectType`), then the scene's.
@@ -793,7 +795,15 @@ fn parse_objects(top: &ParamTable, materials: &[Material]) -> Result<Objects> {
                 let name = t.require("file", t.string("file")?)?;
                 let path = t.input(name);
                 let smooth = t.boolean("smooth")?.unwrap_or(true);
-                let mesh = load_mesh(&path).map_err(|e| t.err(t.at("file"), e.to_string()))?;
+                let shape_index = t.int("shape_index", (0, u32::MAX.into()))?;
+                if shape_index.is_some() && !is_serialized(&path) {
+                    return Err(t.err(
+                        t.at("shape_index"),
+                        "only a `.serialized` file holds several meshes to pick from",
+                    ));
+                }
+                let mesh = load_mesh(&path, shape_index.unwrap_or(0))
+                    .map_err(|e| t.err(t.at("file"), e.to_string()))?;
                 let world: Vec<Vec3> = mesh
                     .positions
                     .iter()

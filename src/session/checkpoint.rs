@@ -36,7 +36,8 @@ pub const MAGIC: [u8; 8] = *b"PMXCKPT\0";
 /// 6: the scene hashes come from a stable encoding of the scene's parts
 /// (`encoding_hash`), no longer from their `Debug` text.
 /// 7: materials encode their `opacity` (Mitsuba's `mask`).
-pub const VERSION: u32 = 7;
+/// 8: the geometry encodes cylinders (`kinds::cylinder`).
+pub const VERSION: u32 = 8;
 
 /// FNV-1a, 64 bits: the scene identity's hash function (stable across platforms).
 #[derive(Clone, Copy, Debug)]
@@ -1056,8 +1057,8 @@ mod tests {
     use super::*;
     use crate::kinds::{Bitmap, Texture, TextureFilter, TextureKind, UvTransform, WrapMode};
     use crate::scene::{
-        Camera, Disk, Distribution, EnvironmentMap, Filter, Material, MaterialKind, PointLight,
-        Quad, Roulette, Shapes, Sphere, Spot, Triangle,
+        Camera, Cylinder, Disk, Distribution, EnvironmentMap, Filter, Material, MaterialKind,
+        PointLight, Quad, Roulette, Shapes, Sphere, Spot, Triangle,
     };
     use glam::{Mat3, Vec2, Vec3};
     use std::sync::Arc;
@@ -1350,6 +1351,14 @@ mod tests {
                     material: 0,
                     importance: false,
                 }],
+                cylinders: vec![Cylinder {
+                    p0: Vec3::new(0.0, -1.0, 0.0),
+                    p1: Vec3::new(0.0, 1.0, 0.0),
+                    radius: 0.25,
+                    flip_normals: true,
+                    material: 2,
+                    importance: true,
+                }],
             },
             degenerate_triangles: 0,
             point_lights: vec![
@@ -1412,16 +1421,16 @@ mod tests {
         }
         camera.bytes(&[8, 6, 1]).u32(0.5f32.to_bits());
         assert_eq!(identity.camera_hash, camera.finish());
-        assert_eq!((identity.shapes, identity.point_lights), (vec![1; 4], 2));
+        assert_eq!((identity.shapes, identity.point_lights), (vec![1; 5], 2));
     }
 
     /// Camera, materials, geometry, settings, and the scene hash.
     const GOLDEN: [&str; 5] = [
         "6acd00696624b086",
         "748ee7bfced01064",
-        "753ba0cdad987ceb",
+        "c7629e67c6522810",
         "e50b9993ee433292",
-        "af29dca22734c7c1",
+        "fb2ab36e0b1652e6",
     ];
 
     /// A change of one field of any part changes that part's hash (and the scene

@@ -47,7 +47,8 @@ const PREFIX: &str = "pathmix.";
 /// 5: the scene hashes come from a stable encoding of the scene's parts (as
 /// checkpoints' version 6), no longer from their `Debug` text.
 /// 6: materials encode their `opacity` (as checkpoints' version 7).
-const FORMAT: u32 = 6;
+/// 7: the geometry encodes cylinders (as checkpoints' version 8).
+const FORMAT: u32 = 7;
 
 /// A sample range or shard given as text that does not make one.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
