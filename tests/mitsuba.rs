@@ -656,8 +656,8 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
         ),
         (
             "shape",
-            "<scene version=\"3.0.0\">\n<shape type=\"cylinder\"/>\n</scene>",
-            ":2:1: <shape type=\"cylinder\">: not supported (supported: obj, ply, rectangle, cube, disk, sphere)",
+            "<scene version=\"3.0.0\">\n<shape type=\"linearcurve\"/>\n</scene>",
+            ":2:1: <shape type=\"linearcurve\">: not supported (supported: obj, ply, serialized, rectangle, cube, disk, sphere, cylinder)",
         ),
         (
             "projector",
