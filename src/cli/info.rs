@@ -57,7 +57,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
 
     println!("scene: {}", scene.source);
     println!(
-        "  camera {}x{}, {} spp, max depth {}, strategy {}, light weight {}, {} sampler",
+        "  camera {}x{}, {} spp, max depth {}, strategy {}, light weight {}, {} sampler, {}",
         width,
         height,
         scene.render.spp,
@@ -68,7 +68,8 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
             false => strategy.to_string(),
         },
         scene.render.light_weight,
-        scene.render.sampler
+        scene.render.sampler,
+        config.describe_filter(),
     );
     let kinds: Vec<&str> = MATERIAL_KINDS
         .iter()

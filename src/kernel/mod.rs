@@ -781,6 +781,16 @@ impl KernelConfig {
         self.grouped_density == GroupedDensity::Points
     }
 
+    /// The pixel filter and how samples are made pixels of, for a run's header:
+    /// "box filter", "gaussian filter, splatted" or "tent filter, offsets drawn".
+    pub fn describe_filter(&self) -> String {
+        match (self.filter, self.splat) {
+            (Filter::Box, _) => "box filter".into(),
+            (filter, true) => format!("{} filter, splatted", filter.name()),
+            (filter, false) => format!("{} filter, offsets drawn", filter.name()),
+        }
+    }
+
     pub fn flags(&self) -> BTreeSet<String> {
         let mut flags = BTreeSet::new();
         for k in self.primitive_kinds.iter() {
