@@ -32,6 +32,8 @@ fn camera_ray(pixel: vec2<u32>) -> CameraRay {
 #endif
 }
 
+// The ray through the point `to_film` of the image plane (from the eye, which
+// the plane is 1 ahead of; for the orthographic view, the plane through it).
 fn camera_ray_through(to_film: vec3<f32>) -> Ray {
 #if ORTHOGRAPHIC
     // Mitsuba's `orthographic`: along the view axis (delta_u x delta_v: the
