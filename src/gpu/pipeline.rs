@@ -57,15 +57,37 @@ pub(crate) fn accumulator_binding(kind: AccumulatorKind) -> wgpu::BindingType {
     }
 }
 
+/// The compute pipeline of `entry_point` in the WGSL `source` under `layout`,
+/// its override constants set to `constants`.
+fn compute_pipeline(
+    ctx: &GpuContext,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    source: String,
+    (entry_point, constants): (&str, &[(&str, f64)]),
+) -> wgpu::ComputePipeline {
+    let module = ctx
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    ctx.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: Some(layout),
+            module: &module,
+            entry_point: Some(entry_point),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            cache: None,
+        })
+}
+
 impl Kernel {
     pub fn new(ctx: &GpuContext, config: KernelConfig) -> Result<Kernel, ComposeError> {
-        let source = config.source()?;
-        let module = ctx
-            .device
-            .create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some("pathmix kernel"),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
         let accumulator = accumulator_binding(config.accumulator);
         let mut frame_entries = vec![
             compute_entry(BINDING_PARAMS, storage_buffer(true)),
@@ -105,44 +127,21 @@ impl Kernel {
                 bind_group_layouts: &[Some(&frame_layout), Some(&scene_layout)],
                 immediate_size: 0,
             });
-        let constants = config.constants();
-        let pipeline = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("pathmix kernel"),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some(ENTRY_POINT),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    zero_initialize_workgroup_memory: false,
-                },
-                cache: None,
-            });
+        let pipeline = compute_pipeline(
+            ctx,
+            "pathmix kernel",
+            &layout,
+            config.source()?,
+            (ENTRY_POINT, &config.constants()),
+        );
         let splat_pipeline = match config.splat {
-            true => {
-                let module = ctx
-                    .device
-                    .create_shader_module(wgpu::ShaderModuleDescriptor {
-                        label: Some("splatting"),
-                        source: wgpu::ShaderSource::Wgsl(config.splat_source()?.into()),
-                    });
-                let constants = config.filter.constants();
-                Some(
-                    ctx.device
-                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some("splatting"),
-                            layout: Some(&layout),
-                            module: &module,
-                            entry_point: Some(SPLAT_ENTRY_POINT),
-                            compilation_options: wgpu::PipelineCompilationOptions {
-                                constants: &constants,
-                                zero_initialize_workgroup_memory: false,
-                            },
-                            cache: None,
-                        }),
-                )
-            }
+            true => Some(compute_pipeline(
+                ctx,
+                "splatting",
+                &layout,
+                config.splat_source()?,
+                (SPLAT_ENTRY_POINT, &config.filter.constants()),
+            )),
             false => None,
         };
         Ok(Kernel {

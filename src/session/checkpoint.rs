@@ -145,34 +145,27 @@ impl SceneIdentity {
             // hash they had before splatting was a choice.
             reconstruction: _,
         } = render;
-        let splats = render.reconstruction_with(camera.filter) == Reconstruction::Splat;
         let rr_depth = render.roulette_depth();
+        let splats = render.reconstruction_with(camera.filter) == Reconstruction::Splat;
+        let settings = (
+            max_depth,
+            strategy,
+            light_weight,
+            background,
+            seed,
+            rr_depth,
+            sampler,
+            environment,
+        );
         SceneIdentity {
             camera_hash: encoding_hash(camera),
             materials_hash: encoding_hash(materials),
             geometry_hash: encoding_hash(&(shapes, point_lights)),
+            // A tuple encodes as its elements one after another, so the
+            // splatting run's encoding is the others' followed by `Splat`.
             settings_hash: match splats {
-                false => encoding_hash(&(
-                    max_depth,
-                    strategy,
-                    light_weight,
-                    background,
-                    seed,
-                    rr_depth,
-                    sampler,
-                    environment,
-                )),
-                true => encoding_hash(&(
-                    max_depth,
-                    strategy,
-                    light_weight,
-                    background,
-                    seed,
-                    rr_depth,
-                    sampler,
-                    environment,
-                    Reconstruction::Splat,
-                )),
+                false => encoding_hash(&settings),
+                true => encoding_hash(&(settings, Reconstruction::Splat)),
             },
             width: camera.width,
             height: camera.height,
