@@ -122,8 +122,18 @@ fn shadow_transmittance(ray: Ray, distance: f32, segments: ptr<function, u32>) -
 #endif
 
 @compute @workgroup_size(WORKGROUP_SIZE_X, WORKGROUP_SIZE_Y, 1)
-fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_id) local: vec3<u32>) {
+fn render(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+#if PROFILE
+    @builtin(subgroup_size) subgroup_size: u32,
+#endif
+) {
     load_params();
+#if PROFILE
+    profile_subgroup_size = subgroup_size;
+#endif
     // lavapipe gives each thread one contiguous range of a dispatch's workgroups:
     // in order, one thread would take the sky and another the ground. Stepping
     // through the rows spreads every range over the whole tile.
@@ -193,7 +203,15 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
 #endif
     loop {
         var path_done = false;
+#if PROFILE
+        profile(STAGE_PATH_STEP);
+        profile_walk = STAGE_CLOSEST_NODES;
         let hit = intersect_scene(ray);
+        // Every other walk of this step is a shadow ray's.
+        profile_walk = STAGE_SHADOW_NODES;
+#else
+        let hit = intersect_scene(ray);
+#endif
         segments += 1u;
         if hit.t == F32_MAX {
 #if ENVIRONMENT
@@ -329,6 +347,9 @@ fn render(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) grou
                         }
                     }
                 }
+#endif
+#if PROFILE
+                profile(STAGE_SHADING);
 #endif
                 let scattered = scatter(material, frame, -ray.dir, hit.p + frame.ng * hit.offset);
 #if STRATEGY_NEE

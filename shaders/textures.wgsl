@@ -42,6 +42,9 @@ fn texture_texel(t: TextureInfo, x: i32, y: i32) -> vec3<f32> {
 }
 
 fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {
+#if PROFILE
+    profile(STAGE_TEXTURES);
+#endif
     let t = textures_at(index);
     let uv = vec2<f32>(dot(t.to_uv_u, vec3<f32>(surface_uv, 1.0)), dot(t.to_uv_v, vec3<f32>(surface_uv, 1.0)));
     if t.kind == TEXTURE_CHECKERBOARD {

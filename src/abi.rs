@@ -162,6 +162,30 @@ impl Counters {
 }
 
 gpu_struct! {
+    /// One stage's counts in a profiling kernel (`kernel::Stage`): the lanes
+    /// that ran it, and the lanes of the SIMD groups (subgroups) that ran it,
+    /// active or not; each a 64-bit count in two words.
+    pub struct StageCounts {
+        pub lanes_low: u32,
+        pub lanes_high: u32,
+        pub slots_low: u32,
+        pub slots_high: u32,
+    }
+}
+
+impl StageCounts {
+    /// Times a lane ran the stage.
+    pub fn lanes(&self) -> u64 {
+        (self.lanes_high as u64) << 32 | self.lanes_low as u64
+    }
+
+    /// Lanes of the SIMD groups that ran it: what it cost the device.
+    pub fn slots(&self) -> u64 {
+        (self.slots_high as u64) << 32 | self.slots_low as u64
+    }
+}
+
+gpu_struct! {
     /// Every material kind packs into this; what each field holds for each kind
     /// is said once, in its kind's file (`src/kinds/material/`).
     pub struct PackedMaterial as Material {
@@ -218,6 +242,9 @@ pub const BINDING_SPLAT_SAMPLES: u32 = 4;
 pub const SPLAT_SAMPLE_BYTES: u64 = 20;
 /// The splatting pass's entry point (`shaders/splat.wgsl`).
 pub const SPLAT_ENTRY_POINT: &str = "splat";
+/// Only in a profiling kernel: its `StageCounts`, one per `kernel::Stage`
+/// (profile.wgsl).
+pub const BINDING_PROFILE: u32 = 5;
 
 /// The accumulator's layers: each running sum and its Kahan compensation (the
 /// sum minus the compensation is the sum without the rounding losses).

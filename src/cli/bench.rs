@@ -30,6 +30,15 @@ pub struct BenchArgs {
     /// scripts/compare-mitsuba.py).
     #[arg(long, value_name = "N")]
     pub write_sphere_field: Option<usize>,
+    /// Instead of the speed figures: per stage of the path loop, the work per
+    /// path and the share of SIMD lanes active, on SCENEs or the real scenes
+    /// (`../shared`, skipped where missing) and the book's boxes.
+    #[arg(long)]
+    pub stages: bool,
+    /// With `--stages`: the scenes to profile (TOML or Mitsuba XML), at their
+    /// own sizes.
+    #[arg(requires = "stages")]
+    pub scenes: Vec<PathBuf>,
 }
 
 struct Case {
@@ -115,6 +124,123 @@ fn scale_curve(
     Ok(())
 }
 
+/// A scene `--stages` profiles by default: a path from the repository, and the
+/// size it is rendered at.
+struct StageCase {
+    path: &'static str,
+    width: u32,
+    height: u32,
+}
+
+/// The book's boxes, then the real scenes of `../shared`.
+const STAGE_CASES: [StageCase; 5] = [
+    StageCase {
+        path: "scenes/cornell-boxes.toml",
+        width: 256,
+        height: 256,
+    },
+    StageCase {
+        path: "../shared/mitsuba-scenes/veach/veach-mis.xml",
+        width: 384,
+        height: 256,
+    },
+    StageCase {
+        path: "../shared/scenes-bitterli/staircase2/scene.xml",
+        width: 320,
+        height: 180,
+    },
+    StageCase {
+        path: "../shared/scenes-bitterli/veach_mi/scene.xml",
+        width: 320,
+        height: 180,
+    },
+    StageCase {
+        path: "../shared/scenes-bitterli/cbox/scene.xml",
+        width: 256,
+        height: 256,
+    },
+];
+
+/// `--stages`: per scene, its speed (uninstrumented, median of warm runs) and
+/// what a profiling kernel counts per stage (`kernel::Stage`).
+fn stages(ctx: &GpuContext, args: &BenchArgs) -> Result<(), Failure> {
+    let samples = if args.quick { 1 } else { 4 };
+    let repetitions = if args.quick {
+        1
+    } else {
+        args.repetitions.clamp(1, 3)
+    };
+    let cases: Vec<(PathBuf, Option<(u32, u32)>)> = match args.scenes.is_empty() {
+        true => STAGE_CASES
+            .iter()
+            .map(|case| {
+                let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(case.path);
+                (path, Some((case.width, case.height)))
+            })
+            .collect(),
+        false => args
+            .scenes
+            .iter()
+            .map(|path| (path.clone(), None))
+            .collect(),
+    };
+    println!("adapter: {}", ctx.describe());
+    println!(
+        "{samples} spp per scene; per path: times a lane ran the stage; SIMD lanes per path: \
+         lanes of the SIMD groups that ran it, active or not (what it cost); lanes active: \
+         the first over the second"
+    );
+    for (path, size) in cases {
+        if size.is_some() && !path.exists() {
+            println!("\nskipped {}: it is missing", path.display());
+            continue;
+        }
+        let mut scene = Scene::load(&path).map_err(Failure::input)?;
+        if let Some((width, height)) = size {
+            let overrides = SceneOverrides {
+                width: Some(width),
+                height: Some(height),
+                ..Default::default()
+            };
+            scene
+                .apply_overrides(&overrides)
+                .map_err(Failure::runtime)?;
+        }
+        let options = RenderOptions::default();
+        let timed = bench::measure(ctx, &scene, &options, samples, repetitions)
+            .map_err(Failure::runtime)?;
+        let profile =
+            bench::profile_stages(ctx, &scene, &options, samples).map_err(Failure::runtime)?;
+        let settings = &scene.render;
+        println!(
+            "\n{} ({}x{}, strategy {}, max depth {}): {:.3} M paths/s, {:.2} M segments/s\n",
+            path.display(),
+            scene.camera.width,
+            scene.camera.height,
+            settings.strategy.name(),
+            settings.max_depth,
+            timed.paths_per_second / 1e6,
+            timed.segments_per_second / 1e6
+        );
+        println!("| stage | per path | SIMD lanes per path | lanes active |");
+        println!("|---|--:|--:|--:|");
+        let per_path = |count: u64| count as f64 / profile.paths as f64;
+        for (stage, counts) in profile.stages {
+            let active = match counts.slots() {
+                0 => "-".to_string(),
+                slots => format!("{:.0}%", 100.0 * counts.lanes() as f64 / slots as f64),
+            };
+            println!(
+                "| {} | {:.2} | {:.2} | {active} |",
+                stage.name(),
+                per_path(counts.lanes()),
+                per_path(counts.slots()),
+            );
+        }
+    }
+    Ok(())
+}
+
 fn scenes_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
 }
@@ -125,6 +251,9 @@ pub fn bench(args: BenchArgs) -> Result<(), Failure> {
         return Ok(());
     }
     let ctx = super::open_gpu(args.adapter.as_deref())?;
+    if args.stages {
+        return stages(&ctx, &args);
+    }
     let repetitions = if args.quick {
         1
     } else {

@@ -35,6 +35,9 @@ pub struct GpuContext {
     /// (Mesa's llvmpipe) on a CPU whose code has no AVX-512, where each lane's
     /// value of a buffer load passes through memory (`kernel::ArrayMemory`).
     pub textures_read_faster: bool,
+    /// Subgroup operations, which a profiling kernel counts SIMD lanes with
+    /// (`KernelConfig::profile`).
+    pub subgroups: bool,
 }
 
 impl GpuContext {
@@ -95,6 +98,10 @@ impl GpuContext {
         if storage_texture_accumulator {
             required_features |= adapter_specific;
         }
+        let subgroups = adapter.features().contains(wgpu::Features::SUBGROUP);
+        if subgroups {
+            required_features |= wgpu::Features::SUBGROUP;
+        }
         let (device, queue) =
             pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
                 label: Some("pathmix"),
@@ -112,6 +119,7 @@ impl GpuContext {
             info,
             storage_texture_accumulator,
             textures_read_faster,
+            subgroups,
         })
     }
 

@@ -3,7 +3,7 @@
 
 use super::context::GpuContext;
 use crate::abi::{
-    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, BINDING_PROFILE,
     BINDING_SPLAT_SAMPLES, SPLAT_ENTRY_POINT,
 };
 use crate::kernel::{AccumulatorKind, ENTRY_POINT, KernelConfig};
@@ -99,6 +99,9 @@ impl Kernel {
         }
         if config.splat {
             frame_entries.push(compute_entry(BINDING_SPLAT_SAMPLES, storage_buffer(false)));
+        }
+        if config.profile {
+            frame_entries.push(compute_entry(BINDING_PROFILE, storage_buffer(false)));
         }
         let frame_layout = ctx
             .device

@@ -3,12 +3,12 @@
 //! The generated modules go through the same composer as the files in
 //! `shaders/`, so they may use `#for_each`.
 
-use super::{ArraySource, KernelConfig, LightTablePart, SceneArray, WORKGROUP_SIZE};
+use super::{ArraySource, KernelConfig, LightTablePart, SceneArray, Stage, WORKGROUP_SIZE};
 use crate::abi::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_ERROR_STRIPS,
-    BINDING_PARAMS, BINDING_SPLAT_SAMPLES, ERROR_STRIP_PIXELS, ERROR_WORKGROUP_SIZE, GpuLayout,
-    LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, LAYER_SUM, LAYER_SUM_COMPENSATION,
-    MATERIAL_FLAGS, REPLICATES, TEXTURE_ARRAY_WIDTH, WgslValue,
+    BINDING_PARAMS, BINDING_PROFILE, BINDING_SPLAT_SAMPLES, ERROR_STRIP_PIXELS,
+    ERROR_WORKGROUP_SIZE, GpuLayout, LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION,
+    LAYER_SUM, LAYER_SUM_COMPENSATION, MATERIAL_FLAGS, REPLICATES, TEXTURE_ARRAY_WIDTH, WgslValue,
 };
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
@@ -43,6 +43,11 @@ pub fn shared_constants() -> String {
     constant("LAYER_SUM_COMPENSATION", LAYER_SUM_COMPENSATION);
     constant("LAYER_SQUARES", LAYER_SQUARES);
     constant("LAYER_SQUARES_COMPENSATION", LAYER_SQUARES_COMPENSATION);
+    constant("BINDING_PROFILE", BINDING_PROFILE);
+    constant("PROFILE_STAGES", Stage::ALL.len() as u32);
+    for stage in Stage::ALL {
+        constant(stage.constant(), stage.index());
+    }
     constant("LAYER_REPLICATES", LAYER_REPLICATES);
     constant("REPLICATES", REPLICATES);
     for (id, kind) in MATERIAL_KINDS.iter().enumerate() {
@@ -602,7 +607,8 @@ fn node_word(field: &str) -> usize {
     offset / 16
 }
 
-/// Depth-first walk of a wide BVH with a stack, running `leaf` at every leaf
+/// Depth-first walk of a wide BVH with a stack, running `visit` at every
+/// interior node it opens and `leaf` at every leaf
 /// whose box the ray enters before `walk.t_max` (with `link` the leaf's
 /// `(first, count)` and `end` its range's end): the nearest hit child next,
 /// the others later, nearer first. While-while (Aila and Laine 2009): an inner
@@ -613,7 +619,7 @@ fn node_word(field: &str) -> usize {
 /// sides of every branch (masked), so a node visit reads one link, its nearest
 /// hit child's or the popped one's (two reads took 1.08x the CPU time on 4 000
 /// spheres), and updates the stack by `select`s rather than under branches.
-fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str) {
+fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, visit: &str, leaf: &str) {
     let stack = RegisterStack {
         name: "stack",
         size: stack_size,
@@ -687,7 +693,7 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, leaf: &str)
             if link.y != 0u {{
                 break;
             }}
-            let node = {node};
+{visit}            let node = {node};
             let keys = wide_bvh_order(wide_bvh_children_t({boxes}, {origin}, inv_dir, {t_max}));
             let hits = select(vec4<u32>(0u), vec4<u32>(1u), keys < vec4<u32>(WIDE_BVH_MISS));
             let pending = hits.y + hits.z + hits.w;
@@ -735,10 +741,17 @@ fn bvh_traversal(
     kinds: &[usize],
     test: impl Fn(usize, &str) -> String,
 ) {
+    // A profiling kernel counts the walk's node visits and primitive tests
+    // toward the closest hit's stages or the shadow ray's (`profile_walk`).
+    let hook = |stage: &str, indent: &str| match config.profile {
+        true => format!("{indent}profile({stage});\n"),
+        false => String::new(),
+    };
     let range = |k: usize, indent: &str| {
         let array = PRIMITIVE_KINDS[k].array;
         format!(
-            "{indent}for (var primitive_index = link.x; primitive_index < end; primitive_index += 1u) {{\n{indent}    let primitive = {array}_at(primitive_index);\n{}{indent}}}\n",
+            "{indent}for (var primitive_index = link.x; primitive_index < end; primitive_index += 1u) {{\n{}{indent}    let primitive = {array}_at(primitive_index);\n{}{indent}}}\n",
+            hook("profile_walk + 1u", &format!("{indent}    ")),
             test(k, &format!("{indent}    "))
         )
     };
@@ -764,7 +777,8 @@ fn bvh_traversal(
         origin: "ray.origin",
         t_max: "hit.t",
     };
-    wide_bvh_walk(out, &walk, config.bvh_stack, &leaf);
+    let visit = hook("profile_walk", "            ");
+    wide_bvh_walk(out, &walk, config.bvh_stack, &visit, &leaf);
 }
 
 /// The light density p_light: the average of the solid-angle densities of every
@@ -974,7 +988,7 @@ fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
         origin: "origin",
         t_max: "F32_MAX",
     };
-    wide_bvh_walk(out, &walk, config.light_bvh_stack, &leaf);
+    wide_bvh_walk(out, &walk, config.light_bvh_stack, "", &leaf);
     out.push_str("    return total;\n}\n");
 }
 

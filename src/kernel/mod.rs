@@ -4,6 +4,9 @@
 //! variant is validated by naga in `cargo test`.
 
 mod glue;
+mod profile;
+
+pub use profile::Stage;
 
 use crate::abi::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, PackedMaterial, REPLICATES, replicate_layer,
@@ -32,6 +35,7 @@ pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
 pub const KERNEL: ShaderModule = shader_module!("kernel");
 pub const SUMS: ShaderModule = shader_module!("sums");
 pub const SPLAT: ShaderModule = shader_module!("splat");
+pub const PROFILE: ShaderModule = shader_module!("profile");
 pub const BSDF_PROBE: ShaderModule = shader_module!("bsdf_probe");
 pub const ENVIRONMENT: ShaderModule = shader_module!("environment");
 pub const ENVIRONMENT_PROBE: ShaderModule = shader_module!("environment_probe");
@@ -67,6 +71,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "THIN_LENS",
     "ORTHOGRAPHIC",
     "SPLAT",
+    "PROFILE",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -377,6 +382,9 @@ pub struct KernelConfig {
     /// Samples are splatted into the pixels around by the filter
     /// (`Reconstruction::Splat`, `shaders/splat.wgsl`) rather than drawn from it.
     pub splat: bool,
+    /// Count each `Stage`'s active SIMD lanes (`shaders/profile.wgsl`): for
+    /// `pathmix bench --stages`; needs subgroup operations.
+    pub profile: bool,
     /// How camera rays leave the camera (`camera_ray`).
     pub camera: CameraModel,
     /// Some material of the scene is one-sided (black from behind).
@@ -616,6 +624,7 @@ impl KernelConfig {
             light_bvh_stack,
             filter,
             splat: false,
+            profile: false,
             camera,
             one_sided: data.has_one_sided_materials(),
             masked: data.has_masked_materials(),
@@ -684,6 +693,7 @@ impl KernelConfig {
             light_bvh_stack: accel::MAX_DEPTH,
             filter: Filter::Box,
             splat: false,
+            profile: false,
             camera: CameraModel::Pinhole,
             one_sided: true,
             masked: true,
@@ -840,6 +850,7 @@ impl KernelConfig {
             ("THIN_LENS", self.camera == CameraModel::ThinLens),
             ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
             ("SPLAT", self.splat),
+            ("PROFILE", self.profile),
         ];
         for (flag, on) in features {
             if on {
@@ -863,12 +874,11 @@ impl KernelConfig {
             name,
             source: source.into(),
         };
-        let mut modules = vec![
-            generated("constants", glue::shared_constants()),
-            COMMON,
-            RNG,
-            SAMPLING,
-        ];
+        let mut modules = vec![generated("constants", glue::shared_constants()), COMMON];
+        if self.profile {
+            modules.push(PROFILE);
+        }
+        modules.extend([RNG, SAMPLING]);
         let geometry = self.primitive_kinds.iter().chain(self.light_kinds.iter());
         let geometry: KindSet = geometry.collect();
         modules.extend(geometry.iter().map(|k| PRIMITIVE_KINDS[k].module.clone()));
@@ -2266,6 +2276,25 @@ pub(crate) mod tests {
                 check_layout(&module, ErasedLayout::of::<EstimateParams>());
                 check_layout(&module, ErasedLayout::of::<ErrorStrip>());
             }
+        }
+    }
+
+    /// The profiling kernel under every strategy, with a BVH (whose walks it
+    /// counts) and without, and its counts' layout.
+    #[test]
+    fn profiling_kernels_validate() {
+        for strategy in Strategy::ALL {
+            let general = KernelConfig {
+                profile: true,
+                ..KernelConfig::general(strategy, AccumulatorKind::Texture)
+            };
+            let with_bvh = KernelConfig {
+                bvh_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+                ..general.clone()
+            };
+            validate(&general);
+            let module = validate(&with_bvh);
+            check_layout(&module, ErasedLayout::of::<crate::abi::StageCounts>());
         }
     }
 

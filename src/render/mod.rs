@@ -4,9 +4,9 @@
 pub mod adaptive;
 
 use crate::abi::{
-    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS,
+    BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, BINDING_PROFILE,
     BINDING_SPLAT_SAMPLES, Counters, LAYER_SQUARES, LAYER_SUM, Params, RAY_OFFSET_RELATIVE,
-    REPLICATES, SPLAT_SAMPLE_BYTES, replicate_layer,
+    REPLICATES, SPLAT_SAMPLE_BYTES, StageCounts, replicate_layer,
 };
 use crate::accel::{self, WideBvh};
 use crate::gpu::accumulator::{Accumulator, compensated_sums, map_read};
@@ -15,7 +15,7 @@ use crate::gpu::pipeline::Kernel;
 use crate::gpu::texture_array::{self, TextureArray};
 use crate::gpu::{GpuContext, GpuError};
 use crate::kernel::{
-    AccumulatorKind, ArrayMemory, ArraySource, KernelConfig, SceneStorage, WORKGROUP_SIZE,
+    AccumulatorKind, ArrayMemory, ArraySource, KernelConfig, SceneStorage, Stage, WORKGROUP_SIZE,
 };
 use crate::kinds::{MASK_RAY_HITS, MATERIAL_NESTING, PRIMITIVE_KINDS};
 use crate::pack::{CameraFrame, SceneData};
@@ -54,6 +54,9 @@ pub struct RenderOptions {
     /// Adaptive: the rounds whatever the pilot predicts (`adaptive::choose`), to
     /// study or test them where the choice would go on uniformly.
     pub adaptive_rounds_always: bool,
+    /// Count each stage's SIMD lanes (`KernelConfig::profile`,
+    /// `Renderer::stage_counts`): slower, for `pathmix bench --stages`.
+    pub profile: bool,
 }
 
 impl Default for RenderOptions {
@@ -67,6 +70,7 @@ impl Default for RenderOptions {
             general_kernel: false,
             adaptive: false,
             adaptive_rounds_always: false,
+            profile: false,
         }
     }
 }
@@ -97,6 +101,8 @@ pub enum RenderError {
          use the buffer accumulator"
     )]
     NoStorageTextures { adapter: String },
+    #[error("adapter {adapter} has no subgroup operations, which profiling counts SIMD lanes with")]
+    NoSubgroups { adapter: String },
     #[error(
         "adapter {adapter} cannot bind this scene's arrays as textures (too many, \
          or one taller than its largest texture); read them from storage buffers"
@@ -214,6 +220,8 @@ pub struct Renderer<'a> {
     params: Params,
     params_buffer: wgpu::Buffer,
     counters_buffer: wgpu::Buffer,
+    /// A profiling kernel's `StageCounts`, one per `Stage`.
+    profile_buffer: Option<wgpu::Buffer>,
     frame_group: wgpu::BindGroup,
     scene_group: wgpu::BindGroup,
     /// Samples per pixel accumulated so far (adaptive: the floor of their mean).
@@ -295,6 +303,13 @@ impl<'a> Renderer<'a> {
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
         });
+        let profile_buffer = kernel.config.profile.then(|| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("stage counts"),
+                contents: bytemuck::cast_slice(&[StageCounts::default(); Stage::ALL.len()]),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            })
+        });
         let pixels = width as usize * height as usize;
         let splat_samples = kernel.config.splat.then(|| {
             let samples = splat_samples_per_submission(ctx, kernel.config.filter, width, height)
@@ -345,6 +360,12 @@ impl<'a> Renderer<'a> {
         if let Some((buffer, _)) = &splat_samples {
             frame_entries.push(wgpu::BindGroupEntry {
                 binding: BINDING_SPLAT_SAMPLES,
+                resource: buffer.as_entire_binding(),
+            });
+        }
+        if let Some(buffer) = &profile_buffer {
+            frame_entries.push(wgpu::BindGroupEntry {
+                binding: BINDING_PROFILE,
                 resource: buffer.as_entire_binding(),
             });
         }
@@ -450,6 +471,7 @@ impl<'a> Renderer<'a> {
             params,
             params_buffer,
             counters_buffer,
+            profile_buffer,
             frame_group,
             scene_group,
             samples: 0,
@@ -960,17 +982,36 @@ impl<'a> Renderer<'a> {
     /// The kernel's counters: samples discarded as NaN or infinite (added as
     /// zero), and invocations cut short by the driver (must be zero).
     pub fn counters(&self) -> Counters {
-        let staging = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("counters readback"),
-            size: size_of::<Counters>() as u64,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        encoder.copy_buffer_to_buffer(&self.counters_buffer, 0, &staging, 0, staging.size());
-        self.ctx.queue.submit([encoder.finish()]);
-        map_read(self.ctx, &staging, bytemuck::pod_read_unaligned::<Counters>)
+        read_back(
+            self.ctx,
+            &self.counters_buffer,
+            bytemuck::pod_read_unaligned::<Counters>,
+        )
     }
+
+    /// A profiling kernel's counts per stage since the renderer was made
+    /// (`RenderOptions::profile`); `None` for other kernels.
+    pub fn stage_counts(&self) -> Option<Vec<(Stage, StageCounts)>> {
+        let buffer = self.profile_buffer.as_ref()?;
+        let counts = read_back(self.ctx, buffer, |bytes| {
+            bytemuck::pod_collect_to_vec::<u8, StageCounts>(bytes)
+        });
+        Some(Stage::ALL.into_iter().zip(counts).collect())
+    }
+}
+
+/// `buffer`'s contents, copied to a mappable buffer and read by `read`.
+fn read_back<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> T) -> T {
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: buffer.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, staging.size());
+    ctx.queue.submit([encoder.finish()]);
+    map_read(ctx, &staging, read)
 }
 
 /// The accumulator's raw contents and the sample range they cover.
@@ -1121,11 +1162,17 @@ pub fn plan_kernel(
     if options.adaptive && config.sampler != Sampler::Sobol {
         return Err(RenderError::AdaptiveNeedsSobol);
     }
+    if options.profile && !ctx.subgroups {
+        return Err(RenderError::NoSubgroups {
+            adapter: ctx.describe(),
+        });
+    }
     let mut warnings = warnings;
     let config = KernelConfig {
         variance: config.variance || options.adaptive,
         adaptive: options.adaptive,
         splat: choose_splat(ctx, scene, options, &mut warnings),
+        profile: options.profile,
         ..config
     };
     let config = KernelConfig {

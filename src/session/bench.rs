@@ -1,7 +1,9 @@
 //! Benchmark measurements: warm, repeated runs of fixed sample counts, median
 //! time. The CLI decides which cases to run and prints them.
 
+use crate::abi::StageCounts;
 use crate::gpu::GpuContext;
+use crate::kernel::Stage;
 use crate::render::{self, RenderError, RenderOptions, Renderer, StopRule};
 use crate::scene::Scene;
 
@@ -45,6 +47,37 @@ pub fn measure(
         segments_per_second: median(&segment_rates),
         median_seconds,
         seconds,
+    })
+}
+
+/// A profiling kernel's counts over a run (`RenderOptions::profile`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageProfile {
+    /// Paths traced (pixels x samples).
+    pub paths: u64,
+    pub stages: Vec<(Stage, StageCounts)>,
+}
+
+/// Renders `samples` samples per pixel of `scene` with a profiling kernel and
+/// returns its stage counts.
+pub fn profile_stages(
+    ctx: &GpuContext,
+    scene: &Scene,
+    options: &RenderOptions,
+    samples: u32,
+) -> Result<StageProfile, RenderError> {
+    let options = RenderOptions {
+        profile: true,
+        ..options.clone()
+    };
+    let mut renderer = Renderer::new(ctx, scene, &options)?;
+    render::run(&mut renderer, StopRule::samples(samples), |_| {})?;
+    let (width, height) = renderer.size();
+    Ok(StageProfile {
+        paths: width as u64 * height as u64 * samples as u64,
+        stages: renderer
+            .stage_counts()
+            .expect("a profiling renderer has stage counts"),
     })
 }
 
