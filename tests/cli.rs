@@ -263,6 +263,29 @@ fn bench_prints_speed_figures() {
     );
 }
 
+/// `bench --stages` on a scene it is given prints the scene's speed and a row
+/// per stage; a missing scene is an input error (exit 2).
+#[test]
+fn bench_stages_prints_a_row_per_stage() {
+    if common::gpu().is_none_or(|ctx| !ctx.subgroups) {
+        return;
+    }
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-boxes.toml");
+    let output = pathmix(&["bench", "--stages", "--quick", scene.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("M paths/s"), "{stdout}");
+    for stage in pathmix::kernel::Stage::ALL {
+        let row = format!("| {} | ", stage.name());
+        assert!(
+            stdout.lines().any(|l| l.starts_with(&row)),
+            "{stage:?}: {stdout}"
+        );
+    }
+    let missing = pathmix(&["bench", "--stages", "--quick", "no-such-scene.toml"]);
+    assert_eq!(missing.status.code(), Some(2), "{}", stderr(&missing));
+}
+
 /// The scale curve's sphere field, printed as a scene file, reads back as the
 /// scene `pathmix bench` renders (no device needed).
 #[test]
