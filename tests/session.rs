@@ -209,3 +209,28 @@ fn the_run_picks_its_defaults_and_says_so() {
         Some(AdaptiveMetric::Relative)
     );
 }
+
+/// A caller that looks at the image between steps (the Python package's
+/// sessions): `render_until` stops at each step's samples, and the steps, from
+/// a scene read once (`plan_loaded`), add up to one run bit for bit.
+#[test]
+fn steps_of_a_run_from_a_scene_read_once_give_the_one_runs_sums() {
+    let ctx = gpu_or_skip!();
+    let (whole, _) = render(ctx, &request(8));
+    let loaded = pathmix::scene::Scene::load_with(&cornell(), &[]).unwrap();
+    let session = Session::plan_loaded(&request(8), loaded).unwrap();
+    let mut run = session.start(ctx, None).unwrap();
+    let stop = AtomicBool::new(false);
+    let mut steps = Vec::new();
+    for until in [3, 6, u32::MAX] {
+        let summary = run.render_until(until, &stop, |_| {}).unwrap();
+        steps.push(summary.samples);
+    }
+    assert_eq!(
+        steps,
+        [3, 6, 8],
+        "each step stops at its samples, the last at the run's"
+    );
+    assert!(run.rendered_for() > std::time::Duration::ZERO);
+    assert_eq!(run.renderer.accumulation(), whole);
+}
