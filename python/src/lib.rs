@@ -177,6 +177,18 @@ struct Settings {
 }
 
 impl Settings {
+    /// Whether a setting the samples depend on is given (a resumed run keeps
+    /// its checkpoint's).
+    fn fixes_the_scene(&self) -> bool {
+        self.strategy.is_some()
+            || self.light_weight.is_some()
+            || self.sampler.is_some()
+            || self.seed.is_some()
+            || self.width.is_some()
+            || self.height.is_some()
+            || self.max_depth.is_some()
+    }
+
     /// The session request: no files written but a checkpoint where asked,
     /// the sums of squares kept where `error` is wanted.
     fn request(&self, scene: &Scene, error: bool) -> PyResult<Request> {
@@ -415,14 +427,14 @@ struct Progressive {
     run: session::Run<'static>,
     /// The last step's summary, for `finish` (a checkpoint's last save).
     last: Option<RunSummary>,
-    finished: bool,
 }
 
 /// A progressive render (`pathmix.Session`): steps of samples, the image and
 /// its error after each.
 #[pyclass(frozen, module = "pathmix")]
 struct Run {
-    state: Mutex<Progressive>,
+    /// `None` once closed: the run, and the lock on its checkpoint, dropped.
+    state: Mutex<Option<Progressive>>,
 }
 
 #[pymethods]
@@ -464,6 +476,12 @@ impl Run {
             target_error,
             adaptive,
         };
+        if resume.is_some() && settings.fixes_the_scene() {
+            return Err(PyValueError::new_err(
+                "resume: the checkpoint records the size, depth, strategy, light weight, \
+                 seed and sampler it was rendered with; give only spp, time or target_error",
+            ));
+        }
         let scene = scene.get();
         let mut request = settings.request(scene, true)?;
         request.checkpoint = checkpoint;
@@ -482,11 +500,7 @@ impl Run {
             warn(py, warning)?;
         }
         Ok(Run {
-            state: Mutex::new(Progressive {
-                run,
-                last: None,
-                finished: false,
-            }),
+            state: Mutex::new(Some(Progressive { run, last: None })),
         })
     }
 
@@ -508,9 +522,9 @@ impl Run {
         let (mean, error, counts, size, samples, elapsed, relative_error, done) =
             py.detach(|| -> PyResult<_> {
                 let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
-                if state.finished {
+                let Some(state) = state.as_mut() else {
                     return Err(PyValueError::new_err("the session is closed"));
-                }
+                };
                 let run = &mut state.run;
                 let target = run.renderer.samples().saturating_add(every);
                 let summary = run
@@ -546,17 +560,17 @@ impl Run {
         Ok(step)
     }
 
-    /// Ends the run: saves the checkpoint where one was asked for. Later
-    /// calls do nothing.
+    /// Ends the run: saves the checkpoint where one was asked for, and lets
+    /// go of it (another session may resume it). Later calls do nothing.
     fn close(&self, py: Python<'_>) -> PyResult<()> {
         py.detach(|| {
-            let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
-            if std::mem::replace(&mut state.finished, true) {
-                return Ok(());
-            }
-            match state.last.take() {
-                Some(summary) => state.run.finish(summary).map(|_| ()).map_err(session_error),
-                None => Ok(()),
+            let state = self.state.lock().unwrap_or_else(|e| e.into_inner()).take();
+            match state {
+                Some(Progressive {
+                    run,
+                    last: Some(summary),
+                }) => run.finish(summary).map(|_| ()).map_err(session_error),
+                _ => Ok(()),
             }
         })
     }

@@ -9,6 +9,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -166,25 +167,39 @@ def test_renders_from_several_threads_at_once(scene):
         assert np.array_equal(together[seed], alone[seed])
 
 
-class Stop(Exception):
-    pass
+def test_ctrl_c_stops_a_render_with_keyboard_interrupt():
+    script = (
+        "import sys, pathmix\n"
+        "scene = pathmix.load(sys.argv[1])\n"
+        "print('rendering', flush=True)\n"
+        "pathmix.render(scene, spp=1_000_000, width=32, height=24)\n"
+    )
+    child = subprocess.Popen([sys.executable, "-c", script, str(CORNELL)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert child.stdout.readline() == "rendering\n"
+    time.sleep(0.5)
+    started = time.monotonic()
+    child.send_signal(signal.SIGINT)
+    # Far more samples than render in this time: the render stopped early.
+    _, stderr = child.communicate(timeout=60)
+    assert time.monotonic() - started < 30.0
+    assert child.returncode != 0
+    assert stderr.rstrip().endswith("KeyboardInterrupt")
 
 
-def test_a_signal_stops_a_render_between_submissions(scene):
-    def handler(signum, frame):
-        raise Stop
-
-    previous = signal.signal(signal.SIGALRM, handler)
-    try:
-        started = time.monotonic()
-        signal.setitimer(signal.ITIMER_REAL, 0.5)
-        with pytest.raises(Stop):
-            # Far more samples than a few seconds render.
-            pathmix.render(scene, spp=1_000_000, **SIZE)
-        assert time.monotonic() - started < 30.0
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+def test_a_session_resumes_from_its_checkpoint(scene, tmp_path):
+    checkpoint = tmp_path / "run.ckpt"
+    with pathmix.Session(scene, spp=12, seed=7, checkpoint=checkpoint, **SIZE) as first:
+        for step in first.run(every=4):
+            if step.samples >= 8:
+                break
+    with pathmix.Session(scene, spp=12, resume=checkpoint) as resumed:
+        steps = list(resumed.run(every=4))
+    assert [s.samples for s in steps] == [12]
+    with pytest.raises(ValueError, match="resume"):
+        pathmix.Session(scene, seed=8, resume=checkpoint)
+    whole = pathmix.render(scene, spp=12, seed=7, return_error=True, **SIZE)[0]
+    assert np.array_equal(steps[-1].image, whole)
 
 
 def test_progress_reports_each_submission(scene):
