@@ -12,6 +12,10 @@ A progressive run, stopped whenever the caller likes:
 ...         if step.relative_error is not None and step.relative_error < 0.02:
 ...             break
 
+`converge(scene, variants=["cosine", "light", "mixture"])` measures each
+strategy's error against time, as `pathmix converge` does, and returns its
+table as a list of dicts (`pandas.DataFrame(rows)` makes a frame of it).
+
 Rendering releases the GIL, so renders from several threads run at once;
 Ctrl-C stops a render between submissions (about a second) and raises
 KeyboardInterrupt. What is kept between calls: the GPU device (opened at the
@@ -29,6 +33,7 @@ from ._pathmix import (
     Run as _Run,
     Scene,
     SceneError,
+    converge,
     load,
     read_exr,
     render,
@@ -41,6 +46,7 @@ __all__ = [
     "Scene",
     "SceneError",
     "Session",
+    "converge",
     "Step",
     "load",
     "read_exr",

@@ -1,7 +1,7 @@
 """Type stubs of pathmix's native module (python/src/lib.rs)."""
 
 import os
-from typing import Any, Callable, Dict, Optional, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -45,6 +45,22 @@ def render(
     """Renders once: float32 (height, width, 3) linear radiance; with
     `return_error` and/or `return_sample_counts`, a tuple (image, error,
     sample_counts) of those asked for."""
+
+def converge(
+    scene: Scene,
+    *,
+    variants: Optional[List[str]] = None,
+    max_spp: int = 256,
+    width: Optional[int] = None,
+    height: Optional[int] = None,
+    max_depth: Optional[int] = None,
+    seed: Optional[int] = None,
+    reference_spp: int = 4096,
+    out: Optional[_Path] = None,
+) -> List[Dict[str, Any]]:
+    """Each variant's error against time and samples, as `pathmix converge`
+    measures it: a dict per rung (variant, spp, seconds, paths_per_second,
+    rmse, relative_rmse, estimated_error, efficiency)."""
 
 class Run:
     def __init__(

@@ -16,11 +16,12 @@ use pathmix::output::{self, Image};
 use pathmix::render::{Progress, RunSummary, StopReason};
 use pathmix::scene::mitsuba::Define;
 use pathmix::scene::{LoadedScene, Sampler, Scene as SceneData, SceneOverrides, Strategy};
+use pathmix::session::converge::{ConvergeError, Event, ReferenceChoice, Study, Variant};
 use pathmix::session::{self, Request, SessionError};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList};
 use std::ffi::CString;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -576,6 +577,109 @@ impl Run {
     }
 }
 
+/// Measures each strategy variant's error against time and samples, as
+/// `pathmix converge` does, and returns its table: a dict per rung.
+#[pyfunction]
+#[pyo3(signature = (
+    scene, *, variants=None, max_spp=256, width=None, height=None, max_depth=None, seed=None,
+    reference_spp=4096, out=None,
+))]
+#[allow(clippy::too_many_arguments)]
+fn converge<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, Scene>,
+    variants: Option<Vec<String>>,
+    max_spp: u32,
+    width: Option<u32>,
+    height: Option<u32>,
+    max_depth: Option<u32>,
+    seed: Option<u32>,
+    reference_spp: u32,
+    out: Option<PathBuf>,
+) -> PyResult<Bound<'py, PyList>> {
+    if max_spp == 0 || reference_spp == 0 {
+        return Err(PyValueError::new_err(
+            "max_spp and reference_spp: at least 1 sample per pixel",
+        ));
+    }
+    let variants = match variants {
+        Some(names) => names
+            .iter()
+            .map(|name| {
+                Variant::parse(name).map_err(|e| PyValueError::new_err(format!("variants: {e}")))
+            })
+            .collect::<PyResult<Vec<_>>>()?,
+        None => Variant::defaults(),
+    };
+    let scene = scene.get();
+    let mut measured = scene.loaded.scene.clone();
+    let (width, height) = session::converge::measured_size(&measured, width, height);
+    measured
+        .apply_overrides(&SceneOverrides {
+            width: Some(width),
+            height: Some(height),
+            max_depth,
+            seed,
+            ..SceneOverrides::default()
+        })
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let convergence_error = |e: ConvergeError| match e {
+        ConvergeError::Input(_)
+        | ConvergeError::ReferenceSize { .. }
+        | ConvergeError::ReferenceSeed
+        | ConvergeError::Unsupported(_) => PyValueError::new_err(e.to_string()),
+        ConvergeError::Render(_) | ConvergeError::Output(_) => RenderError::new_err(e.to_string()),
+    };
+    let scene_bytes =
+        session::converge::scene_bytes(&scene.path, &scene.defines).map_err(convergence_error)?;
+    // Without a folder to keep it in, the reference is rendered for this call only.
+    let scratch = match &out {
+        Some(_) => None,
+        None => Some(tempfile::tempdir().map_err(|e| {
+            RenderError::new_err(format!("a temporary folder for the reference: {e}"))
+        })?),
+    };
+    let out_dir = out
+        .as_deref()
+        .or(scratch.as_ref().map(|dir| dir.path()))
+        .expect("a folder given or made");
+    let study = Study {
+        scene: &measured,
+        scene_bytes: &scene_bytes,
+        out_dir,
+        variants: &variants,
+        max_spp,
+        reference: ReferenceChoice::Render { spp: reference_spp },
+    };
+    let (report, warnings) = py.detach(|| -> PyResult<_> {
+        let mut warnings = Vec::new();
+        let report = session::converge::run_study(gpu()?, &study, |event| {
+            if let Event::Warning(warning) = event {
+                warnings.push(warning);
+            }
+        })
+        .map_err(convergence_error)?;
+        Ok((report, warnings))
+    })?;
+    for warning in &warnings {
+        warn(py, warning)?;
+    }
+    let rows = PyList::empty(py);
+    for row in &report.rows {
+        let entry = PyDict::new(py);
+        entry.set_item("variant", &row.variant)?;
+        entry.set_item("spp", row.spp)?;
+        entry.set_item("seconds", row.seconds)?;
+        entry.set_item("paths_per_second", row.paths_per_second)?;
+        entry.set_item("rmse", row.rmse)?;
+        entry.set_item("relative_rmse", row.relative_rmse)?;
+        entry.set_item("estimated_error", row.estimated_error)?;
+        entry.set_item("efficiency", row.efficiency)?;
+        rows.append(entry)?;
+    }
+    Ok(rows)
+}
+
 /// An image array (height, width, 3) of float32 as the library's image.
 fn image_of(array: PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
     let view = array.as_array();
@@ -634,6 +738,7 @@ fn _pathmix(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Run>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(converge, m)?)?;
     m.add_function(wrap_pyfunction!(write_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_png, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;

@@ -215,3 +215,16 @@ def test_exr_and_png_round_trip(tmp_path):
     assert np.array_equal(pathmix.read_exr(tmp_path / "a.exr"), image)
     pathmix.write_png(tmp_path / "a.png", image)
     assert (tmp_path / "a.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_converge_returns_the_table(scene, tmp_path):
+    rows = pathmix.converge(scene, variants=["cosine", "mixture"], max_spp=16, width=16,
+                            height=12, reference_spp=256, out=tmp_path)
+    assert [(r["variant"], r["spp"]) for r in rows] == [
+        (variant, spp) for variant in ["bsdf", "mixture:0.5"] for spp in [1, 4, 16]
+    ]
+    cosine = [r["rmse"] for r in rows if r["variant"] == "bsdf"]
+    assert cosine[-1] < cosine[0]
+    assert list(tmp_path.glob("reference-*.exr")), "the reference is cached in `out`"
+    with pytest.raises(ValueError, match="variants"):
+        pathmix.converge(scene, variants=["sideways"])
