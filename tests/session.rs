@@ -1,7 +1,8 @@
 //! The render session as a library caller uses it (`pathmix::session`): a
 //! `Request` planned, rendered and written with no command line, refusals as
-//! typed errors naming settings, and a run cut in two through its checkpoint
-//! giving the same sums as one uninterrupted run.
+//! typed errors naming settings, a run cut in two through its checkpoint (or
+//! rendered in steps) giving the same sums as one uninterrupted run, and a
+//! device that keeps its kernels building each config once.
 
 mod common;
 
@@ -233,4 +234,29 @@ fn steps_of_a_run_from_a_scene_read_once_give_the_one_runs_sums() {
     );
     assert!(run.rendered_for() > std::time::Duration::ZERO);
     assert_eq!(run.renderer.accumulation(), whole);
+}
+
+/// A device that keeps its kernels (as the Python package's does) hands a
+/// renderer of an equal config the pipelines built before, and builds one for
+/// another config; a device that keeps none builds each time.
+#[test]
+fn a_device_keeping_kernels_builds_each_config_once() {
+    let ctx = gpu_or_skip!();
+    let keeping = pathmix::gpu::GpuContext::new(None).unwrap().keep_kernels();
+    let scene = pathmix::scene::Scene::load_with(&cornell(), &[])
+        .unwrap()
+        .scene;
+    let options = pathmix::render::RenderOptions::default();
+    let config = pathmix::render::plan_kernel(&keeping, &scene, &options)
+        .unwrap()
+        .config;
+    let first = keeping.kernel(config.clone()).unwrap();
+    assert!(keeping.kernel(config.clone()).unwrap().pipeline == first.pipeline);
+    let deeper = pathmix::kernel::KernelConfig {
+        max_depth: config.max_depth + 1,
+        ..config.clone()
+    };
+    assert!(keeping.kernel(deeper).unwrap().pipeline != first.pipeline);
+    let built = ctx.kernel(config.clone()).unwrap();
+    assert!(ctx.kernel(config).unwrap().pipeline != built.pipeline);
 }
