@@ -305,6 +305,11 @@ impl<'a> Watch<'a> {
     }
 }
 
+/// The command line's warning about samples counted as zero, where there were any.
+fn discarded(count: u64) -> Option<String> {
+    (count > 0).then(|| format!("{count} samples were NaN or infinite and counted as zero"))
+}
+
 /// A render's images, before they become arrays.
 struct Rendered {
     mean: Image,
@@ -386,9 +391,10 @@ fn render(
             .render(&watch.stop, |p| watch.check(p))
             .map_err(session_error)?;
         watch.raised()?;
-        run.finish(summary).map_err(session_error)?;
+        let outcome = run.finish(summary).map_err(session_error)?;
         let mut warnings = run.session.warnings.clone();
         warnings.extend(run.renderer.warnings.iter().cloned());
+        warnings.extend(discarded(outcome.discarded));
         let accumulation = run.renderer.accumulation();
         Ok(Rendered {
             mean: accumulation.mean(),
@@ -564,16 +570,20 @@ impl Run {
     /// Ends the run: saves the checkpoint where one was asked for, and lets
     /// go of it (another session may resume it). Later calls do nothing.
     fn close(&self, py: Python<'_>) -> PyResult<()> {
-        py.detach(|| {
+        let outcome = py.detach(|| {
             let state = self.state.lock().unwrap_or_else(|e| e.into_inner()).take();
             match state {
                 Some(Progressive {
                     run,
                     last: Some(summary),
-                }) => run.finish(summary).map(|_| ()).map_err(session_error),
-                _ => Ok(()),
+                }) => run.finish(summary).map(Some).map_err(session_error),
+                _ => Ok(None),
             }
-        })
+        })?;
+        match outcome.and_then(|outcome| discarded(outcome.discarded)) {
+            Some(warning) => warn(py, &warning),
+            None => Ok(()),
+        }
     }
 }
 
