@@ -228,3 +228,21 @@ def test_converge_returns_the_table(scene, tmp_path):
     assert list(tmp_path.glob("reference-*.exr")), "the reference is cached in `out`"
     with pytest.raises(ValueError, match="variants"):
         pathmix.converge(scene, variants=["sideways"])
+
+
+@pytest.mark.filterwarnings("ignore:.*approximated")
+def test_parameters_set_a_mitsuba_scenes_defaults(tmp_path):
+    xml = tmp_path / "scene.xml"
+    xml.write_text(
+        '<scene version="3.0.0"><default name="res" value="8"/>'
+        '<sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm">'
+        '<integer name="width" value="$res"/><integer name="height" value="$res"/></film>'
+        '</sensor><shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/>'
+        "</emitter></shape></scene>"
+    )
+    # What a Mitsuba file's reading approximates is a warning, not output.
+    with pytest.warns(UserWarning, match="approximated: max_depth"):
+        assert pathmix.load(xml).info()["width"] == 8
+    assert pathmix.load(xml, res=12).info()["width"] == 12
+    with pytest.raises(pathmix.SceneError, match="parameter"):
+        pathmix.load(CORNELL, res=12)
