@@ -9,7 +9,6 @@ use pathmix::session::converge::{
 };
 use std::path::PathBuf;
 
-/// Longest image side when neither --width nor --height is given.
 #[derive(Args, Debug)]
 pub struct ConvergeArgs {
     /// Scene file (TOML, see docs/scene-format.md, or Mitsuba 3 XML).
