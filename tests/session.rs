@@ -1,7 +1,8 @@
 //! The render session as a library caller uses it (`pathmix::session`): a
 //! `Request` planned, rendered and written with no command line, refusals as
-//! typed errors naming settings, and a run cut in two through its checkpoint
-//! giving the same sums as one uninterrupted run.
+//! typed errors naming settings, a run cut in two through its checkpoint (or
+//! rendered in steps) giving the same sums as one uninterrupted run, and a
+//! device that keeps its kernels building each config once.
 
 mod common;
 
@@ -208,4 +209,54 @@ fn the_run_picks_its_defaults_and_says_so() {
         session.scene.render.adaptive_metric,
         Some(AdaptiveMetric::Relative)
     );
+}
+
+/// A caller that looks at the image between steps (the Python package's
+/// sessions): `render_until` stops at each step's samples, and the steps, from
+/// a scene read once (`plan_loaded`), add up to one run bit for bit.
+#[test]
+fn steps_of_a_run_from_a_scene_read_once_give_the_one_runs_sums() {
+    let ctx = gpu_or_skip!();
+    let (whole, _) = render(ctx, &request(8));
+    let loaded = pathmix::scene::Scene::load_with(&cornell(), &[]).unwrap();
+    let session = Session::plan_loaded(&request(8), loaded).unwrap();
+    let mut run = session.start(ctx, None).unwrap();
+    let stop = AtomicBool::new(false);
+    let mut steps = Vec::new();
+    for until in [3, 6, u32::MAX] {
+        let summary = run.render_until(until, &stop, |_| {}).unwrap();
+        steps.push(summary.samples);
+    }
+    assert_eq!(
+        steps,
+        [3, 6, 8],
+        "each step stops at its samples, the last at the run's"
+    );
+    assert!(run.rendered_for() > std::time::Duration::ZERO);
+    assert_eq!(run.renderer.accumulation(), whole);
+}
+
+/// A device that keeps its kernels (as the Python package's does) hands a
+/// renderer of an equal config the pipelines built before, and builds one for
+/// another config; a device that keeps none builds each time.
+#[test]
+fn a_device_keeping_kernels_builds_each_config_once() {
+    let ctx = gpu_or_skip!();
+    let keeping = pathmix::gpu::GpuContext::new(None).unwrap().keep_kernels();
+    let scene = pathmix::scene::Scene::load_with(&cornell(), &[])
+        .unwrap()
+        .scene;
+    let options = pathmix::render::RenderOptions::default();
+    let config = pathmix::render::plan_kernel(&keeping, &scene, &options)
+        .unwrap()
+        .config;
+    let first = keeping.kernel(config.clone()).unwrap();
+    assert!(keeping.kernel(config.clone()).unwrap().pipeline == first.pipeline);
+    let deeper = pathmix::kernel::KernelConfig {
+        max_depth: config.max_depth + 1,
+        ..config.clone()
+    };
+    assert!(keeping.kernel(deeper).unwrap().pipeline != first.pipeline);
+    let built = ctx.kernel(config.clone()).unwrap();
+    assert!(ctx.kernel(config).unwrap().pipeline != built.pipeline);
 }

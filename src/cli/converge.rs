@@ -3,15 +3,11 @@
 use super::Failure;
 use super::progress::ProgressDisplay;
 use clap::Args;
-use pathmix::scene::mitsuba::{self, Converted};
-use pathmix::scene::{Scene, SceneOverrides};
+use pathmix::scene::SceneOverrides;
 use pathmix::session::converge::{
     self, ConvergeError, Event, ReferenceChoice, ReferenceSource, Study, Variant,
 };
 use std::path::PathBuf;
-
-/// Longest image side when neither --width nor --height is given.
-const DEFAULT_SIDE: u32 = 128;
 
 #[derive(Args, Debug)]
 pub struct ConvergeArgs {
@@ -71,22 +67,6 @@ pub struct ConvergeArgs {
     pub adapter: Option<String>,
 }
 
-/// `(width, height)`: what was given, the other side from the scene's aspect ratio, or
-/// a longest side of `DEFAULT_SIDE`.
-fn measured_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
-    let (w, h) = (scene.camera.width as f64, scene.camera.height as f64);
-    let side = |v: f64| (v.round() as u32).max(1);
-    match (width, height) {
-        (Some(width), Some(height)) => (width, height),
-        (Some(width), None) => (width, side(width as f64 * h / w)),
-        (None, Some(height)) => (side(height as f64 * w / h), height),
-        (None, None) => {
-            let scale = DEFAULT_SIDE as f64 / w.max(h);
-            (side(w * scale), side(h * scale))
-        }
-    }
-}
-
 fn failure(e: ConvergeError) -> Failure {
     match e {
         ConvergeError::Input(_) => Failure::input(e),
@@ -102,16 +82,7 @@ fn failure(e: ConvergeError) -> Failure {
 }
 
 pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
-    let mut scene_bytes = pathmix::paths::read_input(&args.scene)
-        .map_err(|e| Failure::input(format!("{}: {e}", args.scene.display())))?;
-    // A Mitsuba scene is keyed by the document it means: its includes and `-D`
-    // parameters change the scene as much as its own text does.
-    if mitsuba::is_mitsuba(&args.scene, &String::from_utf8_lossy(&scene_bytes)) {
-        let converted = Converted::read(&args.scene, &args.define).map_err(Failure::input)?;
-        scene_bytes = toml::to_string(&converted.document)
-            .expect("a TOML table serializes")
-            .into_bytes();
-    }
+    let scene_bytes = converge::scene_bytes(&args.scene, &args.define).map_err(failure)?;
     let mut scene = super::load_scene(&args.scene, &args.define)?;
     let (mut width, mut height) = (args.width, args.height);
     let mut size_note = "";
@@ -122,7 +93,7 @@ pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
     } else if width.is_none() && height.is_none() {
         size_note = " (converge's default; --width/--height to change)";
     }
-    let (width, height) = measured_size(&scene, width, height);
+    let (width, height) = converge::measured_size(&scene, width, height);
     scene
         .apply_overrides(&SceneOverrides {
             width: Some(width),

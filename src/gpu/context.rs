@@ -1,5 +1,10 @@
 //! Adapter choice and the device.
 
+use super::pipeline::Kernel;
+use crate::kernel::KernelConfig;
+use crate::shader::ComposeError;
+use std::sync::Mutex;
+
 /// Why no device could be had, in words a user can act on.
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
@@ -23,6 +28,10 @@ pub enum GpuError {
     Device(#[from] wgpu::RequestDeviceError),
 }
 
+/// Most kernels `GpuContext::keep_kernels` keeps: a scene's strategies and
+/// variance or adaptive variants, with room for a few scenes.
+const KEPT_KERNELS: usize = 16;
+
 /// An open device and what the renderer needs to know about it.
 pub struct GpuContext {
     pub adapter: wgpu::Adapter,
@@ -38,6 +47,9 @@ pub struct GpuContext {
     /// Subgroup operations, which a profiling kernel counts SIMD lanes with
     /// (`KernelConfig::profile`).
     pub subgroups: bool,
+    /// Kernels built on this device, kept for renderers of the same config
+    /// (`keep_kernels`); `None`: every renderer builds its own.
+    kernels: Option<Mutex<Vec<Kernel>>>,
 }
 
 impl GpuContext {
@@ -120,7 +132,41 @@ impl GpuContext {
             storage_texture_accumulator,
             textures_read_faster,
             subgroups,
+            kernels: None,
         })
+    }
+
+    /// Keeps the kernels built from now on, so that a renderer whose config
+    /// equals an earlier one's reuses its pipelines instead of compiling them
+    /// again: for a process that renders a scene many times (the Python
+    /// package). The command line renders once and times its compiles, so it
+    /// keeps none.
+    pub fn keep_kernels(mut self) -> GpuContext {
+        self.kernels = Some(Mutex::new(Vec::new()));
+        self
+    }
+
+    /// The kernel for `config`: a kept one equal to it, else a new one (kept
+    /// where `keep_kernels` asked, the oldest dropped beyond `KEPT_KERNELS`).
+    pub fn kernel(&self, config: KernelConfig) -> Result<Kernel, ComposeError> {
+        let Some(kernels) = &self.kernels else {
+            return Kernel::new(self, config);
+        };
+        let kept = |kernels: &Mutex<Vec<Kernel>>| {
+            let kernels = kernels.lock().unwrap_or_else(|e| e.into_inner());
+            kernels.iter().find(|k| k.config == config).cloned()
+        };
+        if let Some(kernel) = kept(kernels) {
+            return Ok(kernel);
+        }
+        // Built unlocked: another thread's build of another config need not wait.
+        let kernel = Kernel::new(self, config)?;
+        let mut kernels = kernels.lock().unwrap_or_else(|e| e.into_inner());
+        if kernels.len() == KEPT_KERNELS {
+            kernels.remove(0);
+        }
+        kernels.push(kernel.clone());
+        Ok(kernel)
     }
 
     /// "name (backend, device type)".

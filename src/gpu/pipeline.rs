@@ -9,6 +9,7 @@ use crate::abi::{
 use crate::kernel::{AccumulatorKind, ENTRY_POINT, KernelConfig};
 use crate::shader::ComposeError;
 
+#[derive(Clone)]
 pub struct Kernel {
     pub config: KernelConfig,
     pub pipeline: wgpu::ComputePipeline,

@@ -265,7 +265,7 @@ impl<'a> Renderer<'a> {
         // A kernel or buffer the device refuses is a bug (the limits were checked):
         // reported as an error, not wgpu's default panic.
         let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let kernel = Kernel::new(ctx, config)?;
+        let kernel = ctx.kernel(config)?;
         let accumulator = Accumulator::new(
             ctx,
             kernel.config.accumulator,

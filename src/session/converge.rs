@@ -18,6 +18,7 @@ mod plot;
 use crate::gpu::GpuContext;
 use crate::output::{self, Image, OutputError};
 use crate::render::{self, Progress, RenderError, RenderOptions, Renderer, StopRule};
+use crate::scene::mitsuba::{self, Converted, Define};
 use crate::scene::{Reconstruction, Scene, SceneOverrides, Strategy};
 use crate::session::checkpoint::Fnv64;
 use crate::stats;
@@ -27,6 +28,41 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 pub use plot::plot_png;
+
+/// The longest side of the measured image where the caller gives no size.
+pub const DEFAULT_SIDE: u32 = 128;
+
+/// `(width, height)` of the measured runs: what was given, the other side from
+/// the scene's aspect ratio, or a longest side of `DEFAULT_SIDE`.
+pub fn measured_size(scene: &Scene, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
+    let (w, h) = (scene.camera.width as f64, scene.camera.height as f64);
+    let side = |v: f64| (v.round() as u32).max(1);
+    match (width, height) {
+        (Some(width), Some(height)) => (width, height),
+        (Some(width), None) => (width, side(width as f64 * h / w)),
+        (None, Some(height)) => (side(height as f64 * w / h), height),
+        (None, None) => {
+            let scale = DEFAULT_SIDE as f64 / w.max(h);
+            (side(w * scale), side(h * scale))
+        }
+    }
+}
+
+/// The bytes a scene's rendered reference is keyed by (`Study::scene_bytes`):
+/// the file's, or for a Mitsuba scene those of the TOML document it means, so
+/// that its includes and `-D` parameters change the key as its own text does.
+pub fn scene_bytes(path: &Path, defines: &[Define]) -> Result<Vec<u8>, ConvergeError> {
+    let bytes = crate::paths::read_input(path)
+        .map_err(|e| ConvergeError::Input(format!("{}: {e}", path.display())))?;
+    if !mitsuba::is_mitsuba(path, &String::from_utf8_lossy(&bytes)) {
+        return Ok(bytes);
+    }
+    let converted =
+        Converted::read(path, defines).map_err(|e| ConvergeError::Input(e.to_string()))?;
+    Ok(toml::to_string(&converted.document)
+        .expect("a TOML table serializes")
+        .into_bytes())
+}
 
 /// A strategy to measure: `cosine`, `light`, `nee-mis`, or `mixture` with its light
 /// weight; uniformly or with adaptive sampling; splatting its samples (where the

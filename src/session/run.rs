@@ -136,7 +136,8 @@ pub struct Request {
     /// Shard `index` of `count` of the `spp` samples.
     pub shard: Option<(u32, u32)>,
     /// How the kernel is built (accumulator, scene storage, array memory);
-    /// `variance` and `adaptive` are the session's to decide.
+    /// `variance` and `adaptive` are the session's to decide, `variance` set
+    /// here keeps the sums of squares too (a caller reading the error in memory).
     pub render: RenderOptions,
 }
 
@@ -287,6 +288,17 @@ impl Session {
     /// Reads the scene (or the checkpoint to resume and its scene) and checks
     /// the request, with no device: every refusal comes before any work.
     pub fn plan(request: &Request) -> Result<Session, SessionError> {
+        Session::plan_with(request, None)
+    }
+
+    /// As `plan`, with the scene already read: `loaded` is what
+    /// `Scene::load_with` gave for `request.scene` and `request.defines`, so a
+    /// caller rendering one scene many times reads its files once.
+    pub fn plan_loaded(request: &Request, loaded: LoadedScene) -> Result<Session, SessionError> {
+        Session::plan_with(request, Some(loaded))
+    }
+
+    fn plan_with(request: &Request, loaded: Option<LoadedScene>) -> Result<Session, SessionError> {
         refuse_unrecordable_paths(request)?;
         let resume = match &request.resume {
             Some(path) => Some((
@@ -343,7 +355,10 @@ impl Session {
             warnings: approximations,
             places,
             file_sampler,
-        } = Scene::load_with(&scene_path, &defines)?;
+        } = match loaded {
+            Some(loaded) => loaded,
+            None => Scene::load_with(&scene_path, &defines)?,
+        };
         check_collisions(
             request,
             &scene_path,
@@ -460,7 +475,10 @@ impl Session {
                     }
                 };
                 let variance = c.state.layers > LAYER_SQUARES_COMPENSATION;
-                if !variance && (given.variance.is_some() || stop.target_error.is_some()) {
+                let wants_squares = given.variance.is_some()
+                    || stop.target_error.is_some()
+                    || request.render.variance;
+                if !variance && wants_squares {
                     return Err(SessionError::ResumeWithoutSquares {
                         checkpoint: path.clone(),
                     });
@@ -489,7 +507,8 @@ impl Session {
                 // Partial results carry the sums of squares, so a merge can estimate errors.
                 let variance = given.variance.is_some()
                     || request.target_error.is_some()
-                    || given.partial.is_some();
+                    || given.partial.is_some()
+                    || request.render.variance;
                 (range.map_or(0, |r| r.start), stop, variance)
             }
         };
@@ -647,6 +666,7 @@ impl Session {
             session: self,
             renderer,
             saved_discarded,
+            rendered_for: Duration::ZERO,
         })
     }
 }
@@ -658,6 +678,8 @@ pub struct Run<'a> {
     /// Samples already in the sums (a resumed run's, or the pilot's) found
     /// NaN or infinite and counted as zero.
     saved_discarded: u64,
+    /// Time spent rendering so far (`render_until`'s steps add up).
+    rendered_for: Duration,
 }
 
 /// What a finished or interrupted run did.
@@ -682,18 +704,36 @@ impl Run<'_> {
     pub fn render(
         &mut self,
         stop_requested: &AtomicBool,
+        on_progress: impl FnMut(&Progress),
+    ) -> Result<RunSummary, SessionError> {
+        self.render_until(u32::MAX, stop_requested, on_progress)
+    }
+
+    /// As `render`, stopping too at `samples` per pixel: one step of a run
+    /// its caller looks at between steps. The time budget counts the earlier
+    /// steps' time (`rendered_for`); each step's summary its own.
+    pub fn render_until(
+        &mut self,
+        samples: u32,
+        stop_requested: &AtomicBool,
         mut on_progress: impl FnMut(&Progress),
     ) -> Result<RunSummary, SessionError> {
         let session = &self.session;
+        let stop = StopRule {
+            max_samples: session.stop.max_samples.min(samples),
+            time_budget: (session.stop.time_budget)
+                .map(|budget| budget.saturating_sub(self.rendered_for)),
+            ..session.stop
+        };
         let (mut last_checkpoint, mut last_preview) = (Instant::now(), Instant::now());
-        let saved_discarded = self.saved_discarded;
-        render::run_with(&mut self.renderer, session.stop, stop_requested, |p, r| {
+        let (saved_discarded, rendered_for) = (self.saved_discarded, self.rendered_for);
+        let summary = render::run_with(&mut self.renderer, stop, stop_requested, |p, r| {
             on_progress(p);
             if let Some(path) = &session.checkpoint {
                 if last_checkpoint.elapsed() >= session.checkpoint_every {
                     // Never save sums an invocation cut short has made wrong.
                     let discarded = saved_discarded + r.check_counters()?.discarded as u64;
-                    save_checkpoint(session, path, r, discarded, p.elapsed)?;
+                    save_checkpoint(session, path, r, discarded, rendered_for + p.elapsed)?;
                     last_checkpoint = Instant::now();
                 }
             }
@@ -705,7 +745,16 @@ impl Run<'_> {
                 }
             }
             Ok::<(), SessionError>(())
-        })
+        });
+        if let Ok(summary) = &summary {
+            self.rendered_for += summary.elapsed;
+        }
+        summary
+    }
+
+    /// Time spent in `render` and `render_until` so far.
+    pub fn rendered_for(&self) -> Duration {
+        self.rendered_for
     }
 
     /// Writes what the run asked for, the checkpoint first: once the state is
@@ -720,7 +769,7 @@ impl Run<'_> {
         render::check_sums_finite(&accumulation)?;
         let mut written = Vec::new();
         if let Some(path) = &session.checkpoint {
-            save_checkpoint(session, path, renderer, discarded, summary.elapsed)?;
+            save_checkpoint(session, path, renderer, discarded, self.rendered_for)?;
             written.push(path.clone());
         }
         let mean = accumulation.mean();
