@@ -55,33 +55,6 @@ fn principled_of(m: Material) -> Principled {
     );
 }
 
-// (1 - cos)^5, cos clamped to [0, 1].
-fn principled_schlick_weight(cos_theta: f32) -> f32 {
-    let m = clamp(1.0 - cos_theta, 0.0, 1.0);
-    return m * m * m * m * m;
-}
-
-// Schlick's Fresnel from `r0` at microfacet cosine `cos_theta_i` (>= 0) into
-// index `eta`; past the critical angle of an index below 1, the refracted
-// cosine's weight (Mitsuba's calc_schlick).
-fn principled_schlick(r0: vec3<f32>, cos_theta_i: f32, eta: f32) -> vec3<f32> {
-    if eta > 1.0 {
-        return mix(vec3<f32>(principled_schlick_weight(cos_theta_i)), vec3<f32>(1.0), r0);
-    }
-    let cos_theta_t = sqrt(max(1.0 - (1.0 - cos_theta_i * cos_theta_i) / (eta * eta), 0.0));
-    return mix(vec3<f32>(principled_schlick_weight(cos_theta_t)), vec3<f32>(1.0), r0);
-}
-
-fn principled_luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.212671, 0.715160, 0.072169));
-}
-
-// The base colour over its luminance (white where it is black).
-fn principled_tint(p: Principled) -> vec3<f32> {
-    let lum = principled_luminance(p.base_color);
-    return select(vec3<f32>(1.0), p.base_color / lum, lum > 0.0);
-}
-
 // GTR1's density of normals (Burley), Mitsuba's GTR1Isotropic::eval.
 fn principled_gtr1(alpha: f32, m: vec3<f32>) -> f32 {
     let a2 = alpha * alpha;
@@ -148,9 +121,8 @@ fn principled_eval_local(p: Principled, front: bool, i: vec3<f32>, o: vec3<f32>)
         if front {
             // The dielectric's reflectance blended with a Schlick metal of the
             // base colour and a Schlick dielectric tinted toward it.
-            let metal = principled_schlick(p.base_color, i_h, p.eta);
-            let r0 = (p.eta - 1.0) / (p.eta + 1.0);
-            let tinted = principled_schlick(principled_tint(p) * (r0 * r0), i_h, p.eta);
+            let metal = disney_schlick(p.base_color, i_h, p.eta);
+            let tinted = disney_schlick(disney_tint(p.base_color) * disney_r0(p.eta), i_h, p.eta);
             f = (1.0 - p.metallic) * (1.0 - p.spec_tint) * fresnel + p.metallic * metal
                 + (1.0 - p.metallic) * p.spec_tint * tinted;
         }
@@ -165,25 +137,16 @@ fn principled_eval_local(p: Principled, front: bool, i: vec3<f32>, o: vec3<f32>)
         return value;
     }
     if reflect_compatible && p.clearcoat > 0.0 {
-        let fresnel_coat = principled_schlick(vec3<f32>(0.04), i_h, p.eta).x;
+        let fresnel_coat = disney_schlick(vec3<f32>(0.04), i_h, p.eta).x;
         let coat = Microfacet(0.25, 0.25, false);
         let g_coat = microfacet_g1(coat, i, h) * microfacet_g1(coat, o, h);
         value += vec3<f32>(0.25 * p.clearcoat * fresnel_coat * principled_gtr1(p.clearcoat_alpha, h) * g_coat * o.z);
     }
-    let fo = principled_schlick_weight(o.z);
-    let fi = principled_schlick_weight(i.z);
     if p.brdf > 0.0 {
-        let diffuse = (1.0 - 0.5 * fi) * (1.0 - 0.5 * fo);
-        let rr = 2.0 * p.roughness * o_h * o_h;
-        let retro = rr * (fo + fi + fo * fi * (rr - 1.0));
-        // Hanrahan-Krueger's fake subsurface, flattening the retro-reflection.
-        let fss = mix(1.0, 0.5 * rr, fo) * mix(1.0, 0.5 * rr, fi);
-        let subsurface = 1.25 * (fss * (1.0 / (o.z + i.z) - 0.5) + 0.5);
-        value += p.base_color * (p.brdf * o.z * INV_PI * mix(diffuse + retro, subsurface, p.flatness));
+        value += disney_diffuse(p.base_color, p.roughness, p.flatness, i.z, o.z, o_h) * (p.brdf * o.z);
     }
     if p.sheen > 0.0 && p.metallic < 1.0 {
-        let sheen = mix(vec3<f32>(1.0), principled_tint(p), p.sheen_tint);
-        value += sheen * (p.sheen * (1.0 - p.metallic) * principled_schlick_weight(abs(o_h)) * o.z);
+        value += disney_sheen(p.base_color, p.sheen_tint, o_h) * (p.sheen * (1.0 - p.metallic) * o.z);
     }
     return value;
 }

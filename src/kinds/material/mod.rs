@@ -17,6 +17,7 @@ mod light;
 mod metal;
 mod plastic;
 mod principled;
+mod principledthin;
 mod roughconductor;
 mod roughdielectric;
 mod roughplastic;
@@ -256,6 +257,21 @@ material_kinds! {
         clearcoat_gloss: f32,
         flatness: f32,
     } = principled::PRINCIPLED,
+    /// Mitsuba's principled BSDF of a thin sheet, the same from both sides
+    /// (`principledthin.rs` says each number).
+    PrincipledThin {
+        base_color: Vec3,
+        roughness: f32,
+        anisotropic: f32,
+        spec_trans: f32,
+        /// The sheet's index.
+        eta: f32,
+        spec_tint: f32,
+        sheen: f32,
+        sheen_tint: f32,
+        flatness: f32,
+        diff_trans: f32,
+    } = principledthin::PRINCIPLEDTHIN,
 }
 
 /// The scene files' material types, in [`MATERIAL_KINDS`] order.

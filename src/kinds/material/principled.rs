@@ -29,8 +29,10 @@
 //! variants (`llvm_*`, `cuda_*`) add it; its scalar ones skip it where the
 //! diffuse lobe is off (`spec_trans` 1). Mitsuba's sampling-rate parameters
 //! are not read. The lobes are not energy-conserving together (the Disney
-//! model's known loss and gain: a white one reflects about 0.8-1.1 by angle;
-//! `tests/bsdf.rs` measures it).
+//! model's known loss and gain, measured by `tests/bsdf.rs`: a white diffuse
+//! lobe alone reflects (1 - F_i / 2)(1 - 1/42), 0.976 at normal incidence
+//! and 0.788 at 80 degrees; a white default material with sheen and
+//! clearcoat 1.07 and 1.22).
 //!
 //! Only `base_color` may be a texture (pathmix's one texture per material).
 //!
@@ -39,7 +41,7 @@
 //! sheen_tint, flatness), `color2` = (metallic, spec_trans, eta), `color3` =
 //! (sheen, clearcoat, clearcoat_gloss). WGSL: `shaders/principled.wgsl`.
 
-use super::common::{FRESNEL, MICROFACET, TextureSlot};
+use super::common::{DISNEY, FRESNEL, MICROFACET, TextureSlot};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result, check_positive, check_unit, fmt_num};
@@ -62,7 +64,7 @@ const WEIGHTS: [(&str, f32); 10] = [
 pub(super) const PRINCIPLED: MaterialModel = MaterialModel {
     name: "principled",
     module: Some(shader_module!("principled")),
-    helpers: &[FRESNEL, MICROFACET],
+    helpers: &[FRESNEL, MICROFACET, DISNEY],
     lobe: Lobe::Smooth,
     tables: true,
     keys: &[
