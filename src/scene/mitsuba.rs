@@ -1115,6 +1115,26 @@ enum Surface {
     Nested { table: Table, textured: bool },
 }
 
+/// A `twosided` of two materials (`nested_material`'s names and whether
+/// each is textured): the first on the front, the second (seeing the flipped
+/// frame, as one-sided as it is alone) on the back.
+fn twosided_pair(
+    (front, front_textured): (String, bool),
+    (back, back_textured): (String, bool),
+) -> (Surface, Opacity) {
+    let mut table = Table::new();
+    table.insert("type".into(), Value::String("twosided".into()));
+    table.insert("front".into(), Value::String(front));
+    table.insert("back".into(), Value::String(back));
+    (
+        Surface::Nested {
+            table,
+            textured: front_textured || back_textured,
+        },
+        Opacity::OPAQUE,
+    )
+}
+
 /// A surface's material table, as a BSDF inside another's (no emission, no
 /// opacity: those are the outer material's).
 fn surface_table(surface: &Surface) -> Table {
@@ -1502,26 +1522,21 @@ impl<'a> Builder<'a> {
                 )
             }
             "twosided" => match props.objects(&["bsdf", "ref"])[..] {
+                // A `principled` has its own back (the inside of what it
+                // transmits; black where it transmits nothing, which is when
+                // Mitsuba takes it in a `twosided`): its front on both sides.
+                [inner] if self.resolve(inner)?.ty() == "principled" => {
+                    let inner = self.nested_material(inner, false)?;
+                    twosided_pair(inner.clone(), inner)
+                }
                 [inner] => {
                     let inner = self.resolve(inner)?;
                     self.surface(inner, true)?
                 }
-                // The first BSDF on the front, the second (seeing the flipped
-                // frame, as one-sided as it is alone) on the back.
                 [front, back] => {
-                    let (front, front_textured) = self.nested_material(front, false)?;
-                    let (back, back_textured) = self.nested_material(back, false)?;
-                    let mut table = Table::new();
-                    table.insert("type".into(), Value::String("twosided".into()));
-                    table.insert("front".into(), Value::String(front));
-                    table.insert("back".into(), Value::String(back));
-                    (
-                        Surface::Nested {
-                            table,
-                            textured: front_textured || back_textured,
-                        },
-                        Opacity::OPAQUE,
-                    )
+                    let front = self.nested_material(front, false)?;
+                    let back = self.nested_material(back, false)?;
+                    twosided_pair(front, back)
                 }
                 _ => {
                     return Err(e.origin.error(
@@ -1807,6 +1822,16 @@ impl<'a> Builder<'a> {
                 "nonlinear" => props.boolean(key)?.map(Value::Boolean),
                 "int_ior" | "ext_ior" => ior(props, key)?.map(Value::Float),
                 _ if plugin.texture == Some(key) => self.texturable(props, key)?,
+                _ if plugin.numbers.contains(&key) => {
+                    if let Some(texture) = props.texture(key) {
+                        return Err(texture.origin.error(format!(
+                            "`{key}` as a texture is not supported (of a {}, only {} may be one)",
+                            plugin.name,
+                            plugin.texture.map_or("none".into(), |t| format!("`{t}`"))
+                        )));
+                    }
+                    props.float(key)?.map(Value::Float)
+                }
                 // Mitsuba reads a conductor's `eta` and `k` as unbounded textures.
                 "eta" | "k" => (props.color_for(key, Role::Unbounded)?).map(color_value),
                 _ => (props.color_for(key, Role::Reflectance)?).map(color_value),
@@ -3779,6 +3804,65 @@ mod tests {
                  <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.2"/></bsdf></shape>"#,
         );
         assert!(e.contains("isotropic") && e.contains("alpha_u"), "{e}");
+    }
+
+    /// `principled` reads each number, `specular` or `eta`, and `base_color`
+    /// as a texture; inside a `twosided` (which Mitsuba allows where it does not
+    /// transmit) it is one material on both sides' fronts; a texture on a
+    /// number is refused where it is written.
+    #[test]
+    fn principled_maps_onto_the_material() {
+        use crate::scene::MaterialKind;
+        let (s, _) = read(
+            "principled",
+            r#"<shape type="sphere"><bsdf type="principled">
+                 <rgb name="base_color" value="0.2 0.3 0.4"/><float name="metallic" value="0.25"/>
+                 <float name="spec_trans" value="0.5"/><float name="eta" value="1.33"/>
+                 <float name="clearcoat_gloss" value="0.9"/></bsdf></shape>
+               <shape type="sphere"><bsdf type="twosided"><bsdf type="principled">
+                 <texture type="checkerboard" name="base_color"/>
+                 <float name="specular" value="0"/></bsdf></bsdf></shape>"#,
+            &[],
+        )
+        .unwrap();
+        assert!(s.materials.iter().any(|m| m.kind
+            == MaterialKind::Principled {
+                base_color: Vec3::new(0.2, 0.3, 0.4),
+                roughness: 0.5,
+                anisotropic: 0.0,
+                metallic: 0.25,
+                spec_trans: 0.5,
+                eta: 1.33,
+                spec_tint: 0.0,
+                sheen: 0.0,
+                sheen_tint: 0.0,
+                clearcoat: 0.0,
+                clearcoat_gloss: 0.9,
+                flatness: 0.0,
+            }));
+        let pair = s
+            .materials
+            .iter()
+            .find(|m| matches!(m.kind, MaterialKind::TwoSided))
+            .expect("a twosided material");
+        assert_eq!(pair.nested[0], pair.nested[1]);
+        let inner = s
+            .materials
+            .iter()
+            .find(|m| m.name == pair.nested[0])
+            .unwrap();
+        assert!(inner.texture.is_some());
+        // `specular` 0 is index 1: nothing reflects specularly.
+        assert!(matches!(inner.kind, MaterialKind::Principled { eta, .. } if eta == 1.0));
+        let e = error(
+            "principled-roughness-texture",
+            r#"<shape type="sphere"><bsdf type="principled">
+                 <texture type="checkerboard" name="roughness"/></bsdf></shape>"#,
+        );
+        assert!(
+            e.contains("`roughness` as a texture is not supported"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -16,6 +16,9 @@ use toml::Value;
 
 pub(super) const FRESNEL: ShaderModule = shader_module!("fresnel");
 pub(super) const MICROFACET: ShaderModule = shader_module!("microfacet");
+/// What `principled` and `principledthin` share (Schlick, the tint, Burley's
+/// diffuse, the sheen).
+pub(super) const DISNEY: ShaderModule = shader_module!("disney");
 
 // ---------------------------------------------------------------------------------
 // Indices of refraction

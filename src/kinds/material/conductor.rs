@@ -37,6 +37,7 @@ pub(super) const CONDUCTOR: MaterialModel = MaterialModel {
     mitsuba: Some(MitsubaPlugin {
         name: "conductor",
         texture: Some("specular_reflectance"),
+        numbers: &[],
     }),
     nested: &[],
     parse,

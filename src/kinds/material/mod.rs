@@ -16,6 +16,8 @@ mod lambertian;
 mod light;
 mod metal;
 mod plastic;
+mod principled;
+mod principledthin;
 mod roughconductor;
 mod roughdielectric;
 mod roughplastic;
@@ -106,6 +108,8 @@ pub struct MitsubaPlugin {
     pub name: &'static str,
     /// The parameter that may be a texture.
     pub texture: Option<&'static str>,
+    /// The parameters that are numbers (`<float>`), each read as one.
+    pub numbers: &'static [&'static str],
 }
 
 impl MaterialModel {
@@ -235,6 +239,39 @@ material_kinds! {
     /// at the hit by picking one ([`Material::nested`]; `weight` the constant,
     /// or the mean of its texture's luminance).
     Blend { weight: f32 } = blend::BLEND,
+    /// Mitsuba's Disney-style BSDF (Blender's Principled BSDF): a mixture of
+    /// diffuse, sheen, specular reflection and transmission, and clearcoat
+    /// lobes weighted by these numbers (`principled.rs` says each).
+    Principled {
+        base_color: Vec3,
+        roughness: f32,
+        anisotropic: f32,
+        metallic: f32,
+        spec_trans: f32,
+        /// The interior's relative index (from `eta`, or from `specular`).
+        eta: f32,
+        spec_tint: f32,
+        sheen: f32,
+        sheen_tint: f32,
+        clearcoat: f32,
+        clearcoat_gloss: f32,
+        flatness: f32,
+    } = principled::PRINCIPLED,
+    /// Mitsuba's principled BSDF of a thin sheet, the same from both sides
+    /// (`principledthin.rs` says each number).
+    PrincipledThin {
+        base_color: Vec3,
+        roughness: f32,
+        anisotropic: f32,
+        spec_trans: f32,
+        /// The sheet's index.
+        eta: f32,
+        spec_tint: f32,
+        sheen: f32,
+        sheen_tint: f32,
+        flatness: f32,
+        diff_trans: f32,
+    } = principledthin::PRINCIPLEDTHIN,
 }
 
 /// The scene files' material types, in [`MATERIAL_KINDS`] order.
@@ -447,8 +484,9 @@ pub fn packed_nested(m: &PackedMaterial) -> Vec<u32> {
 type CoatKey = (Distribution, u32, u32);
 
 /// The tables of a scene's materials (`MaterialModel::tables`), one array of
-/// floats the kernel reads at the offset a packed material holds. Materials with
-/// the same coat share one table.
+/// floats the kernel reads at the offset a packed material holds: coats'
+/// transmittances (materials with the same coat share one table) and the
+/// parameters that do not fit a packed material (`principled`'s).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MaterialTables {
     pub values: Vec<f32>,
@@ -458,6 +496,13 @@ pub struct MaterialTables {
 }
 
 impl MaterialTables {
+    /// Appends `values`; their offset.
+    fn push(&mut self, values: &[f32]) -> u32 {
+        let offset = self.values.len() as u32;
+        self.values.extend_from_slice(values);
+        offset
+    }
+
     /// The offset of the coat's transmittance table, and its internal reflectance.
     fn coat(&mut self, distribution: Distribution, alpha: f32, eta: f32) -> (u32, f32) {
         let key = (distribution, alpha.to_bits(), eta.to_bits());
@@ -465,8 +510,7 @@ impl MaterialTables {
             return (offset, internal);
         }
         let tables = coat_tables(key);
-        let offset = self.values.len() as u32;
-        self.values.extend_from_slice(&tables.transmittance);
+        let offset = self.push(&tables.transmittance);
         self.coats.push((key, offset, tables.internal_reflectance));
         (offset, tables.internal_reflectance)
     }

@@ -45,6 +45,7 @@ pub(super) const PLASTIC: MaterialModel = MaterialModel {
     mitsuba: Some(MitsubaPlugin {
         name: "plastic",
         texture: Some("diffuse_reflectance"),
+        numbers: &[],
     }),
     nested: &[],
     parse,

@@ -42,6 +42,7 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
     mitsuba: Some(MitsubaPlugin {
         name: "roughconductor",
         texture: Some("specular_reflectance"),
+        numbers: &[],
     }),
     nested: &[],
     parse,

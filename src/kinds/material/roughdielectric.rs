@@ -46,6 +46,7 @@ pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
     mitsuba: Some(MitsubaPlugin {
         name: "roughdielectric",
         texture: Some("specular_reflectance"),
+        numbers: &[],
     }),
     nested: &[],
     parse,

@@ -46,6 +46,7 @@ pub(super) const ROUGHPLASTIC: MaterialModel = MaterialModel {
     mitsuba: Some(MitsubaPlugin {
         name: "roughplastic",
         texture: Some("diffuse_reflectance"),
+        numbers: &[],
     }),
     nested: &[],
     parse,

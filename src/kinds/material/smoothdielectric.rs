@@ -36,6 +36,7 @@ pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
     mitsuba: Some(MitsubaPlugin {
         name: "dielectric",
         texture: None,
+        numbers: &[],
     }),
     nested: &[],
     parse,

@@ -33,6 +33,7 @@ pub(super) const THINDIELECTRIC: MaterialModel = MaterialModel {
     mitsuba: Some(MitsubaPlugin {
         name: "thindielectric",
         texture: None,
+        numbers: &[],
     }),
     nested: &[],
     parse,
