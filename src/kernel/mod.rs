@@ -1459,8 +1459,8 @@ pub(crate) mod tests {
 
     #[test]
     fn every_module_combination_validates() {
-        for config in all_variants() {
-            validate(&config);
+        let check = |config: &KernelConfig| {
+            validate(config);
             // The same arrays from storage buffers (the variants read textures),
             // over every primitive kind and feature with all materials.
             assert_eq!(config.array_memory, ArrayMemory::Textures);
@@ -1475,7 +1475,16 @@ pub(crate) mod tests {
             let before = bindings.len();
             bindings.dedup();
             assert_eq!(bindings.len(), before, "two scene arrays share a binding");
-        }
+        };
+        // The longest test of the suite: spread over the cores.
+        let variants = all_variants();
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        std::thread::scope(|scope| {
+            for t in 0..threads {
+                let variants = &variants;
+                scope.spawn(move || variants.iter().skip(t).step_by(threads).for_each(check));
+            }
+        });
     }
 
     /// An environment map with no other object in the light density, with every
