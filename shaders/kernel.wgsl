@@ -206,11 +206,11 @@ fn render(
 #if PROFILE
         profile(STAGE_PATH_STEP);
         profile_walk = STAGE_CLOSEST_NODES;
+#endif
         let hit = intersect_scene(ray);
+#if PROFILE
         // Every other walk of this step is a shadow ray's.
         profile_walk = STAGE_SHADOW_NODES;
-#else
-        let hit = intersect_scene(ray);
 #endif
         segments += 1u;
         if hit.t == F32_MAX {

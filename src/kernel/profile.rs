@@ -27,7 +27,9 @@ pub enum Stage {
 }
 
 impl Stage {
-    /// In the order of their indices in the counts.
+    /// In the order of their indices in the counts. A walk's primitive tests
+    /// come right after its node visits: `shaders/profile.wgsl` counts them
+    /// one index on.
     pub const ALL: [Stage; 7] = [
         Stage::PathStep,
         Stage::ClosestNodes,
