@@ -214,6 +214,20 @@ impl Accumulator {
     }
 }
 
+/// `buffer`'s contents, copied to a mappable buffer and read by `read`.
+pub fn read_back<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> T) -> T {
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: buffer.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, staging.size());
+    ctx.queue.submit([encoder.finish()]);
+    map_read(ctx, &staging, read)
+}
+
 /// Maps `buffer` for reading, waits, and hands its bytes to `read`.
 pub fn map_read<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> T) -> T {
     let (sender, receiver) = std::sync::mpsc::channel();

@@ -9,7 +9,7 @@ use crate::abi::{
     REPLICATES, SPLAT_SAMPLE_BYTES, StageCounts, replicate_layer,
 };
 use crate::accel::{self, WideBvh};
-use crate::gpu::accumulator::{Accumulator, compensated_sums, map_read};
+use crate::gpu::accumulator::{Accumulator, compensated_sums, read_back};
 use crate::gpu::error_estimate::{ErrorEstimator, ErrorSums};
 use crate::gpu::pipeline::Kernel;
 use crate::gpu::texture_array::{self, TextureArray};
@@ -998,20 +998,6 @@ impl<'a> Renderer<'a> {
         });
         Some(Stage::ALL.into_iter().zip(counts).collect())
     }
-}
-
-/// `buffer`'s contents, copied to a mappable buffer and read by `read`.
-fn read_back<T>(ctx: &GpuContext, buffer: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> T) -> T {
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size: buffer.size(),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, staging.size());
-    ctx.queue.submit([encoder.finish()]);
-    map_read(ctx, &staging, read)
 }
 
 /// The accumulator's raw contents and the sample range they cover.
