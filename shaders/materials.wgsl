@@ -187,3 +187,12 @@ fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
     return Resolved(m, front);
 }
 #endif
+
+#if MASK
+// The material with its kind's id alone, as the BSDF dispatch compares it.
+fn material_unmasked(m: Material) -> Material {
+    var out = m;
+    out.kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
+    return out;
+}
+#endif

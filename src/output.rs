@@ -10,9 +10,10 @@ use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 
 use exr::meta::attribute::{AttributeValue, Text};
+use exr::prelude::SmallVec;
 use exr::prelude::{
-    Encoding, Layer, LayerAttributes, ReadChannels, ReadLayers, ReadSpecificChannel,
-    SpecificChannels, Vec2, WritableImage,
+    AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, ReadChannels,
+    ReadLayers, ReadSpecificChannel, SpecificChannels, Vec2, WritableImage,
 };
 use image::codecs::png::PngEncoder;
 use image::{ExtendedColorType, ImageEncoder};
@@ -351,6 +352,49 @@ pub fn write_exr(
         layer_attributes,
         Encoding::SMALL_LOSSLESS,
         channels,
+    );
+    let exr_image = exr::prelude::Image::from_layer(layer);
+    write_atomically(path, |writer| {
+        exr_image
+            .write()
+            .to_buffered(writer)
+            .map_err(io::Error::other)
+    })
+}
+
+/// As [`write_exr`], with `extra` channels beside R, G and B: each a name
+/// (Latin-1, as EXR names are bytes) and one value per pixel, row by row (the
+/// AOVs of `kinds::aov`, named `NAME.SUFFIX`). The file lists its channels
+/// sorted by name, as EXR requires.
+pub fn write_exr_with_channels(
+    path: &Path,
+    image: &Image,
+    extra: &[(String, Vec<f32>)],
+) -> Result<(), OutputError> {
+    if extra.is_empty() {
+        return write_exr(path, image, &[]);
+    }
+    check_pixel_count(path, image)?;
+    let rgb = (0..3).map(|c| {
+        let values = image.pixels.iter().map(|p| p[c]).collect();
+        (["R", "G", "B"][c].to_string(), values)
+    });
+    let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    for (name, values) in rgb.chain(extra.iter().cloned()) {
+        let Some(text) = Text::new_or_none(&name) else {
+            return Err(OutputError::writing(
+                path,
+                format!("EXR channel `{name}` is not Latin-1 text"),
+            ));
+        };
+        assert_eq!(values.len(), image.pixels.len(), "one value per pixel");
+        channels.push(AnyChannel::new(text, FlatSamples::F32(values)));
+    }
+    let layer = Layer::new(
+        (image.width as usize, image.height as usize),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels),
     );
     let exr_image = exr::prelude::Image::from_layer(layer);
     write_atomically(path, |writer| {

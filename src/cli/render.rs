@@ -7,7 +7,9 @@ use clap::{Args, ValueEnum};
 use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::{RenderError, RenderOptions, RunSummary, StopReason, StopRule};
 use pathmix::scene::mitsuba::Define;
-use pathmix::scene::{AdaptiveMetric, Reconstruction, Sampler, SceneOverrides, Strategy};
+use pathmix::scene::{
+    AdaptiveMetric, Aov, Reconstruction, Sampler, SceneOverrides, Strategy, parse_aovs,
+};
 use pathmix::session::checkpoint;
 use pathmix::session::pilot::{self, Pilot};
 use pathmix::session::shard;
@@ -46,6 +48,13 @@ pub struct RenderArgs {
     /// luminance, divided by the image's mean luminance (docs/statistics.md).
     #[arg(long, value_name = "E")]
     pub target_error: Option<f64>,
+    /// Also compute these AOVs (arbitrary output variables) of the surfaces the
+    /// camera sees and write them as channels NAME.R, NAME.T, ... of the --exr
+    /// image: Mitsuba's `aovs` list, NAME:TYPE or TYPE items separated by
+    /// commas, of the types albedo, depth, position, uv, geo_normal, sh_normal
+    /// (e.g. `albedo,nn:sh_normal`) [scene: render.aovs].
+    #[arg(long, value_name = "LIST", value_parser = parse_aov_list)]
+    pub aov: Option<AovList>,
     /// Also write the per-pixel standard error of the mean (linear RGB OpenEXR).
     #[arg(long, value_name = "FILE")]
     pub variance: Option<PathBuf>,
@@ -423,6 +432,7 @@ fn request(args: &RenderArgs) -> Request {
             sampler: args.sampler.map(Sampler::from),
             adaptive_metric: args.adaptive_metric.map(AdaptiveMetric::from),
             reconstruction: args.reconstruction.map(Reconstruction::from),
+            aovs: args.aov.clone().map(|AovList(aovs)| aovs),
         },
         spp: args.spp,
         auto_strategy: matches!(args.strategy, Some(StrategyArg::Auto)),
@@ -729,6 +739,13 @@ fn describe_stop(stop: &StopRule) -> String {
 }
 
 /// A Russian roulette depth, or none.
+#[derive(Clone, Debug)]
+pub struct AovList(pub Vec<Aov>);
+
+pub fn parse_aov_list(text: &str) -> Result<AovList, String> {
+    parse_aovs(text).map(AovList)
+}
+
 #[derive(Clone, Copy, Debug)]
 pub struct RrDepth(pub Option<u32>);
 

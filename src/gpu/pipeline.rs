@@ -6,7 +6,7 @@ use crate::abi::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, BINDING_PROFILE,
     BINDING_SPLAT_SAMPLES, SPLAT_ENTRY_POINT,
 };
-use crate::kernel::{AccumulatorKind, ENTRY_POINT, KernelConfig};
+use crate::kernel::{AccumulatorKind, KernelConfig};
 use crate::shader::ComposeError;
 
 #[derive(Clone)]
@@ -136,7 +136,7 @@ impl Kernel {
             "pathmix kernel",
             &layout,
             config.source()?,
-            (ENTRY_POINT, &config.constants()),
+            (config.entry_point(), &config.constants()),
         );
         let splat_pipeline = match config.splat {
             true => Some(compute_pipeline(

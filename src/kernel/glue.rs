@@ -114,6 +114,37 @@ pub fn splat_window(filter: Filter) -> String {
     out
 }
 
+/// The AOV pass's layout (`shaders/aov.wgsl`): `AOV_SLOTS`, the slot of each
+/// AOV type of `config.aovs` (`AOV_SLOT_NAME`, in their order), and which of
+/// the scene's material kinds give their albedo as their diffuse reflectance.
+pub fn aov_layout(config: &KernelConfig) -> String {
+    let mut out = format!("const AOV_SLOTS: u32 = {}u;\n", config.aovs.len());
+    for (slot, kind) in config.aovs.iter().enumerate() {
+        writeln!(
+            out,
+            "const AOV_SLOT_{}: u32 = {slot}u;",
+            kind.name().to_uppercase()
+        )
+        .unwrap();
+    }
+    let ids: Vec<String> = config
+        .material_kinds
+        .iter()
+        .filter(|&k| MATERIAL_KINDS[k].diffuse_reflectance_is_albedo)
+        .map(|k| format!("m.kind == {}", MATERIAL_KINDS[k].id_constant()))
+        .collect();
+    let test = match ids.is_empty() {
+        true => "false".to_string(),
+        false => ids.join(" || "),
+    };
+    writeln!(
+        out,
+        "fn albedo_is_diffuse_reflectance(m: Material) -> bool {{ return {test}; }}"
+    )
+    .unwrap();
+    out
+}
+
 /// The scene's arrays, the closest-hit query over the primitive kinds present
 /// and, when the kernel samples lights, the light density.
 ///

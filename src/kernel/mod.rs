@@ -19,7 +19,7 @@ use crate::kinds::{
 };
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::pack::SceneData;
-use crate::scene::{CameraModel, Filter, RenderSettings, Sampler, Strategy};
+use crate::scene::{AovKind, CameraModel, Filter, RenderSettings, Sampler, Strategy};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -33,6 +33,8 @@ pub const STRATEGY: ShaderModule = shader_module!("strategy");
 pub const ACCUMULATE_TEXTURE: ShaderModule = shader_module!("accumulate_texture");
 pub const ACCUMULATE_BUFFER: ShaderModule = shader_module!("accumulate_buffer");
 pub const KERNEL: ShaderModule = shader_module!("kernel");
+pub const CAMERA: ShaderModule = shader_module!("camera");
+pub const AOV: ShaderModule = shader_module!("aov");
 pub const SUMS: ShaderModule = shader_module!("sums");
 pub const SPLAT: ShaderModule = shader_module!("splat");
 pub const PROFILE: ShaderModule = shader_module!("profile");
@@ -72,6 +74,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "ORTHOGRAPHIC",
     "SPLAT",
     "PROFILE",
+    "AOV_MATERIAL",
 ];
 
 /// Every flag a module may test: the features, the filters' and each kind's presence flags.
@@ -81,16 +84,21 @@ pub fn known_flags() -> Vec<String> {
         [kind.flag(), kind.light_flag()].into_iter().chain(normals)
     });
     let materials = MATERIAL_KINDS.iter().map(|kind| kind.flag());
+    let aovs = AovKind::ALL.iter().map(|kind| kind.flag());
     FEATURE_FLAGS
         .iter()
         .chain(FILTER_FLAGS)
         .map(|flag| flag.to_string())
         .chain(primitives)
         .chain(materials)
+        .chain(aovs)
         .collect()
 }
 
+/// The path kernel's entry point (`shaders/kernel.wgsl`).
 pub const ENTRY_POINT: &str = "render";
+/// The AOV pass's (`shaders/aov.wgsl`).
+pub const AOV_ENTRY_POINT: &str = "aovs";
 pub const WORKGROUP_SIZE: (u32, u32) = (8, 8);
 
 /// Where the running sums live.
@@ -387,6 +395,10 @@ pub struct KernelConfig {
     pub profile: bool,
     /// How camera rays leave the camera (`camera_ray`).
     pub camera: CameraModel,
+    /// Not empty: the kernel is the AOV pass (`shaders/aov.wgsl`), which sums
+    /// these at each camera ray's first hit (`KernelConfig::for_aovs`), not
+    /// the path kernel.
+    pub aovs: Vec<AovKind>,
     /// Some material of the scene is one-sided (black from behind).
     pub one_sided: bool,
     /// Some material of the scene is masked (`Material::opacity` below 1): rays
@@ -626,6 +638,7 @@ impl KernelConfig {
             splat: false,
             profile: false,
             camera,
+            aovs: Vec::new(),
             one_sided: data.has_one_sided_materials(),
             masked: data.has_masked_materials(),
             opacity_textures: data.has_opacity_textures(),
@@ -695,6 +708,7 @@ impl KernelConfig {
             splat: false,
             profile: false,
             camera: CameraModel::Pinhole,
+            aovs: Vec::new(),
             one_sided: true,
             masked: true,
             opacity_textures: true,
@@ -851,12 +865,17 @@ impl KernelConfig {
             ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
             ("SPLAT", self.splat),
             ("PROFILE", self.profile),
+            (
+                "AOV_MATERIAL",
+                self.aovs.contains(&AovKind::Albedo) || self.aovs.contains(&AovKind::ShNormal),
+            ),
         ];
         for (flag, on) in features {
             if on {
                 flags.insert(flag.to_string());
             }
         }
+        flags.extend(self.aovs.iter().map(|kind| kind.flag()));
         // A splatting kernel draws no offsets; its pass evaluates the filter.
         let filter_flags = self.filter.flags().iter();
         flags.extend(
@@ -904,8 +923,44 @@ impl KernelConfig {
         if !self.splat {
             modules.extend(self.filter_modules());
         }
-        modules.push(KERNEL);
+        modules.push(CAMERA);
+        match self.aovs.is_empty() {
+            true => modules.push(KERNEL),
+            false => modules.extend([generated("aov_layout", glue::aov_layout(self)), AOV]),
+        }
         modules
+    }
+
+    /// The entry point of `source()`: the path kernel's, or the AOV pass's.
+    pub fn entry_point(&self) -> &'static str {
+        match self.aovs.is_empty() {
+            true => ENTRY_POINT,
+            false => AOV_ENTRY_POINT,
+        }
+    }
+
+    /// The AOV pass over this kernel's scene, camera and filter, summing
+    /// `aovs` (in `AovKind` order, each once) into an accumulator of
+    /// `aov_layers` layers: its scene bindings are this kernel's, so it runs
+    /// on the same scene bind group. It draws offsets from the filter where
+    /// the path kernel splats (the same expected values, and no splatting
+    /// pass for AOVs).
+    pub fn for_aovs(&self, aovs: &[AovKind]) -> KernelConfig {
+        assert!(!aovs.is_empty(), "an AOV pass computes some AOV");
+        KernelConfig {
+            aovs: aovs.to_vec(),
+            variance: false,
+            adaptive: false,
+            splat: false,
+            profile: false,
+            ..self.clone()
+        }
+    }
+
+    /// The accumulator layers of the AOV pass: a running sum and its
+    /// compensation per AOV type.
+    pub fn aov_layers(&self) -> u32 {
+        2 * self.aovs.len() as u32
     }
 
     /// The splatting pass over this kernel's samples and accumulator
@@ -1487,6 +1542,56 @@ pub(crate) mod tests {
         });
     }
 
+    /// The AOV pass over every kind and feature, each AOV type alone (the
+    /// material-free ones without materials' textures too) and all together,
+    /// under either accumulator and from a splatting kernel: it validates, has
+    /// the AOV entry point and no path kernel's, and its scene arrays are its
+    /// path kernel's (it runs on that kernel's scene bind group).
+    #[test]
+    fn aov_kernels_validate() {
+        for accumulator in [AccumulatorKind::Texture, AccumulatorKind::Buffer] {
+            let general = KernelConfig::general(Strategy::NeeMis, accumulator);
+            let splatting = KernelConfig {
+                splat: true,
+                filter: Filter::Gaussian { stddev: 0.5 },
+                ..general.clone()
+            };
+            let plain = KernelConfig {
+                textures: false,
+                bump_maps: false,
+                opacity_textures: false,
+                masked: false,
+                ..general.clone()
+            };
+            let mut passes = vec![
+                general.for_aovs(&AovKind::ALL),
+                splatting.for_aovs(&AovKind::ALL),
+            ];
+            for kind in AovKind::ALL {
+                passes.push(general.for_aovs(&[kind]));
+                if kind != AovKind::Uv {
+                    passes.push(plain.for_aovs(&[kind]));
+                }
+            }
+            for pass in &passes {
+                let module = validate(pass);
+                let entries: Vec<&str> = module
+                    .entry_points
+                    .iter()
+                    .map(|e| e.name.as_str())
+                    .collect();
+                assert_eq!(entries, [AOV_ENTRY_POINT]);
+                assert_eq!(pass.entry_point(), AOV_ENTRY_POINT);
+                let path_kernel = KernelConfig {
+                    aovs: Vec::new(),
+                    ..pass.clone()
+                };
+                assert_eq!(pass.scene_bindings(), path_kernel.scene_bindings());
+            }
+            assert!(!splatting.for_aovs(&[AovKind::Depth]).splat);
+        }
+    }
+
     /// An environment map with no other object in the light density, with every
     /// primitive kind, and with one of each grouped and plain kind, under every
     /// strategy and scene storage: the environment's buffers are bound even in
@@ -1525,6 +1630,7 @@ pub(crate) mod tests {
             adaptive: false,
             adaptive_metric: None,
             reconstruction: None,
+            aovs: Vec::new(),
         };
         for strategy in Strategy::ALL {
             for storage in [

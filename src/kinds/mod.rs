@@ -1,5 +1,5 @@
-//! The kinds of primitive, material, texture, point light and pixel filter
-//! pathmix renders, each described once, with how scene files name it:
+//! The kinds of primitive, material, texture, point light, pixel filter and
+//! AOV pathmix renders, each described once, with how scene files name it:
 //! `params` is the table reader every kind and the scene read with,
 //! `transform` where an object sits.
 //!
@@ -36,6 +36,7 @@
 //! (`scene::format_doc` fails on one it lacks); ARCHITECTURE.md says what else
 //! may follow (a Mitsuba plugin, the checkpoint identity's version).
 
+mod aov;
 mod coat;
 mod cylinder;
 mod delta_light;
@@ -49,6 +50,7 @@ mod texture;
 pub(crate) mod transform;
 mod triangle;
 
+pub use aov::{Aov, AovKind, aov_kinds, check_names, parse_aov, parse_aovs};
 pub use coat::{CoatTables, ROUGH_TRANSMITTANCE_RES};
 // For the format's page.
 pub use cylinder::{Cylinder, PackedCylinder};

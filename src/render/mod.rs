@@ -2,6 +2,7 @@
 //! the running sums back, and the rules that stop a run.
 
 pub mod adaptive;
+pub mod aov;
 
 use crate::abi::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, BINDING_PROFILE,
@@ -19,7 +20,7 @@ use crate::kernel::{
 };
 use crate::kinds::{MASK_RAY_HITS, MATERIAL_NESTING, PRIMITIVE_KINDS};
 use crate::pack::{CameraFrame, SceneData};
-use crate::scene::{Filter, Reconstruction, Sampler, Scene, Strategy};
+use crate::scene::{AovKind, Filter, Reconstruction, Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
 use crate::stats::{Accumulation, Replicates};
 use std::cell::OnceCell;
@@ -96,6 +97,11 @@ pub enum RenderError {
          before a renderer is built"
     )]
     StrategyNotChosen { scene: String },
+    #[error(
+        "{scene}: AOV `{aov}`: the scene has no textures, and pathmix keeps the texture \
+         coordinates of meshes only for scenes with textures"
+    )]
+    UvAovWithoutTextures { scene: String, aov: String },
     #[error(
         "adapter {adapter} has no read-write rgba32float storage textures; \
          use the buffer accumulator"
@@ -780,6 +786,16 @@ impl<'a> Renderer<'a> {
     /// One dispatch of `pipeline` over `params.tile_size`, with the frame's and
     /// the scene's bind groups.
     fn submit_pass(&self, pipeline: &wgpu::ComputePipeline, params: Params) {
+        self.submit_pass_with(pipeline, &self.frame_group, params);
+    }
+
+    /// As `submit_pass`, with another frame bind group (the AOV pass's).
+    fn submit_pass_with(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        frame_group: &wgpu::BindGroup,
+        params: Params,
+    ) {
         let tile_size = params.tile_size;
         self.ctx
             .queue
@@ -788,7 +804,7 @@ impl<'a> Renderer<'a> {
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.frame_group, &[]);
+            pass.set_bind_group(0, frame_group, &[]);
             pass.set_bind_group(1, &self.scene_group, &[]);
             pass.dispatch_workgroups(
                 tile_size[0].div_ceil(WORKGROUP_SIZE.0),
@@ -1095,6 +1111,14 @@ pub fn plan_kernel(
     }
     let (used, dropped_materials) = scene.without_unused_materials();
     let (data, strategy, warnings) = prepare_scene(&used, settings.strategy)?;
+    if let Some(aov) = (settings.aovs.iter()).find(|aov| aov.kind == AovKind::Uv) {
+        if data.textures.is_empty() {
+            return Err(RenderError::UvAovWithoutTextures {
+                scene: scene.source.clone(),
+                aov: aov.spec(),
+            });
+        }
+    }
     let (width, height) = (scene.camera.width, scene.camera.height);
     let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
     // The general kernel reads the scene from buffers, as a kernel not specialised

@@ -11,7 +11,8 @@
 //! variants reduce it, src/scene/spectrum.rs);
 //! `constant`, `envmap`, `point` and `spot` emitters; `bitmap` and `checkerboard` textures (nested or
 //! by `<ref>`) on the colour each BSDF can take one for (`Builder::texturable`); the `perspective` sensor with `hdrfilm`, its `rfilter`
-//! (`box`, `gaussian`, `tent`, `mitchell`, `catmullrom`, `lanczos`) and a sampler; the `path` and `direct` integrators. Anything
+//! (`box`, `gaussian`, `tent`, `mitchell`, `catmullrom`, `lanczos`) and a sampler; the `path` and `direct` integrators,
+//! and `aov` around one of them (`kinds::aov`). Anything
 //! else is an error naming `file:line:col` and the element; an approximation is a
 //! warning.
 
@@ -27,7 +28,7 @@ mod upgrade;
 
 use super::parse::{IMAGE_SIDE, NAMED_IORS, sin_cos_degrees};
 use super::spectrum::{self, Role, Spectrum};
-use super::{Sampler, SceneError, excerpt};
+use super::{Aov, Sampler, SceneError, excerpt, parse_aovs};
 use crate::kinds::transform::coordinate_system;
 use crate::kinds::{MATERIAL_KINDS, MaterialModel, MitsubaPlugin};
 
@@ -2328,15 +2329,51 @@ impl<'a> Builder<'a> {
         })
     }
 
+    /// Mitsuba's `aov` integrator: its AOVs, and the one integrator nested in
+    /// it, which renders the image.
+    fn aov_integrator(&self, e: &'a Elem) -> Result<(Vec<Aov>, &'a Elem)> {
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e, self.search);
+        let Some((spec, at)) = props.string("aovs")? else {
+            return Err(e
+                .origin
+                .error("the `aov` integrator needs its `aovs` string"));
+        };
+        let aovs = parse_aovs(spec).map_err(|message| at.origin.error(message))?;
+        let nested = props.objects(&["integrator"]);
+        props.finish()?;
+        match nested[..] {
+            [integrator] => Ok((aovs, integrator)),
+            [] => Err(e.origin.error(
+                "an `aov` integrator with no integrator nested in it renders AOVs alone, which \
+                 pathmix does not: nest the integrator of the image (`<integrator type=\"path\"/>`)",
+            )),
+            [_, second, ..] => Err(second.origin.error(
+                "a second integrator nested in `aov`: pathmix renders one image beside the AOVs",
+            )),
+        }
+    }
+
     /// `[render]` from the integrator: Mitsuba's `max_depth` counts the camera
     /// vertex, pathmix's counts scattering events.
     fn integrator_settings(&mut self) -> Result<Table> {
         let mut render = Table::new();
         render.insert("strategy".into(), Value::String("nee-mis".into()));
-        let (max_depth, rr_depth) = match self.integrator {
+        let integrator = match self.integrator {
+            Some(e) if e.ty() == "aov" => {
+                let (aovs, nested) = self.aov_integrator(e)?;
+                let specs = aovs.iter().map(|aov| Value::String(aov.spec()));
+                render.insert("aovs".into(), Value::Array(specs.collect()));
+                self.origins.push(("render.aovs".into(), e.origin.clone()));
+                Some(nested)
+            }
+            other => other,
+        };
+        let (max_depth, rr_depth) = match integrator {
             None => (-1, Some(5)),
             Some(e) => {
-                e.check_attrs(&["type", "id"])?;
+                // Mitsuba names the integrators nested in `aov`.
+                e.check_attrs(&["type", "id", "name"])?;
                 let mut props = Props::new(e, self.search);
                 if props.boolean("hide_emitters")?.unwrap_or(false) {
                     return Err(e.origin.error("hide_emitters=\"true\" is not supported"));

@@ -18,8 +18,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 pub use crate::kinds::{
-    Cylinder, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
-    SceneError, Shapes, Sphere, Spot, Texture, Triangle, excerpt,
+    Aov, AovKind, Cylinder, Disk, Distribution, Filter, Material, MaterialKind, PointLight, Quad,
+    Reconstruction, SceneError, Shapes, Sphere, Spot, Texture, Triangle, excerpt, parse_aovs,
 };
 pub use envmap::EnvironmentMap;
 pub use parse::{AUTO_STRATEGY, OverrideError, SceneOverrides};
@@ -246,6 +246,8 @@ pub struct RenderSettings {
     /// where the filter is wider than a pixel and the run allows it
     /// (`render::plan_kernel`).
     pub reconstruction: Option<Reconstruction>,
+    /// The AOVs written beside the image (`kinds::aov`), in the order asked.
+    pub aovs: Vec<Aov>,
 }
 
 impl RenderSettings {

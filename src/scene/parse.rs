@@ -19,7 +19,7 @@ use toml::{Table, Value};
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{is_serialized, load_mesh, vertex_normals};
 use super::{
-    AdaptiveMetric, Camera, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
+    AdaptiveMetric, Aov, Camera, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
     RenderSettings, Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle,
     excerpt,
 };
@@ -54,6 +54,8 @@ pub struct SceneOverrides {
     pub sampler: Option<Sampler>,
     pub adaptive_metric: Option<AdaptiveMetric>,
     pub reconstruction: Option<Reconstruction>,
+    /// Replaces the file's AOVs.
+    pub aovs: Option<Vec<Aov>>,
 }
 
 /// The `render.strategy` that asks for a pilot's choice.
@@ -99,6 +101,7 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "adaptive",
     "adaptive_metric",
     "reconstruction",
+    "aovs",
 ];
 // ---------------------------------------------------------------------------------
 // Entry points
@@ -289,6 +292,10 @@ impl Scene {
         if let Some(v) = o.reconstruction {
             self.render.reconstruction = Some(v);
         }
+        if let Some(aovs) = &o.aovs {
+            kinds::check_names(aovs).map_err(|m| err("render.aovs", m))?;
+            self.render.aovs = aovs.clone();
+        }
         Ok(())
     }
 
@@ -394,6 +401,7 @@ fn default_render() -> RenderSettings {
         adaptive: false,
         adaptive_metric: None,
         reconstruction: None,
+        aovs: Vec::new(),
     }
 }
 
@@ -451,7 +459,37 @@ fn parse_render(t: &ParamTable) -> Result<RenderSettings> {
             Reconstruction::from_name,
         )?
         .or(d.reconstruction),
+        aovs: parse_render_aovs(t)?,
     })
+}
+
+/// `render.aovs`: a list of Mitsuba's `NAME:TYPE` (or `TYPE`) strings.
+fn parse_render_aovs(t: &ParamTable) -> Result<Vec<Aov>> {
+    let Some(value) = t.table.get("aovs") else {
+        return Ok(Vec::new());
+    };
+    let at = t.at("aovs");
+    let Value::Array(items) = value else {
+        return Err(t.err(
+            at,
+            format!(
+                "expected a list of \"NAME:TYPE\" strings, got {}",
+                type_name(value)
+            ),
+        ));
+    };
+    let mut aovs = Vec::new();
+    for (i, item) in items.iter().enumerate() {
+        let Value::String(item) = item else {
+            return Err(t.err(
+                format!("{at}[{i}]"),
+                format!("expected a \"NAME:TYPE\" string, got {}", type_name(item)),
+            ));
+        };
+        aovs.push(kinds::parse_aov(item).map_err(|m| t.err(format!("{at}[{i}]"), m))?);
+    }
+    kinds::check_names(&aovs).map_err(|m| t.err(at, m))?;
+    Ok(aovs)
 }
 
 /// `render.strategy`: a strategy's name, or `auto` (true: the pilot chooses).
@@ -1150,7 +1188,7 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{CameraModel, Spot};
+    use crate::scene::{AovKind, CameraModel, Spot};
 
     const CORNELL: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell.toml"));
     const BOXES: &str = include_str!(concat!(
@@ -2006,6 +2044,10 @@ material = "white"
             sampler: Some(Sampler::Independent),
             adaptive_metric: Some(AdaptiveMetric::Absolute),
             reconstruction: Some(Reconstruction::Importance),
+            aovs: Some(vec![Aov {
+                name: "nn".into(),
+                kind: AovKind::ShNormal,
+            }]),
         };
         s.apply_overrides(&o).unwrap();
         assert_eq!(
@@ -2020,6 +2062,7 @@ material = "white"
         assert_eq!(s.render.sampler, Sampler::Independent);
         assert_eq!(s.render.adaptive_metric, Some(AdaptiveMetric::Absolute));
         assert_eq!(s.render.reconstruction, Some(Reconstruction::Importance));
+        assert_eq!(s.render.aovs[0].spec(), "nn:sh_normal");
         s.apply_overrides(&SceneOverrides::default()).unwrap();
         assert_eq!(s.render.spp, 16);
 

@@ -21,7 +21,8 @@ use crate::output::{self, OutputError};
 use crate::render::adaptive::Choice;
 use crate::render::{AccumulatorState, AdaptiveState};
 use crate::scene::{
-    AdaptiveMetric, Reconstruction, RenderSettings, Sampler, Scene, SceneOverrides, Strategy,
+    AdaptiveMetric, Aov, Reconstruction, RenderSettings, Sampler, Scene, SceneOverrides, Strategy,
+    parse_aovs,
 };
 use serde::Serialize;
 use std::io::{self, Write};
@@ -144,6 +145,8 @@ impl SceneIdentity {
             // splats, so that runs drawing offsets from the filter keep the
             // hash they had before splatting was a choice.
             reconstruction: _,
+            // Written beside the image, from a pass of their own.
+            aovs: _,
         } = render;
         let rr_depth = render.roulette_depth();
         let splats = render.reconstruction_with(camera.filter) == Reconstruction::Splat;
@@ -491,6 +494,8 @@ pub enum HeaderError {
     LightWeight,
     #[error("`overrides.rr_depth` is not a depth or `off`")]
     RrDepth,
+    #[error("`overrides.aovs` is not a list of AOVs")]
+    Aovs,
     #[error("{count} texels of data for {width}x{height} pixels and {layers} layers")]
     TexelCount {
         count: usize,
@@ -624,6 +629,10 @@ fn header(c: &Checkpoint) -> String {
     }
     if let Some(r) = o.reconstruction {
         overrides.insert("reconstruction".into(), r.name().into());
+    }
+    if let Some(aovs) = &o.aovs {
+        let specs: Vec<String> = aovs.iter().map(Aov::spec).collect();
+        overrides.insert("aovs".into(), specs.join(",").into());
     }
     root.insert("overrides".into(), overrides.into());
     let s = &c.state;
@@ -789,6 +798,14 @@ fn parse_header(
     let o = table("overrides")?;
     let overrides = SceneOverrides {
         spp: None,
+        aovs: o
+            .get("aovs")
+            .map(|v| {
+                v.as_str()
+                    .and_then(|s| parse_aovs(s).ok())
+                    .ok_or(HeaderError::Aovs)
+            })
+            .transpose()?,
         width: u32_in(o, "overrides", "width")?,
         height: u32_in(o, "overrides", "height")?,
         max_depth: u32_in(o, "overrides", "max_depth")?,
@@ -1281,6 +1298,7 @@ mod tests {
                 adaptive_metric: None,
                 // Its hash from before splatting was a choice (`SceneIdentity::of`).
                 reconstruction: Some(Reconstruction::Importance),
+                aovs: Vec::new(),
             },
             materials: vec![
                 Material {

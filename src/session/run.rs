@@ -198,6 +198,8 @@ pub enum SessionError {
     ResumeWithoutSquares { checkpoint: PathBuf },
     #[error("a preview rewrites the PNG output: give one")]
     PreviewWithoutPng,
+    #[error("--aov: AOVs are written as channels of the EXR image: give --exr")]
+    AovsWithoutExr,
     #[error("{}: {source}", .setting.name())]
     Output {
         setting: Setting,
@@ -309,7 +311,11 @@ impl Session {
         };
         let saved = resume.as_ref().map(|(_, c)| c);
         let overrides = match saved {
-            Some(c) => c.overrides.clone(),
+            // AOVs are written at the end, as outputs are: a resume may ask for others.
+            Some(c) => SceneOverrides {
+                aovs: (request.overrides.aovs.clone()).or_else(|| c.overrides.aovs.clone()),
+                ..c.overrides.clone()
+            },
             None => SceneOverrides {
                 spp: None,
                 ..request.overrides.clone()
@@ -433,6 +439,16 @@ impl Session {
             }
         } else if outputs.sample_counts.is_some() {
             return Err(SessionError::SampleCountsWithoutAdaptive);
+        }
+        if !scene.render.aovs.is_empty() && outputs.exr.is_none() {
+            match overrides.aovs.is_some() {
+                true => return Err(SessionError::AovsWithoutExr),
+                false => warnings.push(
+                    "the scene's AOVs (render.aovs) are channels of the EXR image: give --exr \
+                     to have them"
+                        .into(),
+                ),
+            }
         }
         let (first_sample, stop, variance) = match &resume {
             Some((path, c)) => {
@@ -779,7 +795,12 @@ impl Run<'_> {
             written.push(png.clone());
         }
         if let Some(exr) = &outputs.exr {
-            output::write_exr(exr, &mean, &[]).map_err(SessionError::Write)?;
+            let aovs = &session.scene.render.aovs;
+            let channels = match aovs.is_empty() {
+                true => Vec::new(),
+                false => renderer.render_aovs(aovs, renderer.samples())?.channels,
+            };
+            output::write_exr_with_channels(exr, &mean, &channels).map_err(SessionError::Write)?;
             written.push(exr.clone());
         }
         if let Some(path) = &outputs.partial {

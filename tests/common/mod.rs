@@ -551,3 +551,30 @@ pub fn assert_light_edge(
         }
     }
 }
+
+/// Every channel of an EXR by name (f32 or f16 samples).
+pub fn exr_channels(path: &Path) -> std::collections::BTreeMap<String, Vec<f32>> {
+    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .unwrap();
+    image
+        .layer_data
+        .channel_data
+        .list
+        .into_iter()
+        .map(|channel| {
+            let values = match channel.sample_data {
+                FlatSamples::F32(v) => v,
+                FlatSamples::F16(v) => v.into_iter().map(f32::from).collect(),
+                FlatSamples::U32(v) => v.into_iter().map(|x| x as f32).collect(),
+            };
+            (channel.name.to_string(), values)
+        })
+        .collect()
+}

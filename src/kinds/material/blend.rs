@@ -48,6 +48,7 @@ pub(super) const BLEND: MaterialModel = MaterialModel {
     keys_note: None,
     mitsuba: None,
     nested: &["first", "second"],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

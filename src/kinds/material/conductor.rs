@@ -40,6 +40,7 @@ pub(super) const CONDUCTOR: MaterialModel = MaterialModel {
         numbers: &[],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

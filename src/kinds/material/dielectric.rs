@@ -27,6 +27,7 @@ pub(super) const DIELECTRIC: MaterialModel = MaterialModel {
     keys_note: None,
     mitsuba: None,
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

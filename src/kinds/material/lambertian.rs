@@ -32,6 +32,7 @@ pub(super) const LAMBERTIAN: MaterialModel = MaterialModel {
     keys_note: None,
     mitsuba: None,
     nested: &[],
+    diffuse_reflectance_is_albedo: true,
     parse,
     pack,
 };

@@ -24,6 +24,7 @@ pub(super) const LIGHT: MaterialModel = MaterialModel {
     keys_note: None,
     mitsuba: None,
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

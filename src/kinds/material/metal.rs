@@ -25,6 +25,7 @@ pub(super) const METAL: MaterialModel = MaterialModel {
     keys_note: None,
     mitsuba: None,
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

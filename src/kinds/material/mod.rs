@@ -92,6 +92,11 @@ pub struct MaterialModel {
     /// which the kernel resolves at the hit (`resolve_material`,
     /// materials.wgsl) before anything else is done there.
     pub nested: &'static [&'static str],
+    /// Its packed `albedo`, textured, is its diffuse reflectance: the
+    /// `albedo` AOV (`kinds::aov`), as Mitsuba's `eval_diffuse_reflectance`
+    /// of `diffuse`, the plastics and the principled BSDFs. Other kinds give
+    /// Mitsuba's default there: the BSDF's value toward the normal times π.
+    pub diffuse_reflectance_is_albedo: bool,
     /// Reads its parameters from its table, whose keys are checked; the
     /// generic part (`one_sided`, the texture) is [`Material::parse`]'s.
     pub(crate) parse: fn(&ParamTable, &mut TextureSlot) -> Result<Parsed>,

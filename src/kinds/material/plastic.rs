@@ -48,6 +48,7 @@ pub(super) const PLASTIC: MaterialModel = MaterialModel {
         numbers: &[],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: true,
     parse,
     pack,
 };

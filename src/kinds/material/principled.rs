@@ -103,6 +103,7 @@ pub(super) const PRINCIPLED: MaterialModel = MaterialModel {
         ],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: true,
     parse,
     pack,
 };

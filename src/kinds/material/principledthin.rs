@@ -77,6 +77,7 @@ pub(super) const PRINCIPLEDTHIN: MaterialModel = MaterialModel {
         ],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: true,
     parse,
     pack,
 };

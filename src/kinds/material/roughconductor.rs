@@ -45,6 +45,7 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
         numbers: &[],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

@@ -49,6 +49,7 @@ pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
         numbers: &[],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

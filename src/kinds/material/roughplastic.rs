@@ -49,6 +49,7 @@ pub(super) const ROUGHPLASTIC: MaterialModel = MaterialModel {
         numbers: &[],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: true,
     parse,
     pack,
 };

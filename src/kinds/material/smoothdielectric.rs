@@ -39,6 +39,7 @@ pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
         numbers: &[],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

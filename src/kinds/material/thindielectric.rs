@@ -36,6 +36,7 @@ pub(super) const THINDIELECTRIC: MaterialModel = MaterialModel {
         numbers: &[],
     }),
     nested: &[],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

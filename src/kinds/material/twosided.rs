@@ -45,6 +45,7 @@ pub(super) const TWOSIDED: MaterialModel = MaterialModel {
     keys_note: None,
     mitsuba: None,
     nested: &["front", "back"],
+    diffuse_reflectance_is_albedo: false,
     parse,
     pack,
 };

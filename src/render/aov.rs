@@ -1,0 +1,120 @@
+//! The AOV pass (`kinds::aov`, `shaders/aov.wgsl`): after a renderer's
+//! samples, the same sample indices' camera rays traced once more to the
+//! first surface each meets, whose AOVs are summed on the device beside the
+//! image's sums and read back as per-pixel means.
+
+use super::{RenderError, Renderer, submission_shape, workgroup_row_step};
+use crate::abi::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Params};
+use crate::gpu::accumulator::{Accumulator, compensated_sums};
+use crate::kernel::WORKGROUP_SIZE;
+use crate::kinds::{Aov, aov_kinds};
+
+/// AOVs as written beside an image: each channel's name (`NAME.SUFFIX`) and
+/// its values, row by row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AovImage {
+    pub width: u32,
+    pub height: u32,
+    pub channels: Vec<(String, Vec<f32>)>,
+}
+
+impl Renderer<'_> {
+    /// The AOVs `aovs` of this renderer's scene: each pixel's mean over the
+    /// camera rays of its sample indices `first_sample()..` up to `samples`
+    /// (at least one), drawn as the image's are.
+    pub fn render_aovs(&self, aovs: &[Aov], samples: u32) -> Result<AovImage, RenderError> {
+        let kinds = aov_kinds(aovs);
+        let device = &self.ctx.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let kernel = self.ctx.kernel(self.kernel.config.for_aovs(&kinds))?;
+        let (width, height) = self.size();
+        let accumulator = Accumulator::new(
+            self.ctx,
+            kernel.config.accumulator,
+            width,
+            height,
+            kernel.config.aov_layers(),
+        );
+        let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("aov frame"),
+            layout: &kernel.frame_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: BINDING_PARAMS,
+                    resource: self.params_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: BINDING_ACCUMULATOR,
+                    resource: accumulator.binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: BINDING_COUNTERS,
+                    resource: self.counters_buffer.as_entire_binding(),
+                },
+            ],
+        });
+        let samples = samples.max(1);
+        // A camera ray costs at most a path's first segment: a path's
+        // dispatch budget holds.
+        let (per_dispatch, rows) = submission_shape(
+            self.paths_per_submission,
+            width,
+            height,
+            samples.min(self.max_samples_per_dispatch),
+        );
+        let mut done = 0;
+        while done < samples {
+            let count = per_dispatch.min(samples - done);
+            let mut row = 0;
+            while row < height {
+                let tile_rows = rows.min(height - row);
+                let params = Params {
+                    sample_start: self.first_sample.saturating_add(done),
+                    sample_count: count,
+                    tile_origin: [0, row],
+                    tile_size: [width, tile_rows],
+                    reset: (done == 0) as u32,
+                    workgroup_row_step: workgroup_row_step(tile_rows.div_ceil(WORKGROUP_SIZE.1)),
+                    ..self.params
+                };
+                self.submit_pass_with(&kernel.pipeline, &frame_group, params);
+                row += tile_rows;
+            }
+            self.wait();
+            done += count;
+        }
+        let texels = accumulator.read(self.ctx);
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::KernelBuild {
+                message: error.to_string(),
+            });
+        }
+        let pixels = width as usize * height as usize;
+        let means: Vec<Vec<[f64; 3]>> = (0..kinds.len() as u32)
+            .map(|slot| {
+                compensated_sums(&texels, pixels, 2 * slot, 2 * slot + 1)
+                    .map(|sum| sum.map(|s| s / samples as f64))
+                    .collect()
+            })
+            .collect();
+        let channels = aovs
+            .iter()
+            .flat_map(|aov| {
+                let slot = kinds
+                    .iter()
+                    .position(|&k| k == aov.kind)
+                    .expect("each kind has a slot");
+                let values = &means[slot];
+                aov.channels()
+                    .enumerate()
+                    .map(|(c, name)| (name, values.iter().map(|v| v[c] as f32).collect()))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        Ok(AovImage {
+            width,
+            height,
+            channels,
+        })
+    }
+}
