@@ -800,6 +800,34 @@ fn convert_round_trips_to_the_same_scene() {
     assert_eq!(converted.to_toml(&folder, &xml), text);
 }
 
+/// `convert` writes the `aov` integrator's AOVs as `render.aovs`, which read
+/// back as the XML's render settings.
+#[test]
+fn convert_writes_aovs() {
+    let dir = common::TempDir::new("mitsuba", "convert-aovs");
+    let xml = repo("tests/data/aovs.xml");
+    let out = dir.join("aovs.toml");
+    let output = pathmix(&[
+        "convert",
+        xml.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text.contains(r#"aovs = ["albedo:albedo", "depth:depth","#),
+        "{text}"
+    );
+    let (from_toml, from_xml) = (Scene::load(&out).unwrap(), Scene::load(&xml).unwrap());
+    assert_eq!(from_toml.render, from_xml.render);
+    assert_eq!(from_xml.render.aovs.len(), 6);
+}
+
 /// `convert` writes a textured scene's textures as TOML texture tables, image
 /// paths relative to the output, which read back as the scene the XML is.
 #[test]
