@@ -40,11 +40,14 @@ def render(
     sampler: Optional[str] = None,
     return_error: bool = False,
     return_sample_counts: bool = False,
+    aovs: Optional[str] = None,
     progress: Optional[_Progress] = None,
-) -> Union[npt.NDArray[np.float32], Tuple[np.ndarray, ...]]:
+) -> Union[npt.NDArray[np.float32], Tuple[Any, ...]]:
     """Renders once: float32 (height, width, 3) linear radiance; with
-    `return_error` and/or `return_sample_counts`, a tuple (image, error,
-    sample_counts) of those asked for."""
+    `return_error`, `return_sample_counts` and/or `aovs` (Mitsuba's `aovs`
+    string, e.g. "albedo,nn:sh_normal"), a tuple (image, error, sample_counts,
+    aovs) of those asked for, `aovs` a dict of float32 (height, width,
+    channels) arrays by name."""
 
 def converge(
     scene: Scene,

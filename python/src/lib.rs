@@ -13,9 +13,12 @@ use numpy::ndarray::Array3;
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray3};
 use pathmix::gpu::GpuContext;
 use pathmix::output::{self, Image};
+use pathmix::render::aov::AovImage;
 use pathmix::render::{Progress, RunSummary, StopReason};
 use pathmix::scene::mitsuba::Define;
-use pathmix::scene::{LoadedScene, Sampler, Scene as SceneData, SceneOverrides, Strategy};
+use pathmix::scene::{
+    Aov, LoadedScene, Sampler, Scene as SceneData, SceneOverrides, Strategy, parse_aovs,
+};
 use pathmix::session::converge::{ConvergeError, Event, ReferenceChoice, Study, Variant};
 use pathmix::session::{self, Request, SessionError};
 use pyo3::create_exception;
@@ -315,7 +318,31 @@ struct Rendered {
     mean: Image,
     error: Option<Image>,
     sample_counts: Option<Vec<u32>>,
+    aovs: Option<AovImage>,
     warnings: Vec<String>,
+}
+
+/// Each AOV by name: float32 (height, width, channels), its channels in
+/// Mitsuba's order (`albedo`: R, G, B; `depth`: one; `uv`: U, V).
+fn aov_dict<'py>(py: Python<'py>, aovs: &[Aov], image: &AovImage) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    let (width, height) = (image.width as usize, image.height as usize);
+    let mut channels = image.channels.iter();
+    for aov in aovs {
+        let count = aov.kind.suffixes().len();
+        let parts: Vec<&Vec<f32>> = channels
+            .by_ref()
+            .take(count)
+            .map(|(_, values)| values)
+            .collect();
+        let values: Vec<f32> = (0..width * height)
+            .flat_map(|i| parts.iter().map(move |part| part[i]))
+            .collect();
+        let array = Array3::from_shape_vec((height, width, count), values)
+            .expect("one value per pixel and channel");
+        dict.set_item(&aov.name, array.into_pyarray(py))?;
+    }
+    Ok(dict)
 }
 
 fn array<'py>(py: Python<'py>, image: &Image) -> Bound<'py, PyArray3<f32>> {
@@ -339,12 +366,14 @@ fn counts_array<'py>(
 /// Renders `scene` once and returns the mean radiance as a float32 array of
 /// shape (height, width, 3), linear; with `return_error` also the standard
 /// error of each pixel's mean, with `return_sample_counts` (adaptive runs) each
-/// pixel's sample count, as a tuple in that order.
+/// pixel's sample count, with `aovs` (Mitsuba's `aovs` string, as `--aov`) a
+/// dict of each AOV's float32 (height, width, channels) array, as a tuple in
+/// that order.
 #[pyfunction]
 #[pyo3(signature = (
     scene, *, spp=None, strategy=None, seed=None, width=None, height=None, max_depth=None,
     time=None, target_error=None, adaptive=false, light_weight=None, sampler=None,
-    return_error=false, return_sample_counts=false, progress=None,
+    return_error=false, return_sample_counts=false, aovs=None, progress=None,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn render(
@@ -363,8 +392,15 @@ fn render(
     sampler: Option<String>,
     return_error: bool,
     return_sample_counts: bool,
+    aovs: Option<String>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Py<PyAny>> {
+    let aovs = match &aovs {
+        Some(spec) => {
+            Some(parse_aovs(spec).map_err(|e| PyValueError::new_err(format!("aovs: {e}")))?)
+        }
+        None => None,
+    };
     let settings = Settings {
         spp,
         strategy,
@@ -379,7 +415,10 @@ fn render(
         adaptive,
     };
     let scene = scene.get();
-    let request = settings.request(scene, return_error)?;
+    let mut request = settings.request(scene, return_error)?;
+    // Computed here, from the argument alone: not the file's list, which the
+    // command line writes into its EXR.
+    request.overrides.aovs = Some(Vec::new());
     let watch = Watch::new(progress.as_ref());
     let rendered = py.detach(|| -> PyResult<Rendered> {
         let mut planned =
@@ -405,6 +444,19 @@ fn render(
                 false => None,
             },
             sample_counts: run.renderer.sample_counts().map(<[u32]>::to_vec),
+            aovs: match &aovs {
+                Some(aovs) => Some(
+                    run.renderer
+                        .render_aovs(aovs, run.renderer.samples())
+                        .map_err(|e| match e {
+                            pathmix::render::RenderError::UvAovWithoutTextures { .. } => {
+                                PyValueError::new_err(format!("aovs: {e}"))
+                            }
+                            e => session_error(e.into()),
+                        })?,
+                ),
+                None => None,
+            },
             warnings,
         })
     })?;
@@ -412,7 +464,7 @@ fn render(
         warn(py, warning)?;
     }
     let image = array(py, &rendered.mean).into_any().unbind();
-    if !return_error && !return_sample_counts {
+    if !return_error && !return_sample_counts && aovs.is_none() {
         return Ok(image);
     }
     let mut parts = vec![image];
@@ -425,6 +477,9 @@ fn render(
             PyValueError::new_err("return_sample_counts: only an adaptive run has per-pixel counts")
         })?;
         parts.push(counts_array(py, counts, size).into_any().unbind());
+    }
+    if let (Some(asked), Some(image)) = (&aovs, &rendered.aovs) {
+        parts.push(aov_dict(py, asked, image)?.into_any().unbind());
     }
     Ok(pyo3::types::PyTuple::new(py, parts)?.into_any().unbind())
 }

@@ -82,6 +82,22 @@ def test_error_map_matches_the_command_lines_variance_output(scene, tmp_path):
     assert (error >= 0).all() and error.mean() > 0.0
 
 
+def test_aovs_come_beside_the_same_image(scene):
+    image, aovs = pathmix.render(scene, spp=4, seed=3, aovs="albedo,dd:depth", **SIZE)
+    assert np.array_equal(image, pathmix.render(scene, spp=4, seed=3, **SIZE))
+    assert list(aovs) == ["albedo", "dd"]
+    assert aovs["albedo"].shape == (24, 32, 3) and aovs["dd"].shape == (24, 32, 1)
+    assert aovs["albedo"].dtype == np.float32
+    # The walls are their materials' colours; rays that miss the box are 0.
+    assert (aovs["albedo"] >= 0).all() and (aovs["albedo"] <= 1).all()
+    assert aovs["albedo"].max() == np.float32(0.73)
+    assert (aovs["dd"] >= 0).all() and aovs["dd"][12, 16, 0] > 0
+    with pytest.raises(ValueError, match="prim_index"):
+        pathmix.render(scene, spp=1, aovs="p:prim_index", **SIZE)
+    with pytest.raises(ValueError, match="no textures"):
+        pathmix.render(scene, spp=1, aovs="uv", **SIZE)
+
+
 def test_more_samples_lower_the_error(scene):
     _, few = pathmix.render(scene, spp=4, return_error=True, **SIZE)
     _, many = pathmix.render(scene, spp=64, return_error=True, **SIZE)

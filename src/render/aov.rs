@@ -7,7 +7,7 @@ use super::{RenderError, Renderer, submission_shape, workgroup_row_step};
 use crate::abi::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Params};
 use crate::gpu::accumulator::{Accumulator, compensated_sums};
 use crate::kernel::WORKGROUP_SIZE;
-use crate::kinds::{Aov, aov_kinds};
+use crate::kinds::{Aov, AovKind, aov_kinds};
 
 /// AOVs as written beside an image: each channel's name (`NAME.SUFFIX`) and
 /// its values, row by row.
@@ -24,6 +24,11 @@ impl Renderer<'_> {
     /// (at least one), drawn as the image's are.
     pub fn render_aovs(&self, aovs: &[Aov], samples: u32) -> Result<AovImage, RenderError> {
         let kinds = aov_kinds(aovs);
+        if let Some(aov) = aovs.iter().find(|aov| aov.kind == AovKind::Uv) {
+            if !self.kernel.config.textures {
+                return Err(RenderError::UvAovWithoutTextures { aov: aov.spec() });
+            }
+        }
         let device = &self.ctx.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let kernel = self.ctx.kernel(self.kernel.config.for_aovs(&kinds))?;

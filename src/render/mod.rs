@@ -98,10 +98,10 @@ pub enum RenderError {
     )]
     StrategyNotChosen { scene: String },
     #[error(
-        "{scene}: AOV `{aov}`: the scene has no textures, and pathmix keeps the texture \
-         coordinates of meshes only for scenes with textures"
+        "AOV `{aov}`: the scene has no textures, and pathmix keeps the texture coordinates \
+         of meshes only for scenes with textures"
     )]
-    UvAovWithoutTextures { scene: String, aov: String },
+    UvAovWithoutTextures { aov: String },
     #[error(
         "adapter {adapter} has no read-write rgba32float storage textures; \
          use the buffer accumulator"
@@ -1113,10 +1113,7 @@ pub fn plan_kernel(
     let (data, strategy, warnings) = prepare_scene(&used, settings.strategy)?;
     if let Some(aov) = (settings.aovs.iter()).find(|aov| aov.kind == AovKind::Uv) {
         if data.textures.is_empty() {
-            return Err(RenderError::UvAovWithoutTextures {
-                scene: scene.source.clone(),
-                aov: aov.spec(),
-            });
+            return Err(RenderError::UvAovWithoutTextures { aov: aov.spec() });
         }
     }
     let (width, height) = (scene.camera.width, scene.camera.height);
