@@ -2,7 +2,8 @@
 // of `sample_count` samples in sample-index order and adds what each finds
 // first, weighted as the pixel filter weighs it, to the pixel's running sums
 // of the AOVs asked for: one compensated sum per AOV type (its values in the
-// first components), in accumulator layers 2 * AOV_SLOT_NAME and the one after.
+// first components), in accumulator layers 2 * AOV_SLOT_NAME and the one after,
+// over the dispatch's band of rows.
 // The generated `aov_layout` module names the slots.
 
 // Mitsuba's `eval_diffuse_reflectance`: the material's own where its albedo is
@@ -98,9 +99,11 @@ fn aovs(
     let pixel = params.tile_origin + id;
     let pixel_index = pixel.y * params.width + pixel.x;
     let reset = params.reset != 0u;
+    // The sums hold the dispatch's band of rows (`render::aov`): they are
+    // indexed from its first row.
     var sums: array<CompensatedSum, AOV_SLOTS>;
     for (var s = 0u; s < AOV_SLOTS; s++) {
-        sums[s] = load_sum(pixel, 2u * s, 2u * s + 1u, reset);
+        sums[s] = load_sum(id, 2u * s, 2u * s + 1u, reset);
     }
     for (var i = 0u; i < params.sample_count; i++) {
         sampler_begin(pixel_index, params.sample_start + i);
@@ -115,6 +118,6 @@ fn aovs(
         }
     }
     for (var s = 0u; s < AOV_SLOTS; s++) {
-        store_sum(pixel, 2u * s, 2u * s + 1u, sums[s]);
+        store_sum(id, 2u * s, 2u * s + 1u, sums[s]);
     }
 }

@@ -19,7 +19,7 @@ pub fn compensated_sums(
 }
 
 /// Bytes per pixel per layer (one `vec4<f32>`).
-const TEXEL_BYTES: u32 = 16;
+pub const TEXEL_BYTES: u32 = 16;
 
 enum Storage {
     Texture {

@@ -5,9 +5,13 @@
 
 use super::{RenderError, Renderer, submission_shape, workgroup_row_step};
 use crate::abi::{BINDING_ACCUMULATOR, BINDING_COUNTERS, BINDING_PARAMS, Params};
-use crate::gpu::accumulator::{Accumulator, compensated_sums};
+use crate::gpu::accumulator::{Accumulator, TEXEL_BYTES, compensated_sums};
 use crate::kernel::WORKGROUP_SIZE;
 use crate::kinds::{Aov, AovKind, aov_kinds};
+
+/// Most bytes of running sums the pass holds: the image is summed a band of
+/// rows at a time (4K at every AOV type would take 1.6 GB at once).
+const AOV_BAND_BYTES: u64 = 1 << 26;
 
 /// AOVs as written beside an image: each channel's name (`NAME.SUFFIX`) and
 /// its values, row by row.
@@ -33,12 +37,25 @@ impl Renderer<'_> {
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let kernel = self.ctx.kernel(self.kernel.config.for_aovs(&kinds))?;
         let (width, height) = self.size();
+        let samples = samples.max(1);
+        // A camera ray costs at most a path's first segment: a path's
+        // dispatch budget holds. Bands of rows, each one dispatch wide, keep
+        // the sums' memory to AOV_BAND_BYTES however large the image.
+        let (per_dispatch, rows) = submission_shape(
+            self.paths_per_submission,
+            width,
+            height,
+            samples.min(self.max_samples_per_dispatch),
+        );
+        let layers = kernel.config.aov_layers();
+        let band_bytes = u64::from(width * layers * TEXEL_BYTES);
+        let band_rows = rows.min((AOV_BAND_BYTES / band_bytes).max(1) as u32);
         let accumulator = Accumulator::new(
             self.ctx,
             kernel.config.accumulator,
             width,
-            height,
-            kernel.config.aov_layers(),
+            band_rows,
+            layers,
         );
         let frame_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("aov frame"),
@@ -58,50 +75,44 @@ impl Renderer<'_> {
                 },
             ],
         });
-        let samples = samples.max(1);
-        // A camera ray costs at most a path's first segment: a path's
-        // dispatch budget holds.
-        let (per_dispatch, rows) = submission_shape(
-            self.paths_per_submission,
-            width,
-            height,
-            samples.min(self.max_samples_per_dispatch),
-        );
-        let mut done = 0;
-        while done < samples {
-            let count = per_dispatch.min(samples - done);
-            let mut row = 0;
-            while row < height {
-                let tile_rows = rows.min(height - row);
+        let mut means: Vec<Vec<[f64; 3]>> = vec![Vec::new(); kinds.len()];
+        let mut band = 0;
+        while band < height {
+            let band_size = band_rows.min(height - band);
+            let mut done = 0;
+            while done < samples {
+                let count = per_dispatch.min(samples - done);
                 let params = Params {
                     sample_start: self.first_sample.saturating_add(done),
                     sample_count: count,
-                    tile_origin: [0, row],
-                    tile_size: [width, tile_rows],
+                    tile_origin: [0, band],
+                    tile_size: [width, band_size],
                     reset: (done == 0) as u32,
-                    workgroup_row_step: workgroup_row_step(tile_rows.div_ceil(WORKGROUP_SIZE.1)),
+                    workgroup_row_step: workgroup_row_step(band_size.div_ceil(WORKGROUP_SIZE.1)),
+                    // The sums' rows, as the buffer accumulator lays its layers
+                    // out; the camera and the sampler number pixels by the width.
+                    height: band_rows,
                     ..self.params
                 };
                 self.submit_pass_with(&kernel.pipeline, &frame_group, params);
-                row += tile_rows;
+                self.wait();
+                done += count;
             }
-            self.wait();
-            done += count;
+            let texels = accumulator.read(self.ctx);
+            let band_pixels = (width * band_rows) as usize;
+            for (slot, mean) in means.iter_mut().enumerate() {
+                let slot = slot as u32;
+                let sums = compensated_sums(&texels, band_pixels, 2 * slot, 2 * slot + 1);
+                let rows_here = sums.take((width * band_size) as usize);
+                mean.extend(rows_here.map(|sum| sum.map(|s| s / samples as f64)));
+            }
+            band += band_size;
         }
-        let texels = accumulator.read(self.ctx);
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::KernelBuild {
                 message: error.to_string(),
             });
         }
-        let pixels = width as usize * height as usize;
-        let means: Vec<Vec<[f64; 3]>> = (0..kinds.len() as u32)
-            .map(|slot| {
-                compensated_sums(&texels, pixels, 2 * slot, 2 * slot + 1)
-                    .map(|sum| sum.map(|s| s / samples as f64))
-                    .collect()
-            })
-            .collect();
         let channels = aovs
             .iter()
             .flat_map(|aov| {
