@@ -11,7 +11,7 @@ pub use profile::Stage;
 use crate::abi::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, PackedMaterial, REPLICATES, replicate_layer,
 };
-use crate::accel::{self, WideBvh, WideBvhNode};
+use crate::accel::{self, PackedInstance, WideBvh, WideBvhNode};
 use crate::environment::EnvironmentInfo;
 use crate::kinds::{
     ErasedLayout, FILTER_FLAGS, FILTER_MODULE, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_KINDS,
@@ -56,6 +56,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "ADAPTIVE",
     "SAMPLER_SOBOL",
     "BVH",
+    "INSTANCES",
     "SHADING_NORMALS",
     "ONE_SIDED",
     "MASK",
@@ -178,6 +179,8 @@ pub enum ArraySource {
     /// The light tables (`lights::LightTables`) of grouped light kind `k`.
     LightTable(usize, LightTablePart),
     BvhNodes,
+    /// The instances (`accel::PackedInstance`) the BVH's instance leaves hold.
+    Instances,
     /// The environment map's tables (`environment::EnvironmentTables`): always
     /// read from buffers, a map being far too large to bake.
     Environment(EnvironmentPart),
@@ -259,6 +262,7 @@ impl ArraySource {
             ArraySource::LightTable(_, LightTablePart::BvhNodes) | ArraySource::BvhNodes => {
                 Some(ErasedLayout::of::<WideBvhNode>())
             }
+            ArraySource::Instances => Some(ErasedLayout::of::<PackedInstance>()),
             ArraySource::Textures => Some(ErasedLayout::of::<TextureInfo>()),
             ArraySource::Environment(EnvironmentPart::Info) => {
                 Some(ErasedLayout::of::<EnvironmentInfo>())
@@ -377,6 +381,11 @@ pub struct KernelConfig {
     pub bvh_stack: u32,
     /// The same for the light groups' BVHs (the deepest's levels).
     pub light_bvh_stack: u32,
+    /// The scene's BVH has instance leaves (`accel::instances`): the closest
+    /// hit walks a group's BVH in its space at each (`INSTANCES`).
+    pub instances: bool,
+    /// Entries of the stack of the walk of a group's BVH: its deepest's levels.
+    pub instance_stack: u32,
     /// The pixel filter camera rays are drawn from, or their samples splatted by.
     pub filter: Filter,
     /// Samples are splatted into the pixels around by the filter
@@ -622,6 +631,11 @@ impl KernelConfig {
                 .as_ref()
                 .map_or(accel::MAX_DEPTH, |bvh| bvh.depth + 1),
             light_bvh_stack,
+            instances: data.instancing.is_some(),
+            instance_stack: data
+                .instancing
+                .as_ref()
+                .map_or(accel::MAX_DEPTH, |instancing| instancing.group_depth + 1),
             filter,
             splat: false,
             profile: false,
@@ -661,6 +675,7 @@ impl KernelConfig {
             },
             bvh_stack: accel::MAX_DEPTH,
             light_bvh_stack: accel::MAX_DEPTH,
+            instance_stack: accel::MAX_DEPTH,
             ..self
         }
     }
@@ -691,6 +706,8 @@ impl KernelConfig {
             bvh_kinds: KindSet::default(),
             bvh_stack: accel::MAX_DEPTH,
             light_bvh_stack: accel::MAX_DEPTH,
+            instances: false,
+            instance_stack: accel::MAX_DEPTH,
             filter: Filter::Box,
             splat: false,
             profile: false,
@@ -829,6 +846,7 @@ impl KernelConfig {
             ("ADAPTIVE", self.adaptive),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh()),
+            ("INSTANCES", self.instances),
             ("SHADING_NORMALS", self.shading_normals()),
             ("ONE_SIDED", self.one_sided),
             ("MASK", self.masked),
@@ -1177,6 +1195,15 @@ impl KernelConfig {
                 source: ArraySource::BvhNodes,
             });
         }
+        if self.instances {
+            arrays.push(SceneArray {
+                name: "instances".into(),
+                // After the large primitives (one binding per primitive kind).
+                binding: 10 + 9 * count,
+                indexed: true,
+                source: ArraySource::Instances,
+            });
+        }
         if self.textures {
             arrays.push(SceneArray {
                 name: "textures".into(),
@@ -1247,7 +1274,7 @@ impl KernelConfig {
                     ArraySource::LightTable(..) | ArraySource::DeltaLights => {
                         data.array_bytes(array.source).len() / array.element_size()
                     }
-                    ArraySource::BvhNodes => {
+                    ArraySource::BvhNodes | ArraySource::Instances => {
                         unreachable!("a BVH is never compiled in")
                     }
                     ArraySource::Environment(_)
@@ -1328,6 +1355,11 @@ impl SceneData {
                 }
             }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
+            ArraySource::Instances => bytemuck::cast_slice(
+                &(self.instancing.as_ref())
+                    .expect("an instancing kernel's scene has its instances built")
+                    .records,
+            ),
             ArraySource::DeltaLights => bytemuck::cast_slice(&self.delta_lights),
             ArraySource::Environment(part) => {
                 let tables = self
@@ -2323,6 +2355,7 @@ pub(crate) mod tests {
         check_layout(&module, ErasedLayout::of::<DeltaLight>());
         check_layout(&module, ErasedLayout::of::<TextureInfo>());
         check_layout(&module, ErasedLayout::of::<WideBvhNode>());
+        check_layout(&module, ErasedLayout::of::<PackedInstance>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {
