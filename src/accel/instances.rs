@@ -92,15 +92,11 @@ fn world_box(to_world: &DAffine3, (min, max): (Vec3, Vec3)) -> (Vec3, Vec3) {
         let p = to_world.transform_point3(DVec3::new(pick(0), pick(1), pick(2)));
         world = (world.0.min(p), world.1.max(p));
     }
-    // Rounded outward to f32, so the box holds every point of the group.
-    let down = |x: f64| {
-        let f = x as f32;
-        if f64::from(f) > x { f.next_down() } else { f }
-    };
-    let up = |x: f64| {
-        let f = x as f32;
-        if f64::from(f) < x { f.next_up() } else { f }
-    };
+    // Widened by an f32 step before rounding to f32, so the box holds every
+    // point of the group.
+    let margin = |x: f64| x.abs() * f64::from(f32::EPSILON) + f64::from(f32::MIN_POSITIVE);
+    let down = |x: f64| (x - margin(x)) as f32;
+    let up = |x: f64| (x + margin(x)) as f32;
     (
         Vec3::new(down(world.0.x), down(world.0.y), down(world.0.z)),
         Vec3::new(up(world.1.x), up(world.1.y), up(world.1.z)),
@@ -223,5 +219,197 @@ impl PrimitiveArrays {
                 own.extend_from_slice(theirs);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::tests::{kind_index, sphere_t, spheres, uniforms};
+    use crate::accel::{LEAF_COUNT_MASK, LEAF_KIND_SHIFT};
+    use crate::kinds::PackedSphere;
+    use glam::{DMat3, DQuat};
+
+    fn sphere_at(data: &PrimitiveArrays, i: usize) -> PackedSphere {
+        let k = kind_index("sphere");
+        *bytemuck::from_bytes(data.primitives[k].element(i, size_of::<PackedSphere>()))
+    }
+
+    /// Whether the ray enters the box before `t_max`.
+    fn enters(min: Vec3, max: Vec3, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        let (a, b) = ((min - origin) / dir, (max - origin) / dir);
+        let near = a.min(b).max_element().max(0.0);
+        near <= a.max(b).min_element().min(t_max) * 1.0000004
+    }
+
+    /// The closest sphere along a ray through the two-level BVH, walked as the
+    /// kernel does (an instance leaf carries the ray into its group's space,
+    /// unit length again, distances scaled): its world distance and material.
+    fn two_level_hit(
+        bvh: &WideBvh,
+        data: &PrimitiveArrays,
+        records: &[PackedInstance],
+        origin: Vec3,
+        dir: Vec3,
+    ) -> Option<(f32, u32)> {
+        // Nodes to visit: the node, the ray in its space, and that space's scale.
+        let mut stack = vec![(0u32, origin, dir, 1.0f32, false)];
+        let mut closest: Option<(f32, u32)> = None;
+        while let Some((index, origin, dir, scale, in_group)) = stack.pop() {
+            let node = &bvh.nodes[index as usize];
+            for slot in (0..super::super::wide::WIDTH).filter(|&s| node.occupied(s)) {
+                let t_max = closest.map_or(f32::MAX, |c| c.0 * scale);
+                let (min, max) = node.child_bounds(slot);
+                if !enters(min, max, origin, dir, t_max) {
+                    continue;
+                }
+                let [first, count] = node.links[slot];
+                let (kind, n) = (count >> LEAF_KIND_SHIFT, count & LEAF_COUNT_MASK);
+                match (count, kind) {
+                    (0, _) => stack.push((first, origin, dir, scale, in_group)),
+                    (_, INSTANCE_LEAF) => {
+                        assert!(!in_group, "an instance leaf in a group's BVH");
+                        for record in &records[first as usize..(first + n) as usize] {
+                            let row = |r: [f32; 4]| Vec3::new(r[0], r[1], r[2]);
+                            let [x, y, z] =
+                                [record.to_object_x, record.to_object_y, record.to_object_z];
+                            let to_object = |v: Vec3, w: f32| {
+                                Vec3::new(
+                                    row(x).dot(v) + w * x[3],
+                                    row(y).dot(v) + w * y[3],
+                                    row(z).dot(v) + w * z[3],
+                                )
+                            };
+                            let object_dir = to_object(dir, 0.0);
+                            let length = object_dir.length();
+                            stack.push((
+                                record.root,
+                                to_object(origin, 1.0),
+                                object_dir / length,
+                                length,
+                                true,
+                            ));
+                        }
+                    }
+                    _ => {
+                        for p in first..first + n {
+                            let t_max = closest.map_or(f32::MAX, |c| c.0 * scale);
+                            let sphere = sphere_at(data, p as usize);
+                            if let Some(t) = sphere_t(&sphere, origin, dir, t_max) {
+                                closest = Some((t / scale, sphere.material));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        closest
+    }
+
+    /// Fifty copies of a group of 200 spheres, rotated, scaled and moved, beside
+    /// 100 spheres of the scene's own: the group's primitives are stored once
+    /// (after the scene's, in one array), an instance is one record, and every
+    /// ray finds through the two levels the closest hit that testing every
+    /// sphere of the scene written out flat finds.
+    #[test]
+    fn two_levels_find_the_hits_of_the_scene_written_out_flat() {
+        let mut random = uniforms(17);
+        let group_centers: Vec<[f32; 3]> = (0..200)
+            .map(|_| [random(), random(), random()].map(|u| 4.0 * u))
+            .collect();
+        let own_centers: Vec<[f32; 3]> = (0..100)
+            .map(|_| [random(), random(), random()].map(|u| 40.0 * u))
+            .collect();
+        let mut own = spheres(&own_centers);
+        // The scene's spheres' materials after the group's, to tell them apart.
+        let k = kind_index("sphere");
+        own.primitives[k].map_u32(size_of::<PackedSphere>(), 16, |m| m + 1000);
+        let set = InstanceSet {
+            groups: vec![spheres(&group_centers)],
+            instances: (0..50)
+                .map(|_| {
+                    let axis = DVec3::new(random().into(), random().into(), random().into());
+                    let rotation =
+                        DQuat::from_axis_angle((axis - 0.5).normalize(), f64::from(random()) * 6.0);
+                    let linear = DMat3::from_quat(rotation) * (0.5 + f64::from(random()) * 1.5);
+                    let translation =
+                        DVec3::new(random().into(), random().into(), random().into()) * 40.0;
+                    (0, DAffine3::from_mat3_translation(linear, translation))
+                })
+                .collect(),
+        };
+        let mut data = own.clone();
+        let (bvh, instancing) = WideBvh::build_instanced(&mut data, &set).unwrap();
+        assert_eq!(
+            data.primitives[k].len(),
+            300,
+            "the group's spheres are stored once"
+        );
+        assert_eq!(instancing.records.len(), 50);
+        assert!(instancing.group_depth > 0);
+        let roots: Vec<u32> = instancing.records.iter().map(|r| r.root).collect();
+        assert!(roots.iter().all(|&r| r == roots[0] && r as usize > 0));
+        // The scene written out flat: every copy's spheres in world space.
+        let mut flat: Vec<(Vec3, f32, u32)> = (0..100)
+            .map(|i| {
+                let s = sphere_at(&own, i);
+                (Vec3::from(s.center), s.radius, s.material)
+            })
+            .collect();
+        for (_, to_world) in &set.instances {
+            let scale = to_world.matrix3.x_axis.length();
+            for (i, &center) in group_centers.iter().enumerate() {
+                let center = to_world.transform_point3(Vec3::from(center).as_dvec3());
+                flat.push((center.as_vec3(), (0.5 * scale) as f32, i as u32));
+            }
+        }
+        let mut hits = 0;
+        for _ in 0..2000 {
+            let origin = Vec3::new(random(), random(), random()) * 40.0;
+            let dir = (Vec3::new(random(), random(), random()) - 0.5).normalize();
+            let brute = (flat.iter())
+                .filter_map(|&(center, radius, material)| {
+                    let sphere = PackedSphere {
+                        center: center.to_array(),
+                        radius,
+                        ..PackedSphere::default()
+                    };
+                    Some((sphere_t(&sphere, origin, dir, f32::MAX)?, material))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let found = two_level_hit(&bvh, &data, &instancing.records, origin, dir);
+            match (brute, found) {
+                (None, None) => {}
+                (Some((t, m)), Some((u, n))) => {
+                    assert!(
+                        (t - u).abs() <= 1e-4 * t.max(1.0),
+                        "ray from {origin} along {dir}: {t} {u}"
+                    );
+                    assert_eq!(m, n, "ray from {origin} along {dir}");
+                    hits += 1;
+                }
+                _ => panic!("ray from {origin} along {dir}: {brute:?} against {found:?}"),
+            }
+        }
+        assert!(
+            hits > 500,
+            "only {hits} rays hit: the test would prove little"
+        );
+    }
+
+    /// Without instances the two-level build is the scene's BVH as before.
+    #[test]
+    fn no_instances_build_the_one_level_bvh() {
+        let mut random = uniforms(3);
+        let centers: Vec<[f32; 3]> = (0..300)
+            .map(|_| [random(), random(), random()].map(|u| 10.0 * u))
+            .collect();
+        let (mut one, mut two) = (spheres(&centers), spheres(&centers));
+        let mut bvh = WideBvh::build(&mut one).unwrap();
+        let (mut instanced, instancing) =
+            WideBvh::build_instanced(&mut two, &InstanceSet::default()).unwrap();
+        (bvh.build_seconds, instanced.build_seconds) = (0.0, 0.0);
+        assert_eq!((bvh, one), (instanced, two));
+        assert!(instancing.records.is_empty());
     }
 }

@@ -521,7 +521,9 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         .unwrap();
     }
     if config.instances {
-        out.push_str("    if in_instance {\n        hit = instance_to_world(hit, instance);\n    }\n");
+        out.push_str(
+            "    if in_instance {\n        hit = instance_to_world(hit, instance);\n    }\n",
+        );
     }
     out.push_str("    return hit;\n}\n");
 }

@@ -124,11 +124,15 @@ impl SceneStorage {
     /// and 5.3 at 256, where it also renders slower than buffers.
     pub const MAX_BAKED_OBJECTS: usize = 128;
 
-    /// Baked for small scenes, a BVH for the rest; plain buffers for a scene
-    /// with non-finite numbers (no literal to bake, no box to bound).
+    /// Baked for small scenes, a BVH for the rest and for any scene with
+    /// instances; plain buffers for a scene with non-finite numbers (no
+    /// literal to bake, no box to bound).
     pub fn auto(data: &SceneData) -> SceneStorage {
         let objects = data.geometry.primitive_count() + data.light_count();
-        if !data.is_finite() {
+        if data.has_instances() {
+            // Instances are found through the two-level BVH alone.
+            SceneStorage::Bvh
+        } else if !data.is_finite() {
             SceneStorage::Buffers
         } else if objects <= Self::MAX_BAKED_OBJECTS {
             SceneStorage::Baked
@@ -1471,6 +1475,11 @@ pub(crate) mod tests {
                                 true => primitive_kinds,
                                 false => KindSet::default(),
                             },
+                            // Instances too, so that the BVH goes without them
+                            // (and without variance) as well.
+                            instances: variance
+                                && mask >> (primitives + 1) != 0
+                                && !primitive_kinds.is_empty(),
                             environment: false,
                             light_environment: false,
                             delta_lights: variance && has_smooth_lobe(material_kinds),
@@ -2339,6 +2348,26 @@ pub(crate) mod tests {
         }
     }
 
+    /// The kernel of a scene with instances, over every kind and feature,
+    /// from textures and from buffers, and its instance records' layout.
+    #[test]
+    fn instancing_kernels_validate() {
+        let general = KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Texture);
+        let instanced = KernelConfig {
+            bvh_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+            instances: true,
+            instance_stack: 12,
+            ..general
+        };
+        let module = validate(&instanced);
+        check_layout(&module, ErasedLayout::of::<PackedInstance>());
+        validate(&KernelConfig {
+            array_memory: ArrayMemory::Buffers,
+            profile: true,
+            ..instanced
+        });
+    }
+
     #[test]
     fn host_structs_match_wgsl_layouts() {
         let module = validate(&KernelConfig::general(
@@ -2355,7 +2384,6 @@ pub(crate) mod tests {
         check_layout(&module, ErasedLayout::of::<DeltaLight>());
         check_layout(&module, ErasedLayout::of::<TextureInfo>());
         check_layout(&module, ErasedLayout::of::<WideBvhNode>());
-        check_layout(&module, ErasedLayout::of::<PackedInstance>());
         for kind in PRIMITIVE_KINDS {
             check_layout(&module, kind.layout);
             if let Some(normals) = kind.shading_normals {

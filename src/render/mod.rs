@@ -1108,7 +1108,7 @@ pub fn plan_kernel(
         None => SceneStorage::auto(&data),
     };
     let mut data = data;
-    // Instances are found through the two-level BVH alone.
+    // Instances are found through the two-level BVH alone, whatever was asked.
     let scene_storage = match data.has_instances() {
         true => SceneStorage::Bvh,
         false => scene_storage,

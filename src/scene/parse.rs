@@ -722,7 +722,10 @@ pub(super) const GROUP_KEYS: &[&str] = &["name", "objects"];
 
 /// The `[[groups]]`: each a name and its `objects`, read as the scene's are,
 /// in the group's own space; and the materials their mesh files gave.
-fn parse_groups(top: &ParamTable, materials: &[Material]) -> Result<(Vec<ShapeGroup>, Vec<Material>)> {
+fn parse_groups(
+    top: &ParamTable,
+    materials: &[Material],
+) -> Result<(Vec<ShapeGroup>, Vec<Material>)> {
     let items: &[Value] = match top.table.get("groups") {
         None => &[],
         Some(Value::Array(items)) => items,
@@ -2237,6 +2240,101 @@ material = "white"
         assert_eq!(parse(&text), t, "[scene] scale = scaled()");
         let text = CORNELL.replace("[camera]", "[scene]\nscale = 1\n\n[camera]");
         assert_eq!(parse(&text), s);
+    }
+
+    /// `[[groups]]` and `instance` objects: the group's shapes stay in its own
+    /// space, each instance keeps its transform's rows, the group's materials
+    /// are kept though no object of the scene uses them, and a scale moves the
+    /// instances and scales the groups.
+    #[test]
+    fn groups_and_instances_parse() {
+        let text = format!(
+            "{BASE}
+[[groups]]
+name = \"ball\"
+[[groups.objects]]
+type = \"sphere\"
+center = [0, 1, 0]
+radius = 0.5
+material = \"white\"
+
+[[objects]]
+type = \"instance\"
+group = \"ball\"
+translate = [2, 0, 0]
+scale = [1, 2, 1]
+"
+        );
+        let s = parse(&text);
+        assert_eq!(s.instancing.groups.len(), 1);
+        assert_eq!(s.instancing.groups[0].name, "ball");
+        assert_eq!(s.instancing.groups[0].shapes.spheres[0].center, Vec3::Y);
+        assert_eq!(
+            s.shapes.spheres.len(),
+            1,
+            "the group's sphere is not the scene's"
+        );
+        let instance = &s.instancing.instances[0];
+        assert_eq!(instance.group, 0);
+        assert_eq!(
+            instance.to_world,
+            [
+                [1.0, 0.0, 0.0, 2.0],
+                [0.0, 2.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0]
+            ]
+        );
+        // The instance's top, (2, 1.5 * 2 = 3, 0), is the farthest point.
+        assert!(s.extent() >= 3.0);
+        let scaled = s.scaled(2.0);
+        assert_eq!(scaled.instancing.instances[0].to_world[0][3], 4.0);
+        assert_eq!(scaled.instancing.groups[0].shapes.spheres[0].radius, 1.0);
+    }
+
+    #[test]
+    fn group_and_instance_errors() {
+        let group = "[[groups]]\nname = \"g\"\n[[groups.objects]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"red\"\n";
+        let with = |extra: &str| parse_scene(&format!("{BASE}\n{extra}"), FILE).unwrap_err();
+        let e = with(&format!(
+            "{group}\n[[objects]]\ntype = \"instance\"\ngroup = \"h\"\n"
+        ));
+        assert_error(&e, "objects[2].group", &["unknown group `h`"]);
+        let e = with("[[objects]]\ntype = \"instance\"\ngroup = \"h\"\n");
+        assert_error(&e, "objects[2].group", &["no `[[groups]]` are defined"]);
+        let e = with("[[objects]]\ntype = \"instance\"\n");
+        assert_error(&e, "objects[2]", &["missing required key `group`"]);
+        let e = with(&format!(
+            "{group}\n[[objects]]\ntype = \"instance\"\ngroup = \"g\"\nmaterial = \"red\"\n"
+        ));
+        assert_error(
+            &e,
+            "objects[2]",
+            &["unknown key `material` for an instance"],
+        );
+        let e = with(&format!(
+            "{group}[[groups.objects]]\ntype = \"instance\"\ngroup = \"g\"\n"
+        ));
+        assert_error(
+            &e,
+            "groups[0].objects[1].type",
+            &["nested instancing is not permitted"],
+        );
+        let e = with(&group.replace(
+            "material = \"red\"",
+            "material = \"red\"\nimportance = true",
+        ));
+        assert_error(
+            &e,
+            "groups[0].objects[0]",
+            &["instancing of emitters is not supported"],
+        );
+        let e = with(&format!(
+            "{group}{}",
+            group.replace("type = \"sphere\"", "type = \"quad\"")
+        ));
+        assert_error(&e, "groups[1].name", &["a second group named `g`"]);
+        let e = with(&group.replace("radius = 1", "radius = -1"));
+        assert_error(&e, "groups[0].objects[0].radius", &["must be > 0"]);
     }
 
     /// A tiny deterministic RNG for the mutation test.
