@@ -66,3 +66,70 @@ fn wide_bvh_entry(node_index: u32, keys: vec4<u32>, pending: u32) -> u32 {
 fn wide_bvh_entry_rest(entry: u32) -> u32 {
     return ((entry & ~0x3fu) - 0x40u) | ((entry & 0x3fu) >> 2u);
 }
+
+#if INSTANCES
+// Mirrors `accel::PackedInstance`: the rows of the world-to-object and
+// object-to-world affine matrices, and the root of the group's BVH.
+struct Instance {
+    to_object_x: vec4<f32>,
+    to_object_y: vec4<f32>,
+    to_object_z: vec4<f32>,
+    to_world_x: vec4<f32>,
+    to_world_y: vec4<f32>,
+    to_world_z: vec4<f32>,
+    root: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// The closest hit is in no instance.
+const NO_INSTANCE: u32 = 0xffffffffu;
+
+// `p` by the affine matrix of rows `x`, `y`, `z`.
+fn instance_point(x: vec4<f32>, y: vec4<f32>, z: vec4<f32>, p: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(x.xyz, p) + x.w, dot(y.xyz, p) + y.w, dot(z.xyz, p) + z.w);
+}
+
+// `v` by the linear part of the matrix of rows `x`, `y`, `z`.
+fn instance_vector(x: vec4<f32>, y: vec4<f32>, z: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(x.xyz, v), dot(y.xyz, v), dot(z.xyz, v));
+}
+
+// A ray in an instance's group's space, its direction unit length again: a
+// distance there is `scale` times the world's.
+struct InstanceRay {
+    ray: Ray,
+    scale: f32,
+}
+
+fn instance_ray(instance: Instance, ray: Ray) -> InstanceRay {
+    let dir = instance_vector(instance.to_object_x, instance.to_object_y, instance.to_object_z, ray.dir);
+    let scale = length(dir);
+    let origin = instance_point(instance.to_object_x, instance.to_object_y, instance.to_object_z, ray.origin);
+    return InstanceRay(Ray(origin, dir / scale), scale);
+}
+
+// A normal carried out of an instance by the inverse transpose of its
+// object-to-world matrix (the transpose of world-to-object), unit length, as
+// Mitsuba's `instance` carries them.
+fn instance_normal(instance: Instance, n: vec3<f32>) -> vec3<f32> {
+    return normalize(n.x * instance.to_object_x.xyz + n.y * instance.to_object_y.xyz + n.z * instance.to_object_z.xyz);
+}
+
+// The closest hit, shaded in its instance's group's space, in world space: the
+// point and tangents by the object-to-world matrix, the normals as normals.
+fn instance_to_world(hit: Hit, instance: Instance) -> Hit {
+    var world = hit;
+    world.p = instance_point(instance.to_world_x, instance.to_world_y, instance.to_world_z, hit.p);
+    world.normal = instance_normal(instance, hit.normal);
+    world.shading_normal = instance_normal(instance, hit.shading_normal);
+#if BUMP_MAPS
+    world.tangents = Tangents(
+        instance_vector(instance.to_world_x, instance.to_world_y, instance.to_world_z, hit.tangents.dp_du),
+        instance_vector(instance.to_world_x, instance.to_world_y, instance.to_world_z, hit.tangents.dp_dv),
+    );
+#endif
+    return world;
+}
+#endif

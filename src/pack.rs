@@ -4,7 +4,7 @@
 //! kernel's and the renderer's business.
 
 use crate::abi::{GpuLayout, PackedMaterial, material_flag};
-use crate::accel::{PrimitiveArrays, WideBvh};
+use crate::accel::{InstanceSet, Instancing, PrimitiveArrays, WideBvh};
 use crate::environment::EnvironmentTables;
 use crate::kinds::{
     Bump, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_SHIFT,
@@ -36,6 +36,12 @@ pub struct SceneData {
     pub light_tables: Vec<Option<LightTables>>,
     /// Over `primitives` after the large ones, when the kernel traverses one.
     pub bvh: Option<WideBvh>,
+    /// The scene's instanced groups (those some instance shows) and their
+    /// instances, until the two-level BVH is built from them.
+    pub instance_set: InstanceSet,
+    /// The instances as the kernel reads them, once the two-level BVH is
+    /// built (their groups' primitives then follow the scene's in `geometry`).
+    pub instancing: Option<Instancing>,
     /// The environment map's texels and sampling tables (shared: a map is large).
     pub environment: Option<Arc<EnvironmentTables>>,
     /// Point and spot lights.
@@ -54,6 +60,8 @@ impl Default for SceneData {
             light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
             light_tables: vec![None; PRIMITIVE_KINDS.len()],
             bvh: None,
+            instance_set: InstanceSet::default(),
+            instancing: None,
             environment: None,
             delta_lights: Vec::new(),
         }
@@ -108,6 +116,20 @@ impl SceneData {
             delta_lights: pack_delta_lights(&scene.point_lights, scene.extent()),
             ..SceneData::default()
         };
+        // The groups some instance shows, renumbered in order of first use.
+        let mut packed_group = vec![None; scene.instancing.groups.len()];
+        for instance in &scene.instancing.instances {
+            let group = &mut packed_group[instance.group as usize];
+            if group.is_none() {
+                *group = Some(data.instance_set.groups.len() as u32);
+                data.instance_set.groups.push(PrimitiveArrays::default());
+            }
+            let to_world = instance.to_world();
+            (data.instance_set.instances).push((group.expect("set above"), to_world));
+        }
+        let groups: Vec<(usize, u32)> = (packed_group.iter().enumerate())
+            .filter_map(|(g, packed)| Some((g, (*packed)?)))
+            .collect();
         for (k, kind) in PRIMITIVE_KINDS.iter().enumerate() {
             let mut smooth = false;
             for mut primitive in (kind.pack)(&scene.shapes) {
@@ -132,8 +154,30 @@ impl SceneData {
                     data.light_members[k].extend(primitive.light_group);
                 }
             }
+            // A group's primitives are in no light density (the scene refuses
+            // emitters in groups, as Mitsuba does).
+            for &(g, packed) in &groups {
+                let arrays = &mut data.instance_set.groups[packed as usize];
+                for mut primitive in (kind.pack)(&scene.instancing.groups[g].shapes) {
+                    if let Some(offset) = kind.light_field() {
+                        primitive.bytes[offset..offset + 4]
+                            .copy_from_slice(bytemuck::bytes_of(&NO_LIGHT));
+                    }
+                    if !invisible(primitive.material) {
+                        arrays.primitives[k].push(&primitive);
+                        arrays.normals[k].extend_from_slice(&primitive.normals);
+                        if !data.textures.is_empty() {
+                            arrays.uvs[k].extend_from_slice(&primitive.uvs);
+                        }
+                        smooth |= primitive.smooth;
+                    }
+                }
+            }
             if !smooth {
                 data.geometry.normals[k] = Vec::new();
+                for arrays in &mut data.instance_set.groups {
+                    arrays.normals[k] = Vec::new();
+                }
             }
         }
         data.build_light_tables();
@@ -227,9 +271,7 @@ impl SceneData {
     pub fn reachable_materials(&self) -> Vec<bool> {
         let mut reached = vec![false; self.materials.len()];
         let mut stack: Vec<u32> = self
-            .geometry
-            .primitives
-            .iter()
+            .hit_primitive_arrays()
             .flat_map(|array| array.materials.iter().copied())
             .collect();
         while let Some(m) = stack.pop() {
@@ -283,11 +325,21 @@ impl SceneData {
 
     /// The materials of the primitives rays can hit (with repeats).
     fn hit_materials(&self) -> impl Iterator<Item = &PackedMaterial> {
-        self.geometry
-            .primitives
-            .iter()
+        self.hit_primitive_arrays()
             .flat_map(|array| &array.materials)
             .map(|&m| &self.materials[m as usize])
+    }
+
+    /// The arrays of primitives rays can hit: the scene's, and its instanced
+    /// groups' until the BVH appends them to the scene's.
+    fn hit_primitive_arrays(&self) -> impl Iterator<Item = &PackedArray> {
+        let groups = self.instance_set.groups.iter();
+        (self.geometry.primitives.iter()).chain(groups.flat_map(|g| &g.primitives))
+    }
+
+    /// Whether the scene has instances: its kernel walks the two-level BVH.
+    pub fn has_instances(&self) -> bool {
+        !self.instance_set.instances.is_empty() || self.instancing.is_some()
     }
 
     /// The primitive kinds in the light density.

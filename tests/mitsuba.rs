@@ -559,6 +559,88 @@ fn principledthin_sheets_match_mitsuba() {
     }
 }
 
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
+/// filter) of `tests/data/instances.xml` at 64x64 and 131072 spp (its per-sample
+/// variance is 24 times pathmix's, whose shadow ray finds the sun at every
+/// vertex), rendered once by
+/// `scripts/check-mitsuba-xml.py --write-reference`.
+const INSTANCES_REFERENCE: &str = "tests/data/instances-mitsuba-64.exr";
+const INSTANCES_REFERENCE_SPP: f64 = 131072.0;
+
+/// Shape groups placed by instances (a smooth mesh and a sphere, a textured
+/// quad; rotations, uniform and non-uniform scales) under a sun and a sky agree
+/// with Mitsuba's image; the same scene with the non-uniformly scaled
+/// instance's transform left out does not, so the check sees where instances land.
+#[test]
+fn instances_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(INSTANCES_REFERENCE)).unwrap();
+    let xml = repo("tests/data/instances.xml");
+    let mut scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
+        .unwrap()
+        .scene;
+    assert_eq!(scene.instancing.instances.len(), 5);
+    let agreed = against_reference(&scene, &reference, INSTANCES_REFERENCE_SPP);
+    assert!(agreed.is_ok(), "{agreed:?}");
+    eprintln!("instances.xml against Mitsuba: {}", agreed.unwrap());
+    let stretched = &mut scene.instancing.instances[2].to_world;
+    for (row, axis) in stretched.iter_mut().zip(0..) {
+        row[..3].copy_from_slice(&[0.0; 3]);
+        row[axis] = 1.0;
+    }
+    let unstretched = against_reference(&scene, &reference, INSTANCES_REFERENCE_SPP);
+    assert!(unstretched.is_err(), "{unstretched:?}");
+    eprintln!("one instance unstretched: {}", unstretched.unwrap_err());
+}
+
+/// `convert` writes shape groups and instances as `[[groups]]` and `instance`
+/// objects, mesh paths relative to the output, which read back as the scene
+/// the XML is (so it renders the same, bit for bit).
+#[test]
+fn convert_writes_groups_and_instances() {
+    let dir = common::TempDir::new("mitsuba", "convert-instances");
+    let xml = repo("tests/data/instances.xml");
+    let out = dir.join("instances.toml");
+    let output = pathmix(&[
+        "convert",
+        xml.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = std::fs::read_to_string(&out).unwrap();
+    for part in [
+        "[[groups]]",
+        "name = \"knot-and-ball\"",
+        "[[groups.objects]]",
+        "type = \"instance\"",
+        "group = \"tile\"",
+    ] {
+        assert!(text.contains(part), "no {part:?} in:\n{text}");
+    }
+    let mut from_toml = Scene::load(&out).unwrap();
+    let from_xml = Scene::load(&xml).unwrap();
+    from_toml.source = from_xml.source.clone();
+    from_toml.inputs = from_xml.inputs.clone();
+    // The image file as each file names it: relative, or as the XML resolved it.
+    for (a, b) in from_toml.materials.iter_mut().zip(&from_xml.materials) {
+        if let (Some(TextureKind::Bitmap(a)), Some(TextureKind::Bitmap(b))) = (
+            a.texture.as_mut().map(|t| &mut t.kind),
+            b.texture.as_ref().map(|t| &t.kind),
+        ) {
+            a.file = b.file.clone();
+        }
+    }
+    assert_eq!(from_toml, from_xml);
+    assert_eq!(from_xml.instancing.groups.len(), 2);
+}
+
 /// `convert` writes the principled spheres and the thin sheets as TOML that
 /// reads back as the scene the XML is (so it renders the same).
 #[test]
@@ -948,6 +1030,36 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             "missing-ref",
             "<scene version=\"3.0.0\">\n<shape type=\"sphere\"><ref id=\"nope\"/></shape>\n</scene>",
             ":2:22: <ref id=\"nope\">: no element has the id `nope`",
+        ),
+        (
+            "missing-group",
+            "<scene version=\"3.0.0\">\n<shape type=\"instance\">\n  <ref id=\"trees\"/></shape>\n</scene>",
+            ":3:3: <ref id=\"trees\">: no element has the id `trees`",
+        ),
+        (
+            "instance-without-group",
+            "<scene version=\"3.0.0\">\n<shape type=\"instance\"/>\n</scene>",
+            ":2:1: <shape type=\"instance\">: an instance needs a shapegroup",
+        ),
+        (
+            "instance-of-a-bsdf",
+            "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"d\"/>\n<shape type=\"instance\"><ref id=\"d\"/></shape>\n</scene>",
+            ":3:24: <ref id=\"d\">: only a shapegroup can be specified in an instance",
+        ),
+        (
+            "nested-instance",
+            "<scene version=\"3.0.0\">\n<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\"/></shape>\n<shape type=\"shapegroup\" id=\"h\">\n  <shape type=\"instance\"><ref id=\"g\"/></shape></shape>\n</scene>",
+            ":4:3: <shape type=\"instance\">: an instance inside a shapegroup: nested instancing is not permitted",
+        ),
+        (
+            "nested-group",
+            "<scene version=\"3.0.0\">\n<shape type=\"shapegroup\" id=\"g\">\n  <shape type=\"shapegroup\" id=\"h\"/></shape>\n</scene>",
+            ":3:3: <shape type=\"shapegroup\" id=\"h\">: a shapegroup inside a shapegroup",
+        ),
+        (
+            "emitter-in-group",
+            "<scene version=\"3.0.0\">\n<shape type=\"shapegroup\" id=\"g\"><shape type=\"sphere\">\n  <emitter type=\"area\"/></shape></shape>\n</scene>",
+            ":3:3: <emitter type=\"area\">: an emitter on a shape inside a shapegroup: instancing of emitters is not supported",
         ),
         (
             "missing-texture",

@@ -10,7 +10,9 @@ use crate::kinds::{KindSet, PRIMITIVE_KINDS, PackedArray};
 use glam::Vec3;
 use std::time::Instant;
 
+pub mod instances;
 pub mod wide;
+pub use instances::{InstanceSet, Instancing, PackedInstance};
 pub use wide::{WideBvh, WideBvhNode};
 
 /// Each kind's packed primitives and the arrays indexed like them: what a BVH
@@ -252,8 +254,18 @@ impl Bvh {
     /// applies it; the light density's BVH (`lights::LightTables`) keeps it as
     /// references.
     pub fn build_order(data: &PrimitiveArrays) -> Option<(Bvh, Vec<Vec<u32>>)> {
+        Bvh::build_order_with_instances(data, &[])
+    }
+
+    /// `build_order` over the primitives of `data` and the boxes of
+    /// `instances` too (`instances::INSTANCE_LEAF`, one leaf kind past the
+    /// primitive kinds), whose order is then one more entry of the leaf order.
+    pub fn build_order_with_instances(
+        data: &PrimitiveArrays,
+        instances: &[(Vec3, Vec3)],
+    ) -> Option<(Bvh, Vec<Vec<u32>>)> {
         let started = Instant::now();
-        let mut items = Vec::with_capacity(data.primitive_count());
+        let mut items = Vec::with_capacity(data.primitive_count() + instances.len());
         let mut leaf_order: Vec<Vec<u32>> = data
             .large
             .iter()
@@ -271,6 +283,17 @@ impl Bvh {
                     bounds: Bounds { min, max },
                     centroid: 0.5 * (min + max),
                     kind: k as u32,
+                    index: i as u32,
+                });
+            }
+        }
+        if !instances.is_empty() {
+            leaf_order.push(Vec::new());
+            for (i, &(min, max)) in instances.iter().enumerate() {
+                items.push(Item {
+                    bounds: Bounds { min, max },
+                    centroid: 0.5 * (min + max),
+                    kind: instances::INSTANCE_LEAF,
                     index: i as u32,
                 });
             }
@@ -297,7 +320,8 @@ impl Bvh {
             max: bounds.max.to_array(),
             ..BvhNode::default()
         });
-        let sah_depth = MAX_DEPTH - PRIMITIVE_KINDS.len() as u32;
+        // One level per leaf kind (`leaf_order`'s entries) for `kind_split`.
+        let sah_depth = MAX_DEPTH - leaf_order.len() as u32;
         let split = if depth + 1 < sah_depth && items.len() > 1 {
             sah_split(items, bounds)
         } else {

@@ -181,6 +181,14 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
                 bvh.expected_steps(),
                 data.geometry.large.iter().sum::<usize>()
             );
+            if let Some(instancing) = &data.instancing {
+                println!(
+                    "  two levels: {} instances over their groups' BVHs (the deepest {} levels), \
+                     whose nodes and primitives are stored once, after the scene's",
+                    instancing.records.len(),
+                    instancing.group_depth + 1
+                );
+            }
         }
     }
     if !config.scene_bindings().is_empty() {

@@ -10,6 +10,7 @@ use crate::abi::{
     ERROR_WORKGROUP_SIZE, GpuLayout, LAYER_REPLICATES, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION,
     LAYER_SUM, LAYER_SUM_COMPENSATION, MATERIAL_FLAGS, REPLICATES, TEXTURE_ARRAY_WIDTH, WgslValue,
 };
+use crate::accel::instances::INSTANCE_LEAF;
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
     ErasedLayout, FILTER_TABLE_BINS, Filter, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
@@ -327,7 +328,7 @@ fn baked_array(out: &mut String, array: &SceneArray, data: &SceneData) {
             .iter()
             .map(GpuLayout::wgsl_value)
             .collect(),
-        ArraySource::BvhNodes => unreachable!("a baked scene has no BVH"),
+        ArraySource::BvhNodes | ArraySource::Instances => unreachable!("a baked scene has no BVH"),
         ArraySource::Environment(_)
         | ArraySource::MaterialTables
         | ArraySource::Textures
@@ -399,14 +400,21 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
     if several {
         out.push_str("    var hit_kind = 0xffffffffu;\n");
     }
-    // The test of `primitive`, a kind-`k` element in scope.
-    let test = |k: usize, indent: &str| {
+    if config.instances {
+        out.push_str("    var hit_instance = NO_INSTANCE;\n");
+    }
+    // The test of `primitive`, a kind-`k` element in scope, along `ray`; with
+    // instances, `instance` is the one whose group holds it (`NO_INSTANCE`: none).
+    let test = |k: usize, indent: &str, ray: &str, instance: &str| {
         let name = PRIMITIVE_KINDS[k].name;
         let mut tag = if several {
             format!("{indent}    hit_kind = {k}u;\n")
         } else {
             String::new()
         };
+        if config.instances {
+            writeln!(tag, "{indent}    hit_instance = {instance};").unwrap();
+        }
         if keeps_index(k) {
             writeln!(tag, "{indent}    hit_index = primitive_index;").unwrap();
         }
@@ -422,7 +430,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             false => format!("{indent}    hit_keep = {name}_hit_keep(primitive);\n"),
         };
         format!(
-            "{indent}let t = {name}_hit_t(primitive, ray, hit.t);
+            "{indent}let t = {name}_hit_t(primitive, {ray}, hit.t);
 {indent}if t > 0.0 {{
 {indent}    hit.t = t;
 {indent}    hit.material = primitive.material;
@@ -438,7 +446,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
                     out,
                     "#for_each primitive in {}\n{}#end_for\n",
                     array.name,
-                    test(k, "    ")
+                    test(k, "    ", "ray", "NO_INSTANCE")
                 )
                 .unwrap();
             }
@@ -451,12 +459,25 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             write!(
                 out,
                 "#for_each primitive in {array}\n{}#end_for\n",
-                test(k, "    ")
+                test(k, "    ", "ray", "NO_INSTANCE")
             )
             .unwrap();
         }
     }
     out.push_str("    hit.p = ray.origin + hit.t * ray.dir;\n");
+    // An instance's hit is shaded from its group's space: the point goes there,
+    // the normals and tangents come back (`instance_to_world`).
+    if config.instances {
+        out.push_str(
+            "    let in_instance = hit_instance != NO_INSTANCE;
+    let instance = instances_at(select(0u, hit_instance, in_instance));
+    if in_instance {
+        let object = instance_ray(instance, ray);
+        hit.p = object.ray.origin + (hit.t * object.scale) * object.ray.dir;
+    }
+",
+        );
+    }
     // Both normals of the closest hit of kind `k`.
     let normals = |k: usize| {
         let name = PRIMITIVE_KINDS[k].name;
@@ -529,6 +550,11 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             normals(kinds[0])
         )
         .unwrap();
+    }
+    if config.instances {
+        out.push_str(
+            "    if in_instance {\n        hit = instance_to_world(hit, instance);\n    }\n",
+        );
     }
     out.push_str("    return hit;\n}\n");
 }
@@ -603,6 +629,10 @@ struct WideWalk<'a> {
     origin: &'a str,
     /// Boxes entered beyond this distance are skipped.
     t_max: &'a str,
+    /// The root node's index.
+    root: &'a str,
+    /// The name of its stack's entries (`RegisterStack`).
+    stack: &'static str,
 }
 
 /// How a walk reads its nodes' arrays.
@@ -651,17 +681,19 @@ fn node_word(field: &str) -> usize {
 /// hit child's or the popped one's (two reads took 1.08x the CPU time on 4 000
 /// spheres), and updates the stack by `select`s rather than under branches.
 fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, visit: &str, leaf: &str) {
-    let stack = RegisterStack {
-        name: "stack",
-        size: stack_size,
-    };
-    let top = stack.top();
     let WideWalk {
         nodes,
         memory,
         origin,
         t_max,
+        root,
+        stack,
     } = walk;
+    let stack = RegisterStack {
+        name: stack,
+        size: stack_size,
+    };
+    let top = stack.top();
     let words = size_of::<WideBvhNode>() / 16;
     let box_fields = ["planes_a", "planes_b", "origin"];
     // The visited node (`node`), and its box vectors: the three arguments of
@@ -717,7 +749,7 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, visit: &str
         out,
         "{}    var depth = 0u;
     // The child being walked to: (first, count) as in a node (count 0: interior).
-    var link = vec2<u32>(0u, 0u);
+    var link = vec2<u32>({root}, 0u);
     loop {{
         var missed = false;
         loop {{
@@ -765,12 +797,16 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, visit: &str
 }
 
 /// The closest hit's walk of the scene's BVH (`bvh_nodes`): a leaf is a range
-/// of one kind's array, tested by `test`; one switch per leaf, none with one kind.
+/// of one kind's array, tested by `test` (a kind, an indent, the ray and the
+/// instance the primitive is in); one switch per leaf, none with one kind.
+/// With instances a leaf may be a range of instances (`accel::instances`):
+/// each carries the ray into its group's space and walks the group's BVH
+/// there (its own stack), distances scaled to that space's.
 fn bvh_traversal(
     out: &mut String,
     config: &KernelConfig,
     kinds: &[usize],
-    test: impl Fn(usize, &str) -> String,
+    test: impl Fn(usize, &str, &str, &str) -> String,
 ) {
     // A profiling kernel counts the walk's node visits and primitive tests
     // toward the closest hit's stages or the shadow ray's (`profile_walk`).
@@ -778,37 +814,73 @@ fn bvh_traversal(
         true => format!("{indent}profile({stage});\n"),
         false => String::new(),
     };
-    let range = |k: usize, indent: &str| {
+    let range = |k: usize, indent: &str, ray: &str, instance: &str| {
         let array = PRIMITIVE_KINDS[k].array;
         format!(
             "{indent}for (var primitive_index = link.x; primitive_index < end; primitive_index += 1u) {{\n{}{indent}    let primitive = {array}_at(primitive_index);\n{}{indent}}}\n",
             hook("profile_walk + 1u", &format!("{indent}    ")),
-            test(k, &format!("{indent}    "))
+            test(k, &format!("{indent}    "), ray, instance)
         )
     };
-    let leaf = if let [only] = kinds {
-        range(*only, "        ")
-    } else {
+    // A leaf's ranges by its kind.
+    let leaves = |ray: &str, instance: &str, instances: Option<&str>| {
+        if let ([only], None) = (kinds, instances) {
+            return range(*only, "        ", ray, instance);
+        }
         let mut cases = String::from("        switch link.y >> BVH_LEAF_KIND_SHIFT {\n");
         for &k in kinds {
             write!(
                 cases,
                 "            case {k}u: {{\n{}            }}\n",
-                range(k, "                ")
+                range(k, "                ", ray, instance)
+            )
+            .unwrap();
+        }
+        if let Some(instances) = instances {
+            write!(
+                cases,
+                "            case {INSTANCE_LEAF}u: {{\n{instances}            }}\n"
             )
             .unwrap();
         }
         cases.push_str("            default: {}\n        }\n");
         cases
     };
+    let visit = hook("profile_walk", "            ");
+    let instances = config.instances.then(|| {
+        let walk = WideWalk {
+            nodes: "bvh_nodes",
+            memory: NodeMemory::of(config, ArraySource::BvhNodes),
+            origin: "object.ray.origin",
+            t_max: "hit.t",
+            root: "instance.root",
+            stack: "group_stack",
+        };
+        let mut group = String::new();
+        let leaf = leaves("object.ray", "instance_index", None);
+        wide_bvh_walk(&mut group, &walk, config.instance_stack, &visit, &leaf);
+        format!(
+            "                for (var instance_index = link.x; instance_index < end; instance_index += 1u) {{
+                    let instance = instances_at(instance_index);
+                    let object = instance_ray(instance, ray);
+                    let t_world = hit.t;
+                    hit.t = t_world * object.scale;
+                    let inv_dir = 1.0 / object.ray.dir;
+{group}                    hit.t = select(t_world, hit.t / object.scale, hit_instance == instance_index);
+                }}
+"
+        )
+    });
+    let leaf = leaves("ray", "NO_INSTANCE", instances.as_deref());
     out.push_str("    let inv_dir = 1.0 / ray.dir;\n");
     let walk = WideWalk {
         nodes: "bvh_nodes",
         memory: NodeMemory::of(config, ArraySource::BvhNodes),
         origin: "ray.origin",
         t_max: "hit.t",
+        root: "0u",
+        stack: "stack",
     };
-    let visit = hook("profile_walk", "            ");
     wide_bvh_walk(out, &walk, config.bvh_stack, &visit, &leaf);
 }
 
@@ -1018,6 +1090,8 @@ fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
         memory: NodeMemory::of(config, ArraySource::LightTable(k, LightTablePart::BvhNodes)),
         origin: "origin",
         t_max: "F32_MAX",
+        root: "0u",
+        stack: "stack",
     };
     wide_bvh_walk(out, &walk, config.light_bvh_stack, "", &leaf);
     out.push_str("    return total;\n}\n");

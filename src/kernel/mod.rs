@@ -11,7 +11,7 @@ pub use profile::Stage;
 use crate::abi::{
     LAYER_SQUARES_COMPENSATION, LAYER_SUM_COMPENSATION, PackedMaterial, REPLICATES, replicate_layer,
 };
-use crate::accel::{self, WideBvh, WideBvhNode};
+use crate::accel::{self, PackedInstance, WideBvh, WideBvhNode};
 use crate::environment::EnvironmentInfo;
 use crate::kinds::{
     ErasedLayout, FILTER_FLAGS, FILTER_MODULE, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_KINDS,
@@ -58,6 +58,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "ADAPTIVE",
     "SAMPLER_SOBOL",
     "BVH",
+    "INSTANCES",
     "SHADING_NORMALS",
     "ONE_SIDED",
     "MASK",
@@ -131,11 +132,15 @@ impl SceneStorage {
     /// and 5.3 at 256, where it also renders slower than buffers.
     pub const MAX_BAKED_OBJECTS: usize = 128;
 
-    /// Baked for small scenes, a BVH for the rest; plain buffers for a scene
-    /// with non-finite numbers (no literal to bake, no box to bound).
+    /// Baked for small scenes, a BVH for the rest and for any scene with
+    /// instances; plain buffers for a scene with non-finite numbers (no
+    /// literal to bake, no box to bound).
     pub fn auto(data: &SceneData) -> SceneStorage {
         let objects = data.geometry.primitive_count() + data.light_count();
-        if !data.is_finite() {
+        if data.has_instances() {
+            // Instances are found through the two-level BVH alone.
+            SceneStorage::Bvh
+        } else if !data.is_finite() {
             SceneStorage::Buffers
         } else if objects <= Self::MAX_BAKED_OBJECTS {
             SceneStorage::Baked
@@ -186,6 +191,8 @@ pub enum ArraySource {
     /// The light tables (`lights::LightTables`) of grouped light kind `k`.
     LightTable(usize, LightTablePart),
     BvhNodes,
+    /// The instances (`accel::PackedInstance`) the BVH's instance leaves hold.
+    Instances,
     /// The environment map's tables (`environment::EnvironmentTables`): always
     /// read from buffers, a map being far too large to bake.
     Environment(EnvironmentPart),
@@ -267,6 +274,7 @@ impl ArraySource {
             ArraySource::LightTable(_, LightTablePart::BvhNodes) | ArraySource::BvhNodes => {
                 Some(ErasedLayout::of::<WideBvhNode>())
             }
+            ArraySource::Instances => Some(ErasedLayout::of::<PackedInstance>()),
             ArraySource::Textures => Some(ErasedLayout::of::<TextureInfo>()),
             ArraySource::Environment(EnvironmentPart::Info) => {
                 Some(ErasedLayout::of::<EnvironmentInfo>())
@@ -385,6 +393,11 @@ pub struct KernelConfig {
     pub bvh_stack: u32,
     /// The same for the light groups' BVHs (the deepest's levels).
     pub light_bvh_stack: u32,
+    /// The scene's BVH has instance leaves (`accel::instances`): the closest
+    /// hit walks a group's BVH in its space at each (`INSTANCES`).
+    pub instances: bool,
+    /// Entries of the stack of the walk of a group's BVH: its deepest's levels.
+    pub instance_stack: u32,
     /// The pixel filter camera rays are drawn from, or their samples splatted by.
     pub filter: Filter,
     /// Samples are splatted into the pixels around by the filter
@@ -634,6 +647,11 @@ impl KernelConfig {
                 .as_ref()
                 .map_or(accel::MAX_DEPTH, |bvh| bvh.depth + 1),
             light_bvh_stack,
+            instances: data.instancing.is_some(),
+            instance_stack: data
+                .instancing
+                .as_ref()
+                .map_or(accel::MAX_DEPTH, |instancing| instancing.group_depth + 1),
             filter,
             splat: false,
             profile: false,
@@ -674,6 +692,7 @@ impl KernelConfig {
             },
             bvh_stack: accel::MAX_DEPTH,
             light_bvh_stack: accel::MAX_DEPTH,
+            instance_stack: accel::MAX_DEPTH,
             ..self
         }
     }
@@ -704,6 +723,8 @@ impl KernelConfig {
             bvh_kinds: KindSet::default(),
             bvh_stack: accel::MAX_DEPTH,
             light_bvh_stack: accel::MAX_DEPTH,
+            instances: false,
+            instance_stack: accel::MAX_DEPTH,
             filter: Filter::Box,
             splat: false,
             profile: false,
@@ -843,6 +864,7 @@ impl KernelConfig {
             ("ADAPTIVE", self.adaptive),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
             ("BVH", self.bvh()),
+            ("INSTANCES", self.instances),
             ("SHADING_NORMALS", self.shading_normals()),
             ("ONE_SIDED", self.one_sided),
             ("MASK", self.masked),
@@ -1232,6 +1254,15 @@ impl KernelConfig {
                 source: ArraySource::BvhNodes,
             });
         }
+        if self.instances {
+            arrays.push(SceneArray {
+                name: "instances".into(),
+                // After the large primitives (one binding per primitive kind).
+                binding: 10 + 9 * count,
+                indexed: true,
+                source: ArraySource::Instances,
+            });
+        }
         if self.textures {
             arrays.push(SceneArray {
                 name: "textures".into(),
@@ -1302,7 +1333,7 @@ impl KernelConfig {
                     ArraySource::LightTable(..) | ArraySource::DeltaLights => {
                         data.array_bytes(array.source).len() / array.element_size()
                     }
-                    ArraySource::BvhNodes => {
+                    ArraySource::BvhNodes | ArraySource::Instances => {
                         unreachable!("a BVH is never compiled in")
                     }
                     ArraySource::Environment(_)
@@ -1383,6 +1414,11 @@ impl SceneData {
                 }
             }
             ArraySource::BvhNodes => bytemuck::cast_slice(&self.bvh_part().nodes),
+            ArraySource::Instances => bytemuck::cast_slice(
+                &(self.instancing.as_ref())
+                    .expect("an instancing kernel's scene has its instances built")
+                    .records,
+            ),
             ArraySource::DeltaLights => bytemuck::cast_slice(&self.delta_lights),
             ArraySource::Environment(part) => {
                 let tables = self
@@ -1494,6 +1530,11 @@ pub(crate) mod tests {
                                 true => primitive_kinds,
                                 false => KindSet::default(),
                             },
+                            // Instances too, so that the BVH goes without them
+                            // (and without variance) as well.
+                            instances: variance
+                                && mask >> (primitives + 1) != 0
+                                && !primitive_kinds.is_empty(),
                             environment: false,
                             light_environment: false,
                             delta_lights: variance && has_smooth_lobe(material_kinds),
@@ -2411,6 +2452,26 @@ pub(crate) mod tests {
             let module = validate(&with_bvh);
             check_layout(&module, ErasedLayout::of::<crate::abi::StageCounts>());
         }
+    }
+
+    /// The kernel of a scene with instances, over every kind and feature,
+    /// from textures and from buffers, and its instance records' layout.
+    #[test]
+    fn instancing_kernels_validate() {
+        let general = KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Texture);
+        let instanced = KernelConfig {
+            bvh_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+            instances: true,
+            instance_stack: 12,
+            ..general
+        };
+        let module = validate(&instanced);
+        check_layout(&module, ErasedLayout::of::<PackedInstance>());
+        validate(&KernelConfig {
+            array_memory: ArrayMemory::Buffers,
+            profile: true,
+            ..instanced
+        });
     }
 
     #[test]

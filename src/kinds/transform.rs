@@ -146,6 +146,14 @@ impl Transform {
         (self.linear * p + self.translate).as_vec3()
     }
 
+    /// The object-to-world matrix's three rows, `[linear | translate]`, in f32.
+    pub(crate) fn rows(&self) -> [[f32; 4]; 3] {
+        std::array::from_fn(|r| {
+            let row = self.linear.row(r);
+            [row.x, row.y, row.z, self.translate[r]].map(|x| x as f32)
+        })
+    }
+
     pub(crate) fn vector(&self, v: DVec3) -> Vec3 {
         (self.linear * v).as_vec3()
     }

@@ -1129,7 +1129,26 @@ pub fn plan_kernel(
         None => SceneStorage::auto(&data),
     };
     let mut data = data;
+    // Instances are found through the two-level BVH alone, whatever was asked.
+    let scene_storage = match data.has_instances() {
+        true => SceneStorage::Bvh,
+        false => scene_storage,
+    };
     let scene_storage = match scene_storage {
+        SceneStorage::Bvh if data.has_instances() => {
+            if !options.general_kernel {
+                accel::put_large_first(&mut data.geometry);
+            }
+            let set = std::mem::take(&mut data.instance_set);
+            match WideBvh::build_instanced(&mut data.geometry, &set) {
+                Some((bvh, instancing)) => {
+                    data.bvh = Some(bvh);
+                    data.instancing = Some(instancing);
+                    SceneStorage::Bvh
+                }
+                None => SceneStorage::Buffers,
+            }
+        }
         SceneStorage::Bvh => {
             // The general kernel compiles nothing in, large primitives included.
             if !options.general_kernel {

@@ -218,6 +218,20 @@ impl Converted {
                 }
             }
         }
+        if let Some(Value::Array(groups)) = document.get_mut("groups") {
+            let objects = groups.iter_mut().filter_map(|group| match group {
+                Value::Table(group) => match group.get_mut("objects") {
+                    Some(Value::Array(objects)) => Some(objects),
+                    _ => None,
+                },
+                _ => None,
+            });
+            for object in objects.flatten() {
+                if let Value::Table(object) = object {
+                    relative(object);
+                }
+            }
+        }
         if let Some(Value::Table(environment)) = document.get_mut("environment") {
             relative(environment);
         }
@@ -1233,6 +1247,13 @@ struct Builder<'a> {
     environment: Option<(Table, Origin)>,
     materials: Table,
     objects: Vec<Value>,
+    /// Where `objects` go in the document: `objects`, or a group's while its
+    /// shapes are read (`groups[0].objects`).
+    objects_path: String,
+    /// `[[groups]]`, from `shapegroup`s.
+    groups: Vec<Value>,
+    /// A shapegroup's shapes are being read: instances and emitters are refused.
+    in_group: bool,
     /// `[[lights]]`, from `point` and `spot` emitters.
     lights: Vec<Value>,
     origins: Vec<(String, Origin)>,
@@ -1274,6 +1295,9 @@ impl<'a> Builder<'a> {
             environment: None,
             materials: Table::new(),
             objects: Vec::new(),
+            objects_path: "objects".into(),
+            groups: Vec::new(),
+            in_group: false,
             lights: Vec::new(),
             origins: Vec::new(),
             anonymous: 0,
@@ -2051,7 +2075,104 @@ impl<'a> Builder<'a> {
         Ok((full_name, surface, emit.is_some(), textured))
     }
 
+    /// `<shape type="shapegroup" id="...">`: a `[[groups]]` table of its
+    /// shapes, which Mitsuba reads as any shapes but shows only through
+    /// instances; nested groups, instances and emitters inside are refused, as
+    /// Mitsuba refuses them (`ShapeGroup`'s constructor).
+    fn shapegroup(&mut self, e: &'a Elem) -> Result<()> {
+        if self.in_group {
+            return Err(e.origin.error(
+                "a shapegroup inside a shapegroup: nested shape groups are not permitted \
+                 (Mitsuba refuses them too)",
+            ));
+        }
+        e.check_attrs(&["type", "id"])?;
+        let name = e.attr("id").ok_or_else(|| {
+            e.origin
+                .error("a shapegroup needs an `id` for instances to refer to")
+        })?;
+        let mut props = Props::new(e, self.search);
+        let shapes = props.objects(&["shape"]);
+        props.finish()?;
+        let index = self.groups.len();
+        let outer = std::mem::take(&mut self.objects);
+        self.objects_path = format!("groups[{index}].objects");
+        self.in_group = true;
+        let read = shapes.iter().try_for_each(|shape| self.shape(shape));
+        self.in_group = false;
+        self.objects_path = "objects".into();
+        let objects = std::mem::replace(&mut self.objects, outer);
+        read?;
+        let mut group = Table::new();
+        group.insert("name".into(), Value::String(name.into()));
+        group.insert("objects".into(), Value::Array(objects));
+        self.origins
+            .push((format!("groups[{index}]"), e.origin.clone()));
+        self.groups.push(Value::Table(group));
+        Ok(())
+    }
+
+    /// `<shape type="instance">` with a `<ref>` to a shapegroup (or the group
+    /// itself inside) and a `to_world`: an `instance` object.
+    fn instance(&mut self, e: &'a Elem) -> Result<()> {
+        if self.in_group {
+            return Err(e.origin.error(
+                "an instance inside a shapegroup: nested instancing is not permitted \
+                 (Mitsuba refuses it too)",
+            ));
+        }
+        e.check_attrs(&["type", "id"])?;
+        let mut props = Props::new(e, self.search);
+        let to_world = props.transform("to_world")?;
+        let children = props.objects(&["ref", "shape", "bsdf", "emitter", "texture"]);
+        props.finish()?;
+        let child = match children.as_slice() {
+            [] => {
+                return Err(e
+                    .origin
+                    .error("an instance needs a shapegroup: a <ref id=\"...\"/> to one"));
+            }
+            [child] => *child,
+            [_, second, ..] => {
+                return Err(second
+                    .origin
+                    .error("only a single shapegroup can be specified per instance"));
+            }
+        };
+        let group = self.resolve(child)?;
+        if group.tag != "shape" || group.ty() != "shapegroup" {
+            return Err(child.origin.error(format!(
+                "only a shapegroup can be specified in an instance, not a <{} type=\"{}\">",
+                group.tag,
+                excerpt(group.ty())
+            )));
+        }
+        // A group written inside the instance is read here (one referred to,
+        // at the top level).
+        if child.tag == "shape" {
+            self.shapegroup(child)?;
+        }
+        let name = group.require("id")?;
+        let mut object = Table::new();
+        object.insert("type".into(), Value::String("instance".into()));
+        object.insert("group".into(), Value::String(name.into()));
+        if to_world != DMat4::IDENTITY {
+            object.insert("matrix".into(), row_major(&to_world));
+        }
+        self.origins.push((
+            format!("{}[{}]", self.objects_path, self.objects.len()),
+            e.origin.clone(),
+        ));
+        self.objects.push(Value::Table(object));
+        Ok(())
+    }
+
     fn shape(&mut self, e: &'a Elem) -> Result<()> {
+        match e.ty() {
+            "shapegroup" => return self.shapegroup(e),
+            "instance" => return self.instance(e),
+            _ => {}
+        }
         e.check_attrs(&["type", "id"])?;
         let mut props = Props::new(e, self.search);
         let to_world = props.transform("to_world")?;
@@ -2075,6 +2196,12 @@ impl<'a> Builder<'a> {
                     .error(format!("a second <{}> in one shape", target.tag)));
             }
         }
+        if let Some(emitter) = emitter.filter(|_| self.in_group) {
+            return Err(emitter.origin.error(
+                "an emitter on a shape inside a shapegroup: instancing of emitters is not \
+                 supported (Mitsuba refuses it too)",
+            ));
+        }
         let (material, surface, emits, textured) = self.material(e, bsdf, emitter)?;
         // Where pathmix's surfaces have sides: emission, the inside of glass and
         // one-sided BSDFs.
@@ -2097,7 +2224,7 @@ impl<'a> Builder<'a> {
         object.insert("material".into(), Value::String(material));
         let push = |builder: &mut Builder, object: Table| {
             builder.origins.push((
-                format!("objects[{}]", builder.objects.len()),
+                format!("{}[{}]", builder.objects_path, builder.objects.len()),
                 e.origin.clone(),
             ));
             builder.objects.push(Value::Table(object));
@@ -2309,6 +2436,12 @@ impl<'a> Builder<'a> {
             "objects".into(),
             Value::Array(std::mem::take(&mut self.objects)),
         );
+        if !self.groups.is_empty() {
+            document.insert(
+                "groups".into(),
+                Value::Array(std::mem::take(&mut self.groups)),
+            );
+        }
         if !self.lights.is_empty() {
             document.insert(
                 "lights".into(),

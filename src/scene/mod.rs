@@ -12,7 +12,7 @@ mod prune;
 mod spectrum;
 mod sphere_field;
 
-use glam::Vec3;
+use glam::{DAffine3, DVec3, Vec3};
 use serde::Serialize;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -282,6 +282,8 @@ pub struct Scene {
     pub render: RenderSettings,
     pub materials: Vec<Material>,
     pub shapes: Shapes,
+    /// Shape groups and their instances (`[[groups]]`, `instance` objects).
+    pub instancing: Instancing,
     /// Mesh faces dropped for having no area in 32-bit floats.
     pub degenerate_triangles: usize,
     /// Point and spot lights (`[[lights]]`).
@@ -295,6 +297,67 @@ pub struct Scene {
     /// The files read besides the scene file (meshes, images, included XML),
     /// as they were opened: no output may replace one.
     pub inputs: Vec<PathBuf>,
+}
+
+/// Geometry defined once and placed many times (Mitsuba's `shapegroup` and
+/// `instance`): each group's shapes in its own object space, and each
+/// instance's group and transform. Rendered through a two-level BVH
+/// (`accel::Instancing`), so memory grows with the groups, not the copies.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Instancing {
+    pub groups: Vec<ShapeGroup>,
+    pub instances: Vec<Instance>,
+}
+
+/// `[[groups]]`: named shapes that only instances show. None emits (as in
+/// Mitsuba, which refuses emitters in groups).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ShapeGroup {
+    pub name: String,
+    pub shapes: Shapes,
+}
+
+/// An `instance` object: its group (index into `Instancing::groups`) and its
+/// object-to-world transform, the affine matrix's three rows.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Instance {
+    pub group: u32,
+    pub to_world: [[f32; 4]; 3],
+}
+
+impl Instance {
+    pub fn to_world(&self) -> DAffine3 {
+        let [r0, r1, r2] = self.to_world.map(|r| r.map(f64::from));
+        DAffine3::from_cols_array(&[
+            r0[0], r1[0], r2[0], r0[1], r1[1], r2[1], r0[2], r1[2], r2[2], r0[3], r1[3], r2[3],
+        ])
+    }
+}
+
+impl Instancing {
+    pub fn is_empty(&self) -> bool {
+        self.instances.is_empty()
+    }
+
+    /// Each group's shapes, then every instance's box in world space, as
+    /// `Scene::extent` measures the scene: the largest absolute coordinate of
+    /// the corners of the group's box (from `Shape::extent`) carried to world space.
+    pub fn extent(&self) -> f32 {
+        let group_extents: Vec<f64> = (self.groups.iter())
+            .map(|g| g.shapes.iter().map(|s| s.extent()).fold(0.0f32, f32::max) as f64)
+            .collect();
+        let mut extent = 0.0f32;
+        for instance in &self.instances {
+            let e = group_extents[instance.group as usize];
+            let to_world = instance.to_world();
+            for corner in 0..8 {
+                let sign = |bit: usize| if corner >> bit & 1 == 1 { e } else { -e };
+                let p = to_world.transform_point3(DVec3::new(sign(0), sign(1), sign(2)));
+                extent = extent.max(p.abs().max_element() as f32);
+            }
+        }
+        extent
+    }
 }
 
 /// A scene as read, with the approximations made reading it (Mitsuba scenes).
@@ -394,6 +457,7 @@ impl Scene {
         for shape in self.shapes.iter() {
             extent = extent.max(shape.extent());
         }
+        extent = extent.max(self.instancing.extent());
         for l in &self.point_lights {
             extent = extent.max(l.position.abs().max_element());
         }

@@ -23,6 +23,7 @@ use super::{
     RenderSettings, Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle,
     excerpt,
 };
+use super::{Instance, Instancing, ShapeGroup};
 use crate::kinds::params::{
     ParamTable, Result, U32_MAX, check_finite, check_int, check_nonneg, check_open_angle,
     check_positive, check_unit, fmt_num, fmt_vec, list, named, ok, type_name, unknown_name,
@@ -71,6 +72,7 @@ pub(super) const TOP_KEYS: &[&str] = &[
     "render",
     "materials",
     "objects",
+    "groups",
     "environment",
     "lights",
 ];
@@ -133,7 +135,9 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         None => default_render(),
     };
     let mut materials = parse_materials(&top)?;
-    let objects = parse_objects(&top, &materials)?;
+    let (groups, group_materials) = parse_groups(&top, &materials)?;
+    materials.extend(group_materials);
+    let objects = parse_objects(&top, &materials, Some(&groups))?;
     let sphere_radius_keys = objects.sphere_radius_keys;
     materials.extend(objects.extra_materials);
     let environment = match top.sub("environment")? {
@@ -158,6 +162,10 @@ pub(crate) fn parse_scene(text: &str, file: &str) -> Result<Scene> {
         render,
         materials,
         shapes: objects.shapes,
+        instancing: Instancing {
+            groups,
+            instances: objects.instances,
+        },
         degenerate_triangles: objects.degenerate_triangles,
         point_lights,
         warnings: objects.warnings,
@@ -314,6 +322,17 @@ impl Scene {
         s.camera.view_width = s.camera.view_width.map(|w| w * factor);
         for shape in s.shapes.iter_mut() {
             shape.scale(factor);
+        }
+        // An instance's world point `A p + b` becomes `A (factor p) + factor b`.
+        for group in &mut s.instancing.groups {
+            for shape in group.shapes.iter_mut() {
+                shape.scale(factor);
+            }
+        }
+        for instance in &mut s.instancing.instances {
+            for row in &mut instance.to_world {
+                row[3] *= factor;
+            }
         }
         for l in s
             .point_lights
@@ -669,7 +688,7 @@ fn typed_tables<'a, 'b>(
         Some(Value::Array(items)) => items,
         Some(value) => {
             return Err(top.err(
-                key,
+                top.at(key),
                 format!(
                     "expected an array of tables (`[[{key}]]`), got {}",
                     type_name(value)
@@ -678,7 +697,7 @@ fn typed_tables<'a, 'b>(
         }
     };
     Ok(items.iter().enumerate().map(move |(i, item)| {
-        let path = format!("{key}[{i}]");
+        let path = format!("{}[{i}]", top.at(key));
         let Value::Table(table) = item else {
             return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
         };
@@ -725,6 +744,7 @@ struct Objects {
     /// Materials taken from mesh files, after the scene's own.
     extra_materials: Vec<Material>,
     warnings: Vec<String>,
+    instances: Vec<Instance>,
 }
 
 /// The object types the scene reads itself, and their keys besides the common
@@ -732,7 +752,62 @@ struct Objects {
 const SCENE_OBJECTS: &[(&str, &[&str])] = &[
     ("box", &["min", "max"]),
     ("mesh", &["file", "smooth", "shape_index"]),
+    ("instance", &["group"]),
 ];
+
+/// The keys of a `[[groups]]` table.
+pub(super) const GROUP_KEYS: &[&str] = &["name", "objects"];
+
+/// The `[[groups]]`: each a name and its `objects`, read as the scene's are,
+/// in the group's own space; and the materials their mesh files gave.
+fn parse_groups(
+    top: &ParamTable,
+    materials: &[Material],
+) -> Result<(Vec<ShapeGroup>, Vec<Material>)> {
+    let items: &[Value] = match top.table.get("groups") {
+        None => &[],
+        Some(Value::Array(items)) => items,
+        Some(value) => {
+            return Err(top.err(
+                "groups",
+                format!(
+                    "expected an array of tables (`[[groups]]`), got {}",
+                    type_name(value)
+                ),
+            ));
+        }
+    };
+    let mut groups: Vec<ShapeGroup> = Vec::new();
+    let mut extra_materials = Vec::new();
+    for (i, item) in items.iter().enumerate() {
+        let path = format!("groups[{i}]");
+        let Value::Table(table) = item else {
+            return Err(top.err(path, format!("expected a table, got {}", type_name(item))));
+        };
+        let t = ParamTable {
+            file: top.file,
+            table,
+            path,
+            inputs: top.inputs,
+        };
+        t.check_keys(GROUP_KEYS, Some("a group"))?;
+        let name = t.require("name", t.string("name")?)?;
+        if groups.iter().any(|g| g.name == name) {
+            return Err(t.err(
+                t.at("name"),
+                format!("a second group named `{}`", excerpt(name)),
+            ));
+        }
+        let known: Vec<Material> = materials.iter().chain(&extra_materials).cloned().collect();
+        let objects = parse_objects(&t, &known, None)?;
+        extra_materials.extend(objects.extra_materials);
+        groups.push(ShapeGroup {
+            name: name.to_string(),
+            shapes: objects.shapes,
+        });
+    }
+    Ok((groups, extra_materials))
+}
 
 /// Every object type and its own keys: the primitive kinds'
 /// (`kinds::ObjectType`), then the scene's.
@@ -764,7 +839,14 @@ pub(super) fn object_type_names() -> Vec<&'static str> {
     object_types().into_iter().map(|(name, _)| name).collect()
 }
 
-fn parse_objects(top: &ParamTable, materials: &[Material]) -> Result<Objects> {
+/// The `objects` of `top`: the scene's, with `groups` to instance, or a
+/// group's (`groups` is `None`), where instances and emitters are refused as
+/// Mitsuba refuses them.
+fn parse_objects(
+    top: &ParamTable,
+    materials: &[Material],
+    groups: Option<&[ShapeGroup]>,
+) -> Result<Objects> {
     let mut objects = Objects::default();
     let Objects {
         shapes,
@@ -772,6 +854,7 @@ fn parse_objects(top: &ParamTable, materials: &[Material]) -> Result<Objects> {
         degenerate_triangles,
         extra_materials,
         warnings,
+        instances,
     } = &mut objects;
     let (all_keys, names) = (object_keys(), object_type_names());
     for (i, table) in typed_tables(top, "objects", &all_keys, &names)?.enumerate() {
@@ -792,6 +875,38 @@ fn parse_objects(top: &ParamTable, materials: &[Material]) -> Result<Objects> {
             .chain(["type", "material", "importance"])
             .chain(keys.iter().copied())
             .collect();
+        if ty == "instance" {
+            let Some(groups) = groups else {
+                return Err(t.err(
+                    t.at("type"),
+                    "an instance inside a group: nested instancing is not permitted \
+                     (Mitsuba refuses it too)",
+                ));
+            };
+            let known: Vec<&str> = TRANSFORM_KEYS
+                .iter()
+                .copied()
+                .chain(["type", "group"])
+                .collect();
+            t.check_keys(&known, Some("an instance"))?;
+            let name = t.require("group", t.string("group")?)?;
+            let Some(group) = groups.iter().position(|g| g.name == name) else {
+                let names: Vec<&str> = groups.iter().map(|g| g.name.as_str()).collect();
+                let message = match names.is_empty() {
+                    true => format!(
+                        "unknown group `{}` (no `[[groups]]` are defined)",
+                        excerpt(name)
+                    ),
+                    false => unknown_name("group", name, &names),
+                };
+                return Err(t.err(t.at("group"), message));
+            };
+            instances.push(Instance {
+                group: group as u32,
+                to_world: Transform::parse(&t)?.rows(),
+            });
+            continue;
+        }
         t.check_keys(&known, Some(&format!("a {ty}")))?;
 
         // A mesh may take its materials from its file (glTF) instead.
@@ -819,6 +934,14 @@ fn parse_objects(top: &ParamTable, materials: &[Material]) -> Result<Objects> {
         };
         let marked = t.boolean("importance")?.unwrap_or(false);
         let importance = marked || chosen.is_some_and(|m| materials[m].emits());
+        let in_group = groups.is_none();
+        if in_group && importance {
+            return Err(t.err(
+                t.here(),
+                "an emitting or `importance` shape inside a group: instancing of emitters \
+                 is not supported (Mitsuba refuses it too)",
+            ));
+        }
         let xf = Transform::parse(&t)?;
         // Only a mesh has no `material`; it resolves its faces' below.
         let material = chosen.unwrap_or_default() as u32;
@@ -893,7 +1016,14 @@ fn parse_objects(top: &ParamTable, materials: &[Material]) -> Result<Objects> {
                             let m = m.expect("file_materials checked every face has one");
                             (base + m as u32, marked || mapped[m].emits())
                         });
-                        let faces = faces.collect();
+                        let faces: Vec<(u32, bool)> = faces.collect();
+                        if in_group && faces.iter().any(|&(_, emits)| emits) {
+                            return Err(t.err(
+                                t.at("file"),
+                                "emitting materials inside a group: instancing of emitters \
+                                 is not supported (Mitsuba refuses it too)",
+                            ));
+                        }
                         extra_materials.extend(mapped);
                         faces
                     }
@@ -2153,6 +2283,101 @@ material = "white"
         assert_eq!(parse(&text), t, "[scene] scale = scaled()");
         let text = CORNELL.replace("[camera]", "[scene]\nscale = 1\n\n[camera]");
         assert_eq!(parse(&text), s);
+    }
+
+    /// `[[groups]]` and `instance` objects: the group's shapes stay in its own
+    /// space, each instance keeps its transform's rows, the group's materials
+    /// are kept though no object of the scene uses them, and a scale moves the
+    /// instances and scales the groups.
+    #[test]
+    fn groups_and_instances_parse() {
+        let text = format!(
+            "{BASE}
+[[groups]]
+name = \"ball\"
+[[groups.objects]]
+type = \"sphere\"
+center = [0, 1, 0]
+radius = 0.5
+material = \"white\"
+
+[[objects]]
+type = \"instance\"
+group = \"ball\"
+translate = [2, 0, 0]
+scale = [1, 2, 1]
+"
+        );
+        let s = parse(&text);
+        assert_eq!(s.instancing.groups.len(), 1);
+        assert_eq!(s.instancing.groups[0].name, "ball");
+        assert_eq!(s.instancing.groups[0].shapes.spheres[0].center, Vec3::Y);
+        assert_eq!(
+            s.shapes.spheres.len(),
+            1,
+            "the group's sphere is not the scene's"
+        );
+        let instance = &s.instancing.instances[0];
+        assert_eq!(instance.group, 0);
+        assert_eq!(
+            instance.to_world,
+            [
+                [1.0, 0.0, 0.0, 2.0],
+                [0.0, 2.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0]
+            ]
+        );
+        // The instance's top, (2, 1.5 * 2 = 3, 0), is the farthest point.
+        assert!(s.extent() >= 3.0);
+        let scaled = s.scaled(2.0);
+        assert_eq!(scaled.instancing.instances[0].to_world[0][3], 4.0);
+        assert_eq!(scaled.instancing.groups[0].shapes.spheres[0].radius, 1.0);
+    }
+
+    #[test]
+    fn group_and_instance_errors() {
+        let group = "[[groups]]\nname = \"g\"\n[[groups.objects]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"red\"\n";
+        let with = |extra: &str| parse_scene(&format!("{BASE}\n{extra}"), FILE).unwrap_err();
+        let e = with(&format!(
+            "{group}\n[[objects]]\ntype = \"instance\"\ngroup = \"h\"\n"
+        ));
+        assert_error(&e, "objects[2].group", &["unknown group `h`"]);
+        let e = with("[[objects]]\ntype = \"instance\"\ngroup = \"h\"\n");
+        assert_error(&e, "objects[2].group", &["no `[[groups]]` are defined"]);
+        let e = with("[[objects]]\ntype = \"instance\"\n");
+        assert_error(&e, "objects[2]", &["missing required key `group`"]);
+        let e = with(&format!(
+            "{group}\n[[objects]]\ntype = \"instance\"\ngroup = \"g\"\nmaterial = \"red\"\n"
+        ));
+        assert_error(
+            &e,
+            "objects[2]",
+            &["unknown key `material` for an instance"],
+        );
+        let e = with(&format!(
+            "{group}[[groups.objects]]\ntype = \"instance\"\ngroup = \"g\"\n"
+        ));
+        assert_error(
+            &e,
+            "groups[0].objects[1].type",
+            &["nested instancing is not permitted"],
+        );
+        let e = with(&group.replace(
+            "material = \"red\"",
+            "material = \"red\"\nimportance = true",
+        ));
+        assert_error(
+            &e,
+            "groups[0].objects[0]",
+            &["instancing of emitters is not supported"],
+        );
+        let e = with(&format!(
+            "{group}{}",
+            group.replace("type = \"sphere\"", "type = \"quad\"")
+        ));
+        assert_error(&e, "groups[1].name", &["a second group named `g`"]);
+        let e = with(&group.replace("radius = 1", "radius = -1"));
+        assert_error(&e, "groups[0].objects[0].radius", &["must be > 0"]);
     }
 
     /// A tiny deterministic RNG for the mutation test.

@@ -22,7 +22,8 @@ impl Scene {
             materials,
             ..self.clone()
         };
-        for shape in scene.shapes.iter_mut() {
+        let group_shapes = (scene.instancing.groups.iter_mut()).flat_map(|g| g.shapes.iter_mut());
+        for shape in scene.shapes.iter_mut().chain(group_shapes) {
             let material = shape.material_mut();
             *material = renumbered[*material as usize];
         }
@@ -33,7 +34,8 @@ impl Scene {
     /// is made of it (`twosided`).
     pub fn used_materials(&self) -> Vec<bool> {
         let mut used = vec![false; self.materials.len()];
-        let references = self.shapes.iter().map(|shape| shape.material());
+        let group_shapes = (self.instancing.groups.iter()).flat_map(|g| g.shapes.iter());
+        let references = (self.shapes.iter().chain(group_shapes)).map(|shape| shape.material());
         let mut stack: Vec<usize> = references.map(|m| m as usize).collect();
         // And the materials those are made of (`Material::nested`).
         while let Some(material) = stack.pop() {

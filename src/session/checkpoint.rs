@@ -113,6 +113,7 @@ impl SceneIdentity {
             render,
             materials,
             shapes,
+            instancing,
             // Follows from the mesh files, whose faces are hashed.
             degenerate_triangles: _,
             point_lights,
@@ -163,7 +164,12 @@ impl SceneIdentity {
         SceneIdentity {
             camera_hash: encoding_hash(camera),
             materials_hash: encoding_hash(materials),
-            geometry_hash: encoding_hash(&(shapes, point_lights)),
+            // Instancing joins the encoding only where there is some, so that
+            // other scenes keep the hash they had before instances.
+            geometry_hash: match instancing.is_empty() && instancing.groups.is_empty() {
+                true => encoding_hash(&(shapes, point_lights)),
+                false => encoding_hash(&(shapes, point_lights, instancing)),
+            },
             // A tuple encodes as its elements one after another, so the
             // splatting run's encoding is the others' followed by `Splat`.
             settings_hash: match splats {
@@ -1333,6 +1339,7 @@ mod tests {
                     ..material("lamp", MaterialKind::Light)
                 },
             ],
+            instancing: Default::default(),
             shapes: Shapes {
                 quads: vec![Quad {
                     q: Vec3::new(-1.0, 2.0, -1.0),
