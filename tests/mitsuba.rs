@@ -195,6 +195,50 @@ fn roughplastic_spheres_match_mitsuba() {
 }
 
 /// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
+/// filter) of `tests/data/cylinders.xml` at 64x64 and 32768 spp, rendered once
+/// by `scripts/check-mitsuba-xml.py --write-reference`.
+const CYLINDERS_REFERENCE: &str = "tests/data/cylinders-mitsuba-64.exr";
+const CYLINDERS_REFERENCE_SPP: f64 = 32768.0;
+
+/// Open cylinders (a standing one, one with `flip_normals` seen inside, a thin
+/// one as an area light) agree with Mitsuba's image; the same scene with the
+/// flipped tube's normals pointing out again (its inside black, its outside
+/// lit), or with the light's tube 20% thinner (its power), does not.
+#[test]
+fn cylinders_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(CYLINDERS_REFERENCE)).unwrap();
+    let xml = repo("tests/data/cylinders.xml");
+    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
+        .unwrap()
+        .scene;
+    assert_eq!(scene.shapes.cylinders.len(), 3);
+    let agreed = against_reference(&scene, &reference, CYLINDERS_REFERENCE_SPP);
+    assert!(agreed.is_ok(), "{agreed:?}");
+    eprintln!("cylinders.xml against Mitsuba: {}", agreed.unwrap());
+    let mut unflipped = scene.clone();
+    for cylinder in &mut unflipped.shapes.cylinders {
+        cylinder.flip_normals = false;
+    }
+    let mut thinner_light = scene.clone();
+    for cylinder in &mut thinner_light.shapes.cylinders {
+        if scene.materials[cylinder.material as usize].emits() {
+            cylinder.radius *= 0.8;
+        }
+    }
+    for (what, changed) in [
+        ("normals unflipped", unflipped),
+        ("light 20% thinner", thinner_light),
+    ] {
+        let result = against_reference(&changed, &reference, CYLINDERS_REFERENCE_SPP);
+        eprintln!("{what}: {result:?}");
+        assert!(result.is_err(), "{what}: {result:?}");
+    }
+}
+
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
 /// filter) of `tests/data/delta-lights.xml` at 64x64 and 16384 spp, rendered once
 /// by `scripts/check-mitsuba-xml.py --write-reference`.
 const DELTA_LIGHTS_REFERENCE: &str = "tests/data/delta-lights-mitsuba-64.exr";
