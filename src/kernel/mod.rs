@@ -67,6 +67,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "DIRECTIONAL_LIGHTS",
     "TEXTURES",
     "BUMP_MAPS",
+    "TEXTURED_NUMBERS",
     "NESTED_MATERIALS",
     "THIN_LENS",
     "ORTHOGRAPHIC",
@@ -413,6 +414,10 @@ pub struct KernelConfig {
     /// `textures`): hits carry their tangents along u and v, the shading
     /// normal is perturbed, and the leak check of shading normals applies.
     pub bump_maps: bool,
+    /// Some material has numbers given by textures (`Material::number_textures`;
+    /// implies `textures`), looked up at each hit on it
+    /// (`texture_numbers`, textures.wgsl).
+    pub textured_numbers: bool,
     /// How the light density weighs the grouped lights (mesh faces).
     pub grouped_density: GroupedDensity,
     /// How the arrays read from memory are bound: textures unless the device
@@ -639,6 +644,7 @@ impl KernelConfig {
                 .materials
                 .iter()
                 .any(|m| m.flags >> MATERIAL_BUMP_SHIFT != 0),
+            textured_numbers: data.has_textured_numbers(),
             grouped_density,
             array_memory: ArrayMemory::Textures,
         }
@@ -705,6 +711,7 @@ impl KernelConfig {
             delta_light_pick: false,
             textures: true,
             bump_maps: true,
+            textured_numbers: true,
             grouped_density: GroupedDensity::Walk,
             array_memory: ArrayMemory::Textures,
         }
@@ -765,9 +772,10 @@ impl KernelConfig {
         source.word_size().is_some() && !self.compiles_in(source)
     }
 
-    /// Whether a material kind of the scene reads `material_tables`.
+    /// Whether a material kind of the scene reads `material_tables`, or its
+    /// textured numbers' lists are there.
     pub fn reads_material_tables(&self) -> bool {
-        self.material_kinds.iter().any(|k| MATERIAL_KINDS[k].tables)
+        self.textured_numbers || self.material_kinds.iter().any(|k| MATERIAL_KINDS[k].tables)
     }
 
     pub fn samples_lights(&self) -> bool {
@@ -846,6 +854,7 @@ impl KernelConfig {
             ),
             ("TEXTURES", self.textures),
             ("BUMP_MAPS", self.bump_maps),
+            ("TEXTURED_NUMBERS", self.textured_numbers),
             ("NESTED_MATERIALS", self.nested_materials()),
             ("THIN_LENS", self.camera == CameraModel::ThinLens),
             ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
@@ -1036,6 +1045,7 @@ impl KernelConfig {
             light_environment: false,
             textures: false,
             bump_maps: false,
+            textured_numbers: false,
             opacity_textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
@@ -1447,6 +1457,7 @@ pub(crate) mod tests {
                             delta_light_pick: mask >> (primitives + 1) != 0,
                             textures: variance,
                             bump_maps: variance,
+                            textured_numbers: variance,
                             opacity_textures: variance,
                             ..general.clone()
                         });
@@ -2033,6 +2044,7 @@ pub(crate) mod tests {
             directional_lights: false,
             textures: false,
             bump_maps: false,
+            textured_numbers: false,
             opacity_textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
@@ -2090,6 +2102,18 @@ pub(crate) mod tests {
             .map(|(id, kind)| (kind.id_constant(), id as u32))
             .collect();
         expected.extend(ids.iter().map(|(name, id)| (name.as_str(), *id)));
+        let slots: Vec<(String, u32)> = (MATERIAL_KINDS.iter())
+            .flat_map(|kind| {
+                (kind.textured_numbers.iter().enumerate())
+                    .map(move |(slot, key)| (kind.number_constant(key), slot as u32))
+            })
+            .collect();
+        assert!(
+            slots
+                .iter()
+                .any(|(name, _)| name == "NUMBER_PRINCIPLED_ROUGHNESS")
+        );
+        expected.extend(slots.iter().map(|(name, slot)| (name.as_str(), *slot)));
         expected.extend(crate::abi::MATERIAL_FLAGS.iter().copied());
         for (name, rust) in expected {
             assert_eq!(value(name), Some(rust), "{name}");

@@ -39,6 +39,7 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: Some(MitsubaPlugin {
         name: "roughconductor",
         texture: Some("specular_reflectance"),

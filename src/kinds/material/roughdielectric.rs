@@ -43,6 +43,7 @@ pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
         "specular_transmittance",
     ],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: Some(MitsubaPlugin {
         name: "roughdielectric",
         texture: Some("specular_reflectance"),
