@@ -474,6 +474,42 @@ fn principled_numbers_match_mitsuba() {
 }
 
 /// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
+/// filter) of `tests/data/rough-alpha.xml` at 96x48 and 32768 spp (two halves
+/// of 16384 with seeds 1000 and 2000).
+const ROUGH_ALPHA_REFERENCE: &str = "tests/data/rough-alpha-mitsuba.exr";
+const ROUGH_ALPHA_REFERENCE_SPP: f64 = 32768.0;
+
+/// Textured roughness of `roughconductor` (`alpha` from a bitmap's
+/// luminance; `alpha_u` and `alpha_v`) and `roughdielectric` (`alpha` from a
+/// checkerboard) agree with Mitsuba's image; the same scene with the
+/// textures left out (each alpha its texture's mean) does not.
+#[test]
+fn rough_alpha_textures_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(ROUGH_ALPHA_REFERENCE)).unwrap();
+    let xml = repo("tests/data/rough-alpha.xml");
+    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
+        .unwrap()
+        .scene;
+    let textured: usize = (scene.materials.iter())
+        .map(|m| m.number_textures.len())
+        .sum();
+    assert_eq!(textured, 4);
+    let agreed = against_reference(&scene, &reference, ROUGH_ALPHA_REFERENCE_SPP);
+    assert!(agreed.is_ok(), "{agreed:?}");
+    eprintln!("rough-alpha.xml against Mitsuba: {}", agreed.unwrap());
+    let mut untextured = scene.clone();
+    for material in &mut untextured.materials {
+        material.number_textures.clear();
+    }
+    let result = against_reference(&untextured, &reference, ROUGH_ALPHA_REFERENCE_SPP);
+    eprintln!("textures left out: {result:?}");
+    assert!(result.is_err(), "{result:?}");
+}
+
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
 /// filter) of `tests/data/principledthin-sheets.xml` at 64x48 and 16384 spp
 /// (two halves of 8192 with seeds 1000 and 2000).
 const PRINCIPLEDTHIN_REFERENCE: &str = "tests/data/principledthin-sheets-mitsuba.exr";
@@ -1001,6 +1037,11 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             "principled-eta-texture",
             "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n  <bsdf type=\"principled\">\n    <texture type=\"checkerboard\" name=\"eta\"/></bsdf></shape>\n</scene>",
             ":4:5: <texture type=\"checkerboard\" name=\"eta\">: `eta` of a principled is a number, not a texture (Mitsuba reads it as a float)",
+        ),
+        (
+            "roughplastic-alpha-texture",
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n  <bsdf type=\"roughplastic\">\n    <texture type=\"checkerboard\" name=\"alpha\"/></bsdf></shape>\n</scene>",
+            ":4:5: <texture type=\"checkerboard\" name=\"alpha\">: `alpha` of a roughplastic is a number, not a texture (Mitsuba reads it as a float)",
         ),
         (
             "no-sensor",

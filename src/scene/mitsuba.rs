@@ -1821,24 +1821,12 @@ impl<'a> Builder<'a> {
             let value = match key {
                 // `one_sided` is the surface's (`twosided`); `material` below.
                 "type" | "one_sided" | "material" => None,
-                "alpha" | "alpha_u" | "alpha_v" => props.float(key)?.map(Value::Float),
+                "alpha" | "alpha_u" | "alpha_v" => self.number(model, plugin, props, key)?,
                 "distribution" => (props.string(key)?).map(|(d, _)| Value::String(d.into())),
                 "nonlinear" => props.boolean(key)?.map(Value::Boolean),
                 "int_ior" | "ext_ior" => ior(props, key)?.map(Value::Float),
                 _ if plugin.texture == Some(key) => self.texturable(props, key)?,
-                _ if plugin.numbers.contains(&key) => match props.texture(key) {
-                    Some(e) if model.textured_numbers.contains(&key) => {
-                        Some(self.texture_at(e, key)?)
-                    }
-                    Some(e) => {
-                        return Err(e.origin.error(format!(
-                            "`{key}` of a {} is a number, not a texture (Mitsuba reads it as a \
-                             float)",
-                            plugin.name
-                        )));
-                    }
-                    None => props.float(key)?.map(Value::Float),
-                },
+                _ if plugin.numbers.contains(&key) => self.number(model, plugin, props, key)?,
                 // Mitsuba reads a conductor's `eta` and `k` as unbounded textures.
                 "eta" | "k" => (props.color_for(key, Role::Unbounded)?).map(color_value),
                 _ => (props.color_for(key, Role::Reflectance)?).map(color_value),
@@ -1851,6 +1839,26 @@ impl<'a> Builder<'a> {
             conductor_preset(props, &mut table)?;
         }
         Ok(table)
+    }
+
+    /// The number `key` of a BSDF that is a material kind: a `<float>`, or a
+    /// `<texture>` where Mitsuba reads it as one (the kind's
+    /// `textured_numbers`), refused where Mitsuba reads a float.
+    fn number(
+        &mut self,
+        model: &MaterialModel,
+        plugin: &MitsubaPlugin,
+        props: &mut Props<'a>,
+        key: &str,
+    ) -> Result<Option<Value>> {
+        match props.texture(key) {
+            Some(e) if model.textured_numbers.contains(&key) => Ok(Some(self.texture_at(e, key)?)),
+            Some(e) => Err(e.origin.error(format!(
+                "`{key}` of a {} is a number, not a texture (Mitsuba reads it as a float)",
+                plugin.name
+            ))),
+            None => Ok(props.float(key)?.map(Value::Float)),
+        }
     }
 
     /// `<texture type="bitmap">` (`filename`, `wrap_mode`, `filter_type`, `raw`,

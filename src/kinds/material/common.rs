@@ -247,8 +247,15 @@ pub(super) fn distribution(t: &ParamTable) -> Result<Distribution> {
     .unwrap_or(Distribution::Beckmann))
 }
 
-/// `alpha` (default 0.1), or `alpha_u` and `alpha_v` together; each in (0, 1].
-pub(super) fn roughness(t: &ParamTable) -> Result<(f32, f32)> {
+/// The textured numbers of the kinds whose roughness Mitsuba reads as
+/// textures (`roughconductor`, `roughdielectric`), in the same slots for
+/// each: `microfacet_of` (microfacet.wgsl) reads them so.
+pub(super) const ROUGHNESS_NUMBERS: [&str; 3] = ["alpha", "alpha_u", "alpha_v"];
+
+/// `alpha` (default 0.1), or `alpha_u` and `alpha_v` together; each in (0, 1],
+/// or a texture where the kind takes one (`ROUGHNESS_NUMBERS`; an `alpha`
+/// texture then stands for both, and the packed pair holds its mean).
+pub(super) fn roughness(t: &ParamTable, slot: &mut TextureSlot) -> Result<(f32, f32)> {
     let (u, v) = (
         t.table.contains_key("alpha_u"),
         t.table.contains_key("alpha_v"),
@@ -261,11 +268,11 @@ pub(super) fn roughness(t: &ParamTable) -> Result<(f32, f32)> {
                 "give either `alpha` or `alpha_u` and `alpha_v`, not both",
             ));
         }
-        let alpha_u = t.require("alpha_u", t.float("alpha_u", check_roughness)?)?;
-        let alpha_v = t.require("alpha_v", t.float("alpha_v", check_roughness)?)?;
+        let alpha_u = t.require("alpha_u", slot.number(t, "alpha_u", check_roughness)?)?;
+        let alpha_v = t.require("alpha_v", slot.number(t, "alpha_v", check_roughness)?)?;
         return Ok((alpha_u, alpha_v));
     }
-    let alpha = t.float("alpha", check_roughness)?.unwrap_or(0.1);
+    let alpha = slot.number(t, "alpha", check_roughness)?.unwrap_or(0.1);
     Ok((alpha, alpha))
 }
 
