@@ -54,8 +54,8 @@ use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result, check_positive, check_unit, fmt_num};
 use crate::shader::shader_module;
 
-/// Its parameters that are numbers in [0, 1] or textures (in Mitsuba's
-/// order), their slots their places here ...
+/// Its numbers in [0, 1], each of which may be a texture: a number's slot
+/// (`MaterialModel::textured_numbers`) is its place here ...
 const WEIGHTS: [&str; 10] = [
     "roughness",
     "anisotropic",

@@ -47,7 +47,7 @@ const WEIGHTS: [(&str, f32); 7] = [
 ];
 
 /// The numbers that may be textures, as in Mitsuba: the weights, the index
-/// and `diff_trans`; their slots their places here.
+/// and `diff_trans`; a number's slot is its place here.
 const TEXTURED: [&str; 9] = [
     "roughness",
     "anisotropic",
