@@ -1593,6 +1593,96 @@ pub(crate) mod tests {
         }
     }
 
+    /// Textured numbers (a rough conductor's alpha, a principled roughness
+    /// inside a `twosided`, so resolved at the hit) under every strategy and
+    /// scene storage: the flag, the tables and their directory where the scene
+    /// has them, and the kernel and tables as before where it has none.
+    #[test]
+    fn textured_number_kernels_validate() {
+        let text = r#"
+            [camera]
+            lookfrom = [0, 0, -5]
+            lookat = [0, 0, 0]
+            [materials.brushed]
+            type = "roughconductor"
+            alpha = { type = "checkerboard", color0 = 0.3, color1 = 0.05 }
+            [materials.leaf]
+            type = "principled"
+            roughness = { type = "checkerboard", to_uv = { scale = 4 } }
+            sheen = 0.5
+            [materials.both]
+            type = "twosided"
+            front = "leaf"
+            back = "leaf"
+            [materials.lamp]
+            type = "light"
+            emit = [1, 1, 1]
+            [[objects]]
+            type = "quad"
+            q = [0, 0, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "brushed"
+            [[objects]]
+            type = "sphere"
+            center = [0, 0, 2]
+            radius = 1
+            material = "both"
+            [[objects]]
+            type = "disk"
+            center = [0, 2, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "lamp"
+        "#;
+        let mut scene = crate::scene::Scene::parse(text, "numbers.toml").unwrap();
+        let data = SceneData::pack(&scene);
+        for strategy in Strategy::ALL {
+            for storage in [
+                SceneStorage::Baked,
+                SceneStorage::Buffers,
+                SceneStorage::Bvh,
+            ] {
+                let config = box_filtered_kernel(&data, strategy, &scene.render, storage);
+                assert!(config.textured_numbers && config.textures);
+                assert!(config.nested_materials());
+                validate(&config);
+                let bound: Vec<String> = config
+                    .scene_bindings()
+                    .into_iter()
+                    .map(|a| a.name)
+                    .collect();
+                assert!(bound.contains(&"material_tables".to_string()), "{bound:?}");
+            }
+        }
+        // Its list is at the directory entry of its index: one texture in slot 0.
+        let leaf = scene
+            .materials
+            .iter()
+            .position(|m| m.name == "leaf")
+            .unwrap();
+        let list = data.material_tables[leaf] as usize;
+        assert_eq!(&data.material_tables[list..list + 3], [1.0, 0.0, 1.0]);
+        // Without them, the kernel and the tables are as before.
+        for material in &mut scene.materials {
+            material.number_textures.clear();
+        }
+        let plain = SceneData::pack(&scene);
+        assert!(!plain.has_textured_numbers() && plain.textures.is_empty());
+        assert_eq!(
+            plain.material_tables.len(),
+            4,
+            "the principled's four numbers only"
+        );
+        let config = box_filtered_kernel(
+            &plain,
+            Strategy::Mixture,
+            &scene.render,
+            SceneStorage::Baked,
+        );
+        assert!(!config.textured_numbers);
+    }
+
     /// A textured scene of every primitive kind (a mesh face too) under every
     /// strategy and scene storage: the texture arrays and the faces' uvs are
     /// bound in baked kernels too, and only where the scene has a texture.
