@@ -59,6 +59,14 @@ fn first_hit_aovs(ray: Ray) -> array<vec3<f32>, AOV_SLOTS> {
 #if TEXTURES
     material = textured(material, hit.uv);
 #endif
+#if TEXTURED_NUMBERS
+    // The textured numbers the BSDF reads (a rough conductor's alpha).
+#if NESTED_MATERIALS
+    texture_numbers(material, resolved.index, hit.uv);
+#else
+    texture_numbers(material, hit.material, hit.uv);
+#endif
+#endif
 #if BUMP_MAPS
     let shading_normal = bumped_normal(material, hit, -ray.dir);
 #else

@@ -205,6 +205,13 @@ fn render(
 #endif
             let front_face = dot(ray.dir, hit.normal) < 0.0;
 #endif
+#if TEXTURED_NUMBERS
+#if NESTED_MATERIALS
+            texture_numbers(material, resolved.index, hit.uv);
+#else
+            texture_numbers(material, hit.material, hit.uv);
+#endif
+#endif
             if front_face {
 #if STRATEGY_NEE
                 // After a smooth bounce the shadow ray could have found this emitter too.

@@ -65,6 +65,28 @@ struct BsdfSample {
     delta: bool,
 }
 
+#if TEXTURED_NUMBERS
+// The numbers of the material being shaded that textures give at its hit, by
+// slot (its kind's `MaterialModel::textured_numbers`), and the bits of the
+// slots they fill: set once per hit by `texture_numbers` (textures.wgsl),
+// before the BSDF is sampled or evaluated there, so that its sample, eval and
+// pdf all see the same values.
+var<private> textured_numbers: array<f32, MATERIAL_NUMBER_SLOTS>;
+var<private> textured_slots: u32;
+#endif
+
+// The shaded material's number `slot` (a generated `NUMBER_KIND_KEY`): its
+// texture's value at the hit where it has one, else `packed`, the value its
+// kind packs.
+fn material_number(slot: u32, packed: f32) -> f32 {
+#if TEXTURED_NUMBERS
+    if (textured_slots & (1u << slot)) != 0u {
+        return textured_numbers[slot];
+    }
+#endif
+    return packed;
+}
+
 fn bsdf_absorbed() -> BsdfSample {
     return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
 }
@@ -128,6 +150,8 @@ fn bump_shadowing(frame: Frame, wi: vec3<f32>) -> f32 {
 struct Resolved {
     material: Material,
     front_face: bool,
+    // Its index in `materials`.
+    index: u32,
 }
 
 // A hit on material `found`, on the side `front_face` says: the material it
@@ -142,6 +166,7 @@ struct Resolved {
 fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
     var m = found;
     var front = front_face;
+    var index = hit.material;
 #if BLEND
     // The blends' random number in [0, 1), once drawn.
     var u = -1.0;
@@ -150,7 +175,8 @@ fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
         let kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
 #if TWOSIDED
         if kind == MATERIAL_TWOSIDED {
-            m = materials_at(u32(select(m.color2.y, m.color2.x, front)));
+            index = u32(select(m.color2.y, m.color2.x, front));
+            m = materials_at(index);
             front = true;
             continue;
         }
@@ -172,11 +198,12 @@ fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
             }
             if u < weight {
                 u = u / weight;
-                m = materials_at(u32(m.color2.y));
+                index = u32(m.color2.y);
             } else {
                 u = (u - weight) / (1.0 - weight);
-                m = materials_at(u32(m.color2.x));
+                index = u32(m.color2.x);
             }
+            m = materials_at(index);
             continue;
         }
 #endif
@@ -184,7 +211,7 @@ fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
     }
     m.kind = m.kind & MATERIAL_TRANSPARENCY_MAX;
     m.emit = found.emit;
-    return Resolved(m, front);
+    return Resolved(m, front, index);
 }
 #endif
 

@@ -10,9 +10,18 @@ struct Microfacet {
     beckmann: bool,
 }
 
-// The distribution of a rough material (`param`, `param2`, `flags`; see `kinds::material`).
+// The distribution of a rough material (`param`, `param2`, `flags`; see
+// `kinds::material`). Its `alpha` (both) or `alpha_u` and `alpha_v` may be
+// textures, in the same slots in every rough kind (`ROUGHNESS_NUMBERS`:
+// the rough conductor's constants name them), at least Mitsuba's 1e-4 as
+// packed ones are (`MIN_ALPHA`).
 fn microfacet_of(m: Material) -> Microfacet {
-    return Microfacet(m.param, m.param2, (m.flags & MATERIAL_BECKMANN) != 0u);
+    let alpha = vec2<f32>(
+        material_number(NUMBER_ROUGHCONDUCTOR_ALPHA_U, material_number(NUMBER_ROUGHCONDUCTOR_ALPHA, m.param)),
+        material_number(NUMBER_ROUGHCONDUCTOR_ALPHA_V, material_number(NUMBER_ROUGHCONDUCTOR_ALPHA, m.param2)),
+    );
+    let clamped = max(alpha, vec2<f32>(1e-4));
+    return Microfacet(clamped.x, clamped.y, (m.flags & MATERIAL_BECKMANN) != 0u);
 }
 
 // An orthonormal frame around the shading normal: the tangents of `onb_to_world`.

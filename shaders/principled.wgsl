@@ -9,7 +9,8 @@
 // Packed (`kinds::material`): albedo = base_color, param = roughness, param2 =
 // the offset in `material_tables` of (anisotropic, spec_tint, sheen_tint,
 // flatness), color2 = (metallic, spec_trans, eta), color3 = (sheen,
-// clearcoat, clearcoat_gloss).
+// clearcoat, clearcoat_gloss); each read through `material_number`, which
+// gives a textured one's value at the hit instead.
 
 struct Principled {
     base_color: vec3<f32>,
@@ -31,27 +32,28 @@ struct Principled {
 
 fn principled_of(m: Material) -> Principled {
     let first = u32(m.param2);
-    let anisotropic = material_tables_at(first);
-    let metallic = m.color2.x;
-    let spec_trans = m.color2.y;
+    let roughness = material_number(NUMBER_PRINCIPLED_ROUGHNESS, m.param);
+    let anisotropic = material_number(NUMBER_PRINCIPLED_ANISOTROPIC, material_tables_at(first));
+    let metallic = material_number(NUMBER_PRINCIPLED_METALLIC, m.color2.x);
+    let spec_trans = material_number(NUMBER_PRINCIPLED_SPEC_TRANS, m.color2.y);
     // Mitsuba's calc_dist_params (Disney's mapping).
     let aspect = sqrt(1.0 - 0.9 * anisotropic);
-    let r2 = m.param * m.param;
+    let r2 = roughness * roughness;
     let specular = Microfacet(max(0.001, r2 / aspect), max(0.001, r2 * aspect), false);
     return Principled(
         m.albedo,
-        m.param,
+        roughness,
         metallic,
         m.color2.z,
-        material_tables_at(first + 1u),
-        m.color3.x,
-        material_tables_at(first + 2u),
-        m.color3.y,
-        material_tables_at(first + 3u),
+        material_number(NUMBER_PRINCIPLED_SPEC_TINT, material_tables_at(first + 1u)),
+        material_number(NUMBER_PRINCIPLED_SHEEN, m.color3.x),
+        material_number(NUMBER_PRINCIPLED_SHEEN_TINT, material_tables_at(first + 2u)),
+        material_number(NUMBER_PRINCIPLED_CLEARCOAT, m.color3.y),
+        material_number(NUMBER_PRINCIPLED_FLATNESS, material_tables_at(first + 3u)),
         (1.0 - metallic) * (1.0 - spec_trans),
         (1.0 - metallic) * spec_trans,
         specular,
-        mix(0.1, 0.001, m.color3.z),
+        mix(0.1, 0.001, material_number(NUMBER_PRINCIPLED_CLEARCOAT_GLOSS, m.color3.z)),
     );
 }
 

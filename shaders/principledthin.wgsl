@@ -10,7 +10,9 @@
 // diff_trans, summing to 1); the density is the whole mixture's.
 // Packed (`kinds::material`): albedo = base_color, param = roughness, param2 =
 // the offset in `material_tables` of (anisotropic, spec_tint, sheen_tint,
-// flatness), color2 = (spec_trans, eta, diff_trans / 2), color3.x = sheen.
+// flatness), color2 = (spec_trans, eta, diff_trans / 2), color3.x = sheen;
+// each read through `material_number`, which gives a textured one's value at
+// the hit instead.
 
 struct PrincipledThin {
     base_color: vec3<f32>,
@@ -34,20 +36,23 @@ fn principledthin_microfacet(roughness: f32, aspect: f32) -> Microfacet {
 
 fn principledthin_of(m: Material) -> PrincipledThin {
     let first = u32(m.param2);
-    let aspect = sqrt(1.0 - 0.9 * material_tables_at(first));
-    let eta = m.color2.y;
+    let roughness = material_number(NUMBER_PRINCIPLEDTHIN_ROUGHNESS, m.param);
+    let anisotropic = material_number(NUMBER_PRINCIPLEDTHIN_ANISOTROPIC, material_tables_at(first));
+    let aspect = sqrt(1.0 - 0.9 * anisotropic);
+    let eta = material_number(NUMBER_PRINCIPLEDTHIN_ETA, m.color2.y);
     return PrincipledThin(
         m.albedo,
-        m.param,
-        m.color2.x,
+        roughness,
+        material_number(NUMBER_PRINCIPLEDTHIN_SPEC_TRANS, m.color2.x),
         eta,
-        m.color2.z,
-        material_tables_at(first + 1u),
-        m.color3.x,
-        material_tables_at(first + 2u),
-        material_tables_at(first + 3u),
-        principledthin_microfacet(m.param, aspect),
-        principledthin_microfacet((0.65 * eta - 0.35) * m.param, aspect),
+        // Packed halved: `diff_trans` is twice the transmission's share.
+        0.5 * material_number(NUMBER_PRINCIPLEDTHIN_DIFF_TRANS, 2.0 * m.color2.z),
+        material_number(NUMBER_PRINCIPLEDTHIN_SPEC_TINT, material_tables_at(first + 1u)),
+        material_number(NUMBER_PRINCIPLEDTHIN_SHEEN, m.color3.x),
+        material_number(NUMBER_PRINCIPLEDTHIN_SHEEN_TINT, material_tables_at(first + 2u)),
+        material_number(NUMBER_PRINCIPLEDTHIN_FLATNESS, material_tables_at(first + 3u)),
+        principledthin_microfacet(roughness, aspect),
+        principledthin_microfacet((0.65 * eta - 0.35) * roughness, aspect),
     );
 }
 

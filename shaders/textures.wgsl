@@ -68,6 +68,41 @@ fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {
     return (1.0 - f.y) * top + f.y * bottom;
 }
 
+#if TEXTURED_NUMBERS
+// Texture `index` at `surface_uv` as one number, as Mitsuba's `eval_1` reads a
+// float texture (`kinds::Texture::eval_number`): a bitmap's luminance; a
+// checkerboard's colours swapped against `texture_eval` (checkerboard.cpp's
+// eval_1 takes color1 where its eval takes color0), each its channels' mean.
+fn texture_eval_number(index: u32, surface_uv: vec2<f32>) -> f32 {
+    let t = textures_at(index);
+    if t.kind == TEXTURE_CHECKERBOARD {
+        let uv = vec2<f32>(dot(t.to_uv_u, vec3<f32>(surface_uv, 1.0)), dot(t.to_uv_v, vec3<f32>(surface_uv, 1.0)));
+        let upper = (uv - floor(uv)) > vec2<f32>(0.5);
+        let c = select(t.color0, t.color1, upper.x == upper.y);
+        return (c.x + c.y + c.z) / 3.0;
+    }
+    return dot(texture_eval(index, surface_uv), vec3<f32>(0.212671, 0.715160, 0.072169));
+}
+
+// Looks up the textured numbers of material `m` (index `index` in
+// `materials`) at `uv` for `material_number` (materials.wgsl): its list in
+// `material_tables` (`kinds::MaterialTables::with_number_directory`: at the
+// material's index its offset, there the count, then each slot and texture).
+fn texture_numbers(m: Material, index: u32, uv: vec2<f32>) {
+    textured_slots = 0u;
+    if (m.flags & MATERIAL_TEXTURED_NUMBERS) == 0u {
+        return;
+    }
+    let first = u32(material_tables_at(index));
+    let count = u32(material_tables_at(first));
+    for (var k = 0u; k < count; k++) {
+        let slot = u32(material_tables_at(first + 1u + 2u * k));
+        textured_numbers[slot] = texture_eval_number(u32(material_tables_at(first + 2u + 2u * k)), uv);
+        textured_slots |= 1u << slot;
+    }
+}
+#endif
+
 // The material with its texture (index + 1 in the flags' high bits, 0: none)
 // looked up at `uv` in place of the colour packed as `albedo`.
 fn textured(m: Material, uv: vec2<f32>) -> Material {

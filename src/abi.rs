@@ -215,6 +215,10 @@ pub const MATERIAL_FLAGS: &[(&str, u32)] = &[
     // Its opacity is a texture, whose index + 1 the transparency's bits of
     // `kind` hold (`kinds::MATERIAL_TRANSPARENCY_SHIFT`).
     ("MATERIAL_OPACITY_TEXTURE", 16),
+    // Some of its numbers are textures: `material_tables` holds, at the
+    // material's index, the offset of their list
+    // (`kinds::MaterialTables::with_number_directory`).
+    ("MATERIAL_TEXTURED_NUMBERS", 32),
 ];
 
 /// The value of the bit named `name` of [`MATERIAL_FLAGS`].

@@ -70,12 +70,17 @@ impl Default for SceneData {
 
 impl SceneData {
     pub fn pack(scene: &Scene) -> SceneData {
-        let mut material_tables = MaterialTables::default();
+        let textured_numbers = (scene.materials.iter()).any(|m| !m.number_textures.is_empty());
+        let mut material_tables = match textured_numbers {
+            true => MaterialTables::with_number_directory(scene.materials.len()),
+            false => MaterialTables::default(),
+        };
         let mut textures = TextureTables::default();
         let materials = scene
             .materials
             .iter()
-            .map(|m| {
+            .enumerate()
+            .map(|(index, m)| {
                 let mut packed = pack_material(m, &mut material_tables);
                 if let Some(texture) = &m.texture {
                     packed.flags |= (textures.add(texture) + 1) << MATERIAL_TEXTURE_SHIFT;
@@ -92,6 +97,13 @@ impl SceneData {
                 if let Some(opacity) = &m.opacity_texture {
                     packed.kind |= (textures.add(opacity) + 1) << MATERIAL_TRANSPARENCY_SHIFT;
                     packed.flags |= material_flag("MATERIAL_OPACITY_TEXTURE");
+                }
+                if !m.number_textures.is_empty() {
+                    let pairs: Vec<(u32, u32)> = (m.number_textures.iter())
+                        .map(|n| (n.slot, textures.add(&n.texture)))
+                        .collect();
+                    material_tables.add_number_textures(index, &pairs);
+                    packed.flags |= material_flag("MATERIAL_TEXTURED_NUMBERS");
                 }
                 // The materials it is made of, by index (`kinds::packed_nested`).
                 for (slot, name) in m.nested.iter().enumerate() {
@@ -321,6 +333,14 @@ impl SceneData {
     pub fn has_opacity_textures(&self) -> bool {
         let flag = material_flag("MATERIAL_OPACITY_TEXTURE");
         self.hit_materials().any(|m| m.flags & flag != 0)
+    }
+
+    /// Whether a material has numbers given by textures
+    /// (`Material::number_textures`): nested materials count, since the hit
+    /// resolves to them.
+    pub fn has_textured_numbers(&self) -> bool {
+        let flag = material_flag("MATERIAL_TEXTURED_NUMBERS");
+        self.materials.iter().any(|m| m.flags & flag != 0)
     }
 
     /// The materials of the primitives rays can hit (with repeats).

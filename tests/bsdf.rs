@@ -78,6 +78,7 @@ impl Setup {
                 one_sided: false,
                 opacity: 1.0,
                 opacity_texture: None,
+                number_textures: Vec::new(),
                 texture: None,
                 bump: None,
                 nested: Vec::new(),

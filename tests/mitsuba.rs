@@ -195,6 +195,50 @@ fn roughplastic_spheres_match_mitsuba() {
 }
 
 /// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
+/// filter) of `tests/data/cylinders.xml` at 64x64 and 32768 spp, rendered once
+/// by `scripts/check-mitsuba-xml.py --write-reference`.
+const CYLINDERS_REFERENCE: &str = "tests/data/cylinders-mitsuba-64.exr";
+const CYLINDERS_REFERENCE_SPP: f64 = 32768.0;
+
+/// Open cylinders (a standing one, one with `flip_normals` seen inside, a thin
+/// one as an area light) agree with Mitsuba's image; the same scene with the
+/// flipped tube's normals pointing out again (its inside black, its outside
+/// lit), or with the light's tube 20% thinner (its power), does not.
+#[test]
+fn cylinders_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(CYLINDERS_REFERENCE)).unwrap();
+    let xml = repo("tests/data/cylinders.xml");
+    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
+        .unwrap()
+        .scene;
+    assert_eq!(scene.shapes.cylinders.len(), 3);
+    let agreed = against_reference(&scene, &reference, CYLINDERS_REFERENCE_SPP);
+    assert!(agreed.is_ok(), "{agreed:?}");
+    eprintln!("cylinders.xml against Mitsuba: {}", agreed.unwrap());
+    let mut unflipped = scene.clone();
+    for cylinder in &mut unflipped.shapes.cylinders {
+        cylinder.flip_normals = false;
+    }
+    let mut thinner_light = scene.clone();
+    for cylinder in &mut thinner_light.shapes.cylinders {
+        if scene.materials[cylinder.material as usize].emits() {
+            cylinder.radius *= 0.8;
+        }
+    }
+    for (what, changed) in [
+        ("normals unflipped", unflipped),
+        ("light 20% thinner", thinner_light),
+    ] {
+        let result = against_reference(&changed, &reference, CYLINDERS_REFERENCE_SPP);
+        eprintln!("{what}: {result:?}");
+        assert!(result.is_err(), "{what}: {result:?}");
+    }
+}
+
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
 /// filter) of `tests/data/delta-lights.xml` at 64x64 and 16384 spp, rendered once
 /// by `scripts/check-mitsuba-xml.py --write-reference`.
 const DELTA_LIGHTS_REFERENCE: &str = "tests/data/delta-lights-mitsuba-64.exr";
@@ -499,6 +543,99 @@ fn principled_spheres_match_mitsuba() {
 }
 
 /// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
+/// filter) of `tests/data/principled-numbers.xml` at 96x48 and 32768 spp (two
+/// halves of 16384 with seeds 1000 and 2000).
+const PRINCIPLED_NUMBERS_REFERENCE: &str = "tests/data/principled-numbers-mitsuba.exr";
+const PRINCIPLED_NUMBERS_REFERENCE_SPP: f64 = 32768.0;
+
+/// Textured numbers of `principled` (roughness, metallic, sheen, clearcoat,
+/// clearcoat_gloss, spec_tint, spec_trans, anisotropic, flatness,
+/// sheen_tint) and `principledthin` (roughness, spec_trans, diff_trans), from
+/// a bitmap's luminance and checkerboards, agree with Mitsuba's image; the same
+/// scene fails with the textures left out (each number its texture's mean), or
+/// with the checkerboards read as colours are (their colours swapped against
+/// Mitsuba's `eval_1`), so the check sees where each texture lands.
+#[test]
+fn principled_numbers_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(PRINCIPLED_NUMBERS_REFERENCE)).unwrap();
+    let xml = repo("tests/data/principled-numbers.xml");
+    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
+        .unwrap()
+        .scene;
+    let textured: usize = (scene.materials.iter())
+        .map(|m| m.number_textures.len())
+        .sum();
+    assert_eq!(textured, 13);
+    let agreed = against_reference(&scene, &reference, PRINCIPLED_NUMBERS_REFERENCE_SPP);
+    assert!(agreed.is_ok(), "{agreed:?}");
+    eprintln!(
+        "principled-numbers.xml against Mitsuba: {}",
+        agreed.unwrap()
+    );
+    let mut untextured = scene.clone();
+    for material in &mut untextured.materials {
+        material.number_textures.clear();
+    }
+    let mut swapped = scene.clone();
+    for material in &mut swapped.materials {
+        for number in &mut material.number_textures {
+            if let TextureKind::Checkerboard(Checkerboard { color0, color1 }) =
+                &mut number.texture.kind
+            {
+                std::mem::swap(color0, color1);
+            }
+        }
+    }
+    for (what, changed) in [
+        ("textures left out", untextured),
+        ("checkerboards swapped", swapped),
+    ] {
+        let result = against_reference(&changed, &reference, PRINCIPLED_NUMBERS_REFERENCE_SPP);
+        eprintln!("{what}: {result:?}");
+        assert!(result.is_err(), "{what}: {result:?}");
+    }
+}
+
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
+/// filter) of `tests/data/rough-alpha.xml` at 96x48 and 32768 spp (two halves
+/// of 16384 with seeds 1000 and 2000).
+const ROUGH_ALPHA_REFERENCE: &str = "tests/data/rough-alpha-mitsuba.exr";
+const ROUGH_ALPHA_REFERENCE_SPP: f64 = 32768.0;
+
+/// Textured roughness of `roughconductor` (`alpha` from a bitmap's
+/// luminance; `alpha_u` and `alpha_v`) and `roughdielectric` (`alpha` from a
+/// checkerboard) agree with Mitsuba's image; the same scene with the
+/// textures left out (each alpha its texture's mean) does not.
+#[test]
+fn rough_alpha_textures_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(ROUGH_ALPHA_REFERENCE)).unwrap();
+    let xml = repo("tests/data/rough-alpha.xml");
+    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
+        .unwrap()
+        .scene;
+    let textured: usize = (scene.materials.iter())
+        .map(|m| m.number_textures.len())
+        .sum();
+    assert_eq!(textured, 4);
+    let agreed = against_reference(&scene, &reference, ROUGH_ALPHA_REFERENCE_SPP);
+    assert!(agreed.is_ok(), "{agreed:?}");
+    eprintln!("rough-alpha.xml against Mitsuba: {}", agreed.unwrap());
+    let mut untextured = scene.clone();
+    for material in &mut untextured.materials {
+        material.number_textures.clear();
+    }
+    let result = against_reference(&untextured, &reference, ROUGH_ALPHA_REFERENCE_SPP);
+    eprintln!("textures left out: {result:?}");
+    assert!(result.is_err(), "{result:?}");
+}
+
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
 /// filter) of `tests/data/principledthin-sheets.xml` at 64x48 and 16384 spp
 /// (two halves of 8192 with seeds 1000 and 2000).
 const PRINCIPLEDTHIN_REFERENCE: &str = "tests/data/principledthin-sheets-mitsuba.exr";
@@ -641,8 +778,9 @@ fn convert_writes_groups_and_instances() {
     assert_eq!(from_xml.instancing.groups.len(), 2);
 }
 
-/// `convert` writes the principled spheres and the thin sheets as TOML that
-/// reads back as the scene the XML is (so it renders the same).
+/// `convert` writes the principled spheres, the thin sheets and the textured
+/// numbers as TOML that reads back as the scene the XML is (so it renders the
+/// same).
 #[test]
 fn convert_writes_principled() {
     let dir = common::TempDir::new("mitsuba", "convert-principled");
@@ -659,6 +797,16 @@ fn convert_writes_principled() {
         (
             "principledthin-sheets",
             &["type = \"principledthin\"", "diff_trans = 1.2"][..],
+        ),
+        (
+            "principled-numbers",
+            &[
+                "type = \"principledthin\"",
+                ".diff_trans]",
+                ".metallic]",
+                ".roughness]",
+                "raw = true",
+            ][..],
         ),
     ] {
         let xml = repo(&format!("tests/data/{file}.xml"));
@@ -682,6 +830,16 @@ fn convert_writes_principled() {
         let from_xml = Scene::load(&xml).unwrap();
         from_toml.source = from_xml.source.clone();
         from_toml.inputs = from_xml.inputs.clone();
+        // The image files as each file names them: relative, or as the XML resolved them.
+        for (a, b) in from_toml.materials.iter_mut().zip(&from_xml.materials) {
+            for (a, b) in a.number_textures.iter_mut().zip(&b.number_textures) {
+                if let (TextureKind::Bitmap(a), TextureKind::Bitmap(b)) =
+                    (&mut a.texture.kind, &b.texture.kind)
+                {
+                    a.file = b.file.clone();
+                }
+            }
+        }
         assert_eq!(from_toml, from_xml);
     }
 }
@@ -1140,6 +1298,16 @@ fn bad_scenes_are_refused_with_file_line_and_column() {
             "principledthin-range",
             "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n  <bsdf type=\"principledthin\"><float name=\"diff_trans\" value=\"3\"/></bsdf></shape>\n</scene>",
             ":3:3: <bsdf type=\"principledthin\">: must be in [0, 2], got 3 (pathmix field `materials.bsdf-1.diff_trans`)",
+        ),
+        (
+            "principled-eta-texture",
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n  <bsdf type=\"principled\">\n    <texture type=\"checkerboard\" name=\"eta\"/></bsdf></shape>\n</scene>",
+            ":4:5: <texture type=\"checkerboard\" name=\"eta\">: `eta` of a principled is a number, not a texture (Mitsuba reads it as a float)",
+        ),
+        (
+            "roughplastic-alpha-texture",
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n  <bsdf type=\"roughplastic\">\n    <texture type=\"checkerboard\" name=\"alpha\"/></bsdf></shape>\n</scene>",
+            ":4:5: <texture type=\"checkerboard\" name=\"alpha\">: `alpha` of a roughplastic is a number, not a texture (Mitsuba reads it as a float)",
         ),
         (
             "no-sensor",

@@ -14,9 +14,9 @@ use crate::accel::instances::INSTANCE_LEAF;
 use crate::accel::{self, WideBvhNode};
 use crate::kinds::{
     ErasedLayout, FILTER_TABLE_BINS, Filter, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
-    MATERIAL_KINDS, MATERIAL_NESTING, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT,
-    MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT, PRIMITIVE_KINDS,
-    PrimitiveKind, ROUGH_TRANSMITTANCE_RES, texture_constants,
+    MATERIAL_KINDS, MATERIAL_NESTING, MATERIAL_NUMBER_SLOTS, MATERIAL_TEXTURE_BITS,
+    MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT,
+    PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, texture_constants,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -53,7 +53,11 @@ pub fn shared_constants() -> String {
     constant("REPLICATES", REPLICATES);
     for (id, kind) in MATERIAL_KINDS.iter().enumerate() {
         constant(&kind.id_constant(), id as u32);
+        for (slot, key) in kind.textured_numbers.iter().enumerate() {
+            constant(&kind.number_constant(key), slot as u32);
+        }
     }
+    constant("MATERIAL_NUMBER_SLOTS", MATERIAL_NUMBER_SLOTS as u32);
     for &(name, bit) in MATERIAL_FLAGS {
         constant(name, bit);
     }

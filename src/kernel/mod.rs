@@ -70,6 +70,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "DIRECTIONAL_LIGHTS",
     "TEXTURES",
     "BUMP_MAPS",
+    "TEXTURED_NUMBERS",
     "NESTED_MATERIALS",
     "THIN_LENS",
     "ORTHOGRAPHIC",
@@ -438,6 +439,10 @@ pub struct KernelConfig {
     /// `textures`): hits carry their tangents along u and v, the shading
     /// normal is perturbed, and the leak check of shading normals applies.
     pub bump_maps: bool,
+    /// Some material has numbers given by textures (`Material::number_textures`;
+    /// implies `textures`), looked up at each hit on it
+    /// (`texture_numbers`, textures.wgsl).
+    pub textured_numbers: bool,
     /// How the light density weighs the grouped lights (mesh faces).
     pub grouped_density: GroupedDensity,
     /// How the arrays read from memory are bound: textures unless the device
@@ -670,6 +675,7 @@ impl KernelConfig {
                 .materials
                 .iter()
                 .any(|m| m.flags >> MATERIAL_BUMP_SHIFT != 0),
+            textured_numbers: data.has_textured_numbers(),
             grouped_density,
             array_memory: ArrayMemory::Textures,
         }
@@ -740,6 +746,7 @@ impl KernelConfig {
             delta_light_pick: false,
             textures: true,
             bump_maps: true,
+            textured_numbers: true,
             grouped_density: GroupedDensity::Walk,
             array_memory: ArrayMemory::Textures,
         }
@@ -800,9 +807,10 @@ impl KernelConfig {
         source.word_size().is_some() && !self.compiles_in(source)
     }
 
-    /// Whether a material kind of the scene reads `material_tables`.
+    /// Whether a material kind of the scene reads `material_tables`, or its
+    /// textured numbers' lists are there.
     pub fn reads_material_tables(&self) -> bool {
-        self.material_kinds.iter().any(|k| MATERIAL_KINDS[k].tables)
+        self.textured_numbers || self.material_kinds.iter().any(|k| MATERIAL_KINDS[k].tables)
     }
 
     pub fn samples_lights(&self) -> bool {
@@ -882,6 +890,7 @@ impl KernelConfig {
             ),
             ("TEXTURES", self.textures),
             ("BUMP_MAPS", self.bump_maps),
+            ("TEXTURED_NUMBERS", self.textured_numbers),
             ("NESTED_MATERIALS", self.nested_materials()),
             ("THIN_LENS", self.camera == CameraModel::ThinLens),
             ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
@@ -1113,6 +1122,7 @@ impl KernelConfig {
             light_environment: false,
             textures: false,
             bump_maps: false,
+            textured_numbers: false,
             opacity_textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
@@ -1543,6 +1553,7 @@ pub(crate) mod tests {
                             delta_light_pick: mask >> (primitives + 1) != 0,
                             textures: variance,
                             bump_maps: variance,
+                            textured_numbers: variance,
                             opacity_textures: variance,
                             ..general.clone()
                         });
@@ -1583,9 +1594,10 @@ pub(crate) mod tests {
         });
     }
 
-    /// The AOV pass over every kind and feature, each AOV type alone (the
-    /// material-free ones without materials' textures too) and all together,
-    /// under either accumulator and from a splatting kernel: it validates, has
+    /// The AOV pass over every kind and feature (textured numbers and
+    /// instances among them), each AOV type alone (the material-free ones
+    /// without materials' textures too) and all together, under either
+    /// accumulator and from a splatting kernel: it validates, has
     /// the AOV entry point and no path kernel's, and its scene arrays are its
     /// path kernel's (it runs on that kernel's scene bind group).
     #[test]
@@ -1599,14 +1611,22 @@ pub(crate) mod tests {
             };
             let plain = KernelConfig {
                 textures: false,
+                textured_numbers: false,
                 bump_maps: false,
                 opacity_textures: false,
                 masked: false,
                 ..general.clone()
             };
+            let instanced = KernelConfig {
+                bvh_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+                instances: true,
+                instance_stack: 12,
+                ..general.clone()
+            };
             let mut passes = vec![
                 general.for_aovs(&AovKind::ALL),
                 splatting.for_aovs(&AovKind::ALL),
+                instanced.for_aovs(&AovKind::ALL),
             ];
             for kind in AovKind::ALL {
                 passes.push(general.for_aovs(&[kind]));
@@ -1727,6 +1747,96 @@ pub(crate) mod tests {
                 }
             }
         }
+    }
+
+    /// Textured numbers (a rough conductor's alpha, a principled roughness
+    /// inside a `twosided`, so resolved at the hit) under every strategy and
+    /// scene storage: the flag, the tables and their directory where the scene
+    /// has them, and the kernel and tables as before where it has none.
+    #[test]
+    fn textured_number_kernels_validate() {
+        let text = r#"
+            [camera]
+            lookfrom = [0, 0, -5]
+            lookat = [0, 0, 0]
+            [materials.brushed]
+            type = "roughconductor"
+            alpha = { type = "checkerboard", color0 = 0.3, color1 = 0.05 }
+            [materials.leaf]
+            type = "principled"
+            roughness = { type = "checkerboard", to_uv = { scale = 4 } }
+            sheen = 0.5
+            [materials.both]
+            type = "twosided"
+            front = "leaf"
+            back = "leaf"
+            [materials.lamp]
+            type = "light"
+            emit = [1, 1, 1]
+            [[objects]]
+            type = "quad"
+            q = [0, 0, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "brushed"
+            [[objects]]
+            type = "sphere"
+            center = [0, 0, 2]
+            radius = 1
+            material = "both"
+            [[objects]]
+            type = "disk"
+            center = [0, 2, 0]
+            u = [1, 0, 0]
+            v = [0, 1, 0]
+            material = "lamp"
+        "#;
+        let mut scene = crate::scene::Scene::parse(text, "numbers.toml").unwrap();
+        let data = SceneData::pack(&scene);
+        for strategy in Strategy::ALL {
+            for storage in [
+                SceneStorage::Baked,
+                SceneStorage::Buffers,
+                SceneStorage::Bvh,
+            ] {
+                let config = box_filtered_kernel(&data, strategy, &scene.render, storage);
+                assert!(config.textured_numbers && config.textures);
+                assert!(config.nested_materials());
+                validate(&config);
+                let bound: Vec<String> = config
+                    .scene_bindings()
+                    .into_iter()
+                    .map(|a| a.name)
+                    .collect();
+                assert!(bound.contains(&"material_tables".to_string()), "{bound:?}");
+            }
+        }
+        // Its list is at the directory entry of its index: one texture in slot 0.
+        let leaf = scene
+            .materials
+            .iter()
+            .position(|m| m.name == "leaf")
+            .unwrap();
+        let list = data.material_tables[leaf] as usize;
+        assert_eq!(&data.material_tables[list..list + 3], [1.0, 0.0, 1.0]);
+        // Without them, the kernel and the tables are as before.
+        for material in &mut scene.materials {
+            material.number_textures.clear();
+        }
+        let plain = SceneData::pack(&scene);
+        assert!(!plain.has_textured_numbers() && plain.textures.is_empty());
+        assert_eq!(
+            plain.material_tables.len(),
+            4,
+            "the principled's four numbers only"
+        );
+        let config = box_filtered_kernel(
+            &plain,
+            Strategy::Mixture,
+            &scene.render,
+            SceneStorage::Baked,
+        );
+        assert!(!config.textured_numbers);
     }
 
     /// A textured scene of every primitive kind (a mesh face too) under every
@@ -2180,6 +2290,7 @@ pub(crate) mod tests {
             directional_lights: false,
             textures: false,
             bump_maps: false,
+            textured_numbers: false,
             opacity_textures: false,
             ..KernelConfig::general(Strategy::Mixture, AccumulatorKind::Buffer)
         };
@@ -2237,6 +2348,18 @@ pub(crate) mod tests {
             .map(|(id, kind)| (kind.id_constant(), id as u32))
             .collect();
         expected.extend(ids.iter().map(|(name, id)| (name.as_str(), *id)));
+        let slots: Vec<(String, u32)> = (MATERIAL_KINDS.iter())
+            .flat_map(|kind| {
+                (kind.textured_numbers.iter().enumerate())
+                    .map(move |(slot, key)| (kind.number_constant(key), slot as u32))
+            })
+            .collect();
+        assert!(
+            slots
+                .iter()
+                .any(|(name, _)| name == "NUMBER_PRINCIPLED_ROUGHNESS")
+        );
+        expected.extend(slots.iter().map(|(name, slot)| (name.as_str(), *slot)));
         expected.extend(crate::abi::MATERIAL_FLAGS.iter().copied());
         for (name, rust) in expected {
             assert_eq!(value(name), Some(rust), "{name}");

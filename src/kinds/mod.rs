@@ -66,8 +66,9 @@ pub use filter::{
 pub(crate) use material::NAMED_IORS;
 pub use material::{
     Bump, Distribution, Lobe, MASK_RAY_HITS, MATERIAL_KINDS, MATERIAL_NESTING,
-    MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, Material, MaterialKind, MaterialModel,
-    MaterialTables, MitsubaPlugin, pack_material, packed_is_masked, packed_kind_id, packed_nested,
+    MATERIAL_NUMBER_SLOTS, MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, Material,
+    MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, NumberTexture, pack_material,
+    packed_is_masked, packed_kind_id, packed_nested,
 };
 // For the scene's tests of Mitsuba's conductors and of the format's page.
 #[cfg(test)]

@@ -1808,19 +1808,23 @@ impl<'a> Builder<'a> {
     /// referenced `<texture>` as the TOML texture table it means.
     fn texturable(&mut self, props: &mut Props<'a>, name: &str) -> Result<Option<Value>> {
         match props.texture(name) {
-            Some(e) => {
-                let target = self.resolve(e)?;
-                if target.tag != "texture" {
-                    return Err(e.origin.error(format!(
-                        "`{name}` refers to a <{}>, not a <texture>",
-                        target.tag,
-                        name = excerpt(name)
-                    )));
-                }
-                self.texture(target).map(Some)
-            }
+            Some(e) => self.texture_at(e, name).map(Some),
             None => Ok(props.color(name)?.map(color_value)),
         }
+    }
+
+    /// The nested or referenced `<texture>` `e` of the property `name`, as the
+    /// TOML texture table it means.
+    fn texture_at(&mut self, e: &'a Elem, name: &str) -> Result<Value> {
+        let target = self.resolve(e)?;
+        if target.tag != "texture" {
+            return Err(e.origin.error(format!(
+                "`{name}` refers to a <{}>, not a <texture>",
+                target.tag,
+                name = excerpt(name)
+            )));
+        }
+        self.texture(target)
     }
 
     /// A BSDF that is a material kind (`mitsuba_kind`): the kind's table, each of
@@ -1842,21 +1846,12 @@ impl<'a> Builder<'a> {
             let value = match key {
                 // `one_sided` is the surface's (`twosided`); `material` below.
                 "type" | "one_sided" | "material" => None,
-                "alpha" | "alpha_u" | "alpha_v" => props.float(key)?.map(Value::Float),
+                "alpha" | "alpha_u" | "alpha_v" => self.number(model, plugin, props, key)?,
                 "distribution" => (props.string(key)?).map(|(d, _)| Value::String(d.into())),
                 "nonlinear" => props.boolean(key)?.map(Value::Boolean),
                 "int_ior" | "ext_ior" => ior(props, key)?.map(Value::Float),
                 _ if plugin.texture == Some(key) => self.texturable(props, key)?,
-                _ if plugin.numbers.contains(&key) => {
-                    if let Some(texture) = props.texture(key) {
-                        return Err(texture.origin.error(format!(
-                            "`{key}` as a texture is not supported (of a {}, only {} may be one)",
-                            plugin.name,
-                            plugin.texture.map_or("none".into(), |t| format!("`{t}`"))
-                        )));
-                    }
-                    props.float(key)?.map(Value::Float)
-                }
+                _ if plugin.numbers.contains(&key) => self.number(model, plugin, props, key)?,
                 // Mitsuba reads a conductor's `eta` and `k` as unbounded textures.
                 "eta" | "k" => (props.color_for(key, Role::Unbounded)?).map(color_value),
                 _ => (props.color_for(key, Role::Reflectance)?).map(color_value),
@@ -1869,6 +1864,26 @@ impl<'a> Builder<'a> {
             conductor_preset(props, &mut table)?;
         }
         Ok(table)
+    }
+
+    /// The number `key` of a BSDF that is a material kind: a `<float>`, or a
+    /// `<texture>` where Mitsuba reads it as one (the kind's
+    /// `textured_numbers`), refused where Mitsuba reads a float.
+    fn number(
+        &mut self,
+        model: &MaterialModel,
+        plugin: &MitsubaPlugin,
+        props: &mut Props<'a>,
+        key: &str,
+    ) -> Result<Option<Value>> {
+        match props.texture(key) {
+            Some(e) if model.textured_numbers.contains(&key) => Ok(Some(self.texture_at(e, key)?)),
+            Some(e) => Err(e.origin.error(format!(
+                "`{key}` of a {} is a number, not a texture (Mitsuba reads it as a float)",
+                plugin.name
+            ))),
+            None => Ok(props.float(key)?.map(Value::Float)),
+        }
     }
 
     /// `<texture type="bitmap">` (`filename`, `wrap_mode`, `filter_type`, `raw`,
@@ -3978,8 +3993,9 @@ mod tests {
 
     /// `principled` reads each number, `specular` or `eta`, and `base_color`
     /// as a texture; inside a `twosided` (which Mitsuba allows where it does not
-    /// transmit) it is one material on both sides' fronts; a texture on a
-    /// number is refused where it is written.
+    /// transmit) it is one material on both sides' fronts; a number Mitsuba
+    /// reads as a texture may be one, and a texture on another number is
+    /// refused where it is written.
     #[test]
     fn principled_maps_onto_the_material() {
         use crate::scene::MaterialKind;
@@ -4024,13 +4040,30 @@ mod tests {
         assert!(inner.texture.is_some());
         // `specular` 0 is index 1: nothing reflects specularly.
         assert!(matches!(inner.kind, MaterialKind::Principled { eta, .. } if eta == 1.0));
-        let e = error(
+        // A number Mitsuba reads as a texture is one, by its slot; `eta`,
+        // which Mitsuba reads as a float, is refused as a texture.
+        let (s, _) = read(
             "principled-roughness-texture",
             r#"<shape type="sphere"><bsdf type="principled">
                  <texture type="checkerboard" name="roughness"/></bsdf></shape>"#,
+            &[],
+        )
+        .unwrap();
+        let [rough] = &s.materials[..] else {
+            panic!("{:?}", s.materials)
+        };
+        assert_eq!(rough.number_textures.len(), 1);
+        assert_eq!(rough.number_textures[0].slot, 0);
+        assert!(
+            matches!(rough.kind, MaterialKind::Principled { roughness, .. } if roughness == 0.3)
+        );
+        let e = error(
+            "principled-eta-texture",
+            r#"<shape type="sphere"><bsdf type="principled">
+                 <texture type="checkerboard" name="eta"/></bsdf></shape>"#,
         );
         assert!(
-            e.contains("`roughness` as a texture is not supported"),
+            e.contains("`eta` of a principled is a number, not a texture"),
             "{e}"
         );
     }

@@ -578,12 +578,14 @@ fn parse_materials(top: &ParamTable) -> Result<Vec<Material>> {
         let material = Material::parse(name, &t)?;
         textures += material.texture.is_some() as usize
             + material.bump.is_some() as usize
-            + material.opacity_texture.is_some() as usize;
+            + material.opacity_texture.is_some() as usize
+            + material.number_textures.len();
         if textures > MAX_TEXTURES {
             return Err(t.err(
                 t.here(),
                 format!(
-                    "more than {MAX_TEXTURES} textures (bump, normal and opacity maps included) in one scene"
+                    "more than {MAX_TEXTURES} textures (bump, normal and opacity maps and \
+                     textured numbers included) in one scene"
                 ),
             ));
         }
@@ -1133,6 +1135,7 @@ fn file_materials(t: &ParamTable, mesh: &super::mesh::Mesh, base: u32) -> Result
                 one_sided: false,
                 opacity: 1.0,
                 opacity_texture: None,
+                number_textures: Vec::new(),
                 texture: None,
                 bump: None,
                 nested: Vec::new(),

@@ -1272,6 +1272,7 @@ mod tests {
             one_sided: false,
             opacity: 1.0,
             opacity_texture: None,
+            number_textures: Vec::new(),
             texture: None,
             bump: None,
             nested: Vec::new(),

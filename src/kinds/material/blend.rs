@@ -46,6 +46,7 @@ pub(super) const BLEND: MaterialModel = MaterialModel {
     tables: false,
     keys: &["type", "weight", "first", "second", "emit"],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: None,
     nested: &["first", "second"],
     diffuse_reflectance_is_albedo: false,

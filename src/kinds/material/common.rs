@@ -3,6 +3,7 @@
 //! colour that may be a texture), Mitsuba's named indices and conductors, and
 //! the packing helpers and limits of the Fresnel and microfacet models.
 
+use super::NumberTexture;
 use crate::abi::{PackedMaterial, material_flag};
 use crate::kinds::Texture;
 use crate::kinds::params::{
@@ -246,8 +247,15 @@ pub(super) fn distribution(t: &ParamTable) -> Result<Distribution> {
     .unwrap_or(Distribution::Beckmann))
 }
 
-/// `alpha` (default 0.1), or `alpha_u` and `alpha_v` together; each in (0, 1].
-pub(super) fn roughness(t: &ParamTable) -> Result<(f32, f32)> {
+/// The textured numbers of the kinds whose roughness Mitsuba reads as
+/// textures (`roughconductor`, `roughdielectric`), in the same slots for
+/// each: `microfacet_of` (microfacet.wgsl) reads them so.
+pub(super) const ROUGHNESS_NUMBERS: [&str; 3] = ["alpha", "alpha_u", "alpha_v"];
+
+/// `alpha` (default 0.1), or `alpha_u` and `alpha_v` together; each in (0, 1],
+/// or a texture where the kind takes one (`ROUGHNESS_NUMBERS`; an `alpha`
+/// texture then stands for both, and the packed pair holds its mean).
+pub(super) fn roughness(t: &ParamTable, slot: &mut TextureSlot) -> Result<(f32, f32)> {
     let (u, v) = (
         t.table.contains_key("alpha_u"),
         t.table.contains_key("alpha_v"),
@@ -260,11 +268,11 @@ pub(super) fn roughness(t: &ParamTable) -> Result<(f32, f32)> {
                 "give either `alpha` or `alpha_u` and `alpha_v`, not both",
             ));
         }
-        let alpha_u = t.require("alpha_u", t.float("alpha_u", check_roughness)?)?;
-        let alpha_v = t.require("alpha_v", t.float("alpha_v", check_roughness)?)?;
+        let alpha_u = t.require("alpha_u", slot.number(t, "alpha_u", check_roughness)?)?;
+        let alpha_v = t.require("alpha_v", slot.number(t, "alpha_v", check_roughness)?)?;
         return Ok((alpha_u, alpha_v));
     }
-    let alpha = t.float("alpha", check_roughness)?.unwrap_or(0.1);
+    let alpha = slot.number(t, "alpha", check_roughness)?.unwrap_or(0.1);
     Ok((alpha, alpha))
 }
 
@@ -316,14 +324,54 @@ pub(super) fn nonlinear_flag(nonlinear: bool) -> u32 {
 // ---------------------------------------------------------------------------------
 // Textures
 
-/// The one colour of a material that may be a texture (`Material::texture`),
-/// which its kind reads through this.
-#[derive(Default)]
+/// The one colour of a material that may be a texture (`Material::texture`)
+/// and its numbers that may be (`Material::number_textures`), which its kind
+/// reads through this.
 pub(crate) struct TextureSlot {
     pub texture: Option<Texture>,
+    /// The kind's `MaterialModel::textured_numbers`.
+    textured_numbers: &'static [&'static str],
+    pub numbers: Vec<NumberTexture>,
 }
 
 impl TextureSlot {
+    pub fn new(textured_numbers: &'static [&'static str]) -> TextureSlot {
+        TextureSlot {
+            texture: None,
+            textured_numbers,
+            numbers: Vec::new(),
+        }
+    }
+
+    /// The number `key` (one of the kind's `textured_numbers`): a number
+    /// that `check` accepts, or a texture, kept, whose mean number it gives
+    /// (Mitsuba checks no texture's values); `None` when absent.
+    pub fn number(
+        &mut self,
+        t: &ParamTable,
+        key: &str,
+        check: fn(f32) -> std::result::Result<(), String>,
+    ) -> Result<Option<f32>> {
+        let slot = (self.textured_numbers.iter().position(|&k| k == key))
+            .expect("a number the kind lists as textured");
+        if !t.table.get(key).is_some_and(Value::is_table) {
+            return t.float(key, check);
+        }
+        let texture = Texture::parse(&t.sub(key)?.expect("a table"))?;
+        let mean = texture.mean_number();
+        self.numbers.push(NumberTexture {
+            slot: slot as u32,
+            texture,
+        });
+        Ok(Some(mean))
+    }
+
+    /// Whether the number `key` is a texture.
+    pub fn is_textured(&self, key: &str) -> bool {
+        let slot = self.textured_numbers.iter().position(|&k| k == key);
+        self.numbers.iter().any(|n| Some(n.slot as usize) == slot)
+    }
+
     /// The book's `albedo`: a vector in [0, 1] or a texture (whose mean it
     /// gives); `None` when absent.
     pub fn albedo(&mut self, t: &ParamTable, key: &str) -> Result<Option<Vec3>> {

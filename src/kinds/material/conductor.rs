@@ -34,6 +34,7 @@ pub(super) const CONDUCTOR: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: Some(MitsubaPlugin {
         name: "conductor",
         texture: Some("specular_reflectance"),

@@ -25,6 +25,7 @@ pub(super) const DIELECTRIC: MaterialModel = MaterialModel {
     tables: false,
     keys: &["type", "ior", "int_ior", "ext_ior"],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: None,
     nested: &[],
     diffuse_reflectance_is_albedo: false,

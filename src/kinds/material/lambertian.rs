@@ -30,6 +30,7 @@ pub(super) const LAMBERTIAN: MaterialModel = MaterialModel {
     tables: false,
     keys: &["type", "albedo", "emit", "one_sided"],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: None,
     nested: &[],
     diffuse_reflectance_is_albedo: true,

@@ -22,6 +22,7 @@ pub(super) const LIGHT: MaterialModel = MaterialModel {
     tables: false,
     keys: &["type", "emit"],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: None,
     nested: &[],
     diffuse_reflectance_is_albedo: false,

@@ -23,6 +23,7 @@ pub(super) const METAL: MaterialModel = MaterialModel {
     tables: false,
     keys: &["type", "albedo", "fuzz", "one_sided"],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: None,
     nested: &[],
     diffuse_reflectance_is_albedo: false,

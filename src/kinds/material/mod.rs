@@ -84,6 +84,12 @@ pub struct MaterialModel {
     pub keys: &'static [&'static str],
     /// What an unknown key's message adds about the keys (`isotropic: ...`).
     pub keys_note: Option<&'static str>,
+    /// Its numbers (of `keys`) that may be textures, as in Mitsuba, where a
+    /// texture is read at the hit as one number ([`Texture::eval_number`]).
+    /// A number's slot is its index here: `Material::number_textures` names
+    /// it so, and the module reads it through `material_number` with the
+    /// generated constant `NUMBER_KIND_KEY` ([`MaterialModel::number_constant`]).
+    pub textured_numbers: &'static [&'static str],
     /// The Mitsuba 3 plugin it is, parameter for parameter (the book's kinds and
     /// pathmix's own: none).
     pub mitsuba: Option<MitsubaPlugin>,
@@ -125,6 +131,11 @@ impl MaterialModel {
     /// The WGSL constant holding its id (its index in [`MATERIAL_KINDS`]).
     pub fn id_constant(&self) -> String {
         format!("MATERIAL_{}", self.flag())
+    }
+
+    /// The WGSL constant holding the slot of its textured number `key`.
+    pub fn number_constant(&self, key: &str) -> String {
+        format!("NUMBER_{}_{}", self.flag(), key.to_uppercase())
     }
 
     /// The table it reads, as messages name it: `a roughplastic material`.
@@ -347,6 +358,12 @@ pub struct Material {
     /// dielectrics' `specular_reflectance`, plastics' `diffuse_reflectance`),
     /// which then holds the texture's mean; `blend`'s `weight`.
     pub texture: Option<Texture>,
+    /// The kind's numbers that are textures (`MaterialModel::textured_numbers`),
+    /// whose packed values then hold the textures' means. Left out of the
+    /// serialized material when empty, so the checkpoint identities of scenes
+    /// without one are as before.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub number_textures: Vec<NumberTexture>,
     /// A bump or normal map (Mitsuba's `bumpmap`, `normalmap`). Left out of
     /// the serialized material when absent, so the checkpoint identities of
     /// scenes without one are as before.
@@ -358,6 +375,18 @@ pub struct Material {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub nested: Vec<String>,
 }
+
+/// A material's number given by a texture.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NumberTexture {
+    /// Its slot: its key's index in the kind's `MaterialModel::textured_numbers`.
+    pub slot: u32,
+    pub texture: Texture,
+}
+
+/// The most textured numbers a kind has: the kernel keeps which of them a
+/// hit's material has textured as the bits of one `u32`.
+pub const MATERIAL_NUMBER_SLOTS: usize = 32;
 
 impl Material {
     pub fn emits(&self) -> bool {
@@ -396,7 +425,7 @@ impl Material {
             keys.extend(bump::BUMP_KEYS);
         }
         t.check_keys(&keys, Some(&model.what()))?;
-        let mut slot = TextureSlot::default();
+        let mut slot = TextureSlot::new(model.textured_numbers);
         let Parsed { kind, albedo, emit } = (model.parse)(t, &mut slot)?;
         let bump = match scatters {
             true => bump::parse_bump(t)?,
@@ -425,6 +454,7 @@ impl Material {
             opacity,
             opacity_texture,
             texture: slot.texture,
+            number_textures: slot.numbers,
             bump,
             nested,
         })
@@ -501,6 +531,32 @@ pub struct MaterialTables {
 }
 
 impl MaterialTables {
+    /// Tables that begin with one entry per material (of `materials`), the
+    /// offset of the list of its textured numbers (0: none), which
+    /// [`MaterialTables::add_number_textures`] fills; the kernel reads it by
+    /// the hit's material index where the material has the flag
+    /// `MATERIAL_TEXTURED_NUMBERS` (`texture_numbers`, textures.wgsl). Scenes
+    /// without textured numbers pack their tables as before, without it.
+    pub fn with_number_directory(materials: usize) -> MaterialTables {
+        MaterialTables {
+            values: vec![0.0; materials],
+            ..MaterialTables::default()
+        }
+    }
+
+    /// Material `material`'s textured numbers as its list: the count, then
+    /// each (slot, texture index), all exact as floats; its directory entry
+    /// the list's offset.
+    pub fn add_number_textures(&mut self, material: usize, pairs: &[(u32, u32)]) {
+        let mut list = vec![pairs.len() as f32];
+        list.extend(
+            pairs
+                .iter()
+                .flat_map(|&(slot, texture)| [slot as f32, texture as f32]),
+        );
+        self.values[material] = self.push(&list) as f32;
+    }
+
     /// Appends `values`; their offset.
     fn push(&mut self, values: &[f32]) -> u32 {
         let offset = self.values.len() as u32;
@@ -615,6 +671,33 @@ mod tests {
         let e = read("type = \"lambertian\"\nalbedo = [0.5, 0.5, 0.5]\nopacity = 1.5").unwrap_err();
         assert_eq!(e.location, "materials.red.opacity");
         assert!(e.message.contains("must be in [0, 1], got 1.5"), "{e}");
+    }
+
+    /// With textured numbers the tables begin with one entry per material,
+    /// the offset of its list (count, then slot and texture index pairs);
+    /// the kinds' own tables follow. Every kind's textured numbers fit the
+    /// kernel's bits.
+    #[test]
+    fn textured_numbers_are_listed_after_a_directory() {
+        let mut tables = MaterialTables::with_number_directory(3);
+        let coat = tables.push(&[7.0]);
+        assert_eq!(coat, 3);
+        tables.add_number_textures(1, &[(0, 5), (4, 6)]);
+        assert_eq!(tables.values, [0.0, 4.0, 0.0, 7.0, 2.0, 0.0, 5.0, 4.0, 6.0]);
+        for kind in MATERIAL_KINDS {
+            assert!(
+                kind.textured_numbers.len() <= MATERIAL_NUMBER_SLOTS,
+                "{}",
+                kind.name
+            );
+            assert!(
+                kind.textured_numbers
+                    .iter()
+                    .all(|key| kind.keys.contains(key)),
+                "{}",
+                kind.name
+            );
+        }
     }
 
     #[test]

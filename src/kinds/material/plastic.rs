@@ -42,6 +42,7 @@ pub(super) const PLASTIC: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: Some(MitsubaPlugin {
         name: "plastic",
         texture: Some("diffuse_reflectance"),

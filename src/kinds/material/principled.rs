@@ -34,12 +34,19 @@
 //! and 0.788 at 80 degrees; a white default material with sheen and
 //! clearcoat 1.07 and 1.22).
 //!
-//! Only `base_color` may be a texture (pathmix's one texture per material).
+//! Each number in [0, 1] above may be a texture instead, as in Mitsuba (`eta`
+//! and `specular` may not): `roughness = { type = "bitmap", file =
+//! "rough.png", raw = true }`, read at the hit as one number as Mitsuba's
+//! `eval_1` reads it (a bitmap's luminance, a checkerboard colour's mean over
+//! its channels), unchecked, as Mitsuba leaves it, and the same for the
+//! BSDF's sampling and its density there.
 //!
 //! Packed: `albedo` = base_color, `param` = roughness, `param2` = the offset
 //! of its four numbers in `MaterialTables` (anisotropic, spec_tint,
 //! sheen_tint, flatness), `color2` = (metallic, spec_trans, eta), `color3` =
-//! (sheen, clearcoat, clearcoat_gloss). WGSL: `shaders/principled.wgsl`.
+//! (sheen, clearcoat, clearcoat_gloss); a textured number packs its
+//! texture's mean there, and the kernel reads the texture instead
+//! (`material_number`). WGSL: `shaders/principled.wgsl`.
 
 use super::common::{DISNEY, FRESNEL, MICROFACET, TextureSlot};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
@@ -47,19 +54,23 @@ use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result, check_positive, check_unit, fmt_num};
 use crate::shader::shader_module;
 
-/// Its parameters that are numbers in [0, 1], with Mitsuba's defaults.
-const WEIGHTS: [(&str, f32); 10] = [
-    ("roughness", 0.5),
-    ("anisotropic", 0.0),
-    ("metallic", 0.0),
-    ("spec_trans", 0.0),
-    ("spec_tint", 0.0),
-    ("sheen", 0.0),
-    ("sheen_tint", 0.0),
-    ("clearcoat", 0.0),
-    ("clearcoat_gloss", 0.0),
-    ("flatness", 0.0),
+/// Its numbers in [0, 1], each of which may be a texture: a number's slot
+/// (`MaterialModel::textured_numbers`) is its place here ...
+const WEIGHTS: [&str; 10] = [
+    "roughness",
+    "anisotropic",
+    "metallic",
+    "spec_trans",
+    "spec_tint",
+    "sheen",
+    "sheen_tint",
+    "clearcoat",
+    "clearcoat_gloss",
+    "flatness",
 ];
+
+/// ... and Mitsuba's defaults.
+const DEFAULTS: [f32; 10] = [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
 
 pub(super) const PRINCIPLED: MaterialModel = MaterialModel {
     name: "principled",
@@ -84,6 +95,7 @@ pub(super) const PRINCIPLED: MaterialModel = MaterialModel {
         "flatness",
     ],
     keys_note: None,
+    textured_numbers: &WEIGHTS,
     mitsuba: Some(MitsubaPlugin {
         name: "principled",
         texture: Some("base_color"),
@@ -125,8 +137,8 @@ fn check_specular(x: f32) -> std::result::Result<(), String> {
 
 fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let mut weights = [0.0f32; WEIGHTS.len()];
-    for (weight, (key, default)) in weights.iter_mut().zip(WEIGHTS) {
-        *weight = t.float(key, check_unit)?.unwrap_or(default);
+    for ((weight, key), default) in weights.iter_mut().zip(WEIGHTS).zip(DEFAULTS) {
+        *weight = slot.number(t, key, check_unit)?.unwrap_or(default);
     }
     let [
         roughness,
@@ -140,7 +152,8 @@ fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
         clearcoat_gloss,
         flatness,
     ] = weights;
-    let transmits = spec_trans != 0.0;
+    // Mitsuba's `has_spec_trans`: a texture transmits wherever it is not 0.
+    let transmits = spec_trans != 0.0 || slot.is_textured("spec_trans");
     let eta = match (
         t.float("eta", check_positive)?,
         t.float("specular", check_specular)?,
@@ -242,5 +255,32 @@ mod tests {
         assert!(e.message.contains("must be in [0, 1], got 1.5"), "{e}");
         let e = read("type = \"principled\"\neta = 1.4\nspecular = 0.3").unwrap_err();
         assert!(e.message.contains("not both"), "{e}");
+    }
+
+    /// A number may be a texture, kept by its slot with its mean packed; a
+    /// textured `spec_trans` transmits (Mitsuba's `has_spec_trans`) even where
+    /// its mean is 0; `eta` takes numbers only, as in Mitsuba.
+    #[test]
+    fn numbers_may_be_textures() {
+        let checks = "{ type = \"checkerboard\", color0 = 0.8, color1 = 0.2 }";
+        let m = read(&format!(
+            "type = \"principled\"\nmetallic = {checks}\nclearcoat = 0.5"
+        ))
+        .unwrap();
+        let MaterialKind::Principled { metallic, .. } = m.kind else {
+            panic!("{:?}", m.kind)
+        };
+        assert!((metallic - 0.5).abs() < 1e-6, "{metallic}");
+        let slots: Vec<u32> = m.number_textures.iter().map(|n| n.slot).collect();
+        assert_eq!(slots, [2]);
+        assert_eq!(WEIGHTS[2], "metallic");
+        let black = "{ type = \"checkerboard\", color0 = 0, color1 = 0 }";
+        let glass = read(&format!(
+            "type = \"principled\"\nspec_trans = {black}\neta = 1"
+        ))
+        .unwrap();
+        assert!(matches!(glass.kind, MaterialKind::Principled { eta, .. } if eta == 1.001));
+        let e = read(&format!("type = \"principled\"\neta = {checks}")).unwrap_err();
+        assert_eq!(e.location, "materials.red.eta");
     }
 }

@@ -16,13 +16,18 @@
 //!   the diffuse lobes is half of it, as in Mitsuba);
 //! - `eta` (> 0, default 1.5): the sheet's index.
 //!
-//! Only `base_color` may be a texture (pathmix's one texture per material).
-//! Mitsuba's sampling-rate parameters are not read.
+//! Each number above may be a texture instead, as in Mitsuba (`eta` too):
+//! `diff_trans = { type = "checkerboard", color0 = 1, color1 = 0.2 }`, read
+//! at the hit as one number as Mitsuba's `eval_1` reads it (a bitmap's
+//! luminance, a checkerboard colour's mean over its channels), unchecked, as
+//! Mitsuba leaves it. Mitsuba's sampling-rate parameters are not read.
 //!
 //! Packed: `albedo` = base_color, `param` = roughness, `param2` = the offset
 //! of its four numbers in `MaterialTables` (anisotropic, spec_tint,
 //! sheen_tint, flatness), `color2` = (spec_trans, eta, diff_trans / 2),
-//! `color3.x` = sheen. WGSL: `shaders/principledthin.wgsl`.
+//! `color3.x` = sheen; a textured number packs its texture's mean there, and
+//! the kernel reads the texture instead (`material_number`). WGSL:
+//! `shaders/principledthin.wgsl`.
 
 use super::common::{DISNEY, FRESNEL, MICROFACET, TextureSlot};
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
@@ -39,6 +44,20 @@ const WEIGHTS: [(&str, f32); 7] = [
     ("sheen", 0.0),
     ("sheen_tint", 0.0),
     ("flatness", 0.0),
+];
+
+/// The numbers that may be textures, as in Mitsuba: the weights, the index
+/// and `diff_trans`; a number's slot is its place here.
+const TEXTURED: [&str; 9] = [
+    "roughness",
+    "anisotropic",
+    "spec_trans",
+    "spec_tint",
+    "sheen",
+    "sheen_tint",
+    "flatness",
+    "eta",
+    "diff_trans",
 ];
 
 pub(super) const PRINCIPLEDTHIN: MaterialModel = MaterialModel {
@@ -61,6 +80,7 @@ pub(super) const PRINCIPLEDTHIN: MaterialModel = MaterialModel {
         "diff_trans",
     ],
     keys_note: None,
+    textured_numbers: &TEXTURED,
     mitsuba: Some(MitsubaPlugin {
         name: "principledthin",
         texture: Some("base_color"),
@@ -93,7 +113,7 @@ fn check_diff_trans(x: f32) -> std::result::Result<(), String> {
 fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let mut weights = [0.0f32; WEIGHTS.len()];
     for (weight, (key, default)) in weights.iter_mut().zip(WEIGHTS) {
-        *weight = t.float(key, check_unit)?.unwrap_or(default);
+        *weight = slot.number(t, key, check_unit)?.unwrap_or(default);
     }
     let [
         roughness,
@@ -109,12 +129,12 @@ fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
         roughness,
         anisotropic,
         spec_trans,
-        eta: t.float("eta", check_positive)?.unwrap_or(1.5),
+        eta: slot.number(t, "eta", check_positive)?.unwrap_or(1.5),
         spec_tint,
         sheen,
         sheen_tint,
         flatness,
-        diff_trans: t.float("diff_trans", check_diff_trans)?.unwrap_or(0.0),
+        diff_trans: (slot.number(t, "diff_trans", check_diff_trans)?).unwrap_or(0.0),
     }
     .into())
 }

@@ -5,6 +5,9 @@
 //! - `distribution` (`"beckmann"`, the default, or `"ggx"`);
 //! - `alpha` (roughness in (0, 1], default 0.1), or `alpha_u` and `alpha_v`
 //!   together (anisotropic, along the two tangents of the shading frame);
+//!   each may be a texture, as in Mitsuba, read at the hit as one number as
+//!   Mitsuba's `eval_1` reads it (a bitmap's luminance, a checkerboard
+//!   colour's channel mean), at least `MIN_ALPHA` there too;
 //! - `material`, or `eta` and `k`; `specular_reflectance` (default 1, or a
 //!   texture); `one_sided`: as for `conductor`.
 //!
@@ -12,8 +15,8 @@
 //! `MIN_ALPHA`), `flags` the distribution. WGSL: `shaders/roughconductor.wgsl`.
 
 use super::common::{
-    FRESNEL, MICROFACET, MIN_ALPHA, TextureSlot, beckmann_flag, conductor_index, conductor_ior,
-    distribution, roughness,
+    FRESNEL, MICROFACET, MIN_ALPHA, ROUGHNESS_NUMBERS, TextureSlot, beckmann_flag, conductor_index,
+    conductor_ior, distribution, roughness,
 };
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
@@ -39,6 +42,7 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: None,
+    textured_numbers: &ROUGHNESS_NUMBERS,
     mitsuba: Some(MitsubaPlugin {
         name: "roughconductor",
         texture: Some("specular_reflectance"),
@@ -52,7 +56,7 @@ pub(super) const ROUGHCONDUCTOR: MaterialModel = MaterialModel {
 
 fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let distribution = distribution(t)?;
-    let (alpha_u, alpha_v) = roughness(t)?;
+    let (alpha_u, alpha_v) = roughness(t, slot)?;
     let (eta, k) = conductor_ior(t)?;
     let specular_reflectance = slot.colour(t, "specular_reflectance", 1.0)?;
     Ok(MaterialKind::RoughConductor {
@@ -122,5 +126,27 @@ mod tests {
         assert_eq!(packed.flags & material_flag("MATERIAL_BECKMANN"), 0);
         let e = read("type = \"roughconductor\"\nalpha = 0.1\nalpha_v = 0.2").unwrap_err();
         assert_eq!(e.location, "materials.red.alpha_v");
+    }
+
+    /// `alpha` as a texture stands for both (its slot, its mean packed in
+    /// both); `alpha_u` as one keeps `alpha_v` a number.
+    #[test]
+    fn its_roughness_may_be_a_texture() {
+        let checks = "{ type = \"checkerboard\", color0 = 0.4, color1 = 0.2 }";
+        let m = read(&format!("type = \"roughconductor\"\nalpha = {checks}")).unwrap();
+        assert!(
+            matches!(m.kind, MaterialKind::RoughConductor { alpha_u, alpha_v, .. }
+            if (alpha_u - 0.3).abs() < 1e-6 && alpha_u == alpha_v)
+        );
+        let slots: Vec<u32> = m.number_textures.iter().map(|n| n.slot).collect();
+        assert_eq!(slots, [0]);
+        let m = read(&format!(
+            "type = \"roughconductor\"\nalpha_u = {checks}\nalpha_v = 0.05"
+        ))
+        .unwrap();
+        assert!(matches!(m.kind, MaterialKind::RoughConductor { alpha_v, .. } if alpha_v == 0.05));
+        let slots: Vec<u32> = m.number_textures.iter().map(|n| n.slot).collect();
+        assert_eq!(slots, [1]);
+        assert_eq!(ROUGHNESS_NUMBERS[1], "alpha_u");
     }
 }

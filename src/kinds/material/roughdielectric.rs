@@ -4,7 +4,7 @@
 //!
 //! - `distribution` (`"beckmann"`, the default, or `"ggx"`);
 //! - `alpha` (roughness in (0, 1], default 0.1), or `alpha_u` and `alpha_v`
-//!   together (anisotropic);
+//!   together (anisotropic); each may be a texture, as for `roughconductor`;
 //! - `int_ior` (default `"bk7"`, 1.5046), `ext_ior` (default `"air"`,
 //!   1.000277): numbers > 0 or Mitsuba's names (`"water"`, `"diamond"`, ...,
 //!   `NAMED_IORS`); their ratio must be at least `MIN_ROUGH_IOR_CONTRAST` from 1;
@@ -17,8 +17,8 @@
 //! distribution. WGSL: `shaders/roughdielectric.wgsl`.
 
 use super::common::{
-    FRESNEL, IOR_BK7, MICROFACET, MIN_ALPHA, TextureSlot, beckmann_flag, distribution, iors,
-    roughness,
+    FRESNEL, IOR_BK7, MICROFACET, MIN_ALPHA, ROUGHNESS_NUMBERS, TextureSlot, beckmann_flag,
+    distribution, iors, roughness,
 };
 use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, MitsubaPlugin, Parsed};
 use crate::abi::PackedMaterial;
@@ -43,6 +43,7 @@ pub(super) const ROUGHDIELECTRIC: MaterialModel = MaterialModel {
         "specular_transmittance",
     ],
     keys_note: None,
+    textured_numbers: &ROUGHNESS_NUMBERS,
     mitsuba: Some(MitsubaPlugin {
         name: "roughdielectric",
         texture: Some("specular_reflectance"),
@@ -61,7 +62,7 @@ const MIN_ROUGH_IOR_CONTRAST: f32 = 1e-3;
 
 fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
     let distribution = distribution(t)?;
-    let (alpha_u, alpha_v) = roughness(t)?;
+    let (alpha_u, alpha_v) = roughness(t, slot)?;
     let (int_ior, ext_ior) = iors(t, IOR_BK7)?;
     let eta = int_ior / ext_ior;
     if (eta - 1.0).abs() < MIN_ROUGH_IOR_CONTRAST {

@@ -43,6 +43,7 @@ pub(super) const ROUGHPLASTIC: MaterialModel = MaterialModel {
         "one_sided",
     ],
     keys_note: Some("isotropic: `alpha` only"),
+    textured_numbers: &[],
     mitsuba: Some(MitsubaPlugin {
         name: "roughplastic",
         texture: Some("diffuse_reflectance"),

@@ -33,6 +33,7 @@ pub(super) const SMOOTHDIELECTRIC: MaterialModel = MaterialModel {
     tables: false,
     keys: INTERFACE_KEYS,
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: Some(MitsubaPlugin {
         name: "dielectric",
         texture: None,

@@ -30,6 +30,7 @@ pub(super) const THINDIELECTRIC: MaterialModel = MaterialModel {
     tables: false,
     keys: INTERFACE_KEYS,
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: Some(MitsubaPlugin {
         name: "thindielectric",
         texture: None,

@@ -43,6 +43,7 @@ pub(super) const TWOSIDED: MaterialModel = MaterialModel {
     tables: false,
     keys: &["type", "front", "back", "emit"],
     keys_note: None,
+    textured_numbers: &[],
     mitsuba: None,
     nested: &["front", "back"],
     diffuse_reflectance_is_albedo: false,

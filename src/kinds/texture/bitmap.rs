@@ -19,7 +19,8 @@
 //! - `to_uv` as every texture.
 //!
 //! Bitmaps of one file read the same way share their texels in the kernel's
-//! texel array. Its mean is the texels' average. Mitsuba's `bitmap` becomes
+//! texel array. Its mean is the texels' average. Where a material's number is
+//! a bitmap, it reads the texels' luminance, as Mitsuba's `eval_1`. Mitsuba's `bitmap` becomes
 //! one; it is the texture bump and normal maps take (`kinds::Bump`).
 
 use super::{
@@ -207,6 +208,15 @@ impl TextureValue for Bitmap {
         }
     }
 
+    /// Mitsuba's `eval_1` reads an RGB image as its luminance.
+    fn eval_number(&self, uv: Vec2) -> f32 {
+        self.eval(uv).dot(LUMINANCE)
+    }
+
+    fn mean_number(&self) -> f32 {
+        self.mean().dot(LUMINANCE)
+    }
+
     fn pack(&self, info: &mut TextureInfo, tables: &mut TextureTables) {
         let key = (self.file.clone(), self.raw);
         let offset = match tables.bitmaps.iter().find(|(k, _)| *k == key) {
@@ -225,6 +235,9 @@ impl TextureValue for Bitmap {
         info.nearest = (self.filter == TextureFilter::Nearest) as u32;
     }
 }
+
+/// Mitsuba's `luminance` of a linear RGB colour (Rec. 709 weights).
+const LUMINANCE: Vec3 = Vec3::new(0.212671, 0.715160, 0.072169);
 
 /// The largest texel value of a texture, which scales the light a surface
 /// sends on: a reflectance, which Mitsuba lets exceed 1 (a surface that adds
@@ -375,6 +388,9 @@ mod tests {
         let mirror = two_by_two(WrapMode::Mirror);
         assert!(close(mirror.eval(Vec2::new(1.1, 0.3)), [0.1, 1.0, 0.1]));
         assert!(close(mirror.eval(Vec2::new(-0.1, 0.3)), [0.9, 0.0, 0.1]));
+        // As a number (`eval_1`): the luminance.
+        assert!((repeat.eval_number(Vec2::new(0.25, 0.25)) - 0.212671).abs() < 1e-6);
+        assert!((repeat.eval_number(Vec2::new(0.1, 0.3)) - 0.362128).abs() < 1e-6);
     }
 
     #[test]

@@ -8,7 +8,10 @@
 //!
 //! `color0` (default 0.4) and `color1` (default 0.2): reflectances, a vector
 //! or one number for grey, in [0, 1]; `to_uv` as every texture. Its mean is
-//! the two colours' average. Mitsuba's `checkerboard` becomes one.
+//! the two colours' average. Where a material's number is a checkerboard, it
+//! reads as Mitsuba's `eval_1` reads it: the colours swapped (`color1` where
+//! the fractional parts are both above one half or both not), each as its
+//! mean over its channels. Mitsuba's `checkerboard` becomes one.
 
 use super::{TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue};
 use crate::kinds::params::{ParamTable, Result, reflectance};
@@ -48,6 +51,21 @@ impl TextureValue for Checkerboard {
         }
     }
 
+    /// Mitsuba's `eval_1` takes `color1` where `eval` takes `color0` and the
+    /// reverse (checkerboard.cpp), and reads a colour (`srgb`) as its
+    /// channels' mean.
+    fn eval_number(&self, uv: Vec2) -> f32 {
+        let swapped = Checkerboard {
+            color0: self.color1,
+            color1: self.color0,
+        };
+        swapped.eval(uv).element_sum() / 3.0
+    }
+
+    fn mean_number(&self) -> f32 {
+        self.mean().element_sum() / 3.0
+    }
+
     fn pack(&self, info: &mut TextureInfo, _: &mut TextureTables) {
         info.color0 = self.color0.to_array();
         info.color1 = self.color1.to_array();
@@ -81,6 +99,23 @@ mod tests {
         };
         assert_eq!(shifted.eval(Vec2::new(0.1, 0.1)), blue);
         assert_eq!(shifted.eval(Vec2::new(0.3, 0.1)), red);
+    }
+
+    /// As a number, what Mitsuba 3.9.1's `eval_1` gives (scalar_rgb, these
+    /// colours): the colours' channel means, swapped against `eval`.
+    #[test]
+    fn its_number_is_mitsubas_eval_1() {
+        let t = Texture {
+            kind: TextureKind::Checkerboard(Checkerboard {
+                color0: Vec3::new(0.9, 0.6, 0.3),
+                color1: Vec3::new(0.0, 0.0, 0.3),
+            }),
+            to_uv: UvTransform::IDENTITY,
+        };
+        assert_eq!(t.eval(Vec2::new(0.25, 0.25)), Vec3::new(0.9, 0.6, 0.3));
+        assert!((t.eval_number(Vec2::new(0.25, 0.25)) - 0.1).abs() < 1e-7);
+        assert!((t.eval_number(Vec2::new(0.75, 0.25)) - 0.6).abs() < 1e-7);
+        assert!((t.mean_number() - 0.35).abs() < 1e-7);
     }
 
     /// The checkpoint identity encodes it as it did the variant's fields

@@ -150,6 +150,10 @@ trait TextureValue {
     fn mean(&self) -> Vec3;
     /// [`Texture::eval`] at `uv` after `to_uv`.
     fn eval(&self, uv: Vec2) -> Vec3;
+    /// [`Texture::eval_number`] at `uv` after `to_uv`.
+    fn eval_number(&self, uv: Vec2) -> f32;
+    /// [`Texture::mean_number`].
+    fn mean_number(&self) -> f32;
     /// Fills its parameters in `info`, its texels in `tables`.
     fn pack(&self, info: &mut TextureInfo, tables: &mut TextureTables);
 }
@@ -243,6 +247,18 @@ impl Texture {
     /// The texture's value at `uv`, as `shaders/textures.wgsl` computes it.
     pub fn eval(&self, uv: Vec2) -> Vec3 {
         self.kind.value().eval(self.to_uv.apply(uv))
+    }
+
+    /// Its value at `uv` where a material's parameter is a number, as
+    /// Mitsuba's `eval_1` reads it (each kind's file says how), and as
+    /// `shaders/textures.wgsl`'s `texture_eval_number` computes it.
+    pub fn eval_number(&self, uv: Vec2) -> f32 {
+        self.kind.value().eval_number(self.to_uv.apply(uv))
+    }
+
+    /// The mean of [`Texture::eval_number`] over the texture.
+    pub fn mean_number(&self) -> f32 {
+        self.kind.value().mean_number()
     }
 }
 
