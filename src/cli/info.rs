@@ -73,7 +73,10 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
     );
     if !scene.render.aovs.is_empty() {
         let aovs: Vec<String> = scene.render.aovs.iter().map(|aov| aov.spec()).collect();
-        println!("  AOVs (in the EXR, by a pass of their own): {}", aovs.join(", "));
+        println!(
+            "  AOVs (in the EXR, by a pass of their own): {}",
+            aovs.join(", ")
+        );
     }
     let kinds: Vec<&str> = MATERIAL_KINDS
         .iter()
