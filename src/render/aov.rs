@@ -22,17 +22,25 @@ pub struct AovImage {
     pub channels: Vec<(String, Vec<f32>)>,
 }
 
+/// The `uv` AOV needs the texture coordinates that only a scene with
+/// textures packs (`has_textures`): refused before any sample where it lacks them.
+pub(super) fn check_texture_coordinates(
+    aovs: &[Aov],
+    has_textures: bool,
+) -> Result<(), RenderError> {
+    match aovs.iter().find(|aov| aov.kind == AovKind::Uv) {
+        Some(aov) if !has_textures => Err(RenderError::UvAovWithoutTextures { aov: aov.spec() }),
+        _ => Ok(()),
+    }
+}
+
 impl Renderer<'_> {
     /// The AOVs `aovs` of this renderer's scene: each pixel's mean over the
     /// camera rays of its sample indices `first_sample()..` up to `samples`
     /// (at least one), drawn as the image's are.
     pub fn render_aovs(&self, aovs: &[Aov], samples: u32) -> Result<AovImage, RenderError> {
         let kinds = aov_kinds(aovs);
-        if let Some(aov) = aovs.iter().find(|aov| aov.kind == AovKind::Uv) {
-            if !self.kernel.config.textures {
-                return Err(RenderError::UvAovWithoutTextures { aov: aov.spec() });
-            }
-        }
+        check_texture_coordinates(aovs, self.kernel.config.textures)?;
         let device = &self.ctx.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let kernel = self.ctx.kernel(self.kernel.config.for_aovs(&kinds))?;

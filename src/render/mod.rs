@@ -20,7 +20,7 @@ use crate::kernel::{
 };
 use crate::kinds::{MASK_RAY_HITS, MATERIAL_NESTING, PRIMITIVE_KINDS};
 use crate::pack::{CameraFrame, SceneData};
-use crate::scene::{AovKind, Filter, Reconstruction, Sampler, Scene, Strategy};
+use crate::scene::{Filter, Reconstruction, Sampler, Scene, Strategy};
 use crate::shader::ComposeError;
 use crate::stats::{Accumulation, Replicates};
 use std::cell::OnceCell;
@@ -1111,11 +1111,7 @@ pub fn plan_kernel(
     }
     let (used, dropped_materials) = scene.without_unused_materials();
     let (data, strategy, warnings) = prepare_scene(&used, settings.strategy)?;
-    if let Some(aov) = (settings.aovs.iter()).find(|aov| aov.kind == AovKind::Uv) {
-        if data.textures.is_empty() {
-            return Err(RenderError::UvAovWithoutTextures { aov: aov.spec() });
-        }
-    }
+    aov::check_texture_coordinates(&settings.aovs, !data.textures.is_empty())?;
     let (width, height) = (scene.camera.width, scene.camera.height);
     let accumulator_kind = choose_accumulator(ctx, options.accumulator, width, height)?;
     // The general kernel reads the scene from buffers, as a kernel not specialised
