@@ -579,7 +579,7 @@ impl MaterialTables {
 
 /// [`CoatTables::new`] for a coat, computed once per
 /// process: a run may pack its scene once per kernel (the `auto` strategy's pilot
-/// candidates, `converge`'s variants), and each coat costs a million samples.
+/// candidates, `converge`'s variants), and each coat costs a million normals.
 fn coat_tables(key: CoatKey) -> CoatTables {
     static COMPUTED: Mutex<Vec<(CoatKey, CoatTables)>> = Mutex::new(Vec::new());
     let mut computed = COMPUTED
