@@ -9,12 +9,12 @@
 // above MATERIAL_TRANSPARENCY_SHIFT of its kind, in fixed point
 // (`kinds::material::MATERIAL_TRANSPARENCY_SHIFT`), or, with the flag
 // MATERIAL_OPACITY_TEXTURE, its opacity texture's index + 1 there: the opacity
-// is then the texture's luminance at the hit, clamped to [0, 1] (Mitsuba's
-// `eval_1` of a bitmap), and the path draws against it as against a constant.
+// is then the texture's value as a number at the hit, clamped to [0, 1]
+// (Mitsuba's `eval_1`), and the path draws against it as against a constant.
 fn material_transparency(m: Material, hit: Hit) -> f32 {
 #if OPACITY_TEXTURES
     if (m.flags & MATERIAL_OPACITY_TEXTURE) != 0u {
-        let opacity = dot(texture_eval((m.kind >> MATERIAL_TRANSPARENCY_SHIFT) - 1u, hit.uv), vec3<f32>(0.212671, 0.715160, 0.072169));
+        let opacity = texture_eval_number((m.kind >> MATERIAL_TRANSPARENCY_SHIFT) - 1u, hit.uv);
         return 1.0 - clamp(opacity, 0.0, 1.0);
     }
 #endif

@@ -183,14 +183,15 @@ fn resolve_material(found: Material, front_face: bool, hit: Hit) -> Resolved {
 #endif
 #if BLEND
         if kind == MATERIAL_BLEND {
-            // `second` with probability `weight` (its texture's luminance at
-            // the hit, else the constant): one random number per hit, drawn at
-            // the first blend, its rest reused by blends nested below.
+            // `second` with probability `weight` (its texture's value as a
+            // number at the hit, else the constant): one random number per
+            // hit, drawn at the first blend, its rest reused by blends nested
+            // below.
             var weight = m.param;
 #if TEXTURES
             let texture = (m.flags >> MATERIAL_TEXTURE_SHIFT) & ((1u << MATERIAL_TEXTURE_BITS) - 1u);
             if texture != 0u {
-                weight = clamp(dot(texture_eval(texture - 1u, hit.uv), vec3<f32>(0.212671, 0.715160, 0.072169)), 0.0, 1.0);
+                weight = clamp(texture_eval_number(texture - 1u, hit.uv), 0.0, 1.0);
             }
 #endif
             if u < 0.0 {

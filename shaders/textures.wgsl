@@ -68,9 +68,9 @@ fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {
     return (1.0 - f.y) * top + f.y * bottom;
 }
 
-#if TEXTURED_NUMBERS
-// Texture `index` at `surface_uv` as one number, as Mitsuba's `eval_1` reads a
-// float texture (`kinds::Texture::eval_number`): a bitmap's luminance; a
+// Texture `index` at `surface_uv` as one number (a material's textured number,
+// a mask's opacity, a blend's weight), as Mitsuba's `eval_1` reads a float
+// texture (`kinds::Texture::eval_number`): a bitmap's luminance; a
 // checkerboard's colours swapped against `texture_eval` (checkerboard.cpp's
 // eval_1 takes color1 where its eval takes color0), each its channels' mean.
 fn texture_eval_number(index: u32, surface_uv: vec2<f32>) -> f32 {
@@ -84,6 +84,7 @@ fn texture_eval_number(index: u32, surface_uv: vec2<f32>) -> f32 {
     return dot(texture_eval(index, surface_uv), vec3<f32>(0.212671, 0.715160, 0.072169));
 }
 
+#if TEXTURED_NUMBERS
 // Looks up the textured numbers of material `m` (index `index` in
 // `materials`) at `uv` for `material_number` (materials.wgsl): its list in
 // `material_tables` (`kinds::MaterialTables::with_number_directory`: at the

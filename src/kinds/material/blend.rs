@@ -13,8 +13,9 @@
 //!   tables, as for `twosided`: any kind, at most `MATERIAL_NESTING` (4) deep,
 //!   no cycle, neither emitting nor masked;
 //! - `weight` (number in [0, 1], default 0.5, Mitsuba's), or a texture whose
-//!   luminance is the weight where a ray hits (Mitsuba's `eval_1`: an RGB
-//!   bitmap's luminance; keep its texels in [0, 1]): 0 is `first` alone, 1
+//!   value as a number is the weight where a ray hits (Mitsuba's `eval_1`: an
+//!   RGB bitmap's luminance, a checkerboard's colours swapped, each its
+//!   channels' mean; keep its texels in [0, 1]): 0 is `first` alone, 1
 //!   `second` alone;
 //! - `emit` (vector, components >= 0, default 0), as `lambertian`'s;
 //! - `opacity` (number in [0, 1], or a texture; default 1), as on every material.
@@ -27,7 +28,7 @@
 //! contribution is the blended BSDF's, so the estimate is unbiased; it is
 //! noisier than evaluating both where the two differ much. Under the kernel
 //! flag `NESTED_MATERIALS` (`resolve_material`, materials.wgsl). Packed: the
-//! constant weight in `param` (a texture's: the luminance of its mean), the
+//! constant weight in `param` (a texture's: its mean as a number), the
 //! two materials' indices in `color2.xy` (as floats, `kinds::packed_nested`,
 //! set by `SceneData::pack`), the texture as every kind's. No WGSL module.
 
@@ -36,7 +37,6 @@ use super::{Lobe, Material, MaterialKind, MaterialModel, MaterialTables, Parsed}
 use crate::abi::PackedMaterial;
 use crate::kinds::params::{ParamTable, Result, check_nonneg, check_unit};
 use glam::Vec3;
-use toml::Value;
 
 pub(super) const BLEND: MaterialModel = MaterialModel {
     name: "blend",
@@ -54,15 +54,10 @@ pub(super) const BLEND: MaterialModel = MaterialModel {
     pack,
 };
 
-/// Mitsuba's `luminance` of a linear RGB colour.
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.212671, 0.715160, 0.072169))
-}
-
 fn parse(t: &ParamTable, slot: &mut TextureSlot) -> Result<Parsed> {
-    let weight = match t.table.get("weight").is_some_and(Value::is_table) {
-        true => luminance(slot.texture(t, "weight")?.expect("a table")),
-        false => t.float("weight", check_unit)?.unwrap_or(0.5),
+    let weight = match slot.texture(t, "weight")? {
+        Some(_) => slot.texture.as_ref().expect("kept").mean_number(),
+        None => t.float("weight", check_unit)?.unwrap_or(0.5),
     };
     Ok(Parsed {
         kind: MaterialKind::Blend { weight },

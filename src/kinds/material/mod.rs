@@ -347,8 +347,9 @@ pub struct Material {
     /// null event), and a shadow ray is let through by `1 - opacity`. 1: opaque.
     /// 1 where `opacity_texture` gives it instead.
     pub opacity: f32,
-    /// A texture whose luminance at the hit, clamped to [0, 1], is the opacity
-    /// (Mitsuba's `mask` with a textured `opacity`, as its `eval_1` reads it).
+    /// A texture whose value as a number at the hit (`Texture::eval_number`),
+    /// clamped to [0, 1], is the opacity (Mitsuba's `mask` with a textured
+    /// `opacity`, as its `eval_1` reads it).
     /// Left out of the serialized material when absent, so the checkpoint
     /// identities of scenes without one are as before.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -431,7 +432,7 @@ impl Material {
             true => bump::parse_bump(t)?,
             false => None,
         };
-        // `opacity`: a number, or a texture whose luminance it is.
+        // `opacity`: a number, or a texture whose value as a number it is.
         let opacity_texture = match t.table.get(OPACITY).is_some_and(Value::is_table) {
             true => Some(Texture::parse(&t.sub(OPACITY)?.expect("a table"))?),
             false => None,
