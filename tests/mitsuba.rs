@@ -62,6 +62,22 @@ fn halved(image: &Image) -> Image {
 const ROUGHPLASTIC_REFERENCE: &str = "tests/data/roughplastic-spheres-mitsuba-64.exr";
 const ROUGHPLASTIC_REFERENCE_SPP: f64 = 16384.0;
 
+/// `tests/data/NAME` at 256 spp (its `spp` define).
+fn test_scene(name: &str) -> Scene {
+    let xml = repo(&format!("tests/data/{name}"));
+    Scene::load_with(&xml, &defines(&[("spp", "256")]))
+        .unwrap()
+        .scene
+}
+
+/// Asserts that `scene` agrees with Mitsuba's `reference` (`against_reference`),
+/// and prints by how much under `name`.
+fn assert_agrees(name: &str, scene: &Scene, reference: &Image, reference_spp: f64) {
+    let agreed = against_reference(scene, reference, reference_spp);
+    assert!(agreed.is_ok(), "{name}: {agreed:?}");
+    eprintln!("{name} against Mitsuba: {}", agreed.unwrap());
+}
+
 /// How pathmix's render of `scene` departs from `reference` (rendered by Mitsuba at
 /// `reference_spp`), in units of the noise both carry (pathmix's per-pixel standard
 /// error; the reference's from its sample count, at Mitsuba's per-sample variance,
@@ -170,20 +186,17 @@ fn roughplastic_spheres_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(ROUGHPLASTIC_REFERENCE)).unwrap();
-    let xml = repo("tests/data/roughplastic-spheres.xml");
-    let mut scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
+    let mut scene = test_scene("roughplastic-spheres.xml");
     assert_eq!(
         scene.render.sampler,
         Sampler::Sobol,
         "Mitsuba's independent, as pathmix renders it"
     );
-    let agreed = against_reference(&scene, &reference, ROUGHPLASTIC_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!(
-        "roughplastic-spheres.xml against Mitsuba: {}",
-        agreed.unwrap()
+    assert_agrees(
+        "roughplastic-spheres.xml",
+        &scene,
+        &reference,
+        ROUGHPLASTIC_REFERENCE_SPP,
     );
     for material in &mut scene.materials {
         if let MaterialKind::RoughPlastic { alpha, .. } = &mut material.kind {
@@ -210,14 +223,9 @@ fn cylinders_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(CYLINDERS_REFERENCE)).unwrap();
-    let xml = repo("tests/data/cylinders.xml");
-    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
+    let scene = test_scene("cylinders.xml");
     assert_eq!(scene.shapes.cylinders.len(), 3);
-    let agreed = against_reference(&scene, &reference, CYLINDERS_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("cylinders.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees("cylinders.xml", &scene, &reference, CYLINDERS_REFERENCE_SPP);
     let mut unflipped = scene.clone();
     for cylinder in &mut unflipped.shapes.cylinders {
         cylinder.flip_normals = false;
@@ -238,6 +246,48 @@ fn cylinders_match_mitsuba() {
     }
 }
 
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `volpath` in place of the file's `path`, whose
+/// shadow rays find no light through a mask; max_depth 6, independent sampler, box
+/// filter) of `tests/data/checker-mask-blend.xml` at 64x64 and 32768 spp (eight
+/// 4096-spp renders averaged).
+const CHECKER_MASK_BLEND_REFERENCE: &str = "tests/data/checker-mask-blend-mitsuba-64.exr";
+const CHECKER_MASK_BLEND_REFERENCE_SPP: f64 = 32768.0;
+
+/// A mask's opacity and a blend's weight that are checkerboards read them as
+/// Mitsuba's `eval_1` does (the colours swapped, each its channels' mean) and agree
+/// with Mitsuba's image; with the two checkerboards' colours swapped back, as
+/// their colour lookup reads them, they do not.
+#[test]
+fn checkerboard_opacity_and_blend_weight_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(CHECKER_MASK_BLEND_REFERENCE)).unwrap();
+    let scene = test_scene("checker-mask-blend.xml");
+    assert_agrees(
+        "checker-mask-blend.xml",
+        &scene,
+        &reference,
+        CHECKER_MASK_BLEND_REFERENCE_SPP,
+    );
+    let mut unswapped = scene.clone();
+    let mut swapped = 0;
+    for material in &mut unswapped.materials {
+        for texture in [&mut material.opacity_texture, &mut material.texture] {
+            if let Some(TextureKind::Checkerboard(Checkerboard { color0, color1 })) =
+                texture.as_mut().map(|t| &mut t.kind)
+            {
+                std::mem::swap(color0, color1);
+                swapped += 1;
+            }
+        }
+    }
+    assert_eq!(swapped, 2, "the opacity's and the weight's checkerboards");
+    let result = against_reference(&unswapped, &reference, CHECKER_MASK_BLEND_REFERENCE_SPP);
+    eprintln!("colours unswapped: {result:?}");
+    assert!(result.is_err(), "colours unswapped: {result:?}");
+}
+
 /// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
 /// filter) of `tests/data/delta-lights.xml` at 64x64 and 16384 spp, rendered once
 /// by `scripts/check-mitsuba-xml.py --write-reference`.
@@ -254,19 +304,19 @@ fn delta_lights_and_thindielectric_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(DELTA_LIGHTS_REFERENCE)).unwrap();
-    let xml = repo("tests/data/delta-lights.xml");
-    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
+    let scene = test_scene("delta-lights.xml");
     assert_eq!(
         scene.render.sampler,
         Sampler::Sobol,
         "Mitsuba's independent, as pathmix renders it"
     );
     assert_eq!(scene.point_lights.len(), 2);
-    let agreed = against_reference(&scene, &reference, DELTA_LIGHTS_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("delta-lights.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees(
+        "delta-lights.xml",
+        &scene,
+        &reference,
+        DELTA_LIGHTS_REFERENCE_SPP,
+    );
     let mut wider_beam = scene.clone();
     for light in &mut wider_beam.point_lights {
         if let Some(spot) = &mut light.spot {
@@ -319,13 +369,8 @@ fn textured_scene_matches_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(TEXTURED_REFERENCE)).unwrap();
-    let xml = repo("tests/data/textured.xml");
-    let mut scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
-    let agreed = against_reference(&scene, &reference, TEXTURED_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("textured.xml against Mitsuba: {}", agreed.unwrap());
+    let mut scene = test_scene("textured.xml");
+    assert_agrees("textured.xml", &scene, &reference, TEXTURED_REFERENCE_SPP);
     let mut swapped = 0;
     for material in &mut scene.materials {
         if let Some(TextureKind::Checkerboard(Checkerboard { color0, color1 })) =
@@ -485,15 +530,12 @@ fn principled_spheres_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(PRINCIPLED_REFERENCE)).unwrap();
-    let xml = repo("tests/data/principled-spheres.xml");
-    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
-    let agreed = against_reference(&scene, &reference, PRINCIPLED_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!(
-        "principled-spheres.xml against Mitsuba: {}",
-        agreed.unwrap()
+    let scene = test_scene("principled-spheres.xml");
+    assert_agrees(
+        "principled-spheres.xml",
+        &scene,
+        &reference,
+        PRINCIPLED_REFERENCE_SPP,
     );
     let changed = |change: fn(&mut MaterialKind)| {
         let mut changed = scene.clone();
@@ -561,19 +603,16 @@ fn principled_numbers_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(PRINCIPLED_NUMBERS_REFERENCE)).unwrap();
-    let xml = repo("tests/data/principled-numbers.xml");
-    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
+    let scene = test_scene("principled-numbers.xml");
     let textured: usize = (scene.materials.iter())
         .map(|m| m.number_textures.len())
         .sum();
     assert_eq!(textured, 13);
-    let agreed = against_reference(&scene, &reference, PRINCIPLED_NUMBERS_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!(
-        "principled-numbers.xml against Mitsuba: {}",
-        agreed.unwrap()
+    assert_agrees(
+        "principled-numbers.xml",
+        &scene,
+        &reference,
+        PRINCIPLED_NUMBERS_REFERENCE_SPP,
     );
     let mut untextured = scene.clone();
     for material in &mut untextured.materials {
@@ -615,17 +654,17 @@ fn rough_alpha_textures_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(ROUGH_ALPHA_REFERENCE)).unwrap();
-    let xml = repo("tests/data/rough-alpha.xml");
-    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
+    let scene = test_scene("rough-alpha.xml");
     let textured: usize = (scene.materials.iter())
         .map(|m| m.number_textures.len())
         .sum();
     assert_eq!(textured, 4);
-    let agreed = against_reference(&scene, &reference, ROUGH_ALPHA_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("rough-alpha.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees(
+        "rough-alpha.xml",
+        &scene,
+        &reference,
+        ROUGH_ALPHA_REFERENCE_SPP,
+    );
     let mut untextured = scene.clone();
     for material in &mut untextured.materials {
         material.number_textures.clear();
@@ -651,15 +690,12 @@ fn principledthin_sheets_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(PRINCIPLEDTHIN_REFERENCE)).unwrap();
-    let xml = repo("tests/data/principledthin-sheets.xml");
-    let scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
-    let agreed = against_reference(&scene, &reference, PRINCIPLEDTHIN_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!(
-        "principledthin-sheets.xml against Mitsuba: {}",
-        agreed.unwrap()
+    let scene = test_scene("principledthin-sheets.xml");
+    assert_agrees(
+        "principledthin-sheets.xml",
+        &scene,
+        &reference,
+        PRINCIPLEDTHIN_REFERENCE_SPP,
     );
     let changed = |change: fn(&mut MaterialKind)| {
         let mut changed = scene.clone();
@@ -714,14 +750,9 @@ fn instances_match_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(INSTANCES_REFERENCE)).unwrap();
-    let xml = repo("tests/data/instances.xml");
-    let mut scene = Scene::load_with(&xml, &defines(&[("spp", "256")]))
-        .unwrap()
-        .scene;
+    let mut scene = test_scene("instances.xml");
     assert_eq!(scene.instancing.instances.len(), 5);
-    let agreed = against_reference(&scene, &reference, INSTANCES_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("instances.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees("instances.xml", &scene, &reference, INSTANCES_REFERENCE_SPP);
     let stretched = &mut scene.instancing.instances[2].to_world;
     for (row, axis) in stretched.iter_mut().zip(0..) {
         row[..3].copy_from_slice(&[0.0; 3]);
@@ -758,9 +789,12 @@ fn instances_through_a_thin_lens_match_mitsuba() {
     };
     let scene = load("0.12");
     assert_eq!(scene.instancing.instances.len(), 1024);
-    let agreed = against_reference(&scene, &reference, INSTANCES_DOF_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("instances-dof.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees(
+        "instances-dof.xml",
+        &scene,
+        &reference,
+        INSTANCES_DOF_REFERENCE_SPP,
+    );
     let pinhole = against_reference(&load("0"), &reference, INSTANCES_DOF_REFERENCE_SPP);
     assert!(pinhole.is_err(), "{pinhole:?}");
     eprintln!("through a pinhole: {}", pinhole.unwrap_err());
@@ -913,9 +947,12 @@ fn glossy_teapot_under_the_sky_matches_mitsuba() {
         Sampler::Sobol,
         "Mitsuba's independent, as pathmix renders it"
     );
-    let agreed = against_reference(&scene, &reference, GLOSSY_TEAPOT_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("teapot-sky-glossy.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees(
+        "teapot-sky-glossy.xml",
+        &scene,
+        &reference,
+        GLOSSY_TEAPOT_REFERENCE_SPP,
+    );
     let mut rougher = scene.clone();
     let mut roughened = 0;
     for material in &mut rougher.materials {
@@ -1445,9 +1482,12 @@ fn published_veach_mi_matches_mitsuba() {
     }
     let reference = read_exr(&repo(VEACH_MI_REFERENCE)).unwrap();
     let mut scene = published_scene(&xml, (192, 128), 64);
-    let agreed = against_reference(&scene, &reference, VEACH_MI_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("veach_mi/scene.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees(
+        "veach_mi/scene.xml",
+        &scene,
+        &reference,
+        VEACH_MI_REFERENCE_SPP,
+    );
     for material in &mut scene.materials {
         if let MaterialKind::RoughPlastic { alpha, .. } = &mut material.kind {
             *alpha *= 2.0;
@@ -1477,9 +1517,12 @@ fn published_staircase2_matches_mitsuba() {
     }
     let reference = read_exr(&repo(STAIRCASE2_REFERENCE)).unwrap();
     let mut scene = published_scene(&xml, (160, 90), 64);
-    let agreed = against_reference(&scene, &reference, STAIRCASE2_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("staircase2/scene.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees(
+        "staircase2/scene.xml",
+        &scene,
+        &reference,
+        STAIRCASE2_REFERENCE_SPP,
+    );
     let wood = scene
         .materials
         .iter_mut()
@@ -1513,9 +1556,12 @@ fn published_spectral_cbox_matches_mitsuba() {
     }
     let reference = read_exr(&repo(SPECTRAL_CBOX_REFERENCE)).unwrap();
     let mut scene = published_scene(&xml, (128, 128), 64);
-    let agreed = against_reference(&scene, &reference, SPECTRAL_CBOX_REFERENCE_SPP);
-    assert!(agreed.is_ok(), "{agreed:?}");
-    eprintln!("cbox/scene.xml against Mitsuba: {}", agreed.unwrap());
+    assert_agrees(
+        "cbox/scene.xml",
+        &scene,
+        &reference,
+        SPECTRAL_CBOX_REFERENCE_SPP,
+    );
     let light = scene
         .materials
         .iter_mut()
