@@ -175,9 +175,14 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         }
         SceneStorage::Bvh => {
             let bvh = data.bvh.as_ref().expect("a BVH kernel has a BVH");
+            // The estimate walks the scene's own tree: an instance's group adds its own.
+            let level = match data.instancing {
+                Some(_) => " in the top level",
+                None => "",
+            };
             println!(
                 "scene data: in memory with a BVH: {} nodes, depth {}, built in {:.3} s, \
-                 at most {:.0} walk steps a ray on average; {} large primitives tested beside it",
+                 at most {:.0} walk steps a ray on average{level}; {} large primitives tested beside it",
                 bvh.nodes.len(),
                 bvh.depth,
                 bvh.build_seconds,
