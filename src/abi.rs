@@ -244,6 +244,9 @@ pub const BINDING_ACTIVE_PIXELS: u32 = 3;
 pub const BINDING_SPLAT_SAMPLES: u32 = 4;
 /// Bytes of one sample there (`SplatSample`: radiance and position, 5 × f32).
 pub const SPLAT_SAMPLE_BYTES: u64 = 20;
+/// Rows of the column of pixels one invocation of the splatting pass gathers
+/// (`shaders/splat.wgsl`, written out for 4).
+pub const SPLAT_STRIP_ROWS: u32 = 4;
 /// The splatting pass's entry point (`shaders/splat.wgsl`).
 pub const SPLAT_ENTRY_POINT: &str = "splat";
 /// Only in a profiling kernel: its `StageCounts`, one per `kernel::Stage`

@@ -7,7 +7,7 @@ pub mod aov;
 use crate::abi::{
     BINDING_ACCUMULATOR, BINDING_ACTIVE_PIXELS, BINDING_COUNTERS, BINDING_PARAMS, BINDING_PROFILE,
     BINDING_SPLAT_SAMPLES, Counters, LAYER_SQUARES, LAYER_SUM, Params, RAY_OFFSET_RELATIVE,
-    REPLICATES, SPLAT_SAMPLE_BYTES, StageCounts, replicate_layer,
+    REPLICATES, SPLAT_SAMPLE_BYTES, SPLAT_STRIP_ROWS, StageCounts, replicate_layer,
 };
 use crate::accel::{self, WideBvh};
 use crate::gpu::accumulator::{Accumulator, compensated_sums, read_back};
@@ -662,7 +662,8 @@ impl<'a> Renderer<'a> {
         let params = Params {
             sample_start: self.first_sample.saturating_add(self.samples),
             sample_count: samples,
-            tile_size: [width, height],
+            // One invocation per column of `SPLAT_STRIP_ROWS` pixels.
+            tile_size: [width, height.div_ceil(SPLAT_STRIP_ROWS)],
             reset: (self.samples == 0) as u32,
             ..self.params
         };
@@ -1550,7 +1551,8 @@ const SPLAT_BUFFER_BYTES: u64 = 64 << 20;
 /// Samples per pixel a splatting submission may trace (`Renderer::splat`), or
 /// `None` where splatting cannot run: where one sample of every pixel exceeds
 /// the device's largest storage binding, or one sample's pass over the pixels
-/// around (`(2 reach + 1) (2 reach + 2) + 1` loop iterations) the loop budget.
+/// around a strip (`(2 reach + 4) (2 reach + 2) + 1` loop iterations, and 4
+/// loops over the replicates) the loop budget.
 pub fn splat_samples_per_submission(
     ctx: &GpuContext,
     filter: Filter,
@@ -1563,7 +1565,9 @@ pub fn splat_samples_per_submission(
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size);
     let window = 2 * filter.splat_reach() as u64 + 1;
-    let pass_iterations = window * (window + 1) + 1;
+    let strip_rows = SPLAT_STRIP_ROWS as u64;
+    let pass_iterations =
+        (window + strip_rows - 1) * (window + 1) + 1 + strip_rows * REPLICATES as u64;
     let samples = (SPLAT_BUFFER_BYTES.max(one_sample).min(binding) / one_sample)
         .min(LOOP_ITERATION_BUDGET / pass_iterations);
     (samples >= 1).then(|| samples.min(u32::MAX as u64) as u32)
