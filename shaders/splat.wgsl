@@ -101,6 +101,9 @@ fn splat_weight(weight_x: f32, dy: i32, s: SplatSample) -> f32 {
     return weight_x * filter_eval(abs(f32(dy) + s.y - 0.5));
 }
 
+// The strip's pixels are written out below (sums0 to sums3).
+const_assert SPLAT_STRIP_ROWS == 4u;
+
 @compute @workgroup_size(WORKGROUP_SIZE_X, WORKGROUP_SIZE_Y, 1)
 fn splat(@builtin(global_invocation_id) id: vec3<u32>) {
     load_params();
@@ -121,7 +124,7 @@ fn splat(@builtin(global_invocation_id) id: vec3<u32>) {
         var weighted2 = vec3<f32>(0.0);
         var weighted3 = vec3<f32>(0.0);
         // `row`: from the strip's first pixel; pixel j's dy is row - j.
-        for (var row = -reach; row < 4 + reach; row++) {
+        for (var row = -reach; row < i32(SPLAT_STRIP_ROWS) + reach; row++) {
             let y = i32(first.y) + row;
             if y < 0 || y >= i32(params.height) {
                 continue;
