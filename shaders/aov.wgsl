@@ -44,29 +44,8 @@ fn first_hit_aovs(ray: Ray) -> array<vec3<f32>, AOV_SLOTS> {
 #if AOV_MATERIAL
     // The material the hit scatters by, as the path kernel resolves it.
     let front_face = dot(ray.dir, hit.normal) < 0.0;
-#if NESTED_MATERIALS
-    let resolved = resolve_material(materials_at(hit.material), front_face, hit);
-    var material = resolved.material;
-    let material_front_face = resolved.front_face;
-#else
-#if MASK
-    var material = material_unmasked(materials_at(hit.material));
-#else
-    var material = materials_at(hit.material);
-#endif
-    let material_front_face = front_face;
-#endif
-#if TEXTURES
-    material = textured(material, hit.uv);
-#endif
-#if TEXTURED_NUMBERS
-    // The textured numbers the BSDF reads (a rough conductor's alpha).
-#if NESTED_MATERIALS
-    texture_numbers(material, resolved.index, hit.uv);
-#else
-    texture_numbers(material, hit.material, hit.uv);
-#endif
-#endif
+    let scattering = hit_material(materials_at(hit.material), front_face, hit);
+    let material = scattering.material;
 #if BUMP_MAPS
     let shading_normal = bumped_normal(material, hit, -ray.dir);
 #else
@@ -78,7 +57,7 @@ fn first_hit_aovs(ray: Ray) -> array<vec3<f32>, AOV_SLOTS> {
 #if AOV_ALBEDO
     let frame = Frame(
         select(-shading_normal, shading_normal, front_face),
-        material_front_face,
+        scattering.front_face,
         select(-hit.normal, hit.normal, front_face),
 #if BUMP_MAPS
         select(-hit.shading_normal, hit.shading_normal, front_face),

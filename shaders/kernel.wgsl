@@ -172,45 +172,14 @@ fn render(
 #endif
             path_done = true;
         } else {
-#if NESTED_MATERIALS
-            // The side hit picks the material before anything else is done
-            // here (materials.wgsl); the emission and opacity are the hit
-            // material's own.
+            // The emission and opacity are the hit material's own; the material
+            // it scatters by may be one it nests (materials.wgsl).
             let front_face = dot(ray.dir, hit.normal) < 0.0;
             let found = materials_at(hit.material);
-            let resolved = resolve_material(found, front_face, hit);
+            let scattering = hit_material(found, front_face, hit);
+            let material = scattering.material;
 #if MASK
             let transparency = material_transparency(found, hit);
-#endif
-#if TEXTURES
-            let material = textured(resolved.material, hit.uv);
-#else
-            let material = resolved.material;
-#endif
-#else
-#if MASK
-            let found = materials_at(hit.material);
-            let transparency = material_transparency(found, hit);
-#if TEXTURES
-            let material = textured(material_unmasked(found), hit.uv);
-#else
-            let material = material_unmasked(found);
-#endif
-#else
-#if TEXTURES
-            let material = textured(materials_at(hit.material), hit.uv);
-#else
-            let material = materials_at(hit.material);
-#endif
-#endif
-            let front_face = dot(ray.dir, hit.normal) < 0.0;
-#endif
-#if TEXTURED_NUMBERS
-#if NESTED_MATERIALS
-            texture_numbers(material, resolved.index, hit.uv);
-#else
-            texture_numbers(material, hit.material, hit.uv);
-#endif
 #endif
             if front_face {
 #if STRATEGY_NEE
@@ -266,11 +235,7 @@ fn render(
 #endif
                 let frame = Frame(
                     select(-shading_normal, shading_normal, front_face),
-#if NESTED_MATERIALS
-                    resolved.front_face,
-#else
-                    front_face,
-#endif
+                    scattering.front_face,
                     select(-hit.normal, hit.normal, front_face),
 #if BUMP_MAPS
                     select(-hit.shading_normal, hit.shading_normal, front_face),

@@ -224,3 +224,37 @@ fn material_unmasked(m: Material) -> Material {
     return out;
 }
 #endif
+
+// The material a hit on `found` scatters by, and the side it sees as its front:
+// resolved through nested materials, its textures looked up at the hit (what
+// the path kernel and the AOV pass both shade with). A blend draws its random
+// number here, so a caller's own draws come after.
+struct HitMaterial {
+    material: Material,
+    front_face: bool,
+}
+
+fn hit_material(found: Material, front_face: bool, hit: Hit) -> HitMaterial {
+#if NESTED_MATERIALS
+    let resolved = resolve_material(found, front_face, hit);
+    var material = resolved.material;
+    let index = resolved.index;
+    let material_front_face = resolved.front_face;
+#else
+#if MASK
+    var material = material_unmasked(found);
+#else
+    var material = found;
+#endif
+    let index = hit.material;
+    let material_front_face = front_face;
+#endif
+#if TEXTURES
+    material = textured(material, hit.uv);
+#endif
+#if TEXTURED_NUMBERS
+    // The textured numbers the BSDF reads (`material_number`).
+    texture_numbers(material, index, hit.uv);
+#endif
+    return HitMaterial(material, material_front_face);
+}

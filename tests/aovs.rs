@@ -202,6 +202,46 @@ fn aovs_leave_the_image_alone_and_the_command_line_chooses_them() {
     }
 }
 
+/// The AOVs are the camera rays' first hits, whatever strategy renders the
+/// image: the same bits under each (the `bsdf` strategy evaluates no BSDF of
+/// its own, yet the albedo does).
+#[test]
+fn every_strategy_writes_the_same_aovs() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = common::TempDir::new("aovs", "strategies");
+    let scene = plane_scene(&dir, "");
+    let png = dir.join("out.png");
+    let png = png.to_str().unwrap();
+    let aovs: Vec<_> = ["nee-mis", "mixture", "bsdf"]
+        .into_iter()
+        .map(|strategy| {
+            let exr = dir.join(format!("{strategy}.exr"));
+            render(&[
+                "render",
+                &scene,
+                "--spp",
+                "4",
+                "--strategy",
+                strategy,
+                "--aov",
+                "albedo,d:depth",
+                "--exr",
+                exr.to_str().unwrap(),
+                "-o",
+                png,
+            ]);
+            let mut channels = common::exr_channels(&exr);
+            channels.retain(|name, _| name.contains('.'));
+            channels
+        })
+        .collect();
+    assert_eq!(aovs[0].len(), 4);
+    assert_eq!(aovs[1], aovs[0]);
+    assert_eq!(aovs[2], aovs[0]);
+}
+
 /// A checkpoint records the command line's AOVs: its resume writes them.
 #[test]
 fn a_resume_writes_the_recorded_aovs() {

@@ -1105,9 +1105,10 @@ fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
 
 /// The BSDF interface's dispatch by material kind (materials.wgsl), over the
 /// kinds compiled in. `bsdf_sample` takes any material; `bsdf_is_smooth`,
-/// `bsdf_eval`, `bsdf_pdf` and `smooth_bsdf_sample` exist where strategies
-/// sample lights or the scene has delta lights, and the last three take only materials with a smooth lobe (a
-/// direct call when the kernel has one such kind).
+/// `bsdf_eval`, `bsdf_pdf` and `smooth_bsdf_sample` exist where the kernel
+/// evaluates BSDFs (`KernelConfig::evaluates_bsdfs`), and the last three take
+/// only materials with a smooth lobe (a direct call when the kernel has one
+/// such kind).
 pub fn bsdf(config: &KernelConfig) -> String {
     let mut out = String::new();
     let scattering: Vec<usize> = config
@@ -1142,8 +1143,7 @@ pub fn bsdf(config: &KernelConfig) -> String {
 ",
         );
     }
-    // Light sampling and the delta lights' shadow rays evaluate the BSDF.
-    if !config.samples_lights() && !config.delta_lights {
+    if !config.evaluates_bsdfs() {
         return out;
     }
     let ids: Vec<String> = smooth

@@ -817,6 +817,14 @@ impl KernelConfig {
         !self.light_kinds.is_empty() || self.light_environment
     }
 
+    /// Whether the kernel evaluates BSDFs (`bsdf_eval` and its kin): light
+    /// sampling and the delta lights' shadow rays do, and so does the AOV
+    /// pass's `albedo`, for materials whose albedo is their BSDF toward the
+    /// normal (whatever strategy renders the image).
+    pub fn evaluates_bsdfs(&self) -> bool {
+        self.samples_lights() || self.delta_lights || self.aovs.contains(&AovKind::Albedo)
+    }
+
     /// The kinds in the light density whose lights come in groups.
     pub fn grouped_light_kinds(&self) -> impl Iterator<Item = usize> {
         self.light_kinds
@@ -1623,8 +1631,11 @@ pub(crate) mod tests {
                 instance_stack: 12,
                 ..general.clone()
             };
+            // The `bsdf` strategy samples no light, yet the albedo evaluates BSDFs.
+            let unaimed = KernelConfig::general(Strategy::Bsdf, accumulator);
             let mut passes = vec![
                 general.for_aovs(&AovKind::ALL),
+                unaimed.for_aovs(&AovKind::ALL),
                 splatting.for_aovs(&AovKind::ALL),
                 instanced.for_aovs(&AovKind::ALL),
             ];
