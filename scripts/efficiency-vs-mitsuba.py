@@ -13,9 +13,11 @@ relMSE = mean((x - r)^2 / (r^2 + 0.01)) over pixels and channels against
 --reference (a converged image: e.g. one check-mitsuba-xml.py --write-reference
 wrote, or Mitsuba at thousands of spp), so the lights' own pixels do not decide the
 figure. Both renderers render at the reference's size: the film's, edited in a copy,
-or for a scene whose film is in an included file, by its parameters (-D res=128). Seconds: pathmix's render time as it reports it (its
-whole process also printed), Mitsuba's render after a warm-up render that compiles
-its kernels. Every run gets the same samples per pixel; each extra --pathmix-run
+or for a scene whose film is in an included file, by its parameters (-D res=128).
+Seconds, both warm: pathmix's render time as it reports it (its whole process also
+printed) in a second run of the same command, the first having left the kernel in
+Mesa's shader cache (which otherwise compiles it within the render, 0.3-1.5 s);
+Mitsuba's render after a warm-up render that compiles its kernels. Every run gets the same samples per pixel; each extra --pathmix-run
 is another pathmix configuration (its arguments, comma-separated) to compare.
 """
 
@@ -65,6 +67,9 @@ def pathmix(binary, scene, params, spp, seed, size, extra, out_dir):
     cmd += ["--width", str(size[0]), "--height", str(size[1])]
     for k, v in params.items():
         cmd += ["-D", f"{k}={v}"]
+    # A first run compiles the kernel into Mesa's shader cache, as Mitsuba's
+    # warm-up render compiles its own: both renderers are timed warm.
+    subprocess.run(cmd + extra, capture_output=True, text=True)
     start = time.perf_counter()
     run = subprocess.run(cmd + extra, capture_output=True, text=True)
     whole = time.perf_counter() - start
