@@ -26,14 +26,23 @@ var<private> sampler_pixel_seed: u32;
 var<private> sampler_index: u32;
 var<private> sampler_dimension: u32;
 
-// Randomised QMC with independent replicates: sample i belongs to replicate
-// i mod REPLICATES and is point i div REPLICATES of that replicate's own scramble.
-// Interleaving keeps every replicate a stratified net at any sample count, and
-// independent scrambles make the replicates' means independent, so their spread
-// estimates the error of the pixel's mean (`stats::Accumulation`).
+// SAMPLER_REPLICATES: randomised QMC with independent replicates: sample i
+// belongs to replicate i mod REPLICATES and is point i div REPLICATES of that
+// replicate's own scramble. Interleaving keeps every replicate a stratified net
+// at any sample count, and independent scrambles make the replicates' means
+// independent, so their spread estimates the error of the pixel's mean
+// (`stats::Accumulation`). Otherwise, where no estimate is asked for, sample i
+// is point i of one scramble (replicate 0's): one net of all the pixel's
+// samples, finer than REPLICATES nets of a quarter of them each.
 fn sampler_begin(pixel: u32, sample_index: u32) {
-    sampler_pixel_seed = pcg_hash(pcg_hash(pcg_hash(params.seed) ^ pixel) ^ (sample_index % REPLICATES));
+#if SAMPLER_REPLICATES
+    let replicate = sample_index % REPLICATES;
     sampler_index = sample_index / REPLICATES;
+#else
+    let replicate = 0u;
+    sampler_index = sample_index;
+#endif
+    sampler_pixel_seed = pcg_hash(pcg_hash(pcg_hash(params.seed) ^ pixel) ^ replicate);
     sampler_dimension = 0u;
 }
 

@@ -423,6 +423,9 @@ fn kubernetes_pods_run_as_local_processes_merge_to_one_run() {
         "12",
         "--exr",
         one.to_str().unwrap(),
+        // As the parts: their error estimate lays out Sobol's samples in replicates.
+        "--variance",
+        root.join("one-se.exr").to_str().unwrap(),
         "-o",
         root.join("one.png").to_str().unwrap(),
         "--quiet",

@@ -330,6 +330,10 @@ fn auto_in_the_scene_file_prints_its_choice_and_resumes_without_a_pilot() {
     direct.extend(flags.iter().map(String::as_str));
     direct.extend(small);
     direct.extend(["--exr", p(&direct_exr), "-o", p(&direct_png)]);
+    // The pilot estimates errors, so an auto run lays out Sobol's samples in
+    // replicates, as a run with `--variance` does.
+    let direct_se = dir.join("direct-se.exr");
+    direct.extend(["--variance", p(&direct_se)]);
     let output = pathmix(&direct);
     assert!(output.status.success(), "{}", text(&output.stderr));
     let resumed = pathmix::output::read_exr(&resumed_exr).unwrap();
@@ -414,6 +418,9 @@ fn the_chosen_candidates_pilot_samples_start_the_run() {
         let mut direct = vec!["render", p(&scene)];
         direct.extend(flags.iter().map(String::as_str));
         direct.extend(["-o", p(&png), "--exr", p(&direct_exr)]);
+        // Sobol's samples in replicates, as the pilot's (which estimates errors).
+        let direct_se = dir.join(format!("direct-se-{adaptive}-{accumulator}.exr"));
+        direct.extend(["--variance", p(&direct_se)]);
         direct.extend(small);
         direct.extend(&extra);
         let output = pathmix(&direct);

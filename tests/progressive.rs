@@ -535,6 +535,9 @@ fn shards_from_the_deploy_scripts_merge_to_one_run() {
         p(&dir.join("one.png")),
         "--exr",
         p(&one),
+        // The parts estimate errors, so Sobol's samples are in replicates there.
+        "--variance",
+        p(&dir.join("one-se.exr")),
         "--quiet",
     ]);
     assert!(output.status.success(), "{}", text(&output.stderr));

@@ -3,7 +3,8 @@
 # Slurm cluster (munged, slurmctld, slurmd), submits a 4-task render array and
 # the dependent merge with deploy/slurm/submit.sh (real sbatch --array=0-3 and
 # --dependency=afterok), waits, checks the merged image against one
-# uninterrupted run of the same samples (`pathmix compare`, 1e-6 relative),
+# uninterrupted run of the same samples (`pathmix compare`, 1e-6 relative;
+# with --variance, which lays out Sobol's samples in replicates as the parts do),
 # checks that the comparison does catch a missing or duplicated shard, and
 # tears the cluster down. Exit status 0 only when all of that passed.
 #
@@ -317,7 +318,7 @@ expected=$(echo "pathmix-merge - COMPLETED 0:0"
 
 # ---- the check ------------------------------------------------------------------
 "$PATHMIX" render "$scene" --spp "$SPP" --width "$SIZE" --height "$SIZE" \
-    -o "$run/one.png" --exr "$run/one.exr" --quiet >"$run/one.log" 2>&1 \
+    -o "$run/one.png" --exr "$run/one.exr" --variance "$run/one-se.exr" --quiet >"$run/one.log" 2>&1 \
     || fail "the single run failed: $(cat "$run/one.log")"
 out=$("$PATHMIX" compare "$run/final.exr" "$run/one.exr" --tolerance 1e-6 2>&1) \
     || fail "the merged image differs from one run: $out"

@@ -497,10 +497,10 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
     if !quiet {
         eprintln!("adapter: {}", ctx.describe());
         eprintln!(
-            "scene: {}  {width}x{height}  strategy {}  {} sampler  {}  max depth {}  stop: {}",
+            "scene: {}  {width}x{height}  strategy {}  {}  {}  max depth {}  stop: {}",
             session.scene.source,
             run.renderer.config().strategy,
-            run.renderer.config().sampler,
+            run.renderer.config().describe_sampler(),
             run.renderer.config().describe_filter(),
             session.scene.render.max_depth,
             describe_stop(&session.stop),

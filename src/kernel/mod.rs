@@ -57,6 +57,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "REPLICATE_SUMS",
     "ADAPTIVE",
     "SAMPLER_SOBOL",
+    "SAMPLER_REPLICATES",
     "BVH",
     "INSTANCES",
     "SHADING_NORMALS",
@@ -379,6 +380,11 @@ pub struct KernelConfig {
     /// Adaptive sampling: each dispatch runs over a list of active pixels, each
     /// continuing its own sample sequence (needs `variance`).
     pub adaptive: bool,
+    /// Under Sobol, a pixel's samples interleave `abi::REPLICATES` independently
+    /// scrambled sequences, whose spread is the error estimate (needed by
+    /// `variance`); without, they are one scrambled sequence, whose points
+    /// stratify the pixel more finely (less noise at equal samples).
+    pub replicates: bool,
     /// Scene data compiled into the kernel: the whole scene
     /// (`SceneStorage::Baked`), or beside a BVH its large primitives and a small
     /// light density (`beside_bvh`); `None`: everything is read from
@@ -636,6 +642,7 @@ impl KernelConfig {
             accumulator,
             variance,
             adaptive: false,
+            replicates: true,
             compiled_in: match scene_storage {
                 SceneStorage::Baked => Some(data.clone()),
                 SceneStorage::Bvh => beside_bvh(data),
@@ -725,6 +732,7 @@ impl KernelConfig {
             accumulator,
             variance: true,
             adaptive: false,
+            replicates: true,
             compiled_in: None,
             bvh_kinds: KindSet::default(),
             bvh_stack: accel::MAX_DEPTH,
@@ -852,6 +860,15 @@ impl KernelConfig {
         }
     }
 
+    /// The sampler, for a run's header: "independent sampler", "sobol sampler"
+    /// (one sequence per pixel) or "sobol sampler, 4 replicates".
+    pub fn describe_sampler(&self) -> String {
+        match (self.sampler, self.replicates) {
+            (Sampler::Sobol, true) => format!("sobol sampler, {REPLICATES} replicates"),
+            (sampler, _) => format!("{sampler} sampler"),
+        }
+    }
+
     pub fn flags(&self) -> BTreeSet<String> {
         let mut flags = BTreeSet::new();
         for k in self.primitive_kinds.iter() {
@@ -879,6 +896,10 @@ impl KernelConfig {
             ),
             ("ADAPTIVE", self.adaptive),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
+            (
+                "SAMPLER_REPLICATES",
+                self.replicates && self.sampler == Sampler::Sobol,
+            ),
             ("BVH", self.bvh()),
             ("INSTANCES", self.instances),
             ("SHADING_NORMALS", self.shading_normals()),

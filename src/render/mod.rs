@@ -52,6 +52,10 @@ pub struct RenderOptions {
     /// Adaptive sampling (`crate::render::adaptive`): rounds over the pixels whose
     /// samples lower the error most. Accumulates the variance sums too.
     pub adaptive: bool,
+    /// Under Sobol, interleave independent replicates (`KernelConfig::replicates`)
+    /// even without `variance`: where samples are to be merged with a run that
+    /// estimates errors (a resumed checkpoint's, the strategy pilot's).
+    pub sampler_replicates: bool,
     /// Adaptive: the rounds whatever the pilot predicts (`adaptive::choose`), to
     /// study or test them where the choice would go on uniformly.
     pub adaptive_rounds_always: bool,
@@ -69,6 +73,7 @@ impl Default for RenderOptions {
             array_memory: None,
             submission_seconds: 1.0,
             general_kernel: false,
+            sampler_replicates: true,
             adaptive: false,
             adaptive_rounds_always: false,
             profile: false,
@@ -1194,6 +1199,7 @@ pub fn plan_kernel(
     let config = KernelConfig {
         variance: config.variance || options.adaptive,
         adaptive: options.adaptive,
+        replicates: options.sampler_replicates || config.variance || options.adaptive,
         splat: choose_splat(ctx, scene, options, &mut warnings),
         profile: options.profile,
         ..config

@@ -568,6 +568,16 @@ impl Session {
         }
         render::check_emission(&scene, most, variance || adaptive)
             .map_err(|e| SessionError::Refused(placed(e, &places)))?;
+        // Sobol's independent replicates where an error is estimated (the
+        // variance sums, the adaptive rounds, the strategy pilot, whose samples
+        // start the run); elsewhere one finer net per pixel. A resume keeps its
+        // checkpoint's (checkpoints before the key were all written with them).
+        let sampler_replicates = match &resume {
+            Some(_) => recorded(SAMPLER_REPLICATES_KEY)
+                .and_then(|v| v.as_bool())
+                .unwrap_or(true),
+            None => variance || adaptive || scene.render.auto_strategy,
+        };
         Ok(Session {
             scene,
             scene_path,
@@ -590,6 +600,7 @@ impl Session {
             render: RenderOptions {
                 variance,
                 adaptive,
+                sampler_replicates,
                 ..request.render.clone()
             },
             lock: None,
@@ -948,7 +959,11 @@ fn absolute(path: &Path) -> PathBuf {
     std::path::absolute(path).unwrap_or_else(|_| path.to_owned())
 }
 
-/// What a resume needs besides the state: the stopping rule and outputs.
+/// The key under which a checkpoint records whether its Sobol samples
+/// interleave replicates (`RenderOptions::sampler_replicates`).
+const SAMPLER_REPLICATES_KEY: &str = "sampler_replicates";
+
+/// What a resume needs besides the state: the stopping rule, outputs and sampler.
 fn run_table(session: &Session, elapsed: Duration) -> toml::Table {
     let mut run = toml::Table::new();
     let stop = &session.stop;
@@ -968,6 +983,10 @@ fn run_table(session: &Session, elapsed: Duration) -> toml::Table {
             run.insert(setting.name().into(), path.into());
         }
     }
+    run.insert(
+        SAMPLER_REPLICATES_KEY.into(),
+        session.render.sampler_replicates.into(),
+    );
     run.insert(
         "checkpoint_every_s".into(),
         session.checkpoint_every.as_secs_f64().into(),
