@@ -330,10 +330,6 @@ fn auto_in_the_scene_file_prints_its_choice_and_resumes_without_a_pilot() {
     direct.extend(flags.iter().map(String::as_str));
     direct.extend(small);
     direct.extend(["--exr", p(&direct_exr), "-o", p(&direct_png)]);
-    // The pilot estimates errors, so an auto run lays out Sobol's samples in
-    // replicates, as a run with `--variance` does.
-    let direct_se = dir.join("direct-se.exr");
-    direct.extend(["--variance", p(&direct_se)]);
     let output = pathmix(&direct);
     assert!(output.status.success(), "{}", text(&output.stderr));
     let resumed = pathmix::output::read_exr(&resumed_exr).unwrap();
@@ -367,11 +363,14 @@ fn auto_with_shards_or_a_light_weight_is_refused() {
     }
 }
 
-/// Where the pilot renders the run's own image, the chosen candidate's samples are
-/// the run's first ones: the run traces only the rest, and its image is the image of
-/// a run given the chosen strategy, bit for bit, uniform or adaptive (the adaptive
-/// run's own pilot goes on from them). The variance sums the pilot adds are dropped
-/// where the run has none.
+/// Where the pilot renders the run's own image and the run estimates errors, the
+/// chosen candidate's samples are the run's first ones: the run traces only the
+/// rest, and its image is the image of a run given the chosen strategy, bit for
+/// bit, uniform with `--variance` or adaptive (the adaptive run's own pilot goes on
+/// from them), and under the independent sampler. A run that estimates no error
+/// lays out Sobol's samples as one sequence per pixel, not in the candidates'
+/// replicates: it starts afresh, and its image is that of a plain run given the
+/// choice.
 #[test]
 fn the_chosen_candidates_pilot_samples_start_the_run() {
     let _ctx = gpu_or_skip!();
@@ -392,14 +391,28 @@ fn the_chosen_candidates_pilot_samples_start_the_run() {
     ];
     let png = dir.join("x.png");
     // The samples are copied on the device, from either accumulator.
-    for (adaptive, accumulator) in [(false, "texture"), (true, "texture"), (false, "buffer")] {
-        let mut extra = vec!["--accumulator", accumulator];
+    for (adaptive, variance, accumulator, sampler) in [
+        (false, true, "texture", "sobol"),
+        (true, false, "texture", "sobol"),
+        (false, true, "buffer", "sobol"),
+        (false, false, "texture", "sobol"),
+        (false, false, "texture", "independent"),
+    ] {
+        let case = format!(
+            "adaptive {adaptive}, variance {variance}, {accumulator} accumulator, {sampler} sampler"
+        );
+        let mut extra = vec!["--accumulator", accumulator, "--sampler", sampler];
         if adaptive {
             extra.push("--adaptive");
         }
-        let auto_exr = dir.join(format!("auto-{adaptive}-{accumulator}.exr"));
+        let name = format!("{adaptive}-{variance}-{accumulator}-{sampler}");
+        let auto_exr = dir.join(format!("auto-{name}.exr"));
+        let auto_se = dir.join(format!("auto-se-{name}.exr"));
         let mut args = vec!["render", p(&scene), "--strategy", "auto"];
         args.extend(["-o", p(&png), "--exr", p(&auto_exr)]);
+        if variance {
+            args.extend(["--variance", p(&auto_se)]);
+        }
         args.extend(small);
         args.extend(&extra);
         let output = pathmix(&args);
@@ -407,20 +420,18 @@ fn the_chosen_candidates_pilot_samples_start_the_run() {
         assert!(output.status.success(), "{stderr}");
         let variant = chosen(&stderr);
         let chosen = variant.name();
-        assert!(
-            stderr.contains(&format!(
-                "the pilot's 8 spp of {chosen} are the run's first samples"
-            )),
-            "{stderr}"
-        );
-        let direct_exr = dir.join(format!("direct-{adaptive}-{accumulator}.exr"));
+        let reused = format!("the pilot's 8 spp of {chosen} are the run's first samples");
+        let same_layout = adaptive || variance || sampler == "independent";
+        assert_eq!(stderr.contains(&reused), same_layout, "{case}: {stderr}");
+        let direct_exr = dir.join(format!("direct-{name}.exr"));
+        let direct_se = dir.join(format!("direct-se-{name}.exr"));
         let flags = strategy_flags(variant);
         let mut direct = vec!["render", p(&scene)];
         direct.extend(flags.iter().map(String::as_str));
         direct.extend(["-o", p(&png), "--exr", p(&direct_exr)]);
-        // Sobol's samples in replicates, as the pilot's (which estimates errors).
-        let direct_se = dir.join(format!("direct-se-{adaptive}-{accumulator}.exr"));
-        direct.extend(["--variance", p(&direct_se)]);
+        if variance {
+            direct.extend(["--variance", p(&direct_se)]);
+        }
         direct.extend(small);
         direct.extend(&extra);
         let output = pathmix(&direct);
@@ -429,8 +440,7 @@ fn the_chosen_candidates_pilot_samples_start_the_run() {
         let direct = pathmix::output::read_exr(&direct_exr).unwrap();
         assert!(
             auto.pixels == direct.pixels,
-            "adaptive {adaptive}, {accumulator} accumulator: an auto run differs from a run \
-             given its choice ({chosen})"
+            "{case}: an auto run differs from a run given its choice ({chosen})"
         );
     }
 }

@@ -821,6 +821,12 @@ impl KernelConfig {
         self.textured_numbers || self.material_kinds.iter().any(|k| MATERIAL_KINDS[k].tables)
     }
 
+    /// Whether the samples interleave Sobol's replicates: `replicates` is moot for
+    /// the independent sampler.
+    pub fn sobol_replicates(&self) -> bool {
+        self.replicates && self.sampler == Sampler::Sobol
+    }
+
     pub fn samples_lights(&self) -> bool {
         !self.light_kinds.is_empty() || self.light_environment
     }
@@ -896,10 +902,7 @@ impl KernelConfig {
             ),
             ("ADAPTIVE", self.adaptive),
             ("SAMPLER_SOBOL", self.sampler == Sampler::Sobol),
-            (
-                "SAMPLER_REPLICATES",
-                self.replicates && self.sampler == Sampler::Sobol,
-            ),
+            ("SAMPLER_REPLICATES", self.sobol_replicates()),
             ("BVH", self.bvh()),
             ("INSTANCES", self.instances),
             ("SHADING_NORMALS", self.shading_normals()),

@@ -942,7 +942,8 @@ impl<'a> Renderer<'a> {
     /// sample indices, settings and accumulator kind but maybe more accumulator
     /// layers (the pilot's with the variance sums, `pilot::Pilot::samples`): the
     /// layers come in one order whatever follows them, so this renderer's are a
-    /// prefix of those, copied on the device. An adaptive renderer takes them as
+    /// prefix of those, copied on the device. Both lay out Sobol's samples alike
+    /// (`KernelConfig::sobol_replicates`). An adaptive renderer takes them as
     /// the start of its pilot, every pixel at `pilot.samples()` and no round
     /// begun. Only before the first sample, from a uniform renderer's samples
     /// from sample index 0.
@@ -952,6 +953,11 @@ impl<'a> Renderer<'a> {
             "a uniform run's first samples"
         );
         assert_eq!(pilot.size(), self.size(), "a pilot of the run's own image");
+        assert_eq!(
+            pilot.kernel.config.sobol_replicates(),
+            self.kernel.config.sobol_replicates(),
+            "the run's sample layout"
+        );
         assert!(
             self.accumulator.layers <= pilot.accumulator.layers,
             "the pilot's layers hold the run's"

@@ -3,8 +3,9 @@
 //! relative error from its own per-pixel error estimate (the Sobol replicates'
 //! spread, or the sample variance), and ranks them by efficiency `1 / (relative MSE
 //! × seconds)`, as `converge` ranks them against a reference. Where the pilot renders
-//! the run's own image and first sample indices, the chosen candidate's samples are
-//! the run's first ones ([`Pilot::samples`]): only the others cost time, and those
+//! the run's own image and first sample indices, and the run estimates errors too
+//! (its Sobol samples in the candidates' replicates), the chosen candidate's samples
+//! are the run's first ones ([`Pilot::samples`]): only the others cost time. Those
 //! far behind the best stop at half their samples ([`RACE`]).
 //!
 //! Candidates: `bsdf`; `nee-mis` where something emits; the mixture at weight 0.25
@@ -18,7 +19,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::error_estimate::ErrorSums;
 use crate::render::adaptive;
 use crate::render::{self, RenderError, RenderOptions, Renderer, prepare_scene};
-use crate::scene::{Scene, Strategy};
+use crate::scene::{Sampler, Scene, Strategy};
 use crate::session::converge::{Variant, short_number};
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -143,8 +144,10 @@ pub struct Pilot<'a> {
     /// The chosen candidate's sums, where the run can start from them
     /// (`Renderer::start_from`): the pilot rendered the run's image at no more samples
     /// than the run's, and, for an adaptive run, no more than its own pilot's
-    /// ([`adaptive::PILOT_SAMPLES`]). Its samples are those the run would trace first
-    /// (same sample indices, seed and strategy; the variance sums change no other sum).
+    /// ([`adaptive::PILOT_SAMPLES`]), and the run lays out Sobol's samples in
+    /// replicates as the candidates do (`RenderOptions::sampler_replicates`). Its
+    /// samples are those the run would trace first (same sample indices, seed,
+    /// strategy and layout; the variance sums change no other sum).
     pub samples: Option<Samples<'a>>,
     /// Wall time of the pilot's candidates: pipelines, warm-up, samples and error estimates
     /// (not the scene's first packing, which the run reuses).
@@ -217,6 +220,7 @@ impl<'a> Candidate<'a> {
         let options = RenderOptions {
             variance: true,
             adaptive: false,
+            sampler_replicates: true,
             ..options.clone()
         };
         let mut renderer = Renderer::new(ctx, &scene, &options)?;
@@ -316,8 +320,12 @@ pub fn run<'a>(
     final_spp: u32,
 ) -> Result<Pilot<'a>, RenderError> {
     let ((width, height), spp) = shape(scene.camera.width, scene.camera.height, final_spp);
+    // The candidates estimate errors, so their Sobol samples are replicates: a
+    // run of one sequence per pixel does not start from them.
+    let same_layout = options.sampler_replicates || scene.render.sampler != Sampler::Sobol;
     let reusable = (width, height) == (scene.camera.width, scene.camera.height)
         && spp <= final_spp
+        && same_layout
         && (!options.adaptive || spp <= adaptive::PILOT_SAMPLES);
     let candidates = first_candidates(scene)?;
     // Timed from here: packing the scene once (`first_candidates`; a rough coat's

@@ -568,15 +568,16 @@ impl Session {
         }
         render::check_emission(&scene, most, variance || adaptive)
             .map_err(|e| SessionError::Refused(placed(e, &places)))?;
-        // Sobol's independent replicates where an error is estimated (the
-        // variance sums, the adaptive rounds, the strategy pilot, whose samples
-        // start the run); elsewhere one finer net per pixel. A resume keeps its
-        // checkpoint's (checkpoints before the key were all written with them).
+        // Sobol's independent replicates where the run estimates an error (the
+        // variance sums, the adaptive rounds); elsewhere one finer net per pixel,
+        // the strategy pilot's replicated samples then left out of the run. A
+        // resume keeps its checkpoint's (checkpoints before the key were all
+        // written with them).
         let sampler_replicates = match &resume {
             Some(_) => recorded(SAMPLER_REPLICATES_KEY)
                 .and_then(|v| v.as_bool())
                 .unwrap_or(true),
-            None => variance || adaptive || scene.render.auto_strategy,
+            None => variance || adaptive,
         };
         Ok(Session {
             scene,
