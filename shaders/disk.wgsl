@@ -98,3 +98,13 @@ fn disk_light_pdf(disk: Disk, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
     }
     return (t * t) / (abs(dot(dir, disk.normal)) * disk.area);
 }
+
+#if LIGHT_SELECTION_SPATIAL
+// A bound on what the disk sends toward `origin` (`PrimitiveKind::light_importance`),
+// within the sphere about its centre through its rim.
+fn disk_light_importance(disk: Disk, origin: vec3<f32>) -> f32 {
+    let radius = max(length(disk.u), length(disk.v));
+    let luminance = material_emitted_luminance(disk.material);
+    return planar_light_importance(luminance * disk.area, disk.center, disk.normal, radius, origin);
+}
+#endif

@@ -39,6 +39,14 @@ struct Material {
     flags: u32,
 }
 
+#if LIGHT_SELECTION_SPATIAL
+// The luminance (Rec. 709) of material `index`'s emitted radiance, which the
+// spatial light pick weighs a light by.
+fn material_emitted_luminance(index: u32) -> f32 {
+    return dot(materials_at(index).emit, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+#endif
+
 // Where a BSDF is evaluated: `n` is the normal the BSDF uses (the shading
 // normal: interpolated on smooth meshes, else the geometric one) and `ng` the
 // geometric normal, both turned to the side of `wo`; `front_face` says whether

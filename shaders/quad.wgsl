@@ -67,3 +67,14 @@ fn quad_light_pdf(quad: Quad, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
     }
     return (t * t) / (abs(dot(dir, quad.normal)) * quad.area);
 }
+
+#if LIGHT_SELECTION_SPATIAL
+// A bound on what the quad sends toward `origin` (`PrimitiveKind::light_importance`),
+// within the sphere about its centre through its corners.
+fn quad_light_importance(quad: Quad, origin: vec3<f32>) -> f32 {
+    let half_diagonal = 0.5 * max(length(quad.u + quad.v), length(quad.u - quad.v));
+    let center = quad.q + 0.5 * (quad.u + quad.v);
+    let luminance = material_emitted_luminance(quad.material);
+    return planar_light_importance(luminance * quad.area, center, quad.normal, half_diagonal, origin);
+}
+#endif

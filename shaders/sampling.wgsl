@@ -79,3 +79,30 @@ fn square_to_disk_concentric(u: vec2<f32>) -> vec2<f32> {
     }
     return r * vec2<f32>(cos(phi), sin(phi));
 }
+
+#if LIGHT_SELECTION_SPATIAL
+// A bound on what a one-sided planar emitter of `power` (its radiance's luminance
+// times its area) sends toward `origin`, for the spatial light pick: `power cos' /
+// max(d^2, R^2)`, where d is the distance from `center`, R the radius of a sphere
+// about it that holds the emitter, and cos' the cosine of the angle between the
+// normal and the direction to `origin`, less the largest angle that sphere
+// subtends (pbrt-v4's light bounds). 0 behind the plane, which it cannot light.
+fn planar_light_importance(power: f32, center: vec3<f32>, normal: vec3<f32>, radius: f32, origin: vec3<f32>) -> f32 {
+    let offset = origin - center;
+    let height = dot(normal, offset);
+    let d2 = dot(offset, offset);
+    let r2 = radius * radius;
+    if height <= 0.0 {
+        return 0.0;
+    }
+    if d2 <= r2 {
+        return power / r2;
+    }
+    let cos_theta = height * inverseSqrt(d2);
+    let sin2_bound = r2 / d2;
+    let cos_bound = sqrt(1.0 - sin2_bound);
+    let sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
+    let cos_nearest = select(cos_theta * cos_bound + sin_theta * sqrt(sin2_bound), 1.0, cos_theta >= cos_bound);
+    return power * cos_nearest / d2;
+}
+#endif

@@ -126,3 +126,13 @@ fn sphere_light_pdf(sphere: Sphere, origin: vec3<f32>, dir: vec3<f32>) -> f32 {
     }
     return 1.0 / (2.0 * PI * sphere_cone_one_minus_cos(sphere.radius, dist2));
 }
+
+#if LIGHT_SELECTION_SPATIAL
+// A bound on what the sphere sends toward `origin` (`PrimitiveKind::light_importance`):
+// its radiance times r^2 / d^2, the solid angle it subtends over pi (1 within it).
+fn sphere_light_importance(sphere: Sphere, origin: vec3<f32>) -> f32 {
+    let to_center = sphere.center - origin;
+    let r2 = sphere.radius * sphere.radius;
+    return material_emitted_luminance(sphere.material) * r2 / max(dot(to_center, to_center), r2);
+}
+#endif

@@ -1508,7 +1508,12 @@ const STAIRCASE2_REFERENCE_SPP: f64 = 4096.0;
 /// 'Modern Hall' as published (Mitsuba 0.5: camelCase names, JPEG textures on
 /// two-sided rough plastics, rough conductors, a glass pane, rectangle and disk
 /// lights, the tent filter, the film's output options) reads unchanged and agrees
-/// with Mitsuba's image of it; with its wood's texture dropped it does not.
+/// with Mitsuba's image of it; with its wood's texture dropped it does not. At
+/// 128 spp: the hall's pixel means are skewed at few samples (rare bright paths
+/// through the glass and from lights seen past others' walls), and at 64 spp one
+/// 16x16 block of the seed came out 4.5 standard errors low under the spatial
+/// light selection and 3.5 under the uniform one, where seeds 5 and 6 put it
+/// 0.3-2.1 high under both.
 #[test]
 fn published_staircase2_matches_mitsuba() {
     let xml = shared_or_skip!("scenes-bitterli/staircase2/scene.xml");
@@ -1516,7 +1521,7 @@ fn published_staircase2_matches_mitsuba() {
         return;
     }
     let reference = read_exr(&repo(STAIRCASE2_REFERENCE)).unwrap();
-    let mut scene = published_scene(&xml, (160, 90), 64);
+    let mut scene = published_scene(&xml, (160, 90), 128);
     assert_agrees(
         "staircase2/scene.xml",
         &scene,

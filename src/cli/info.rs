@@ -65,7 +65,7 @@ pub fn info(args: InfoArgs) -> Result<(), Failure> {
         match auto {
             true =>
                 format!("auto (a pilot chooses when rendering; the kernel below is {strategy}'s)"),
-            false => strategy.to_string(),
+            false => config.describe_strategy(),
         },
         scene.render.light_weight,
         scene.render.sampler,

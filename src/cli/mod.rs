@@ -35,7 +35,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Render a scene file to an image.
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Print what a scene uses, what its kernel contains, buffer sizes and adapter limits.
     Info(info::InfoArgs),
     /// Merge partial results of shards (`render --partial`) into one image.
@@ -76,7 +76,7 @@ impl Failure {
 
 pub fn run(cli: Cli, process_start: Instant) -> Result<(), Failure> {
     match cli.command {
-        Command::Render(args) => render::render(args, process_start),
+        Command::Render(args) => render::render(*args, process_start),
         Command::Info(args) => info::info(args),
         Command::Merge(args) => merge::merge(args),
         Command::Bench(args) => bench::bench(args),

@@ -8,7 +8,8 @@ use pathmix::kernel::{AccumulatorKind, ArrayMemory, SceneStorage};
 use pathmix::render::{RenderError, RenderOptions, RunSummary, StopReason, StopRule};
 use pathmix::scene::mitsuba::Define;
 use pathmix::scene::{
-    AdaptiveMetric, Aov, Reconstruction, Sampler, SceneOverrides, Strategy, parse_aovs,
+    AdaptiveMetric, Aov, LightSelection, Reconstruction, Sampler, SceneOverrides, Strategy,
+    parse_aovs,
 };
 use pathmix::session::checkpoint;
 use pathmix::session::pilot::{self, Pilot};
@@ -72,6 +73,12 @@ pub struct RenderArgs {
     /// (bright pixels take most samples) [scene: render.adaptive_metric].
     #[arg(long, value_enum)]
     pub adaptive_metric: Option<AdaptiveMetricArg>,
+    /// How nee-mis picks the light each next-event estimate samples: spatial
+    /// (default: in proportion to a bound on what each light sends toward the
+    /// point, where every light is a sphere, rectangle or disk) or uniform (each
+    /// light alike, as Mitsuba does) [scene: render.light_selection].
+    #[arg(long, value_enum)]
+    pub light_selection: Option<LightSelectionArg>,
     /// How a filter wider than a pixel makes each pixel of the samples around
     /// it: splat (default: each sample weighted into every pixel the filter
     /// reaches, as Mitsuba does) or importance (each sample's offset drawn from
@@ -230,6 +237,23 @@ impl From<AdaptiveMetricArg> for AdaptiveMetric {
         match arg {
             AdaptiveMetricArg::Relative => AdaptiveMetric::Relative,
             AdaptiveMetricArg::Absolute => AdaptiveMetric::Absolute,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum LightSelectionArg {
+    /// In proportion to a bound on what each light sends toward the point (the default).
+    Spatial,
+    /// Each light alike.
+    Uniform,
+}
+
+impl From<LightSelectionArg> for LightSelection {
+    fn from(arg: LightSelectionArg) -> LightSelection {
+        match arg {
+            LightSelectionArg::Spatial => LightSelection::Spatial,
+            LightSelectionArg::Uniform => LightSelection::Uniform,
         }
     }
 }
@@ -430,6 +454,7 @@ fn request(args: &RenderArgs) -> Request {
             seed: args.seed,
             rr_depth: args.rr_depth.map(|RrDepth(depth)| depth),
             sampler: args.sampler.map(Sampler::from),
+            light_selection: args.light_selection.map(LightSelection::from),
             adaptive_metric: args.adaptive_metric.map(AdaptiveMetric::from),
             reconstruction: args.reconstruction.map(Reconstruction::from),
             aovs: args.aov.clone().map(|AovList(aovs)| aovs),
@@ -499,7 +524,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
         eprintln!(
             "scene: {}  {width}x{height}  strategy {}  {}  {}  max depth {}  stop: {}",
             session.scene.source,
-            run.renderer.config().strategy,
+            run.renderer.config().describe_strategy(),
             run.renderer.config().describe_sampler(),
             run.renderer.config().describe_filter(),
             session.scene.render.max_depth,

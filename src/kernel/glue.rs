@@ -898,6 +898,10 @@ fn bvh_traversal(
 /// from exactly this density.
 fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
+    if config.spatial_light_selection {
+        spatial_light_density(out, &kinds);
+        return;
+    }
     let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
     let points = config.light_points();
     for &k in kinds.iter().filter(|&&k| grouped(k)) {
@@ -1011,6 +1015,117 @@ fn light_density(out: &mut String, config: &KernelConfig) {
     if points {
         light_point_pdf(out, &kinds);
     }
+}
+
+/// The share of the spatial light selection (`KernelConfig::spatial_light_selection`)
+/// that picks uniformly: a defensive mixture (Hesterberg 1995), so that a light
+/// the bound undervalues at a point, one far off while nearer ones are hidden
+/// behind walls, is still picked with probability at least this over the light
+/// count, and its samples' weights stay bounded.
+pub const SPATIAL_UNIFORM_SHARE: f32 = 0.1;
+
+/// The light density of the spatial selection (`KernelConfig::spatial_light_selection`):
+/// at a point `origin`, each light's solid-angle density weighted by its
+/// share there, `(1 - b) I_i / sum I + b / N` for importances `I`
+/// (`PrimitiveKind::light_importance`), `N` lights and `b` the
+/// [`SPATIAL_UNIFORM_SHARE`] (uniform where every importance is 0: behind every
+/// one-sided emitter). Picking a light by its share and sampling it draws from
+/// exactly this density; the pick and the density sum the importances in one
+/// order, so their totals agree to the bit.
+fn spatial_light_density(out: &mut String, kinds: &[usize]) {
+    // A block per light: `body(i, kind)` with `light` the element of kind
+    // `kinds[i]`, in braces so that unrolled copies declare their own names.
+    let each_light = |out: &mut String, body: &dyn Fn(usize, &str) -> String| {
+        for (i, &k) in kinds.iter().enumerate() {
+            let kind = PRIMITIVE_KINDS[k];
+            writeln!(out, "#for_each light in {}", kind.light_array()).unwrap();
+            writeln!(out, "    {{\n{}    }}\n#end_for", body(i, kind.name)).unwrap();
+        }
+    };
+    let counts: Vec<String> = kinds
+        .iter()
+        .map(|&k| format!("{}_count()", PRIMITIVE_KINDS[k].light_array()))
+        .collect();
+    writeln!(
+        out,
+        "fn light_count() -> u32 {{ return {}; }}",
+        counts.join(" + ")
+    )
+    .unwrap();
+    // A light's share is `importance * shares.x + shares.y`.
+    writeln!(
+        out,
+        "fn light_shares(total: f32) -> vec2<f32> {{
+    let uniform = {SPATIAL_UNIFORM_SHARE:?};
+    let spatial = select(0.0, (1.0 - uniform) / total, total > 0.0);
+    return vec2<f32>(spatial, select(1.0, uniform, total > 0.0) / f32(light_count()));
+}}"
+    )
+    .unwrap();
+    out.push_str("fn light_importance_total(origin: vec3<f32>) -> f32 {\n    var total = 0.0;\n");
+    each_light(out, &|_, name| {
+        format!("        total += {name}_light_importance(light, origin);\n")
+    });
+    out.push_str("    return total;\n}\n");
+    // `select` (uniform in [0, 1)) picks the light in whose share of the running
+    // sum it falls (the last, should rounding leave it past them all), `u` the
+    // point on it.
+    out.push_str(
+        "fn light_sample(origin: vec3<f32>, select: f32, u: vec2<f32>) -> LightSample {
+    let shares = light_shares(light_importance_total(origin));
+    var running = 0.0;
+    var found = false;
+    var chosen_kind = 0u;
+    var chosen = 0u;
+",
+    );
+    each_light(out, &|i, name| {
+        format!(
+            "        if !found {{
+            running += {name}_light_importance(light, origin) * shares.x + shares.y;
+            chosen_kind = {i}u;
+            chosen = light_index;
+            found = running > select;
+        }}
+"
+        )
+    });
+    for (i, &k) in kinds.iter().enumerate() {
+        let kind = PRIMITIVE_KINDS[k];
+        let call = format!(
+            "return LightSample({}_light_sample({}_at(chosen), origin, u), NO_LIGHT);",
+            kind.name,
+            kind.light_array()
+        );
+        match i + 1 == kinds.len() {
+            true => writeln!(out, "    {call}\n}}").unwrap(),
+            false => {
+                writeln!(out, "    if chosen_kind == {i}u {{\n        {call}\n    }}").unwrap()
+            }
+        }
+    }
+    // Sum over lights of (importance * shares.x + shares.y) * pdf, gathered as
+    // shares.x * sum(importance * pdf) + shares.y * sum(pdf) in one walk.
+    out.push_str(
+        "fn light_pdf(origin: vec3<f32>, dir: vec3<f32>) -> f32 {
+    var total = 0.0;
+    var weighted = 0.0;
+    var plain = 0.0;
+",
+    );
+    each_light(out, &|_, name| {
+        format!(
+            "        let importance = {name}_light_importance(light, origin);
+        let pdf = {name}_light_pdf(light, origin, dir);
+        total += importance;
+        weighted += importance * pdf;
+        plain += pdf;
+"
+        )
+    });
+    out.push_str(
+        "    let shares = light_shares(total);\n    return shares.x * weighted + shares.y * plain;\n}\n",
+    );
 }
 
 /// `light_point_pdf(hit, dir)`: the light density's share of the grouped light

@@ -19,7 +19,9 @@ use crate::kinds::{
 };
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::pack::SceneData;
-use crate::scene::{AovKind, CameraModel, Filter, RenderSettings, Sampler, Strategy};
+use crate::scene::{
+    AovKind, CameraModel, Filter, LightSelection, RenderSettings, Sampler, Strategy,
+};
 use crate::shader::{ArrayForm, ComposeError, Directives, ShaderModule, compose, shader_module};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -53,6 +55,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "STRATEGY_NEE",
     "LIGHT_DENSITY",
     "LIGHT_POINTS",
+    "LIGHT_SELECTION_SPATIAL",
     "VARIANCE",
     "REPLICATE_SUMS",
     "ADAPTIVE",
@@ -431,6 +434,11 @@ pub struct KernelConfig {
     pub environment: bool,
     /// The environment map is one object of the light density.
     pub light_environment: bool,
+    /// Next-event estimation picks a light in proportion to a bound on what it
+    /// sends toward the shading point (`PrimitiveKind::light_importance`), not
+    /// uniformly (`LIGHT_SELECTION_SPATIAL`): under `nee-mis`, with two lights or
+    /// more, each of a kind with such a bound, none grouped and no environment.
+    pub spatial_light_selection: bool,
     /// Point and spot lights, estimated by shadow rays at every vertex with a
     /// smooth lobe whatever the strategy (none without a smooth material).
     pub delta_lights: bool,
@@ -674,6 +682,15 @@ impl KernelConfig {
             opacity_textures: data.has_opacity_textures(),
             environment,
             light_environment: samples_lights && environment,
+            spatial_light_selection: samples_lights
+                && settings.light_selection == LightSelection::Spatial
+                && strategy == Strategy::NeeMis
+                && !environment
+                && data.light_count() >= 2
+                && data
+                    .light_kinds()
+                    .iter()
+                    .all(|k| PRIMITIVE_KINDS[k].light_importance),
             delta_lights: !data.delta_lights.is_empty() && has_smooth_lobe(material_kinds),
             directional_lights: data.delta_lights.iter().any(|l| l.infinite != 0.0),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
@@ -749,6 +766,7 @@ impl KernelConfig {
             opacity_textures: true,
             environment: true,
             light_environment: strategy != Strategy::Bsdf,
+            spatial_light_selection: false,
             delta_lights: true,
             directional_lights: true,
             delta_light_pick: false,
@@ -856,6 +874,15 @@ impl KernelConfig {
         self.grouped_density == GroupedDensity::Points
     }
 
+    /// The strategy, for a run's header: "nee-mis", or "nee-mis, spatial light
+    /// selection" where its next-event estimates pick lights spatially.
+    pub fn describe_strategy(&self) -> String {
+        match self.spatial_light_selection {
+            true => format!("{}, spatial light selection", self.strategy),
+            false => self.strategy.to_string(),
+        }
+    }
+
     /// The pixel filter and how samples are made pixels of, for a run's header:
     /// "box filter", "gaussian filter, splatted" or "tent filter, offsets drawn".
     pub fn describe_filter(&self) -> String {
@@ -895,6 +922,7 @@ impl KernelConfig {
             ("STRATEGY_NEE", self.strategy == Strategy::NeeMis),
             ("LIGHT_DENSITY", self.samples_lights()),
             ("LIGHT_POINTS", self.light_points()),
+            ("LIGHT_SELECTION_SPATIAL", self.spatial_light_selection),
             ("VARIANCE", self.variance),
             (
                 "REPLICATE_SUMS",
@@ -1723,6 +1751,7 @@ pub(crate) mod tests {
             seed: 0,
             rr_depth: crate::scene::Roulette::Off,
             sampler: Sampler::Sobol,
+            light_selection: LightSelection::Spatial,
             adaptive: false,
             adaptive_metric: None,
             reconstruction: None,
@@ -2449,6 +2478,37 @@ pub(crate) mod tests {
         };
         assert!(config.textures && config.environment && config.delta_lights);
         validate(&config);
+    }
+
+    /// The spatial light selection over every kind with a light importance,
+    /// each module defining it, with the scene in storage buffers and (the
+    /// `#for_each` blocks unrolled) compiled in.
+    #[test]
+    fn spatial_light_selection_kernel_validates() {
+        let light_kinds: KindSet = (0..PRIMITIVE_KINDS.len())
+            .filter(|&k| PRIMITIVE_KINDS[k].light_importance)
+            .collect();
+        assert!(light_kinds.iter().count() >= 3, "spheres, quads and disks");
+        let config = KernelConfig {
+            light_kinds,
+            grouped_density: GroupedDensity::Every,
+            environment: false,
+            light_environment: false,
+            spatial_light_selection: true,
+            ..KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer)
+        };
+        assert!(config.flags().contains("LIGHT_SELECTION_SPATIAL"));
+        let module = validate(&config);
+        for k in light_kinds.iter() {
+            let name = format!("{}_light_importance", PRIMITIVE_KINDS[k].name);
+            assert!(
+                module
+                    .functions
+                    .iter()
+                    .any(|(_, f)| f.name.as_deref() == Some(name.as_str())),
+                "{name}"
+            );
+        }
     }
 
     /// Each kind's module defines what its description promises.

@@ -161,6 +161,7 @@ pub const CYLINDER: PrimitiveKind = PrimitiveKind {
     ray_offset_factor: 1.0,
     reprojects_hit_point: true,
     keeps_primitive: true,
+    light_importance: false,
     object: Some(ObjectType {
         keys: &["p0", "p1", "radius", "flip_normals"],
         parse,

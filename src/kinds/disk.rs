@@ -128,6 +128,7 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
     ray_offset_factor: 1.0,
     reprojects_hit_point: false,
     keeps_primitive: false,
+    light_importance: true,
     object: Some(ObjectType {
         keys: &["center", "u", "v"],
         parse,

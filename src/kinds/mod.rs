@@ -266,6 +266,13 @@ pub struct PrimitiveKind {
     /// `NAME_hit_normal` and `NAME_hit_point` of the primitive `p: S` in place
     /// of `keep`, and no `NAME_hit_keep`.
     pub keeps_primitive: bool,
+    /// Its module defines, under `LIGHT_SELECTION_SPATIAL`, `fn
+    /// NAME_light_importance(p: S, origin: vec3<f32>) -> f32`: a bound on what the
+    /// light sends toward `origin`, its radiance's luminance times the solid angle
+    /// it could subtend and how squarely it could face there (0 where it cannot
+    /// light `origin`). Next-event estimation under `nee-mis` picks such lights
+    /// mostly in proportion to it (`KernelConfig::spatial_light_selection`).
+    pub light_importance: bool,
     /// How scene files name one shape of this kind, if they do.
     pub(crate) object: Option<ObjectType>,
 }

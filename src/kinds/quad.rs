@@ -168,6 +168,7 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
     ray_offset_factor: 1.0,
     reprojects_hit_point: false,
     keeps_primitive: false,
+    light_importance: true,
     object: Some(ObjectType {
         keys: &["q", "u", "v"],
         parse,

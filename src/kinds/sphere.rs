@@ -141,6 +141,7 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
     ray_offset_factor: 1.0,
     reprojects_hit_point: true,
     keeps_primitive: false,
+    light_importance: true,
     object: Some(ObjectType {
         keys: &["center", "radius"],
         parse,

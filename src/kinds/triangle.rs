@@ -118,6 +118,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     ray_offset_factor: 10.0,
     reprojects_hit_point: false,
     keeps_primitive: false,
+    light_importance: false,
     object: None,
 };
 

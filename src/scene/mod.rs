@@ -109,6 +109,34 @@ pub enum Sampler {
     Independent,
 }
 
+/// How next-event estimation under `nee-mis` picks the light it samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum LightSelection {
+    /// In proportion to a bound on what each light sends toward the shading
+    /// point: its radiance, the solid angle it could subtend there and how
+    /// squarely it could face it (pbrt-v4's light bounds, without their tree).
+    /// Where the scene has two lights or more, each a sphere, rectangle or disk,
+    /// and no environment map or emitting mesh; elsewhere uniformly. The default.
+    Spatial,
+    /// Uniformly, as Mitsuba does: each light once.
+    Uniform,
+}
+
+impl LightSelection {
+    pub const ALL: [LightSelection; 2] = [LightSelection::Spatial, LightSelection::Uniform];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSelection::Spatial => "spatial",
+            LightSelection::Uniform => "uniform",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<LightSelection> {
+        LightSelection::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
 /// The error adaptive sampling lowers (`crate::render::adaptive`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum AdaptiveMetric {
@@ -237,6 +265,8 @@ pub struct RenderSettings {
     pub seed: u32,
     pub rr_depth: Roulette,
     pub sampler: Sampler,
+    /// How `nee-mis` picks the light it samples.
+    pub light_selection: LightSelection,
     /// Adaptive sampling (`crate::render::adaptive`), as the command line's `--adaptive`.
     pub adaptive: bool,
     /// The error adaptive sampling lowers; `None`: the run's, the one its

@@ -19,9 +19,9 @@ use toml::{Table, Value};
 use super::envmap::{EnvironmentMap, load_image};
 use super::mesh::{is_serialized, load_mesh, vertex_normals};
 use super::{
-    AdaptiveMetric, Aov, Camera, Filter, Material, MaterialKind, PointLight, Quad, Reconstruction,
-    RenderSettings, Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy, Triangle,
-    excerpt,
+    AdaptiveMetric, Aov, Camera, Filter, LightSelection, Material, MaterialKind, PointLight, Quad,
+    Reconstruction, RenderSettings, Roulette, Sampler, Scene, SceneError, Shapes, Sphere, Strategy,
+    Triangle, excerpt,
 };
 use super::{Instance, Instancing, ShapeGroup};
 use crate::kinds::params::{
@@ -53,6 +53,7 @@ pub struct SceneOverrides {
     /// `Some(None)` turns Russian roulette off.
     pub rr_depth: Option<Option<u32>>,
     pub sampler: Option<Sampler>,
+    pub light_selection: Option<LightSelection>,
     pub adaptive_metric: Option<AdaptiveMetric>,
     pub reconstruction: Option<Reconstruction>,
     /// Replaces the file's AOVs.
@@ -100,6 +101,7 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "seed",
     "rr_depth",
     "sampler",
+    "light_selection",
     "adaptive",
     "adaptive_metric",
     "reconstruction",
@@ -294,6 +296,9 @@ impl Scene {
         if let Some(v) = o.sampler {
             self.render.sampler = v;
         }
+        if let Some(v) = o.light_selection {
+            self.render.light_selection = v;
+        }
         if let Some(v) = o.adaptive_metric {
             self.render.adaptive_metric = Some(v);
         }
@@ -417,6 +422,7 @@ fn default_render() -> RenderSettings {
         seed: 0,
         rr_depth: Roulette::StrategyDefault,
         sampler: Sampler::Sobol,
+        light_selection: LightSelection::Spatial,
         adaptive: false,
         adaptive_metric: None,
         reconstruction: None,
@@ -461,6 +467,14 @@ fn parse_render(t: &ParamTable) -> Result<RenderSettings> {
             Sampler::from_name,
         )?
         .unwrap_or(d.sampler),
+        light_selection: named(
+            t,
+            "light_selection",
+            &LightSelection::ALL,
+            LightSelection::name,
+            LightSelection::from_name,
+        )?
+        .unwrap_or(d.light_selection),
         adaptive: t.boolean("adaptive")?.unwrap_or(d.adaptive),
         adaptive_metric: named(
             t,
@@ -2175,6 +2189,7 @@ material = "white"
             seed: Some(7),
             rr_depth: None,
             sampler: Some(Sampler::Independent),
+            light_selection: Some(LightSelection::Uniform),
             adaptive_metric: Some(AdaptiveMetric::Absolute),
             reconstruction: Some(Reconstruction::Importance),
             aovs: Some(vec![Aov {
@@ -2193,6 +2208,7 @@ material = "white"
         );
         assert_eq!(s.render.light_weight, 1.0);
         assert_eq!(s.render.sampler, Sampler::Independent);
+        assert_eq!(s.render.light_selection, LightSelection::Uniform);
         assert_eq!(s.render.adaptive_metric, Some(AdaptiveMetric::Absolute));
         assert_eq!(s.render.reconstruction, Some(Reconstruction::Importance));
         assert_eq!(s.render.aovs[0].spec(), "nn:sh_normal");

@@ -21,8 +21,8 @@ use crate::output::{self, OutputError};
 use crate::render::adaptive::Choice;
 use crate::render::{AccumulatorState, AdaptiveState};
 use crate::scene::{
-    AdaptiveMetric, Aov, Reconstruction, RenderSettings, Sampler, Scene, SceneOverrides, Strategy,
-    parse_aovs,
+    AdaptiveMetric, Aov, LightSelection, Reconstruction, RenderSettings, Sampler, Scene,
+    SceneOverrides, Strategy, parse_aovs,
 };
 use serde::Serialize;
 use std::io::{self, Write};
@@ -137,6 +137,9 @@ impl SceneIdentity {
             // the same depth given are the same run.
             rr_depth: _,
             sampler,
+            // How the run samples, not what it estimates: a checkpoint records
+            // the pick its run made (`[run] light_selection`), which a resume keeps.
+            light_selection: _,
             // How the run samples, not what it estimates; the state says whether
             // it was adaptive (its counts), and a resume must match it.
             adaptive: _,
@@ -630,6 +633,9 @@ fn header(c: &Checkpoint) -> String {
     if let Some(s) = o.sampler {
         overrides.insert("sampler".into(), s.name().into());
     }
+    if let Some(p) = o.light_selection {
+        overrides.insert("light_selection".into(), p.name().into());
+    }
     if let Some(m) = o.adaptive_metric {
         overrides.insert("adaptive_metric".into(), m.name().into());
     }
@@ -831,6 +837,7 @@ fn parse_header(
             )),
         },
         sampler: named_in(o, "sampler", Sampler::from_name)?,
+        light_selection: named_in(o, "light_selection", LightSelection::from_name)?,
         adaptive_metric: named_in(o, "adaptive_metric", AdaptiveMetric::from_name)?,
         reconstruction: named_in(o, "reconstruction", Reconstruction::from_name)?,
     };
@@ -1301,6 +1308,7 @@ mod tests {
                 seed: 3,
                 rr_depth: Roulette::StrategyDefault,
                 sampler: Sampler::Sobol,
+                light_selection: LightSelection::Spatial,
                 adaptive: false,
                 adaptive_metric: None,
                 // Its hash from before splatting was a choice (`SceneIdentity::of`).

@@ -21,7 +21,8 @@ use crate::render::{
 };
 use crate::scene::mitsuba::Define;
 use crate::scene::{
-    AdaptiveMetric, LoadedScene, OverrideError, Sampler, Scene, SceneError, SceneOverrides,
+    AdaptiveMetric, LightSelection, LoadedScene, OverrideError, Sampler, Scene, SceneError,
+    SceneOverrides,
 };
 use crate::session::checkpoint::{
     self, Checkpoint, CheckpointError, CheckpointLock, LockError, SceneIdentity,
@@ -388,6 +389,14 @@ impl Session {
                 scene.render.auto_strategy = false;
             }
             _ => refuse_auto_conflicts(request, &scene)?,
+        }
+        // A resume picks lights as its run did; checkpoints from before the
+        // choice all picked uniformly.
+        if saved.is_some() {
+            scene.render.light_selection = recorded(LIGHT_SELECTION_KEY)
+                .and_then(|v| v.as_str())
+                .and_then(LightSelection::from_name)
+                .unwrap_or(LightSelection::Uniform);
         }
         let identity = OnceLock::new();
         let mut warnings = Vec::new();
@@ -964,6 +973,10 @@ fn absolute(path: &Path) -> PathBuf {
 /// interleave replicates (`RenderOptions::sampler_replicates`).
 const SAMPLER_REPLICATES_KEY: &str = "sampler_replicates";
 
+/// The key under which a checkpoint records how its run picked lights
+/// (`RenderSettings::light_selection`).
+const LIGHT_SELECTION_KEY: &str = "light_selection";
+
 /// What a resume needs besides the state: the stopping rule, outputs and sampler.
 fn run_table(session: &Session, elapsed: Duration) -> toml::Table {
     let mut run = toml::Table::new();
@@ -987,6 +1000,10 @@ fn run_table(session: &Session, elapsed: Duration) -> toml::Table {
     run.insert(
         SAMPLER_REPLICATES_KEY.into(),
         session.render.sampler_replicates.into(),
+    );
+    run.insert(
+        LIGHT_SELECTION_KEY.into(),
+        session.scene.render.light_selection.name().into(),
     );
     run.insert(
         "checkpoint_every_s".into(),
