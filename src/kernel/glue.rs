@@ -898,10 +898,6 @@ fn bvh_traversal(
 /// from exactly this density.
 fn light_density(out: &mut String, config: &KernelConfig) {
     let kinds: Vec<usize> = config.light_kinds.iter().collect();
-    if config.spatial_light_selection {
-        spatial_light_density(out, &kinds);
-        return;
-    }
     let grouped = |k: usize| PRIMITIVE_KINDS[k].grouped_lights;
     let points = config.light_points();
     for &k in kinds.iter().filter(|&&k| grouped(k)) {
@@ -930,6 +926,10 @@ fn light_density(out: &mut String, config: &KernelConfig) {
         counts.join(" + ")
     )
     .unwrap();
+    if config.spatial_light_selection {
+        spatial_light_density(out, &kinds);
+        return;
+    }
     // `select` (uniform in [0, 1)) picks the object, `u` the point on it; what
     // is left of `select` picks a group's member.
     out.push_str(
@@ -1031,7 +1031,8 @@ pub const SPATIAL_UNIFORM_SHARE: f32 = 0.1;
 /// [`SPATIAL_UNIFORM_SHARE`] (uniform where every importance is 0: behind every
 /// one-sided emitter). Picking a light by its share and sampling it draws from
 /// exactly this density; the pick and the density sum the importances in one
-/// order, so their totals agree to the bit.
+/// order, so their totals agree to the bit. After `light_count`, which
+/// `light_density` writes for both selections.
 fn spatial_light_density(out: &mut String, kinds: &[usize]) {
     // A block per light: `body(i, kind)` with `light` the element of kind
     // `kinds[i]`, in braces so that unrolled copies declare their own names.
@@ -1042,16 +1043,6 @@ fn spatial_light_density(out: &mut String, kinds: &[usize]) {
             writeln!(out, "    {{\n{}    }}\n#end_for", body(i, kind.name)).unwrap();
         }
     };
-    let counts: Vec<String> = kinds
-        .iter()
-        .map(|&k| format!("{}_count()", PRIMITIVE_KINDS[k].light_array()))
-        .collect();
-    writeln!(
-        out,
-        "fn light_count() -> u32 {{ return {}; }}",
-        counts.join(" + ")
-    )
-    .unwrap();
     // A light's share is `importance * shares.x + shares.y`.
     writeln!(
         out,
