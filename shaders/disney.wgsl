@@ -28,7 +28,7 @@ fn disney_r0(eta: f32) -> f32 {
 
 // The base colour over its luminance (white where it is black).
 fn disney_tint(base_color: vec3<f32>) -> vec3<f32> {
-    let lum = dot(base_color, vec3<f32>(0.212671, 0.715160, 0.072169));
+    let lum = dot(base_color, LUMINANCE);
     return select(vec3<f32>(1.0), base_color / lum, lum > 0.0);
 }
 

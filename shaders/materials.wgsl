@@ -43,7 +43,7 @@ struct Material {
 // The luminance (Rec. 709) of material `index`'s emitted radiance, which the
 // spatial light pick weighs a light by.
 fn material_emitted_luminance(index: u32) -> f32 {
-    return dot(materials_at(index).emit, vec3<f32>(0.2126, 0.7152, 0.0722));
+    return dot(materials_at(index).emit, LUMINANCE);
 }
 #endif
 

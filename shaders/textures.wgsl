@@ -81,7 +81,7 @@ fn texture_eval_number(index: u32, surface_uv: vec2<f32>) -> f32 {
         let c = select(t.color0, t.color1, upper.x == upper.y);
         return (c.x + c.y + c.z) / 3.0;
     }
-    return dot(texture_eval(index, surface_uv), vec3<f32>(0.212671, 0.715160, 0.072169));
+    return dot(texture_eval(index, surface_uv), LUMINANCE);
 }
 
 #if TEXTURED_NUMBERS
@@ -120,7 +120,7 @@ fn textured(m: Material, uv: vec2<f32>) -> Material {
 // The luminance of a linear RGB colour (Mitsuba's `luminance`): the height a
 // bump map's texel stands for.
 fn texture_luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3<f32>(0.212671, 0.715160, 0.072169));
+    return dot(c, LUMINANCE);
 }
 
 // The gradient of bitmap `t`'s luminance along the surface's (u, v): analytic

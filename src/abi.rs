@@ -230,6 +230,12 @@ pub fn material_flag(name: &str) -> u32 {
         .expect("a material flag")
 }
 
+/// Rec. 709 luminance weights, Y of linear sRGB (Mitsuba's `luminance`): how
+/// bright a colour looks, wherever pathmix weighs one (a bitmap read as a
+/// number, a light's or texel's share of the samples, the error metrics). The
+/// kernel's `LUMINANCE`.
+pub const LUMINANCE: [f32; 3] = [0.212671, 0.715160, 0.072169];
+
 /// Ray origins leave a surface by this fraction of the scene's extent, times
 /// its kind's `ray_offset_factor`.
 pub const RAY_OFFSET_RELATIVE: f32 = 1e-6;

@@ -10,6 +10,7 @@
 use crate::abi::gpu_struct;
 use crate::scene::EnvironmentMap;
 use crate::scene::envmap::row_edge;
+use crate::stats::luminance_f64;
 
 gpu_struct! {
     /// The map's size and the world-to-map rotation, by rows (the inverse of
@@ -33,11 +34,6 @@ pub struct EnvironmentTables {
     pub texels: Vec<[f32; 4]>,
     /// The marginal CDF over rows: `height + 1` entries, 0 first and 1 last.
     pub rows: Vec<f32>,
-}
-
-/// Rec. 709 luminance, the weight of a texel's radiance (as Mitsuba's).
-fn luminance(rgb: [f32; 3]) -> f64 {
-    0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64
 }
 
 /// The mean over each texel's cell of `values` interpolated bilinearly between
@@ -102,7 +98,11 @@ impl EnvironmentTables {
         let to_local = map.to_world;
         let mut texels = Vec::with_capacity(width * height);
         let mut row_weights = Vec::with_capacity(height);
-        let lum: Vec<f64> = map.texels.iter().map(|&t| luminance(t)).collect();
+        let lum: Vec<f64> = map
+            .texels
+            .iter()
+            .map(|&t| luminance_f64(t.map(f64::from)))
+            .collect();
         let weights = cell_means(&lum, width, height);
         for (y, (row, weights)) in map
             .texels

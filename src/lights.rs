@@ -16,6 +16,7 @@ use crate::accel::PrimitiveArrays;
 use crate::accel::{Bvh, WideBvh};
 use crate::kinds::PackedArray;
 use crate::scene::PointLight;
+use crate::stats::luminance_f64;
 use glam::Vec3;
 use std::sync::OnceLock;
 
@@ -89,7 +90,10 @@ pub fn pack_delta_lights(lights: &[PointLight], extent: f32) -> Vec<DeltaLight> 
             if l.directional.is_some() {
                 // Mitsuba's: its irradiance over the scene's bounding disk.
                 let radius = extent as f64;
-                return luminance(l.intensity.to_array()) * std::f64::consts::PI * radius * radius;
+                return luminance_f64(l.intensity.to_array().map(f64::from))
+                    * std::f64::consts::PI
+                    * radius
+                    * radius;
             }
             let solid_angle = match l.spot {
                 None => 4.0 * std::f64::consts::PI,
@@ -98,7 +102,7 @@ pub fn pack_delta_lights(lights: &[PointLight], extent: f32) -> Vec<DeltaLight> 
                     2.0 * std::f64::consts::PI * (1.0 - middle.to_radians().cos())
                 }
             };
-            luminance(l.intensity.to_array()) * solid_angle
+            luminance_f64(l.intensity.to_array().map(f64::from)) * solid_angle
         })
         .collect();
     let total: f64 = power.iter().sum();
@@ -200,11 +204,6 @@ impl LightBvh {
     }
 }
 
-/// Rec. 709 luminance: how bright an emission looks, for weighing lights.
-fn luminance(rgb: [f32; 3]) -> f64 {
-    0.2126 * rgb[0] as f64 + 0.7152 * rgb[1] as f64 + 0.0722 * rgb[2] as f64
-}
-
 impl LightTables {
     /// The tables of the light primitives `lights` of kind `k`, with `groups[i]`
     /// and `areas[i]` the group and area of light `i` (a group's lights are
@@ -225,7 +224,10 @@ impl LightTables {
                     .take_while(|&&g| g == groups[start])
                     .count();
             let power: Vec<f64> = (start..end)
-                .map(|i| areas[i] as f64 * luminance(materials[lights.materials[i] as usize].emit))
+                .map(|i| {
+                    areas[i] as f64
+                        * luminance_f64(materials[lights.materials[i] as usize].emit.map(f64::from))
+                })
                 .collect();
             let weights = if power.iter().sum::<f64>() > 0.0 {
                 power

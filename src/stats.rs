@@ -1,10 +1,8 @@
 //! Statistics over accumulated sample sums, for noise estimates and convergence studies.
 
+use crate::abi::LUMINANCE;
 use crate::output::Image;
 use std::ops::Range;
-
-/// Rec. 709 / sRGB luminance weights.
-const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
 /// Per-pixel sums of samples and of squared samples (f64), over `samples` samples per pixel
 /// (or each pixel's own count, `counts`). `sum` and `sum_sq` hold `width * height` pixels,
@@ -230,13 +228,13 @@ impl Accumulation {
     }
 }
 
-/// Rec. 709 luminance: `Y = 0.2126 R + 0.7152 G + 0.0722 B`.
+/// Rec. 709 luminance (`abi::LUMINANCE`): `Y = 0.212671 R + 0.715160 G + 0.072169 B`.
 pub fn luminance(rgb: [f32; 3]) -> f32 {
     luminance_f64(rgb.map(f64::from)) as f32
 }
 
 pub(crate) fn luminance_f64(rgb: [f64; 3]) -> f64 {
-    rgb.iter().zip(LUMINANCE_WEIGHTS).map(|(c, w)| c * w).sum()
+    rgb.iter().zip(LUMINANCE).map(|(c, w)| c * w as f64).sum()
 }
 
 /// Root-mean-square difference over all pixels and channels, in f64 (NaN for empty images).
@@ -419,8 +417,11 @@ mod tests {
             sum_sq: Some(vec![[0.5625 + 1.5625; 3], [4.0 + 16.0, 18.0, 18.0]]),
             replicates: None,
         };
-        // Y(SE): A → 0.25 (weights sum to 1), B → 0.2126. Mean luminance: (1 + 3) / 2 = 2.
-        let expected = ((0.25f64.powi(2) + 0.2126f64.powi(2)) / 2.0).sqrt() / 2.0;
+        // With the weights' sum w (1 in decimal, not quite in f32): Y(SE) of A is 0.25 w,
+        // of B the red weight; the mean luminance (1 + 3) w / 2 = 2 w.
+        let weights = LUMINANCE.map(f64::from);
+        let w = weights.iter().sum::<f64>();
+        let expected = (((0.25 * w).powi(2) + weights[0].powi(2)) / 2.0).sqrt() / (2.0 * w);
         assert_close(accumulation.relative_error().unwrap(), expected);
     }
 
@@ -474,9 +475,9 @@ mod tests {
 
     #[test]
     fn luminance_weights() {
-        assert_eq!(luminance([1.0, 0.0, 0.0]), 0.2126);
-        assert_eq!(luminance([0.0, 1.0, 0.0]), 0.7152);
-        assert_eq!(luminance([0.0, 0.0, 1.0]), 0.0722);
+        assert_eq!(luminance([1.0, 0.0, 0.0]), 0.212671);
+        assert_eq!(luminance([0.0, 1.0, 0.0]), 0.715160);
+        assert_eq!(luminance([0.0, 0.0, 1.0]), 0.072169);
         assert_eq!(luminance([2.0, 2.0, 2.0]), 2.0);
     }
 
