@@ -7,15 +7,10 @@
 
 mod common;
 
-use std::path::Path;
-use std::process::{Command, Output};
+use common::pathmix;
 
-fn pathmix(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pathmix"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+use std::path::Path;
+use std::process::Output;
 
 /// Image side in pixels, and the view's half angle.
 const SIDE: usize = 16;

@@ -2,15 +2,10 @@
 
 mod common;
 
+use common::pathmix;
+
 use std::path::Path;
 use std::process::{Command, Output};
-
-fn pathmix(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pathmix"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn scene(name: &str) -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -2,6 +2,8 @@
 
 mod common;
 
+use common::pathmix;
+
 use pathmix::output::{self, Image};
 use pathmix::scene::{Sampler, SceneOverrides, Strategy};
 use pathmix::session::converge::{
@@ -10,7 +12,6 @@ use pathmix::session::converge::{
 };
 use pathmix::stats;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn scene_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -237,13 +238,6 @@ fn a_reference_of_another_size_is_refused() {
     }
     let reference = converge::given_reference(&path, 4, 3).unwrap();
     assert_eq!(reference.source, ReferenceSource::Given);
-}
-
-fn pathmix(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_pathmix"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 #[test]

@@ -8,6 +8,8 @@
 
 mod common;
 
+use common::pathmix;
+
 use pathmix::render::{RenderOptions, plan_kernel};
 use pathmix::scene::{LightSelection, Scene};
 
@@ -162,16 +164,10 @@ fn spatial_selection_lowers_the_noise_of_lights_unlike_in_power() {
     );
 }
 
-fn pathmix(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_pathmix"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 /// A checkpoint records the pick its run made, and a resume keeps it: the furnace's
 /// six emitting walls under `nee-mis`, interrupted at 4 spp and resumed to 8, equal
-/// a run of 8, bit for bit, with either pick (the two differing from each other).
+/// a run of 8, bit for bit, with either pick (the two differing from each other);
+/// a resume that names a pick is refused.
 #[test]
 fn a_resume_keeps_the_runs_light_selection() {
     let _ctx = gpu_or_skip!();
@@ -222,6 +218,17 @@ fn a_resume_keeps_the_runs_light_selection() {
             selection == "spatial",
             "{stderr}"
         );
+        // The pick is the checkpoint's: a resume that names one is refused, as one
+        // naming a seed or a sampler is.
+        let output = pathmix(&[
+            "render",
+            "--resume",
+            &ckpt_arg,
+            "--light-selection",
+            "uniform",
+        ]);
+        assert_eq!(output.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&output.stderr).contains("--light-selection"));
         let direct_arg = p(&direct);
         let mut whole = vec![
             "render",

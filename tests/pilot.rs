@@ -3,6 +3,8 @@
 
 mod common;
 
+use common::pathmix;
+
 use pathmix::kernel::AccumulatorKind;
 use pathmix::render::{self, RenderError, RenderOptions, Renderer, StopRule};
 use pathmix::scene::{Sampler, Scene, Strategy};
@@ -10,7 +12,7 @@ use pathmix::session::converge::{self, Variant};
 use pathmix::session::pilot::{self, Pilot};
 use pathmix::stats;
 use std::path::Path;
-use std::process::{Command, Output};
+
 use std::sync::{Mutex, MutexGuard};
 
 /// The pilot's choices rest on timings of a few milliseconds, which another test's
@@ -229,13 +231,6 @@ fn an_unresolved_auto_strategy_is_refused() {
 }
 
 // --- The command line ----------------------------------------------------------------
-
-fn pathmix(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_pathmix"))
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn p(path: &Path) -> &str {
     path.to_str().unwrap()

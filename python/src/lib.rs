@@ -17,7 +17,8 @@ use pathmix::render::aov::AovImage;
 use pathmix::render::{Progress, RunSummary, StopReason};
 use pathmix::scene::mitsuba::Define;
 use pathmix::scene::{
-    Aov, LoadedScene, Sampler, Scene as SceneData, SceneOverrides, Strategy, parse_aovs,
+    AdaptiveMetric, Aov, LightSelection, LoadedScene, Reconstruction, Sampler, Scene as SceneData,
+    SceneOverrides, Strategy, parse_aovs,
 };
 use pathmix::session::converge::{ConvergeError, Event, ReferenceChoice, Study, Variant};
 use pathmix::session::{self, Request, SessionError};
@@ -106,8 +107,18 @@ impl Scene {
         info.set_item("strategy", strategy)?;
         info.set_item("light_weight", render.light_weight)?;
         info.set_item("sampler", render.sampler.to_string())?;
+        info.set_item("light_selection", render.light_selection.name())?;
+        info.set_item(
+            "reconstruction",
+            render.reconstruction_with(scene.camera.filter).name(),
+        )?;
         info.set_item("seed", render.seed)?;
         info.set_item("adaptive", render.adaptive)?;
+        // `None`: the run's default (relative; absolute under an error target).
+        info.set_item(
+            "adaptive_metric",
+            render.adaptive_metric.map(AdaptiveMetric::name),
+        )?;
         info.set_item("shapes", scene.shapes.iter().count())?;
         info.set_item("materials", scene.materials.len())?;
         info.set_item("point_lights", scene.point_lights.len())?;
@@ -178,6 +189,29 @@ struct Settings {
     time: Option<f64>,
     target_error: Option<f64>,
     adaptive: bool,
+    adaptive_metric: Option<String>,
+    light_selection: Option<String>,
+    reconstruction: Option<String>,
+}
+
+/// A named choice given as `argument`, read by `from_name`, or a `ValueError`
+/// listing the `names` it may be.
+fn choice<T>(
+    argument: &str,
+    value: Option<&str>,
+    from_name: fn(&str) -> Option<T>,
+    names: &[&str],
+) -> PyResult<Option<T>> {
+    value
+        .map(|name| {
+            from_name(name).ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "{argument}: `{name}` is not one of {}",
+                    names.join(", ")
+                ))
+            })
+        })
+        .transpose()
 }
 
 impl Settings {
@@ -187,6 +221,8 @@ impl Settings {
         self.strategy.is_some()
             || self.light_weight.is_some()
             || self.sampler.is_some()
+            || self.light_selection.is_some()
+            || self.reconstruction.is_some()
             || self.seed.is_some()
             || self.width.is_some()
             || self.height.is_some()
@@ -209,14 +245,30 @@ impl Settings {
                 }
             },
         };
-        let sampler = match self.sampler.as_deref() {
-            None => None,
-            Some(name) => Some(Sampler::from_name(name).ok_or_else(|| {
-                PyValueError::new_err(format!(
-                    "sampler: `{name}` is not one of sobol, independent"
-                ))
-            })?),
-        };
+        let sampler = choice(
+            "sampler",
+            self.sampler.as_deref(),
+            Sampler::from_name,
+            &Sampler::ALL.map(Sampler::name),
+        )?;
+        let light_selection = choice(
+            "light_selection",
+            self.light_selection.as_deref(),
+            LightSelection::from_name,
+            &LightSelection::ALL.map(LightSelection::name),
+        )?;
+        let adaptive_metric = choice(
+            "adaptive_metric",
+            self.adaptive_metric.as_deref(),
+            AdaptiveMetric::from_name,
+            &AdaptiveMetric::ALL.map(AdaptiveMetric::name),
+        )?;
+        let reconstruction = choice(
+            "reconstruction",
+            self.reconstruction.as_deref(),
+            Reconstruction::from_name,
+            &Reconstruction::ALL.map(Reconstruction::name),
+        )?;
         let time_budget = match self.time {
             None => None,
             Some(seconds) if seconds.is_finite() && seconds > 0.0 => {
@@ -246,6 +298,9 @@ impl Settings {
                 light_weight: self.light_weight,
                 seed: self.seed,
                 sampler,
+                light_selection,
+                adaptive_metric,
+                reconstruction,
                 ..SceneOverrides::default()
             },
             spp: self.spp,
@@ -372,8 +427,8 @@ fn counts_array<'py>(
 #[pyfunction]
 #[pyo3(signature = (
     scene, *, spp=None, strategy=None, seed=None, width=None, height=None, max_depth=None,
-    time=None, target_error=None, adaptive=false, light_weight=None, sampler=None,
-    return_error=false, return_sample_counts=false, aovs=None, progress=None,
+    time=None, target_error=None, adaptive=false, adaptive_metric=None, light_weight=None,
+    sampler=None, light_selection=None, reconstruction=None, return_error=false, return_sample_counts=false, aovs=None, progress=None,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn render(
@@ -388,8 +443,11 @@ fn render(
     time: Option<f64>,
     target_error: Option<f64>,
     adaptive: bool,
+    adaptive_metric: Option<String>,
     light_weight: Option<f32>,
     sampler: Option<String>,
+    light_selection: Option<String>,
+    reconstruction: Option<String>,
     return_error: bool,
     return_sample_counts: bool,
     aovs: Option<String>,
@@ -413,6 +471,9 @@ fn render(
         time,
         target_error,
         adaptive,
+        adaptive_metric,
+        light_selection,
+        reconstruction,
     };
     let scene = scene.get();
     let mut request = settings.request(scene, return_error)?;
@@ -504,8 +565,8 @@ impl Run {
     #[new]
     #[pyo3(signature = (
         scene, *, spp=None, strategy=None, seed=None, width=None, height=None, max_depth=None,
-        time=None, target_error=None, adaptive=false, light_weight=None, sampler=None,
-        checkpoint=None, resume=None,
+        time=None, target_error=None, adaptive=false, adaptive_metric=None, light_weight=None,
+        sampler=None, light_selection=None, reconstruction=None, checkpoint=None, resume=None,
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -520,8 +581,11 @@ impl Run {
         time: Option<f64>,
         target_error: Option<f64>,
         adaptive: bool,
+        adaptive_metric: Option<String>,
         light_weight: Option<f32>,
         sampler: Option<String>,
+        light_selection: Option<String>,
+        reconstruction: Option<String>,
         checkpoint: Option<PathBuf>,
         resume: Option<PathBuf>,
     ) -> PyResult<Run> {
@@ -537,11 +601,15 @@ impl Run {
             time,
             target_error,
             adaptive,
+            adaptive_metric,
+            light_selection,
+            reconstruction,
         };
         if resume.is_some() && settings.fixes_the_scene() {
             return Err(PyValueError::new_err(
                 "resume: the checkpoint records the size, depth, strategy, light weight, \
-                 seed and sampler it was rendered with; give only spp, time or target_error",
+                 seed, sampler, light selection and reconstruction it was rendered with; give \
+                 only spp, time or target_error",
             ));
         }
         let scene = scene.get();

@@ -82,6 +82,25 @@ def test_error_map_matches_the_command_lines_variance_output(scene, tmp_path):
     assert (error >= 0).all() and error.mean() > 0.0
 
 
+@pytest.mark.parametrize("scene_file, setting, value", [
+    ("furnace.toml", "light_selection", "uniform"),  # 6 lights: spatial by default
+    ("sky.toml", "reconstruction", "importance"),  # Gaussian filter: splatted by default
+])
+def test_trade_settings_match_the_command_line(tmp_path, scene_file, setting, value):
+    path, exr = ROOT / "scenes" / scene_file, tmp_path / "out.exr"
+    flags = ["--spp", "8", "--seed", "3", "--strategy", "nee-mis", "--width", "32",
+             "--height", "24"]
+    subprocess.run([str(cli()), "render", str(path), "-q", *flags,
+                    "--" + setting.replace("_", "-"), value, "--exr", str(exr),
+                    "-o", str(tmp_path / "out.png")], capture_output=True, check=True)
+    loaded = pathmix.load(path)
+    run = {"spp": 8, "seed": 3, "strategy": "nee-mis", **SIZE}
+    image = pathmix.render(loaded, **run, **{setting: value})
+    assert np.array_equal(image, pathmix.read_exr(exr))
+    # The default is the other choice and another image: the argument is not ignored.
+    assert not np.array_equal(pathmix.render(loaded, **run), image)
+
+
 def test_aovs_come_beside_the_same_image(scene):
     image, aovs = pathmix.render(scene, spp=4, seed=3, aovs="albedo,dd:depth", **SIZE)
     assert np.array_equal(image, pathmix.render(scene, spp=4, seed=3, **SIZE))
@@ -128,12 +147,17 @@ def test_bad_arguments_raise_value_error(scene):
         pathmix.render(scene, spp=1, strategy="sideways", **SIZE)
     with pytest.raises(ValueError, match="width"):
         pathmix.render(scene, spp=1, width=0, height=4)
+    for setting in ["sampler", "light_selection", "reconstruction", "adaptive_metric"]:
+        with pytest.raises(ValueError, match=f"{setting}: `sideways` is not one of"):
+            pathmix.render(scene, spp=1, **{setting: "sideways"}, **SIZE)
 
 
 def test_info_describes_the_scene(scene):
     info = scene.info()
     assert (info["width"], info["height"], info["spp"]) == (600, 600, 1000)
     assert info["strategy"] == "mixture"
+    assert (info["light_selection"], info["reconstruction"]) == ("spatial", "importance")
+    assert info["adaptive_metric"] is None  # the run's default
     assert info["source"].endswith("cornell.toml")
     assert info["materials"] > 0 and info["shapes"] > 0
 
@@ -212,8 +236,9 @@ def test_a_session_resumes_from_its_checkpoint(scene, tmp_path):
     with pathmix.Session(scene, spp=12, resume=checkpoint) as resumed:
         steps = list(resumed.run(every=4))
     assert [s.samples for s in steps] == [12]
-    with pytest.raises(ValueError, match="resume"):
-        pathmix.Session(scene, seed=8, resume=checkpoint)
+    for recorded in [{"seed": 8}, {"light_selection": "uniform"}]:
+        with pytest.raises(ValueError, match="resume"):
+            pathmix.Session(scene, resume=checkpoint, **recorded)
     whole = pathmix.render(scene, spp=12, seed=7, return_error=True, **SIZE)[0]
     assert np.array_equal(steps[-1].image, whole)
 

@@ -152,7 +152,8 @@ pub struct RenderArgs {
     /// saved ones included); outputs default to the recorded ones; checkpoints go
     /// on being saved to FILE.
     #[arg(long, value_name = "FILE", conflicts_with_all = [
-        "width", "height", "max_depth", "strategy", "light_weight", "seed", "rr_depth", "sampler", "sample_range", "shard",
+        "width", "height", "max_depth", "strategy", "light_weight", "seed", "rr_depth", "sampler",
+        "light_selection", "sample_range", "shard",
     ])]
     pub resume: Option<PathBuf>,
     /// Rewrite the PNG output this often while rendering (atomically), e.g. 10s.

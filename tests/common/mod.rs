@@ -10,6 +10,14 @@ use std::fmt::Write;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+/// Runs the `pathmix` command line with `args`, to its end.
+pub fn pathmix(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_pathmix"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
 /// The device shared by every test of this process, or `None` (test skipped)
 /// when there is none and `PATHMIX_REQUIRE_GPU` is not `1`.
 pub fn gpu() -> Option<&'static GpuContext> {
