@@ -301,6 +301,45 @@ fn converge_refuses_bad_input_before_rendering() {
     assert!(!dir.join("converge.md").exists());
 }
 
+/// `+uniform-lights` reaches the run: on the furnace (six emitting walls, where
+/// `nee-mis` picks lights spatially by default) its rows differ from plain
+/// `nee-mis`'s at the same seed, and both converge to the same reference.
+#[test]
+fn a_uniform_lights_variant_picks_lights_uniformly() {
+    let ctx = gpu_or_skip!();
+    let scene = common::scene_with(
+        "furnace.toml",
+        SceneOverrides {
+            width: Some(16),
+            height: Some(16),
+            ..SceneOverrides::default()
+        },
+    );
+    let temp = common::TempDir::new("converge", "uniform-lights");
+    let variants = [
+        Variant::NEE_MIS,
+        Variant::parse("nee-mis+uniform-lights").unwrap(),
+    ];
+    let study = Study {
+        scene: &scene,
+        scene_bytes: b"furnace",
+        out_dir: &temp.join("out"),
+        variants: &variants,
+        max_spp: 16,
+        reference: ReferenceChoice::Render { spp: 256 },
+    };
+    let report = converge::run_study(ctx, &study, |_| {}).unwrap();
+    let (spatial, uniform) = report.rows.split_at(report.rows.len() / 2);
+    assert_eq!(uniform[0].variant, "nee-mis+uniform-lights");
+    for (a, b) in spatial.iter().zip(uniform) {
+        assert_ne!(a.rmse, b.rmse, "{a:?} {b:?}");
+        for row in [a, b] {
+            let noise = row.estimated_error.unwrap_or(f64::INFINITY);
+            assert!(row.rmse < 4.0 * noise, "{row:?}");
+        }
+    }
+}
+
 /// The command end to end at a tiny size: outputs, the summary on stdout, and the
 /// reference rendered once, then reused.
 #[test]

@@ -58,7 +58,8 @@ pub struct ConvergeArgs {
     /// Comma-separated strategies to measure: cosine, light, nee-mis, mixture (weight
     /// 0.5), mixture:W; each with `+adaptive` for adaptive sampling (rungs are then
     /// sample budgets: the uniform run's total) and `+importance` for offsets drawn
-    /// from the pixel filter instead of splatting, e.g. mixture,mixture+adaptive. Default:
+    /// from the pixel filter instead of splatting, nee-mis also with `+uniform-lights`
+    /// for lights picked uniformly, e.g. mixture,mixture+adaptive. Default:
     /// cosine,light,nee-mis,mixture:0.25,mixture:0.5,mixture:0.75.
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = Variant::parse)]
     pub variants: Option<Vec<Variant>>,

@@ -19,7 +19,7 @@ use crate::gpu::GpuContext;
 use crate::output::{self, Image, OutputError};
 use crate::render::{self, Progress, RenderError, RenderOptions, Renderer, StopRule};
 use crate::scene::mitsuba::{self, Converted, Define};
-use crate::scene::{Reconstruction, Scene, SceneOverrides, Strategy};
+use crate::scene::{LightSelection, Reconstruction, Scene, SceneOverrides, Strategy};
 use crate::session::checkpoint::Fnv64;
 use crate::stats;
 use std::fmt::{self, Write as _};
@@ -66,7 +66,8 @@ pub fn scene_bytes(path: &Path, defines: &[Define]) -> Result<Vec<u8>, ConvergeE
 
 /// A strategy to measure: `cosine`, `light`, `nee-mis`, or `mixture` with its light
 /// weight; uniformly or with adaptive sampling; splatting its samples (where the
-/// scene's filter is wider than a pixel) or drawing offsets from the filter.
+/// scene's filter is wider than a pixel) or drawing offsets from the filter;
+/// `nee-mis` picking lights spatially (where the scene's lights allow) or uniformly.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Variant {
     pub strategy: Strategy,
@@ -77,37 +78,36 @@ pub struct Variant {
     /// Offsets drawn from the pixel filter (`Reconstruction::Importance`)
     /// instead of the scene's reconstruction.
     pub importance: bool,
+    /// Lights picked uniformly (`LightSelection::Uniform`) instead of the
+    /// scene's selection; `nee-mis` only.
+    pub uniform_lights: bool,
 }
+
+/// The modifiers a variant's name may end with, in any order, each once.
+const MODIFIERS: [&str; 3] = ["+adaptive", "+importance", "+uniform-lights"];
 
 impl Variant {
     /// The light weight `mixture` means when none is given.
     pub const DEFAULT_LIGHT_WEIGHT: f32 = 0.5;
 
-    pub const BSDF: Variant = Variant {
-        strategy: Strategy::Bsdf,
-        light_weight: None,
-        adaptive: false,
-        importance: false,
-    };
-    pub const LIGHT: Variant = Variant {
-        strategy: Strategy::Light,
-        light_weight: None,
-        adaptive: false,
-        importance: false,
-    };
-    pub const NEE_MIS: Variant = Variant {
-        strategy: Strategy::NeeMis,
-        light_weight: None,
-        adaptive: false,
-        importance: false,
-    };
+    pub const BSDF: Variant = Variant::of(Strategy::Bsdf);
+    pub const LIGHT: Variant = Variant::of(Strategy::Light);
+    pub const NEE_MIS: Variant = Variant::of(Strategy::NeeMis);
+
+    const fn of(strategy: Strategy) -> Variant {
+        Variant {
+            strategy,
+            light_weight: None,
+            adaptive: false,
+            importance: false,
+            uniform_lights: false,
+        }
+    }
 
     pub fn mixture(light_weight: f32) -> Variant {
         Variant {
-            strategy: Strategy::Mixture,
             light_weight: Some(light_weight),
-            adaptive: false,
-            importance: false,
+            ..Variant::of(Strategy::Mixture)
         }
     }
 
@@ -125,29 +125,39 @@ impl Variant {
 
     /// `cosine`, `light`, `nee-mis`, `mixture` (weight 0.5) or `mixture:W` with W in
     /// [0, 1], each with `+adaptive` for adaptive sampling and `+importance` for
-    /// offsets drawn from the filter, in either order.
+    /// offsets drawn from the filter, `nee-mis` also with `+uniform-lights`, in any
+    /// order.
     pub fn parse(text: &str) -> Result<Variant, String> {
         let text = text.trim();
-        if let Some(uniform) = text.strip_suffix("+adaptive") {
-            let variant = Variant::parse(uniform)?;
-            if variant.adaptive {
-                return Err(format!("variant `{text}`: `+adaptive` once"));
+        let mut base = text;
+        let mut found = [false; MODIFIERS.len()];
+        while let Some((i, rest)) = (MODIFIERS.iter().enumerate())
+            .find_map(|(i, modifier)| Some((i, base.strip_suffix(modifier)?)))
+        {
+            if found[i] {
+                return Err(format!("variant `{text}`: `{}` once", MODIFIERS[i]));
             }
-            return Ok(Variant {
-                adaptive: true,
-                ..variant
-            });
+            found[i] = true;
+            base = rest;
         }
-        if let Some(splatted) = text.strip_suffix("+importance") {
-            let variant = Variant::parse(splatted)?;
-            if variant.importance {
-                return Err(format!("variant `{text}`: `+importance` once"));
-            }
-            return Ok(Variant {
-                importance: true,
-                ..variant
-            });
+        let [adaptive, importance, uniform_lights] = found;
+        let variant = Variant {
+            adaptive,
+            importance,
+            uniform_lights,
+            ..Variant::parse_strategy(base)?
+        };
+        if uniform_lights && variant.strategy != Strategy::NeeMis {
+            return Err(format!(
+                "variant `{text}`: only nee-mis picks lights spatially, so `+uniform-lights` \
+                 goes with nee-mis"
+            ));
         }
+        Ok(variant)
+    }
+
+    /// A variant's strategy and light weight, without modifiers.
+    fn parse_strategy(text: &str) -> Result<Variant, String> {
         let (name, weight) = match text.split_once(':') {
             Some((name, weight)) => (name, Some(weight)),
             None => (text, None),
@@ -165,12 +175,7 @@ impl Variant {
                     "variant `{text}`: the light weight must be a number in [0, 1]"
                 )),
             },
-            (_, None) => Ok(Variant {
-                strategy,
-                light_weight: None,
-                adaptive: false,
-                importance: false,
-            }),
+            (_, None) => Ok(Variant::of(strategy)),
             (_, Some(_)) => Err(format!(
                 "variant `{text}`: only the mixture takes a light weight"
             )),
@@ -179,13 +184,17 @@ impl Variant {
 
     /// As [`parse`](Self::parse) reads it: `cosine`, `light`, `mixture:0.5`.
     pub fn name(&self) -> String {
-        let strategy = match self.light_weight {
+        let mut name = match self.light_weight {
             Some(w) => format!("{}:{w}", self.strategy),
             None => self.strategy.to_string(),
         };
-        let importance = if self.importance { "+importance" } else { "" };
-        let adaptive = if self.adaptive { "+adaptive" } else { "" };
-        format!("{strategy}{importance}{adaptive}")
+        let flags = [self.adaptive, self.importance, self.uniform_lights];
+        for (modifier, set) in MODIFIERS.iter().zip(flags) {
+            if set {
+                name.push_str(modifier);
+            }
+        }
+        name
     }
 }
 
@@ -584,6 +593,7 @@ pub fn measure_variant(
             strategy: Some(variant.strategy),
             light_weight: variant.light_weight,
             reconstruction: variant.importance.then_some(Reconstruction::Importance),
+            light_selection: variant.uniform_lights.then_some(LightSelection::Uniform),
             ..Default::default()
         })
         .map_err(|e| ConvergeError::Input(e.to_string()))?;
@@ -966,8 +976,14 @@ mod tests {
             );
             assert_eq!(Variant::parse(&variant.name()), Ok(variant));
         }
+        let uniform = Variant::parse("nee-mis+uniform-lights+importance").unwrap();
+        assert!(uniform.uniform_lights && uniform.importance && !uniform.adaptive);
+        assert_eq!(uniform.name(), "nee-mis+importance+uniform-lights");
+        assert_eq!(Variant::parse(&uniform.name()), Ok(uniform));
         for bad in [
             "uniform",
+            "mixture+uniform-lights",
+            "nee-mis+uniform-lights+uniform-lights",
             "mixture:1.5",
             "mixture:x",
             "cosine:0.5",
