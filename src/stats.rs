@@ -270,6 +270,33 @@ pub fn relative_rmse(image: &Image, reference: &Image) -> Option<f64> {
     Some(rmse(image, reference) / mean)
 }
 
+/// What [`relative_mse`] adds to each squared reference value: dark pixels'
+/// errors count as if they were about 0.1 bright, not without bound.
+pub const RELATIVE_MSE_FLOOR: f64 = 0.01;
+
+/// The relative mean squared error, mean((x − r)² / (r² + 0.01)) over all
+/// pixels and channels, in f64: each pixel's error relative to its brightness,
+/// so an emitter's own pixels do not decide it (the relMSE of papers, and of
+/// docs/benchmarks.md).
+///
+/// # Panics
+/// If the images differ in size.
+pub fn relative_mse(image: &Image, reference: &Image) -> f64 {
+    assert_eq!(
+        (image.width, image.height),
+        (reference.width, reference.height),
+        "relative_mse of images of different sizes"
+    );
+    let sum: f64 = (image.pixels.iter().flatten())
+        .zip(reference.pixels.iter().flatten())
+        .map(|(&x, &r)| {
+            let (x, r) = (f64::from(x), f64::from(r));
+            (x - r).powi(2) / (r * r + RELATIVE_MSE_FLOOR)
+        })
+        .sum();
+    sum / (3 * image.pixels.len()) as f64
+}
+
 /// Mean over all pixels and channels, in f64 (NaN for an empty image).
 pub fn mean_value(image: &Image) -> f64 {
     let sum: f64 = image.pixels.iter().flatten().map(|&v| f64::from(v)).sum();
@@ -521,6 +548,22 @@ mod tests {
         assert_close(mean_value(&reference), 2.0);
         assert_close(relative_rmse(&shifted, &reference).unwrap(), 0.25);
         assert_eq!(relative_rmse(&shifted, &Image::new(2, 1)), None);
+    }
+
+    #[test]
+    fn relative_mse_weighs_each_value_by_its_brightness() {
+        let reference = image(vec![[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]]);
+        let shifted = image(
+            reference
+                .pixels
+                .iter()
+                .map(|p| p.map(|v| v + 0.5))
+                .collect(),
+        );
+        let lit = 0.25 / 1.01 + 0.25 / 4.01 + 0.25 / 9.01;
+        // A black reference value counts the error over the floor alone: 0.25 / 0.01.
+        assert_close(relative_mse(&shifted, &reference), (lit + 3.0 * 25.0) / 6.0);
+        assert_eq!(relative_mse(&reference, &reference), 0.0);
     }
 
     #[test]

@@ -806,6 +806,7 @@ fn converge<'py>(
         entry.set_item("paths_per_second", row.paths_per_second)?;
         entry.set_item("rmse", row.rmse)?;
         entry.set_item("relative_rmse", row.relative_rmse)?;
+        entry.set_item("relative_mse", row.relative_mse)?;
         entry.set_item("estimated_error", row.estimated_error)?;
         entry.set_item("efficiency", row.efficiency)?;
         rows.append(entry)?;

@@ -264,8 +264,10 @@ def test_converge_returns_the_table(scene, tmp_path):
     assert [(r["variant"], r["spp"]) for r in rows] == [
         (variant, spp) for variant in ["bsdf", "mixture:0.5"] for spp in [1, 4, 16]
     ]
-    cosine = [r["rmse"] for r in rows if r["variant"] == "bsdf"]
-    assert cosine[-1] < cosine[0]
+    cosine = [r for r in rows if r["variant"] == "bsdf"]
+    assert cosine[-1]["rmse"] < cosine[0]["rmse"]
+    # Not monotone at a few samples: one bright sample in a dark pixel decides it.
+    assert all(np.isfinite(r["relative_mse"]) and r["relative_mse"] > 0 for r in rows)
     assert list(tmp_path.glob("reference-*.exr")), "the reference is cached in `out`"
     with pytest.raises(ValueError, match="variants"):
         pathmix.converge(scene, variants=["sideways"])

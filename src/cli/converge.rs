@@ -155,11 +155,12 @@ pub fn converge(args: ConvergeArgs) -> Result<(), Failure> {
         }
         Event::VariantStarted(variant) => eprintln!("measuring {variant}"),
         Event::Rung(row) => eprintln!(
-            "  {:>6} spp  {:>8.3} s  {:>6.2} M paths/s  RMSE {:.5}  (noise estimate {})",
+            "  {:>6} spp  {:>8.3} s  {:>6.2} M paths/s  RMSE {:.5}  relMSE {:.3e}  (noise estimate {})",
             row.spp,
             row.seconds,
             row.paths_per_second / 1e6,
             row.rmse,
+            row.relative_mse,
             row.estimated_error
                 .map_or_else(|| "–".to_string(), |e| format!("{e:.5}"))
         ),

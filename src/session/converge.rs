@@ -228,6 +228,8 @@ pub struct Row {
     pub rmse: f64,
     /// RMSE divided by the reference's mean value; `None` for a black reference.
     pub relative_rmse: Option<f64>,
+    /// [`stats::relative_mse`]: each pixel's error relative to its brightness.
+    pub relative_mse: f64,
     /// The RMSE that noise alone explains: the RMS over pixels and channels of the run's
     /// standard error of the mean ([`Accumulation::standard_error`]), combined (root sum of
     /// squares) with the same for the reference where known. `None` below 2 spp (below
@@ -637,6 +639,7 @@ pub fn measure_variant(
             paths_per_second: renderer.samples() as f64 * pixels / seconds,
             rmse,
             relative_rmse: stats::relative_rmse(&mean, reference),
+            relative_mse: stats::relative_mse(&mean, reference),
             estimated_error: accumulation
                 .standard_error()
                 .map(|se| rms(&se).hypot(reference_error.unwrap_or(0.0))),
@@ -807,19 +810,20 @@ pub fn summary_markdown(summaries: &[Summary]) -> String {
 /// The rows as a Markdown table.
 pub fn rows_markdown(rows: &[Row]) -> String {
     let mut out = String::from(
-        "| variant | spp | seconds | M paths/s | RMSE | rel. RMSE | efficiency | noise est. |\n\
-         |---|--:|--:|--:|--:|--:|--:|--:|\n",
+        "| variant | spp | seconds | M paths/s | RMSE | rel. RMSE | relMSE | efficiency | noise est. |\n\
+         |---|--:|--:|--:|--:|--:|--:|--:|--:|\n",
     );
     for r in rows {
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {:.2} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.2} | {} | {} | {} | {} | {} |",
             r.variant,
             r.spp,
             short_number(r.seconds),
             r.paths_per_second / 1e6,
             short_number(r.rmse),
             optional(r.relative_rmse, short_number),
+            short_number(r.relative_mse),
             short_number(r.efficiency),
             optional(r.estimated_error, short_number)
         );
@@ -833,7 +837,8 @@ pub fn markdown(report: &Report) -> String {
         "# Convergence: {scene}\n\n\
          {w}x{h} pixels, max depth {d}, seed {seed}; reference: {reference}; adapter: {adapter}.\n\
          Seconds are render time from the first sample (pipeline warm-up and readbacks \
-         excluded); efficiency = 1 / (MSE × seconds); noise est. = the RMSE that noise \
+         excluded); relMSE = mean((x − r)² / (r² + 0.01)); efficiency = 1 / (MSE × \
+         seconds); noise est. = the RMSE that noise \
          alone explains (the runs' and the reference's standard errors).\n\n\
          {rows}\n\
          Slopes: least-squares fits of ln RMSE against ln spp (ideal −0.5). A variant is \
@@ -857,8 +862,7 @@ pub fn markdown(report: &Report) -> String {
 }
 
 /// The CSV header of [`csv`].
-pub const CSV_HEADER: &str =
-    "variant,spp,seconds,paths_per_second,rmse,relative_rmse,efficiency,estimated_error";
+pub const CSV_HEADER: &str = "variant,spp,seconds,paths_per_second,rmse,relative_rmse,efficiency,estimated_error,relative_mse";
 
 /// `converge.csv`: [`CSV_HEADER`], then one line per row, numbers at full precision
 /// (an empty field for a missing relative RMSE or error estimate).
@@ -867,7 +871,7 @@ pub fn csv(rows: &[Row]) -> String {
     for r in rows {
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{}",
             r.variant,
             r.spp,
             r.seconds,
@@ -877,6 +881,7 @@ pub fn csv(rows: &[Row]) -> String {
             r.efficiency,
             r.estimated_error
                 .map_or_else(String::new, |v| v.to_string()),
+            r.relative_mse,
         );
     }
     out
@@ -929,6 +934,7 @@ mod tests {
             paths_per_second: spp as f64 * 100.0 / seconds,
             rmse,
             relative_rmse: Some(rmse / 2.0),
+            relative_mse: rmse * rmse,
             estimated_error: Some(rmse),
             efficiency: efficiency(rmse, seconds),
         }
@@ -1161,8 +1167,9 @@ mod tests {
         assert_eq!(fields[0][5].parse::<f64>().unwrap(), 0.0625);
         assert_eq!(fields[1][5], "");
         assert_eq!(fields[0][7].parse::<f64>().unwrap(), 0.125);
+        assert_eq!(fields[0][8].parse::<f64>().unwrap(), 0.125 * 0.125);
         for f in &fields {
-            assert_eq!(f.len(), 8);
+            assert_eq!(f.len(), 9);
             for (i, v) in f.iter().enumerate().skip(1) {
                 assert!(i == 5 || v.parse::<f64>().is_ok(), "{v}");
             }
@@ -1180,13 +1187,13 @@ mod tests {
         assert_eq!(lines.len(), 2 + rows.len());
         assert_eq!(
             lines[0],
-            "| variant | spp | seconds | M paths/s | RMSE | rel. RMSE | efficiency | noise est. |"
+            "| variant | spp | seconds | M paths/s | RMSE | rel. RMSE | relMSE | efficiency | noise est. |"
         );
         assert_eq!(
             lines[2],
-            "| cosine | 1 | 0.0100 | 0.01 | 0.300 | 0.150 | 1111 | 0.300 |"
+            "| cosine | 1 | 0.0100 | 0.01 | 0.300 | 0.150 | 0.0900 | 1111 | 0.300 |"
         );
-        assert!(lines.iter().all(|l| l.matches('|').count() == 9));
+        assert!(lines.iter().all(|l| l.matches('|').count() == 10));
 
         let summary = summary_markdown(&summarize(&rows));
         let lines: Vec<&str> = summary.lines().collect();

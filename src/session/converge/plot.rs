@@ -247,6 +247,7 @@ mod tests {
                     paths_per_second: 1e6,
                     rmse: scale / (n as f64).sqrt(),
                     relative_rmse: None,
+                    relative_mse: scale * scale / n as f64,
                     estimated_error: None,
                     efficiency: 1.0,
                 })
