@@ -186,12 +186,30 @@ struct Settings {
     width: Option<u32>,
     height: Option<u32>,
     max_depth: Option<u32>,
+    /// `Some(None)`: roulette off.
+    rr_depth: Option<Option<u32>>,
     time: Option<f64>,
     target_error: Option<f64>,
     adaptive: bool,
     adaptive_metric: Option<String>,
     light_selection: Option<String>,
     reconstruction: Option<String>,
+}
+
+/// `rr_depth`: a number of bounces, or "off" (`Some(None)`), as `--rr-depth`.
+fn parse_rr_depth(value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Option<u32>>> {
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    if let Ok(depth) = value.extract::<u32>() {
+        return Ok(Some(Some(depth)));
+    }
+    match value.extract::<String>() {
+        Ok(off) if off == "off" => Ok(Some(None)),
+        _ => Err(PyValueError::new_err(format!(
+            "rr_depth: a number of bounces >= 0 or \"off\", got {value}"
+        ))),
+    }
 }
 
 /// A named choice given as `argument`, read by `from_name`, or a `ValueError`
@@ -227,6 +245,7 @@ impl Settings {
             || self.width.is_some()
             || self.height.is_some()
             || self.max_depth.is_some()
+            || self.rr_depth.is_some()
     }
 
     /// The session request: no files written but a checkpoint where asked,
@@ -294,6 +313,7 @@ impl Settings {
                 width: self.width,
                 height: self.height,
                 max_depth: self.max_depth,
+                rr_depth: self.rr_depth,
                 strategy,
                 light_weight: self.light_weight,
                 seed: self.seed,
@@ -427,8 +447,9 @@ fn counts_array<'py>(
 #[pyfunction]
 #[pyo3(signature = (
     scene, *, spp=None, strategy=None, seed=None, width=None, height=None, max_depth=None,
-    time=None, target_error=None, adaptive=false, adaptive_metric=None, light_weight=None,
-    sampler=None, light_selection=None, reconstruction=None, return_error=false, return_sample_counts=false, aovs=None, progress=None,
+    rr_depth=None, time=None, target_error=None, adaptive=false, adaptive_metric=None,
+    light_weight=None, sampler=None, light_selection=None, reconstruction=None,
+    return_error=false, return_sample_counts=false, aovs=None, progress=None,
 ))]
 #[allow(clippy::too_many_arguments)]
 fn render(
@@ -440,6 +461,7 @@ fn render(
     width: Option<u32>,
     height: Option<u32>,
     max_depth: Option<u32>,
+    rr_depth: Option<Bound<'_, PyAny>>,
     time: Option<f64>,
     target_error: Option<f64>,
     adaptive: bool,
@@ -468,6 +490,7 @@ fn render(
         width,
         height,
         max_depth,
+        rr_depth: parse_rr_depth(rr_depth.as_ref())?,
         time,
         target_error,
         adaptive,
@@ -565,8 +588,9 @@ impl Run {
     #[new]
     #[pyo3(signature = (
         scene, *, spp=None, strategy=None, seed=None, width=None, height=None, max_depth=None,
-        time=None, target_error=None, adaptive=false, adaptive_metric=None, light_weight=None,
-        sampler=None, light_selection=None, reconstruction=None, checkpoint=None, resume=None,
+        rr_depth=None, time=None, target_error=None, adaptive=false, adaptive_metric=None,
+        light_weight=None, sampler=None, light_selection=None, reconstruction=None,
+        checkpoint=None, resume=None,
     ))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -578,6 +602,7 @@ impl Run {
         width: Option<u32>,
         height: Option<u32>,
         max_depth: Option<u32>,
+        rr_depth: Option<Bound<'_, PyAny>>,
         time: Option<f64>,
         target_error: Option<f64>,
         adaptive: bool,
@@ -598,6 +623,7 @@ impl Run {
             width,
             height,
             max_depth,
+            rr_depth: parse_rr_depth(rr_depth.as_ref())?,
             time,
             target_error,
             adaptive,
@@ -608,8 +634,8 @@ impl Run {
         if resume.is_some() && settings.fixes_the_scene() {
             return Err(PyValueError::new_err(
                 "resume: the checkpoint records the size, depth, strategy, light weight, \
-                 seed, sampler, light selection and reconstruction it was rendered with; give \
-                 only spp, time or target_error",
+                 roulette depth, seed, sampler, light selection and reconstruction it was \
+                 rendered with; give only spp, time or target_error",
             ));
         }
         let scene = scene.get();

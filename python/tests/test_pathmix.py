@@ -85,13 +85,15 @@ def test_error_map_matches_the_command_lines_variance_output(scene, tmp_path):
 @pytest.mark.parametrize("scene_file, setting, value", [
     ("furnace.toml", "light_selection", "uniform"),  # 6 lights: spatial by default
     ("sky.toml", "reconstruction", "importance"),  # Gaussian filter: splatted by default
+    ("cornell.toml", "rr_depth", "off"),  # nee-mis: roulette from 5 by default
+    ("cornell.toml", "rr_depth", 1),
 ])
 def test_trade_settings_match_the_command_line(tmp_path, scene_file, setting, value):
     path, exr = ROOT / "scenes" / scene_file, tmp_path / "out.exr"
     flags = ["--spp", "8", "--seed", "3", "--strategy", "nee-mis", "--width", "32",
              "--height", "24"]
     subprocess.run([str(cli()), "render", str(path), "-q", *flags,
-                    "--" + setting.replace("_", "-"), value, "--exr", str(exr),
+                    "--" + setting.replace("_", "-"), str(value), "--exr", str(exr),
                     "-o", str(tmp_path / "out.png")], capture_output=True, check=True)
     loaded = pathmix.load(path)
     run = {"spp": 8, "seed": 3, "strategy": "nee-mis", **SIZE}
@@ -150,6 +152,8 @@ def test_bad_arguments_raise_value_error(scene):
     for setting in ["sampler", "light_selection", "reconstruction", "adaptive_metric"]:
         with pytest.raises(ValueError, match=f"{setting}: `sideways` is not one of"):
             pathmix.render(scene, spp=1, **{setting: "sideways"}, **SIZE)
+    with pytest.raises(ValueError, match="rr_depth: a number of bounces"):
+        pathmix.render(scene, spp=1, rr_depth="never", **SIZE)
 
 
 def test_info_describes_the_scene(scene):
