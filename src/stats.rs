@@ -535,16 +535,19 @@ mod tests {
         rmse(&Image::new(2, 1), &Image::new(1, 2));
     }
 
+    /// `image` with `by` added to every value.
+    fn offset(image: &Image, by: f32) -> Image {
+        Image {
+            width: image.width,
+            height: image.height,
+            pixels: image.pixels.iter().map(|p| p.map(|v| v + by)).collect(),
+        }
+    }
+
     #[test]
     fn relative_rmse_divides_by_reference_mean() {
         let reference = image(vec![[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]);
-        let shifted = image(
-            reference
-                .pixels
-                .iter()
-                .map(|p| p.map(|v| v + 0.5))
-                .collect(),
-        );
+        let shifted = offset(&reference, 0.5);
         assert_close(mean_value(&reference), 2.0);
         assert_close(relative_rmse(&shifted, &reference).unwrap(), 0.25);
         assert_eq!(relative_rmse(&shifted, &Image::new(2, 1)), None);
@@ -553,13 +556,7 @@ mod tests {
     #[test]
     fn relative_mse_weighs_each_value_by_its_brightness() {
         let reference = image(vec![[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]]);
-        let shifted = image(
-            reference
-                .pixels
-                .iter()
-                .map(|p| p.map(|v| v + 0.5))
-                .collect(),
-        );
+        let shifted = offset(&reference, 0.5);
         let lit = 0.25 / 1.01 + 0.25 / 4.01 + 0.25 / 9.01;
         // A black reference value counts the error over the floor alone: 0.25 / 0.01.
         assert_close(relative_mse(&shifted, &reference), (lit + 3.0 * 25.0) / 6.0);

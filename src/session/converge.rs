@@ -84,7 +84,7 @@ pub struct Variant {
 }
 
 /// The modifiers a variant's name may end with, in any order, each once.
-const MODIFIERS: [&str; 3] = ["+adaptive", "+importance", "+uniform-lights"];
+const MODIFIERS: [&str; 3] = ["+importance", "+adaptive", "+uniform-lights"];
 
 impl Variant {
     /// The light weight `mixture` means when none is given.
@@ -140,7 +140,7 @@ impl Variant {
             found[i] = true;
             base = rest;
         }
-        let [adaptive, importance, uniform_lights] = found;
+        let [importance, adaptive, uniform_lights] = found;
         let variant = Variant {
             adaptive,
             importance,
@@ -188,7 +188,7 @@ impl Variant {
             Some(w) => format!("{}:{w}", self.strategy),
             None => self.strategy.to_string(),
         };
-        let flags = [self.adaptive, self.importance, self.uniform_lights];
+        let flags = [self.importance, self.adaptive, self.uniform_lights];
         for (modifier, set) in MODIFIERS.iter().zip(flags) {
             if set {
                 name.push_str(modifier);
