@@ -333,6 +333,7 @@ pub fn choose(accumulation: &Accumulation, counts: &[u32], metric: AdaptiveMetri
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::abi::LUMINANCE;
     use crate::stats::Replicates;
 
     /// Sums for pixels of `counts` samples each, whose samples in replicate 0 (a
@@ -494,12 +495,16 @@ mod tests {
             [[4.0; 3], [4.0; 3]]
         );
         let q = priorities(&acc, &counts, AdaptiveMetric::Absolute);
+        // A grey's luminance is its value times the weights' sum (1 in decimal, not
+        // quite in f32).
+        let grey = LUMINANCE.iter().map(|&w| f64::from(w)).sum::<f64>();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b;
         for p in [0, 1] {
-            assert!((q[p] - 0.01 / 256.0).abs() < 1e-12, "{q:?}");
+            assert!(close(q[p], (0.1 * grey).powi(2) / 256.0), "{q:?}");
         }
         // Pixel 2 takes its neighbour's spread at its own count.
-        let spread = 0.5 * (64.0f64 / 63.0).sqrt();
-        assert!((q[2] - spread * spread / 256.0).abs() < 1e-12, "{q:?}");
+        let spread = 0.5 * (64.0f64 / 63.0).sqrt() * grey;
+        assert!(close(q[2], spread * spread / 256.0), "{q:?}");
         let round = next_round(&acc, &counts, AdaptiveMetric::Absolute, 1024, u64::MAX).unwrap();
         assert_eq!(round.pixels, [2]);
     }

@@ -26,6 +26,7 @@
 use super::{
     TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue, serialize_texels,
 };
+use crate::abi::LUMINANCE;
 use crate::kinds::params::{ParamTable, Result, named};
 use crate::output::{self, ImageReadError};
 use glam::{Vec2, Vec3};
@@ -210,11 +211,11 @@ impl TextureValue for Bitmap {
 
     /// Mitsuba's `eval_1` reads an RGB image as its luminance.
     fn eval_number(&self, uv: Vec2) -> f32 {
-        self.eval(uv).dot(LUMINANCE)
+        self.eval(uv).dot(Vec3::from_array(LUMINANCE))
     }
 
     fn mean_number(&self) -> f32 {
-        self.mean().dot(LUMINANCE)
+        self.mean().dot(Vec3::from_array(LUMINANCE))
     }
 
     fn pack(&self, info: &mut TextureInfo, tables: &mut TextureTables) {
@@ -235,9 +236,6 @@ impl TextureValue for Bitmap {
         info.nearest = (self.filter == TextureFilter::Nearest) as u32;
     }
 }
-
-/// Mitsuba's `luminance` of a linear RGB colour (Rec. 709 weights).
-const LUMINANCE: Vec3 = Vec3::new(0.212671, 0.715160, 0.072169);
 
 /// The largest texel value of a texture, which scales the light a surface
 /// sends on: a reflectance, which Mitsuba lets exceed 1 (a surface that adds
@@ -389,7 +387,7 @@ mod tests {
         assert!(close(mirror.eval(Vec2::new(1.1, 0.3)), [0.1, 1.0, 0.1]));
         assert!(close(mirror.eval(Vec2::new(-0.1, 0.3)), [0.9, 0.0, 0.1]));
         // As a number (`eval_1`): the luminance.
-        assert!((repeat.eval_number(Vec2::new(0.25, 0.25)) - 0.212671).abs() < 1e-6);
+        assert_eq!(repeat.eval_number(Vec2::new(0.25, 0.25)), LUMINANCE[0]);
         assert!((repeat.eval_number(Vec2::new(0.1, 0.3)) - 0.362128).abs() < 1e-6);
     }
 
