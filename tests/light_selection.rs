@@ -72,35 +72,14 @@ fn spatial_selection_gives_the_analytic_irradiance() {
 /// dim near ones: Veach's lights.
 fn veach_like_floor(selection: LightSelection) -> Scene {
     let (albedo, emit) = FLOOR;
-    let mut scene = common::scene_text(&format!(
+    let lights = format!(
         r#"
-        [camera]
-        lookfrom = [0, 1, 0]
-        lookat = [0, 0, 0]
-        vup = [0, 0, -1]
-        vfov = 0.2
-        width = 4
-        height = 4
-        [render]
-        spp = 1024
-        max_depth = 1
-        strategy = "nee-mis"
-        sampler = "independent"
-        [materials.floor]
-        type = "lambertian"
-        albedo = [{albedo}, {albedo}, {albedo}]
         [materials.bright]
         type = "light"
         emit = [{bright}, {bright}, {bright}]
         [materials.lamp]
         type = "light"
         emit = [{emit}, {emit}, {emit}]
-        [[objects]]
-        type = "quad"
-        q = [-10, 0, -10]
-        u = [0, 0, 20]
-        v = [20, 0, 0]
-        material = "floor"
         [[objects]]
         type = "sphere"
         center = [10, 10, 4]
@@ -129,7 +108,8 @@ fn veach_like_floor(selection: LightSelection) -> Scene {
         "#,
         // 200x the power of a dim sphere: (0.1 / 0.5)^2 200 = 8 times the radiance.
         bright = 8.0 * emit,
-    ));
+    );
+    let mut scene = common::floor_patch_scene((albedo, 1.0), "nee-mis", 1024, &lights);
     scene.render.light_selection = selection;
     scene
 }

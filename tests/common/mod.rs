@@ -240,32 +240,7 @@ pub fn assert_floor_patch(
     what: &str,
 ) {
     for strategy in ["bsdf", "light", "mixture", "nee-mis"] {
-        let scene = scene_text(&format!(
-            r#"
-            [camera]
-            lookfrom = [0, {camera_height}, 0]
-            lookat = [0, 0, 0]
-            vup = [0, 0, -1]
-            vfov = 0.2
-            width = 4
-            height = 4
-            [render]
-            spp = 4096
-            max_depth = 1
-            strategy = "{strategy}"
-            sampler = "independent"
-            [materials.floor]
-            type = "lambertian"
-            albedo = [{albedo}, {albedo}, {albedo}]
-            [[objects]]
-            type = "quad"
-            q = [-10, 0, -10]
-            u = [0, 0, 20]
-            v = [20, 0, 0]
-            material = "floor"
-            {scene}
-            "#
-        ));
+        let scene = floor_patch_scene((albedo, camera_height), strategy, 4096, scene);
         let acc = render(ctx, &scene, &with_variance());
         let (mean, error) = image_mean_and_error(&acc);
         println!("{what} {strategy}: {mean:.6} ± {error:.6}, expected {expected:.6}");
@@ -274,6 +249,43 @@ pub fn assert_floor_patch(
             "{what} {strategy}: {mean} ± {error} against {expected}"
         );
     }
+}
+
+/// The floor patch of [`assert_floor_patch`] under `strategy` with `spp`
+/// independent samples per pixel, lit by `scene` (materials, objects and lights
+/// of the caller's own, after the floor).
+pub fn floor_patch_scene(
+    (albedo, camera_height): (f64, f64),
+    strategy: &str,
+    spp: u32,
+    scene: &str,
+) -> Scene {
+    scene_text(&format!(
+        r#"
+        [camera]
+        lookfrom = [0, {camera_height}, 0]
+        lookat = [0, 0, 0]
+        vup = [0, 0, -1]
+        vfov = 0.2
+        width = 4
+        height = 4
+        [render]
+        spp = {spp}
+        max_depth = 1
+        strategy = "{strategy}"
+        sampler = "independent"
+        [materials.floor]
+        type = "lambertian"
+        albedo = [{albedo}, {albedo}, {albedo}]
+        [[objects]]
+        type = "quad"
+        q = [-10, 0, -10]
+        u = [0, 0, 20]
+        v = [20, 0, 0]
+        material = "floor"
+        {scene}
+        "#
+    ))
 }
 
 /// Renders `scene.render.spp` samples and returns the sums.
