@@ -54,7 +54,9 @@ def luminance(img):
 
 def film_size(path):
     """The film's width and height as the file gives them (Mitsuba's defaults otherwise)."""
-    film = ET.parse(path).getroot().find("./sensor/film")
+    root = ET.parse(path).getroot()
+    inline_includes(root, os.path.dirname(os.path.abspath(path)))
+    film = root.find("./sensor/film")
     size = {"width": 768, "height": 576}
     for e in film.iter("integer") if film is not None else []:
         if e.get("name") in size:
@@ -62,9 +64,28 @@ def film_size(path):
     return size["width"], size["height"]
 
 
+def inline_includes(element, folder):
+    """Each `<include>` under `element` replaced by the included scene's contents,
+    so that a copy can edit a sensor an included file holds. File names resolve
+    against the scene's folder, as Mitsuba's file resolver does."""
+    children = []
+    for child in element:
+        if child.tag == "include":
+            included = ET.parse(os.path.join(folder, child.get("filename"))).getroot()
+            inline_includes(included, folder)
+            children.extend(included)
+        else:
+            inline_includes(child, folder)
+            children.append(child)
+    element[:] = children
+
+
 def for_mitsuba3(path, size, out_dir):
-    """A copy of the scene Mitsuba 3 loads: the edits it needs, the film at `size`."""
+    """A copy of the scene Mitsuba 3 loads, its includes inlined: the edits it
+    needs, the film at `size`."""
     tree = ET.parse(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    inline_includes(tree.getroot(), folder)
     for e in tree.getroot().iter():
         if e.tag == "lookAt":
             e.tag = "lookat"
@@ -77,7 +98,7 @@ def for_mitsuba3(path, size, out_dir):
                 e.set("value", str(size[e.get("name") == "height"]))
     copy = os.path.join(out_dir, "mitsuba3-" + os.path.basename(path))
     tree.write(copy)
-    mi.file_resolver().append(os.path.dirname(os.path.abspath(path)))
+    mi.file_resolver().append(folder)
     return copy
 
 

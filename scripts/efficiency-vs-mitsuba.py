@@ -12,8 +12,9 @@ Python, same DRJIT_LIBLLVM_PATH):
 relMSE = mean((x - r)^2 / (r^2 + 0.01)) over pixels and channels against
 --reference (a converged image: e.g. one check-mitsuba-xml.py --write-reference
 wrote, or Mitsuba at thousands of spp), so the lights' own pixels do not decide the
-figure. Both renderers render at the reference's size: the film's, edited in a copy,
-or for a scene whose film is in an included file, by its parameters (-D res=128).
+figure. Where the reference's own noise is stored beside it (FILE-variance.exr, as
+--write-reference writes it), its share is subtracted from every row's relMSE. Both renderers render at the reference's size: pathmix with --width and
+--height, Mitsuba with the film's size edited in a copy, its includes inlined.
 Seconds, both warm: pathmix's render time as it reports it (its whole process also
 printed) in a second run of the same command, the first having left the kernel in
 Mesa's shader cache (which otherwise compiles it within the render, 0.3-1.5 s);
@@ -45,12 +46,10 @@ def rel_mse(img, ref):
 
 
 def with_sampler(path, sampler, out_dir):
-    """A copy of Mitsuba's copy of the scene with the sensor's sampler `sampler`;
-    None where the sensor is in an included file."""
+    """A copy of Mitsuba's copy of the scene (its includes inlined) with the
+    sensor's sampler `sampler`."""
     tree = ET.parse(path)
     sensor = tree.getroot().find("./sensor")
-    if sensor is None:
-        return None
     element = sensor.find("./sampler")
     if element is None:
         element = ET.SubElement(sensor, "sampler")
@@ -95,9 +94,15 @@ def main():
     args = ap.parse_args()
 
     ref = np.array(mi.Bitmap(args.reference), dtype=np.float64)[..., :3]
+    # The reference's own noise, where stored beside it, is in every row's error:
+    # E[(x - r)^2] = E[(x - truth)^2] + Var(r) for x independent of r.
+    noise_file = check.noise_path(args.reference)
+    reference_noise = 0.0
+    if os.path.exists(noise_file):
+        ref_var = np.array(mi.Bitmap(noise_file), dtype=np.float64)[..., :3]
+        reference_noise = float(np.mean(ref_var / (ref ** 2 + 0.01)))
     size = (ref.shape[1], ref.shape[0])
     params = dict(d.split("=", 1) for d in args.D)
-    own_film = ET.parse(args.scene).getroot().find("./sensor/film") is not None
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for extra in [""] + args.pathmix_run:
@@ -107,19 +112,18 @@ def main():
             rows.append((name, seconds, rel_mse(img, ref), f"whole process {whole:.2f} s"))
             for note in notes:
                 print(f"{name}: {note}")
-        base = check.for_mitsuba3(args.scene, size if own_film else None, tmp)
+        base = check.for_mitsuba3(args.scene, size, tmp)
         for sampler in ["independent", "multijitter"]:
             copy = with_sampler(base, sampler, tmp)
-            if copy is None:
-                print(f"the sensor is in an included file: Mitsuba with the file's own sampler only")
-                copy, sampler = base, "(the file's sampler)"
             img, seconds = check.mitsuba_render(copy, params, args.spp, args.seed, max(1, args.spp // 256))
             rows.append((f"Mitsuba {mi.__version__} {sampler}", seconds, rel_mse(img, ref), ""))
-            if copy is base:
-                break
 
     h, w = ref.shape[:2]
     print(f"{args.scene}: {w}x{h}, {args.spp} spp, reference {args.reference}")
+    if reference_noise:
+        print(f"the reference's own noise, {reference_noise:.3e} relMSE ({noise_file}), "
+              "is subtracted from every row's")
+        rows = [(name, seconds, err - reference_noise, note) for name, seconds, err, note in rows]
     print("| renderer | seconds | M paths/s | relMSE | efficiency | over each Mitsuba row | |")
     print("|---|--:|--:|--:|--:|--:|---|")
     mitsuba = [1 / (err * s) for name, s, err, _ in rows if name.startswith("Mitsuba")]
