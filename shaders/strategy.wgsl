@@ -127,6 +127,8 @@ fn scatter(m: Material, frame: Frame, wo: vec3<f32>, origin: vec3<f32>) -> Scatt
     if bsdf_is_smooth(m) {
         return scatter_smooth(m, frame, wo, origin);
     }
-#endif
+    return follow(delta_bsdf_sample(m, frame, wo));
+#else
     return follow(bsdf_sample(m, frame, wo));
+#endif
 }

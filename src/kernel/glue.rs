@@ -1217,10 +1217,10 @@ fn groups_pdf(out: &mut String, k: usize, config: &KernelConfig) {
 
 /// The BSDF interface's dispatch by material kind (materials.wgsl), over the
 /// kinds compiled in. `bsdf_sample` takes any material; `bsdf_is_smooth`,
-/// `bsdf_eval`, `bsdf_pdf` and `smooth_bsdf_sample` exist where the kernel
-/// evaluates BSDFs (`KernelConfig::evaluates_bsdfs`), and the last three take
-/// only materials with a smooth lobe (a direct call when the kernel has one
-/// such kind).
+/// `bsdf_eval`, `bsdf_pdf`, `smooth_bsdf_sample` and `delta_bsdf_sample` exist
+/// where the kernel evaluates BSDFs (`KernelConfig::evaluates_bsdfs`); the
+/// three before the last take only materials with a smooth lobe (a direct call
+/// when the kernel has one such kind), the last only those without.
 pub fn bsdf(config: &KernelConfig) -> String {
     let mut out = String::new();
     let scattering: Vec<usize> = config
@@ -1296,6 +1296,24 @@ pub fn bsdf(config: &KernelConfig) -> String {
         &smooth,
         None,
     );
+    // What a path follows where the material has no smooth lobe (strategy.wgsl):
+    // only those kinds' samplers, for lavapipe runs every case of a switch,
+    // taken or not (masked), and the smooth kinds' would run twice a vertex.
+    let delta: Vec<usize> = scattering
+        .iter()
+        .copied()
+        .filter(|k| !smooth.contains(k))
+        .collect();
+    dispatch(
+        &mut out,
+        &format!("{prefix}delta_bsdf_sample"),
+        "sample",
+        "wo: vec3<f32>",
+        "wo",
+        "BsdfSample",
+        &delta,
+        Some("bsdf_absorbed()"),
+    );
     if shading {
         // Bump and normal maps shadow themselves (`bump_shadowing`); the
         // density is left as it is, as Mitsuba leaves it.
@@ -1311,12 +1329,15 @@ pub fn bsdf(config: &KernelConfig) -> String {
 "
         )
         .unwrap();
-        out.push_str(
-            "fn smooth_bsdf_sample(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {
-    return bsdf_sample_checked(frame, shading_smooth_bsdf_sample(m, frame, wo));
-}
-",
-        );
+        for name in ["smooth_bsdf_sample", "delta_bsdf_sample"] {
+            writeln!(
+                out,
+                "fn {name}(m: Material, frame: Frame, wo: vec3<f32>) -> BsdfSample {{
+    return bsdf_sample_checked(frame, shading_{name}(m, frame, wo));
+}}"
+            )
+            .unwrap();
+        }
     }
     out
 }
