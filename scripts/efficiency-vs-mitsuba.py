@@ -13,8 +13,9 @@ relMSE = mean((x - r)^2 / (r^2 + 0.01)) over pixels and channels against
 --reference (a converged image: e.g. one check-mitsuba-xml.py --write-reference
 wrote, or Mitsuba at thousands of spp), so the lights' own pixels do not decide the
 figure. Where the reference's own noise is stored beside it (FILE-variance.exr, as
---write-reference writes it), its share is subtracted from every row's relMSE. Both renderers render at the reference's size: pathmix with --width and
---height, Mitsuba with the film's size edited in a copy, its includes inlined.
+--write-reference writes it), its share is subtracted from every row's relMSE. Both
+renderers render at the reference's size: pathmix with --width and --height,
+Mitsuba with the film's size edited in a copy, its includes inlined.
 Seconds, both warm: pathmix's render time as it reports it (its whole process also
 printed) in a second run of the same command, the first having left the kernel in
 Mesa's shader cache (which otherwise compiles it within the render, 0.3-1.5 s);

@@ -2381,6 +2381,36 @@ pub(crate) mod tests {
         assert!(!bsdf.contains("fn scatter_smooth"));
     }
 
+    /// A path samples each kind once a vertex: the strategy samples the
+    /// smooth kinds, and the fallback after it only the kinds without a smooth
+    /// lobe (lavapipe runs the code of every case, taken or not).
+    #[test]
+    fn smooth_kinds_are_sampled_once_a_vertex() {
+        let fallback = |materials: &[&str]| {
+            let config = KernelConfig {
+                material_kinds: materials.iter().map(|name| kind_index(name)).collect(),
+                // Without shading normals the dispatch is the function itself.
+                normal_kinds: KindSet::default(),
+                bump_maps: false,
+                ..KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer)
+            };
+            let source = config.source().unwrap();
+            // The function's body, after its signature's line.
+            let signature = source
+                .find("fn delta_bsdf_sample(")
+                .expect("a fallback sampler");
+            let start = signature + source[signature..].find('\n').unwrap();
+            let end = start + source[start..].find("\n}\n").unwrap();
+            source[start..end].to_string()
+        };
+        let mixed = fallback(&["lambertian", "roughplastic", "dielectric"]);
+        assert!(mixed.contains("dielectric_sample("), "{mixed}");
+        assert!(!mixed.contains("lambertian_sample("), "{mixed}");
+        assert!(!mixed.contains("roughplastic_sample("), "{mixed}");
+        let smooth_only = fallback(&["lambertian", "roughplastic"]);
+        assert!(!smooth_only.contains("_sample("), "{smooth_only}");
+    }
+
     /// The kernel's constants are the Rust ones: naga reads them back.
     #[test]
     fn shared_constants_match_rust() {
