@@ -252,9 +252,8 @@ fn render(
 #if MASK
                             radiance += throughput * delta.weight * shadow_transmittance(delta.ray, delta.distance, &segments);
 #else
-                            let delta_hit = intersect_scene(delta.ray);
                             segments += 1u;
-                            if delta_hit.t >= delta.distance {
+                            if !occluded(delta.ray, delta.distance) {
                                 radiance += throughput * delta.weight;
                             }
 #endif
@@ -271,6 +270,15 @@ fn render(
                 // iteration of its own, lanes drifted out of step (some tracing
                 // shadow rays while others shade), which cost 18-38% of the speed.
                 if any(scattered.shadow_weight > vec3<f32>(0.0)) {
+#if SHADOW_VISIBILITY
+                    // The environment is the only light: a shadow ray finds it
+                    // where it escapes, whatever it would hit first otherwise.
+                    let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir, hit.offset), scattered.shadow_dir);
+                    segments += 1u;
+                    if !occluded(shadow_ray, F32_MAX) {
+                        radiance += throughput * scattered.shadow_weight * environment_radiance(shadow_ray.dir);
+                    }
+#else
 #if MASK
                     // Through masked surfaces: each emitter the shadow ray finds
                     // counts by the transparency of those before it (`throughput`,
@@ -322,6 +330,7 @@ fn render(
                     shadow_ray = Ray(offset_origin(shadow_hit.p, shadow_hit.normal, shadow_ray.dir, shadow_hit.offset), shadow_ray.dir);
                     shadow_travelled = shadow_hit.t;
                     }
+#endif
 #endif
                 }
 #endif

@@ -317,6 +317,15 @@ fn render_stored(ctx: &GpuContext, scene: &Scene, storage: SceneStorage) -> Accu
     common::render(ctx, scene, &options)
 }
 
+/// `scene` with no surface emitting: its environment map (if any) is the only
+/// light besides point and spot lights.
+fn lit_by_environment_alone(mut scene: Scene) -> Scene {
+    for material in &mut scene.materials {
+        material.emit = glam::Vec3::ZERO;
+    }
+    scene
+}
+
 /// The benchmark's field of `n` spheres, small.
 fn small_field(n: usize) -> Scene {
     let mut scene = pathmix::scene::sphere_field(n);
@@ -349,10 +358,20 @@ fn bvh_matches_scene_buffers() {
             },
         )
     };
+    // Lit by the environment alone, nee-mis's shadow rays ask only whether
+    // they escape (`occluded`), as do the point and spot lights' everywhere.
+    let sky = lit_by_environment_alone(small("sky.toml"));
+    let mut knot = lit_by_environment_alone(small("knot.toml"));
+    knot.environment = sky.environment.clone();
+    // The loop over every face must fit lavapipe's loop limit.
+    knot.render.max_depth = 2;
     let scenes = [
         ("cornell.toml", small("cornell.toml")),
         ("cornell-boxes.toml", small("cornell-boxes.toml")),
         ("sphere field", small_field(300)),
+        ("sky.toml, its lamp dark", sky),
+        ("knot.toml under sky.toml's map, its lamp dark", knot),
+        ("spotlights.toml", small("spotlights.toml")),
     ];
     for (name, scene) in scenes {
         for strategy in Strategy::ALL {

@@ -175,6 +175,9 @@ pub fn scene(config: &KernelConfig) -> String {
         }
     }
     closest_hit(&mut out, config);
+    if config.traces_occlusion() {
+        occlusion(&mut out, config);
+    }
     if config.samples_lights() {
         light_density(&mut out, config);
     }
@@ -464,7 +467,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             }
         }
         let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
-        bvh_traversal(out, config, &bvh_kinds, test);
+        bvh_traversal(out, config, &bvh_kinds, "hit.t", "", test);
     } else {
         for &k in &kinds {
             let array = PRIMITIVE_KINDS[k].array;
@@ -808,6 +811,46 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, visit: &str
     .unwrap();
 }
 
+/// `occluded(ray, t_max)`: whether the ray hits anything nearer than `t_max`,
+/// for the shadow rays that need only that (`KernelConfig::traces_occlusion`).
+/// Through the BVH the walk ends at the first hit it finds and computes nothing
+/// of it; a baked or listed scene's loops, which the driver folds, and an
+/// instanced scene's ask the closest hit.
+fn occlusion(out: &mut String, config: &KernelConfig) {
+    out.push_str("fn occluded(ray: Ray, t_max: f32) -> bool {\n");
+    if !config.bvh() || config.instances {
+        out.push_str("    return intersect_scene(ray).t < t_max;\n}\n");
+        return;
+    }
+    let test = |k: usize, indent: &str, ray: &str, _instance: &str| {
+        let name = PRIMITIVE_KINDS[k].name;
+        format!("{indent}blocked = blocked || {name}_hit_t(primitive, {ray}, t_max) > 0.0;\n")
+    };
+    out.push_str("    var blocked = false;\n");
+    for array in config.scene_arrays() {
+        if let ArraySource::Large(k) = array.source {
+            write!(
+                out,
+                "#for_each primitive in {}\n{}#end_for\n",
+                array.name,
+                test(k, "    ", "ray", "")
+            )
+            .unwrap();
+        }
+    }
+    let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
+    out.push_str("    if blocked {\n        return true;\n    }\n");
+    bvh_traversal(
+        out,
+        config,
+        &bvh_kinds,
+        "t_max",
+        "        if blocked {\n            break;\n        }\n",
+        test,
+    );
+    out.push_str("    return blocked;\n}\n");
+}
+
 /// The closest hit's walk of the scene's BVH (`bvh_nodes`): a leaf is a range
 /// of one kind's array, tested by `test` (a kind, an indent, the ray and the
 /// instance the primitive is in); one switch per leaf, none with one kind.
@@ -818,6 +861,8 @@ fn bvh_traversal(
     out: &mut String,
     config: &KernelConfig,
     kinds: &[usize],
+    t_max: &str,
+    after_leaf: &str,
     test: impl Fn(usize, &str, &str, &str) -> String,
 ) {
     // A profiling kernel counts the walk's node visits and primitive tests
@@ -883,13 +928,13 @@ fn bvh_traversal(
 "
         )
     });
-    let leaf = leaves("ray", "NO_INSTANCE", instances.as_deref());
+    let leaf = leaves("ray", "NO_INSTANCE", instances.as_deref()) + after_leaf;
     out.push_str("    let inv_dir = 1.0 / ray.dir;\n");
     let walk = WideWalk {
         nodes: "bvh_nodes",
         memory: NodeMemory::of(config, ArraySource::BvhNodes),
         origin: "ray.origin",
-        t_max: "hit.t",
+        t_max,
         root: "0u",
         stack: "stack",
     };

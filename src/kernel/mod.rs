@@ -69,6 +69,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "OPACITY_TEXTURES",
     "ENVIRONMENT",
     "LIGHT_ENVIRONMENT",
+    "SHADOW_VISIBILITY",
     "DELTA_LIGHTS",
     "DELTA_LIGHTS_PICK",
     "DIRECTIONAL_LIGHTS",
@@ -849,6 +850,25 @@ impl KernelConfig {
         !self.light_kinds.is_empty() || self.light_environment
     }
 
+    /// Whether next-event estimation's shadow rays need only to know whether
+    /// they escape (`SHADOW_VISIBILITY`): the environment is the only light
+    /// (every emitting surface is in the light density) and no surface lets
+    /// them through. They then ask `occluded`, which stops at the first hit,
+    /// instead of the closest hit and its emitter.
+    pub fn visibility_shadow_rays(&self) -> bool {
+        self.strategy == Strategy::NeeMis
+            && self.light_environment
+            && self.light_kinds.is_empty()
+            && !self.masked
+    }
+
+    /// Whether the kernel traces shadow rays through `occluded`: the
+    /// environment's (`visibility_shadow_rays`), and the point and spot
+    /// lights', unless masked surfaces make them sum transparencies.
+    pub fn traces_occlusion(&self) -> bool {
+        self.aovs.is_empty() && !self.masked && (self.delta_lights || self.visibility_shadow_rays())
+    }
+
     /// Whether the kernel evaluates BSDFs (`bsdf_eval` and its kin): light
     /// sampling and the delta lights' shadow rays do, and so does the AOV
     /// pass's `albedo`, for materials whose albedo is their BSDF toward the
@@ -939,6 +959,7 @@ impl KernelConfig {
             ("OPACITY_TEXTURES", self.opacity_textures),
             ("ENVIRONMENT", self.environment),
             ("LIGHT_ENVIRONMENT", self.light_environment),
+            ("SHADOW_VISIBILITY", self.visibility_shadow_rays()),
             ("DELTA_LIGHTS", self.delta_lights),
             (
                 "DELTA_LIGHTS_PICK",
@@ -2409,6 +2430,43 @@ pub(crate) mod tests {
         assert!(!mixed.contains("roughplastic_sample("), "{mixed}");
         let smooth_only = fallback(&["lambertian", "roughplastic"]);
         assert!(!smooth_only.contains("_sample("), "{smooth_only}");
+    }
+
+    /// nee-mis's shadow rays ask only whether they escape (`occluded`) where
+    /// the environment is the only light: where a surface emits, or lets them
+    /// through, they need the closest hit.
+    #[test]
+    fn shadow_rays_ask_only_visibility_under_the_environment_alone() {
+        // Through a BVH (the walk that stops at the first hit), with no point
+        // lights (whose shadow rays ask `occluded` whatever the strategy).
+        let general = KernelConfig {
+            bvh_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+            delta_lights: false,
+            masked: false,
+            opacity_textures: false,
+            ..KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer)
+        };
+        let environment_alone = KernelConfig {
+            light_kinds: KindSet::default(),
+            ..general.clone()
+        };
+        let visibility = |config: &KernelConfig| {
+            let flag = config.flags().contains("SHADOW_VISIBILITY");
+            assert_eq!(flag, config.source().unwrap().contains("fn occluded("));
+            flag
+        };
+        assert!(!general.light_kinds.is_empty());
+        assert!(!visibility(&general));
+        assert!(visibility(&environment_alone));
+        validate(&environment_alone);
+        assert!(!visibility(&KernelConfig {
+            masked: true,
+            ..environment_alone.clone()
+        }));
+        assert!(!visibility(&KernelConfig {
+            strategy: Strategy::Mixture,
+            ..environment_alone
+        }));
     }
 
     /// The kernel's constants are the Rust ones: naga reads them back.
