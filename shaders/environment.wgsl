@@ -4,7 +4,8 @@
 // constant over each texel's cell (the directions nearest its centre), in
 // proportion to the mean over the cell of the bilinear radiance, which makes it
 // positive wherever the radiance is: nee-mis and mixture stay unbiased, and the
-// density's mismatch with the radiance inside a cell costs only variance.
+// density's mismatch with the radiance inside a cell costs only variance. The
+// cell is chosen hierarchically, so that stratified samples stay stratified.
 
 // Mirrors `environment::EnvironmentInfo`.
 struct EnvironmentInfo {
@@ -13,7 +14,7 @@ struct EnvironmentInfo {
     to_local_y: vec3<f32>,
     height: u32,
     to_local_z: vec3<f32>,
-    _pad: u32,
+    levels: u32,
 }
 
 // The world direction `dir` in map space.
@@ -78,52 +79,51 @@ fn environment_cos_difference(a: f32, b: f32) -> f32 {
     return 2.0 * sin(0.5 * PI * (a + b)) * sin(0.5 * PI * (b - a));
 }
 
-// Entry x of row `base`'s conditional CDF: the texel's w, 1 past the row's end.
-fn environment_column_cdf(base: u32, x: u32, width: u32) -> f32 {
-    if x >= width {
-        return 1.0;
-    }
-    return environment_texels_at(base + x).w;
+// Nodes along an axis of `n` cells on level `level` of the pyramid
+// (`environment::pyramid_size`).
+fn environment_pyramid_size(n: u32, level: u32) -> u32 {
+    return ((n - 1u) >> level) + 1u;
 }
 
-// A direction drawn from the map's density: a row by the marginal CDF, a texel
-// by the row's, then uniformly in (cos theta, phi) within the texel's cell
-// (what is left of each number after its choice places the point).
-fn environment_sample(u: vec2<f32>) -> vec3<f32> {
+// The largest f32 below 1: a rescaled number stays in [0, 1).
+const ENVIRONMENT_U_MAX: f32 = 0.99999994;
+
+// Of two children of masses `a` and `b`, the second where `u` (in [0, 1)) falls
+// past the first's share, never one of no mass; and `u` rescaled within it.
+struct EnvironmentChoice {
+    second: bool,
+    u: f32,
+}
+
+fn environment_choose(u: f32, a: f32, b: f32) -> EnvironmentChoice {
+    let scaled = u * (a + b);
+    let second = (scaled >= a && b > 0.0) || a <= 0.0;
+    let rescaled = select(scaled / a, (scaled - a) / b, second);
+    return EnvironmentChoice(second, clamp(rescaled, 0.0, ENVIRONMENT_U_MAX));
+}
+
+// A direction drawn from the map's density: a cell by descending the pyramid of
+// the cells' probabilities (`environment::EnvironmentTables::pyramid`), a row
+// then a column of each node's 2 x 2 children, then uniformly in (cos theta,
+// phi) within the cell (what is left of the numbers after the choices).
+fn environment_sample(u_in: vec2<f32>) -> vec3<f32> {
     let info = environment_info_at(0u);
-    // The last entry <= u of each CDF (0 first, 1 last): bisection keeps
-    // cdf[lo] <= u < cdf[hi], so cells of no mass are never chosen.
-    var lo = 0u;
-    var hi = info.height;
-    while hi - lo > 1u {
-        let mid = (lo + hi) / 2u;
-        if environment_rows_at(mid) <= u.y {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
+    var u = u_in;
+    var cell = vec2<u32>(0u);
+    var level_start = 0u;
+    for (var level = info.levels; level > 0u; level--) {
+        let width = environment_pyramid_size(info.width, level);
+        let m = environment_pyramid_at(level_start + cell.y * width + cell.x);
+        level_start += width * environment_pyramid_size(info.height, level);
+        let row = environment_choose(u.y, m.x + m.y, m.z + m.w);
+        let column = environment_choose(u.x, select(m.x, m.z, row.second), select(m.y, m.w, row.second));
+        u = vec2<f32>(column.u, row.u);
+        cell = 2u * cell + vec2<u32>(select(0u, 1u, column.second), select(0u, 1u, row.second));
     }
-    let y = lo;
-    let row_lo = environment_rows_at(y);
-    let t_row = clamp((u.y - row_lo) / (environment_rows_at(y + 1u) - row_lo), 0.0, 1.0);
-    let base = y * info.width;
-    lo = 0u;
-    hi = info.width;
-    while hi - lo > 1u {
-        let mid = (lo + hi) / 2u;
-        if environment_column_cdf(base, mid, info.width) <= u.x {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let x = lo;
-    let column_lo = environment_column_cdf(base, x, info.width);
-    let t_column = clamp((u.x - column_lo) / (environment_column_cdf(base, x + 1u, info.width) - column_lo), 0.0, 1.0);
-    let v_top = environment_row_edge(y, info.height);
-    let cos_theta = cos(PI * v_top) - t_row * environment_cos_difference(v_top, environment_row_edge(y + 1u, info.height));
+    let v_top = environment_row_edge(cell.y, info.height);
+    let cos_theta = cos(PI * v_top) - u.y * environment_cos_difference(v_top, environment_row_edge(cell.y + 1u, info.height));
     let sin_theta = sqrt(max(0.0, (1.0 - cos_theta) * (1.0 + cos_theta)));
-    let phi = 2.0 * PI * (f32(x) + t_column) / f32(info.width);
+    let phi = 2.0 * PI * (f32(cell.x) + u.x) / f32(info.width);
     let local = vec3<f32>(sin(phi) * sin_theta, cos_theta, -cos(phi) * sin_theta);
     // Map space to world: the transpose of the rows kept.
     return local.x * info.to_local_x + local.y * info.to_local_y + local.z * info.to_local_z;
@@ -134,10 +134,8 @@ fn environment_sample(u: vec2<f32>) -> vec3<f32> {
 fn environment_pdf(dir: vec3<f32>) -> f32 {
     let info = environment_info_at(0u);
     let texel = environment_texel(dir);
-    let base = texel.y * info.width;
-    let row = environment_rows_at(texel.y + 1u) - environment_rows_at(texel.y);
-    let column = environment_column_cdf(base, texel.x + 1u, info.width) - environment_column_cdf(base, texel.x, info.width);
+    let probability = environment_texels_at(texel.y * info.width + texel.x).w;
     let solid_angle = 2.0 * PI / f32(info.width) * environment_cos_difference(environment_row_edge(texel.y, info.height), environment_row_edge(texel.y + 1u, info.height));
-    return row * column / solid_angle;
+    return probability / solid_angle;
 }
 #endif

@@ -1,11 +1,20 @@
 //! The environment map as the kernel reads it (`shaders/environment.wgsl`): its
 //! texels, and the piecewise-constant density over its cells (each texel's: the
-//! directions nearest its centre) that the light density samples (pbrt-v4's
-//! `PiecewiseConstant2D` in spirit: a marginal CDF over rows, a conditional CDF
-//! within each row). A cell's mass is the mean luminance of the bilinear lookup
-//! over it times its solid angle, and a direction is drawn uniformly in `(cos
-//! theta, phi)` within its cell: the density is positive wherever the radiance
-//! is, and a constant map is sampled uniformly over the sphere.
+//! directions nearest its centre) that the light density samples. A cell's mass
+//! is the mean luminance of the bilinear lookup over it times its solid angle,
+//! and a direction is drawn uniformly in `(cos theta, phi)` within its cell: the
+//! density is positive wherever the radiance is, and a constant map is sampled
+//! uniformly over the sphere.
+//!
+//! The cell is chosen by descending a pyramid of the masses (Mitsuba's
+//! `Hierarchical2D`, as its `envmap` samples): at each level the sample picks
+//! one of a node's 2 x 2 children, a row then a column, in proportion to their
+//! masses, and is rescaled within it. Nearby samples stay together down to
+//! the cell, so a stratified (Sobol) set of samples stays stratified over the
+//! sphere; a marginal CDF over rows and a conditional one within each row
+//! (pbrt-v4's `PiecewiseConstant2D`) scatter a square of samples over the
+//! different columns of every row it spans: on the teapot under Mitsuba's
+//! museum map, 1.5x the noise of Mitsuba's at equal samples.
 
 use crate::abi::gpu_struct;
 use crate::scene::EnvironmentMap;
@@ -21,7 +30,8 @@ gpu_struct! {
         pub to_local_y: [f32; 3],
         pub height: u32,
         pub to_local_z: [f32; 3],
-        pub _pad: u32,
+        /// Levels of the pyramid above the cells (`EnvironmentTables::pyramid`).
+        pub levels: u32,
     }
 }
 
@@ -29,11 +39,60 @@ gpu_struct! {
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvironmentTables {
     pub info: EnvironmentInfo,
-    /// Per texel, row-major: the scaled radiance (xyz) and the conditional CDF
-    /// of its row at the texel's left edge (w); the CDF is 1 at the row's end.
+    /// Per texel, row-major: the scaled radiance (xyz) and its cell's
+    /// probability (w; they sum to 1).
     pub texels: Vec<[f32; 4]>,
-    /// The marginal CDF over rows: `height + 1` entries, 0 first and 1 last.
-    pub rows: Vec<f32>,
+    /// The nodes of the pyramid over the cells' probabilities, the top level
+    /// (one node) first and then each level below it, row-major: a node of
+    /// level `k` (`pyramid_size(width, k)` by `pyramid_size(height, k)`) holds
+    /// the masses of its children on level `k - 1` (level 0: the cells), in
+    /// the order (2x, 2y), (2x + 1, 2y), (2x, 2y + 1), (2x + 1, 2y + 1); a
+    /// child past the edge has none.
+    pub pyramid: Vec<[f32; 4]>,
+}
+
+/// Nodes along an axis of `n` cells on level `level` of the pyramid.
+pub fn pyramid_size(n: u32, level: u32) -> u32 {
+    ((n - 1) >> level) + 1
+}
+
+/// Levels of the pyramid above `width` by `height` cells: up to one node (one
+/// level over a single cell too).
+pub fn pyramid_levels(width: u32, height: u32) -> u32 {
+    (u32::BITS - (width.max(height) - 1).leading_zeros()).max(1)
+}
+
+/// The pyramid (`EnvironmentTables::pyramid`) over `masses`, row-major
+/// `width` by `height`.
+fn pyramid(masses: &[f32], width: u32, height: u32) -> Vec<[f32; 4]> {
+    let mut level: Vec<f32> = masses.to_vec();
+    let (mut w, mut h) = (width as usize, height as usize);
+    let mut levels = Vec::new();
+    for _ in 0..pyramid_levels(width, height) {
+        let (up_w, up_h) = (w.div_ceil(2), h.div_ceil(2));
+        let child = |x: usize, y: usize| match x < w && y < h {
+            true => level[y * w + x],
+            false => 0.0,
+        };
+        let nodes: Vec<[f32; 4]> = (0..up_w * up_h)
+            .map(|i| {
+                let (x, y) = (2 * (i % up_w), 2 * (i / up_w));
+                [
+                    child(x, y),
+                    child(x + 1, y),
+                    child(x, y + 1),
+                    child(x + 1, y + 1),
+                ]
+            })
+            .collect();
+        level = nodes
+            .iter()
+            .map(|m| (m[0] + m[1]) + (m[2] + m[3]))
+            .collect();
+        levels.push(nodes);
+        (w, h) = (up_w, up_h);
+    }
+    levels.into_iter().rev().flatten().collect()
 }
 
 /// The mean over each texel's cell of `values` interpolated bilinearly between
@@ -71,63 +130,36 @@ pub fn cos_difference(a: f64, b: f64) -> f64 {
     2.0 * (pi * (a + b) / 2.0).sin() * (pi * (b - a) / 2.0).sin()
 }
 
-/// Normalised running sums of `weights` (all >= 0), `weights.len() + 1`
-/// entries from 0 to 1; all zero: uniform.
-fn cdf(weights: &[f64]) -> Vec<f32> {
-    let total: f64 = weights.iter().sum();
-    let n = weights.len();
-    let mut out = Vec::with_capacity(n + 1);
-    let mut sum = 0.0;
-    out.push(0.0);
-    for (i, w) in weights.iter().enumerate() {
-        sum += w;
-        out.push(if total > 0.0 {
-            (sum / total) as f32
-        } else {
-            ((i + 1) as f64 / n as f64) as f32
-        });
-    }
-    out[n] = 1.0;
-    out
-}
-
 impl EnvironmentTables {
     pub fn build(map: &EnvironmentMap) -> EnvironmentTables {
         let (width, height) = (map.width as usize, map.height as usize);
         // The rows of the world-to-map rotation are the columns of `to_world`.
         let to_local = map.to_world;
-        let mut texels = Vec::with_capacity(width * height);
-        let mut row_weights = Vec::with_capacity(height);
         let lum: Vec<f64> = map
             .texels
             .iter()
             .map(|&t| luminance_f64(t.map(f64::from)))
             .collect();
-        let weights = cell_means(&lum, width, height);
-        for (y, (row, weights)) in map
-            .texels
-            .chunks_exact(width)
-            .zip(weights.chunks_exact(width))
-            .enumerate()
-        {
-            let solid_angle = cos_difference(
+        let solid_angle = |y: usize| {
+            cos_difference(
                 row_edge(y as u32, map.height),
                 row_edge(y as u32 + 1, map.height),
-            );
-            row_weights.push(weights.iter().sum::<f64>() * solid_angle);
-            let conditional = cdf(weights);
-            texels.extend(
-                row.iter()
-                    .zip(&conditional)
-                    .map(|(t, &c)| [t[0] * map.scale, t[1] * map.scale, t[2] * map.scale, c]),
-            );
-        }
+            )
+        };
+        let mut masses: Vec<f64> = (cell_means(&lum, width, height).iter().enumerate())
+            .map(|(i, mean)| mean * solid_angle(i / width))
+            .collect();
         // A black map: uniform over the sphere (by solid angle), never weighed anyway.
-        if row_weights.iter().all(|&w| w == 0.0) {
-            row_weights = (0..height as u32)
-                .map(|y| cos_difference(row_edge(y, map.height), row_edge(y + 1, map.height)))
+        if masses.iter().all(|&m| m == 0.0) {
+            masses = (0..width * height)
+                .map(|i| solid_angle(i / width))
                 .collect();
         }
+        let total: f64 = masses.iter().sum();
+        let probabilities: Vec<f32> = masses.iter().map(|m| (m / total) as f32).collect();
+        let texels = (map.texels.iter().zip(&probabilities))
+            .map(|(t, &p)| [t[0] * map.scale, t[1] * map.scale, t[2] * map.scale, p])
+            .collect();
         EnvironmentTables {
             info: EnvironmentInfo {
                 to_local_x: to_local.x_axis.to_array(),
@@ -135,10 +167,10 @@ impl EnvironmentTables {
                 to_local_y: to_local.y_axis.to_array(),
                 height: map.height,
                 to_local_z: to_local.z_axis.to_array(),
-                _pad: 0,
+                levels: pyramid_levels(map.width, map.height),
             },
             texels,
-            rows: cdf(&row_weights),
+            pyramid: pyramid(&probabilities, map.width, map.height),
         }
     }
 }
@@ -163,10 +195,31 @@ mod tests {
     }
 
     #[test]
-    fn cdfs_run_from_zero_to_one_and_skip_empty_cells() {
-        assert_eq!(cdf(&[1.0, 0.0, 3.0]), vec![0.0, 0.25, 0.25, 1.0]);
-        assert_eq!(cdf(&[0.0, 0.0]), vec![0.0, 0.5, 1.0]);
-        assert_eq!(cdf(&[5.0]), vec![0.0, 1.0]);
+    fn pyramid_levels_sum_their_children_down_to_the_cells() {
+        assert_eq!(
+            (
+                pyramid_levels(1, 1),
+                pyramid_levels(2, 1),
+                pyramid_levels(512, 256)
+            ),
+            (1, 1, 9)
+        );
+        assert_eq!(
+            (pyramid_size(5, 1), pyramid_size(5, 2), pyramid_size(5, 3)),
+            (3, 2, 1)
+        );
+        // 3 x 2 cells: level 1 is 2 x 1 nodes, level 2 the root.
+        let masses = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        let nodes = pyramid(&masses, 3, 2);
+        assert_eq!(
+            nodes,
+            vec![
+                [1.0 + 2.0 + 4.0 + 5.0, 3.0 + 6.0, 0.0, 0.0],
+                [1.0, 2.0, 4.0, 5.0],
+                [3.0, 0.0, 6.0, 0.0],
+            ]
+        );
+        assert_eq!(pyramid(&[0.5], 1, 1), vec![[0.5, 0.0, 0.0, 0.0]]);
     }
 
     #[test]

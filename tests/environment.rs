@@ -4,7 +4,7 @@
 
 mod common;
 
-use pathmix::kernel::ArrayMemory;
+use pathmix::kernel::{ArrayMemory, ArraySource, EnvironmentPart};
 use pathmix::render::RenderOptions;
 use pathmix::scene::{Scene, Strategy};
 use std::path::Path;
@@ -358,10 +358,12 @@ fn run_probe(
         environment: Some(std::sync::Arc::new(tables.clone())),
         ..Default::default()
     };
+    // `probe_pdf` reads the cells' probabilities from the texels, not the pyramid.
+    let bound = |part: EnvironmentPart| part != EnvironmentPart::Pyramid || directions.is_empty();
     let buffers: Vec<(u32, wgpu::Buffer)> = config
         .scene_arrays()
         .into_iter()
-        .filter(|a| matches!(a.source, pathmix::kernel::ArraySource::Environment(_)))
+        .filter(|a| matches!(a.source, ArraySource::Environment(part) if bound(part)))
         .map(|a| (a.binding, common::storage(ctx, data.array_bytes(a.source))))
         .collect();
     let scene_entries: Vec<_> = buffers
@@ -371,7 +373,6 @@ fn run_probe(
             resource: buffer.as_entire_binding(),
         })
         .collect();
-    // `probe_pdf` reads no CDF but the texels' and rows' own: every array is used by both.
     let scene = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("environment"),
         layout: &pipeline.get_bind_group_layout(1),

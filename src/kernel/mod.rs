@@ -229,13 +229,11 @@ impl ArraySource {
     pub fn element(self) -> (&'static str, usize) {
         match (self.element_layout(), self) {
             (Some(layout), _) => (layout.wgsl_name, layout.size),
-            (None, ArraySource::Environment(EnvironmentPart::Texels)) => ("vec4<f32>", 16),
             (
                 None,
-                ArraySource::MaterialTables
-                | ArraySource::TextureTexels
-                | ArraySource::Environment(EnvironmentPart::Rows),
-            ) => ("f32", 4),
+                ArraySource::Environment(EnvironmentPart::Texels | EnvironmentPart::Pyramid),
+            ) => ("vec4<f32>", 16),
+            (None, ArraySource::MaterialTables | ArraySource::TextureTexels) => ("f32", 4),
             (None, other) => unreachable!("{other:?} has a host struct"),
         }
     }
@@ -298,8 +296,9 @@ impl ArraySource {
 pub enum EnvironmentPart {
     Info,
     Texels,
-    /// The marginal CDF: only where the light density samples the map.
-    Rows,
+    /// The pyramid of the cells' probabilities: only where the light density
+    /// samples the map.
+    Pyramid,
 }
 
 /// One of the arrays of `lights::LightTables`.
@@ -1383,10 +1382,10 @@ impl KernelConfig {
             let parts = [
                 (EnvironmentPart::Info, "environment_info"),
                 (EnvironmentPart::Texels, "environment_texels"),
-                (EnvironmentPart::Rows, "environment_rows"),
+                (EnvironmentPart::Pyramid, "environment_pyramid"),
             ];
             for (j, (part, name)) in parts.into_iter().enumerate() {
-                if part == EnvironmentPart::Rows && !self.light_environment {
+                if part == EnvironmentPart::Pyramid && !self.light_environment {
                     continue;
                 }
                 arrays.push(SceneArray {
@@ -1519,7 +1518,7 @@ impl SceneData {
                 match part {
                     EnvironmentPart::Info => bytemuck::bytes_of(&tables.info),
                     EnvironmentPart::Texels => bytemuck::cast_slice(&tables.texels),
-                    EnvironmentPart::Rows => bytemuck::cast_slice(&tables.rows),
+                    EnvironmentPart::Pyramid => bytemuck::cast_slice(&tables.pyramid),
                 }
             }
         }

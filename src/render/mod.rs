@@ -1634,14 +1634,13 @@ fn loop_iterations_per_vertex(data: &SceneData, config: &KernelConfig) -> u64 {
             baked,
             config.grouped_density,
         );
-    // The environment's sampling bisects its two CDFs.
+    // The environment's sampling descends its pyramid.
     if let Some(tables) = data
         .environment
         .as_ref()
         .filter(|_| config.light_environment)
     {
-        let bisections = |n: u32| u64::from(n.next_power_of_two().trailing_zeros());
-        inner_loops += bisections(tables.info.width) + bisections(tables.info.height);
+        inner_loops += u64::from(tables.info.levels);
     }
     if config.strategy == Strategy::NeeMis {
         inner_loops *= 2;
