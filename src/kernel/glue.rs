@@ -455,17 +455,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
     };
     if config.bvh() {
         // The large primitives first: the BVH then starts from their closest hit.
-        for array in config.scene_arrays() {
-            if let ArraySource::Large(k) = array.source {
-                write!(
-                    out,
-                    "#for_each primitive in {}\n{}#end_for\n",
-                    array.name,
-                    test(k, "    ", "ray", "NO_INSTANCE")
-                )
-                .unwrap();
-            }
-        }
+        large_primitive_tests(out, config, &test);
         let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
         bvh_traversal(out, config, &bvh_kinds, "hit.t", "", test);
     } else {
@@ -811,6 +801,26 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, visit: &str
     .unwrap();
 }
 
+/// `test` (a kind, an indent, the ray and the instance) run on each of the
+/// large primitives compiled in beside the BVH.
+fn large_primitive_tests(
+    out: &mut String,
+    config: &KernelConfig,
+    test: &impl Fn(usize, &str, &str, &str) -> String,
+) {
+    for array in config.scene_arrays() {
+        if let ArraySource::Large(k) = array.source {
+            write!(
+                out,
+                "#for_each primitive in {}\n{}#end_for\n",
+                array.name,
+                test(k, "    ", "ray", "NO_INSTANCE")
+            )
+            .unwrap();
+        }
+    }
+}
+
 /// `occluded(ray, t_max)`: whether the ray hits anything nearer than `t_max`,
 /// for the shadow rays that need only that (`KernelConfig::traces_occlusion`).
 /// Through the BVH the walk ends at the first hit it finds and computes nothing
@@ -827,17 +837,7 @@ fn occlusion(out: &mut String, config: &KernelConfig) {
         format!("{indent}blocked = blocked || {name}_hit_t(primitive, {ray}, t_max) > 0.0;\n")
     };
     out.push_str("    var blocked = false;\n");
-    for array in config.scene_arrays() {
-        if let ArraySource::Large(k) = array.source {
-            write!(
-                out,
-                "#for_each primitive in {}\n{}#end_for\n",
-                array.name,
-                test(k, "    ", "ray", "")
-            )
-            .unwrap();
-        }
-    }
+    large_primitive_tests(out, config, &test);
     let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
     out.push_str("    if blocked {\n        return true;\n    }\n");
     bvh_traversal(
@@ -851,10 +851,12 @@ fn occlusion(out: &mut String, config: &KernelConfig) {
     out.push_str("    return blocked;\n}\n");
 }
 
-/// The closest hit's walk of the scene's BVH (`bvh_nodes`): a leaf is a range
-/// of one kind's array, tested by `test` (a kind, an indent, the ray and the
-/// instance the primitive is in); one switch per leaf, none with one kind.
-/// With instances a leaf may be a range of instances (`accel::instances`):
+/// A walk of the scene's BVH (`bvh_nodes`) over the boxes the ray enters
+/// before `t_max` (a WGSL expression: the closest hit's `hit.t`): a leaf is a
+/// range of one kind's array, tested by `test` (a kind, an indent, the ray and
+/// the instance the primitive is in), then `after_leaf` runs; one switch per
+/// leaf, none with one kind.
+/// With instances (closest hits only) a leaf may be a range of instances (`accel::instances`):
 /// each carries the ray into its group's space and walks the group's BVH
 /// there (its own stack), distances scaled to that space's.
 fn bvh_traversal(
