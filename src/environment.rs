@@ -66,10 +66,11 @@ pub fn pyramid_levels(width: u32, height: u32) -> u32 {
 /// `width` by `height`.
 fn pyramid(masses: &[f32], width: u32, height: u32) -> Vec<[f32; 4]> {
     let mut level: Vec<f32> = masses.to_vec();
-    let (mut w, mut h) = (width as usize, height as usize);
     let mut levels = Vec::new();
-    for _ in 0..pyramid_levels(width, height) {
-        let (up_w, up_h) = (w.div_ceil(2), h.div_ceil(2));
+    for k in 1..=pyramid_levels(width, height) {
+        let size = |n: u32, k: u32| pyramid_size(n, k) as usize;
+        let (w, h) = (size(width, k - 1), size(height, k - 1));
+        let (up_w, up_h) = (size(width, k), size(height, k));
         let child = |x: usize, y: usize| match x < w && y < h {
             true => level[y * w + x],
             false => 0.0,
@@ -90,7 +91,6 @@ fn pyramid(masses: &[f32], width: u32, height: u32) -> Vec<[f32; 4]> {
             .map(|m| (m[0] + m[1]) + (m[2] + m[3]))
             .collect();
         levels.push(nodes);
-        (w, h) = (up_w, up_h);
     }
     levels.into_iter().rev().flatten().collect()
 }
