@@ -270,15 +270,6 @@ fn render(
                 // iteration of its own, lanes drifted out of step (some tracing
                 // shadow rays while others shade), which cost 18-38% of the speed.
                 if any(scattered.shadow_weight > vec3<f32>(0.0)) {
-#if SHADOW_VISIBILITY
-                    // The environment is the only light: a shadow ray finds it
-                    // where it escapes, whatever it would hit first otherwise.
-                    let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir, hit.offset), scattered.shadow_dir);
-                    segments += 1u;
-                    if !occluded(shadow_ray, F32_MAX) {
-                        radiance += throughput * scattered.shadow_weight * environment_radiance(shadow_ray.dir);
-                    }
-#else
 #if MASK
                     // Through masked surfaces: each emitter the shadow ray finds
                     // counts by the transparency of those before it (`throughput`,
@@ -293,7 +284,12 @@ fn render(
                     let shadow_hit = walked(intersect_scene(shadow_ray), shadow_travelled);
 #else
                     let shadow_ray = Ray(offset_origin(hit.p, hit.normal, scattered.shadow_dir, hit.offset), scattered.shadow_dir);
+#if SHADOW_LIGHTS_FIRST
+                    // The nearest light, then whether anything nearer hides it.
+                    let shadow_hit = intersect_shadow_ray(shadow_ray);
+#else
                     let shadow_hit = intersect_scene(shadow_ray);
+#endif
 #endif
                     segments += 1u;
 #if LIGHT_POINTS
@@ -330,7 +326,6 @@ fn render(
                     shadow_ray = Ray(offset_origin(shadow_hit.p, shadow_hit.normal, shadow_ray.dir, shadow_hit.offset), shadow_ray.dir);
                     shadow_travelled = shadow_hit.t;
                     }
-#endif
 #endif
                 }
 #endif

@@ -177,6 +177,9 @@ pub fn scene(config: &KernelConfig) -> String {
     closest_hit(&mut out, config);
     if config.traces_occlusion() {
         occlusion(&mut out, config);
+        if config.shadow_rays_find_lights_first() {
+            shadow_intersection(&mut out, config);
+        }
     }
     if config.samples_lights() {
         light_density(&mut out, config);
@@ -849,6 +852,51 @@ fn occlusion(out: &mut String, config: &KernelConfig) {
         test,
     );
     out.push_str("    return blocked;\n}\n");
+}
+
+/// `intersect_shadow_ray(ray)`: `intersect_scene`'s hit for a next-event shadow
+/// ray, found for less (`KernelConfig::shadow_rays_find_lights_first`): the
+/// nearest light, each tested in turn, then whether anything is nearer
+/// (`occluded`). Every emitter is a light, so a nearer surface emits nothing
+/// and hides the light: the ray then ends at a hit at 0 that faces nowhere.
+/// A light's hit is the walk's (the same primitive's bytes, the same tests).
+fn shadow_intersection(out: &mut String, config: &KernelConfig) {
+    out.push_str("fn intersect_shadow_ray(ray: Ray) -> Hit {\n    var hit = no_hit();\n");
+    for k in config.light_kinds.iter() {
+        let kind = PRIMITIVE_KINDS[k];
+        let name = kind.name;
+        let keep = match kind.keeps_primitive {
+            true => "light".to_string(),
+            false => format!("{name}_hit_keep(light)"),
+        };
+        let point = match kind.reprojects_hit_point {
+            true => format!("{name}_hit_point({keep}, ray.origin + t * ray.dir)"),
+            false => "ray.origin + t * ray.dir".to_string(),
+        };
+        write!(
+            out,
+            "#for_each light in {lights}
+    let t = {name}_hit_t(light, ray, hit.t);
+    if t > 0.0 {{
+        hit.t = t;
+        hit.material = light.material;
+        hit.normal = {name}_hit_normal({keep}, {point});
+    }}
+#end_for
+",
+            lights = kind.light_array()
+        )
+        .unwrap();
+    }
+    out.push_str(
+        "    if occluded(ray, hit.t) {
+        hit.t = 0.0;
+        hit.normal = vec3<f32>(0.0);
+    }
+    return hit;
+}
+",
+    );
 }
 
 /// A walk of the scene's BVH (`bvh_nodes`) over the boxes the ray enters

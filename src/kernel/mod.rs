@@ -69,7 +69,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "OPACITY_TEXTURES",
     "ENVIRONMENT",
     "LIGHT_ENVIRONMENT",
-    "SHADOW_VISIBILITY",
+    "SHADOW_LIGHTS_FIRST",
     "DELTA_LIGHTS",
     "DELTA_LIGHTS_PICK",
     "DIRECTIONAL_LIGHTS",
@@ -849,23 +849,32 @@ impl KernelConfig {
         !self.light_kinds.is_empty() || self.light_environment
     }
 
-    /// Whether next-event estimation's shadow rays need only to know whether
-    /// they escape (`SHADOW_VISIBILITY`): the environment is the only light
-    /// (every emitting surface is in the light density) and no surface lets
-    /// them through. They then ask `occluded`, which stops at the first hit,
-    /// instead of the closest hit and its emitter.
-    pub fn visibility_shadow_rays(&self) -> bool {
+    /// Whether next-event estimation's shadow rays find their closest hit for
+    /// less (`SHADOW_LIGHTS_FIRST`, `glue::shadow_intersection`): the nearest of
+    /// the lights, each tested in turn, then `occluded` asks whether anything
+    /// is nearer, its walk ending at the first hit it finds. Every emitting
+    /// surface is in the light density, and under nee-mis nothing else is, so
+    /// that is the closest hit's emitter or none. Where the environment is the
+    /// only light (no light to test), and where `occluded` walks a BVH (not
+    /// through instances, which it does not walk) and the lights are kinds
+    /// listed one by one (not a mesh's faces, held in groups); not where
+    /// surfaces let shadow rays through.
+    pub fn shadow_rays_find_lights_first(&self) -> bool {
+        let environment_alone = self.light_environment && self.light_kinds.is_empty();
+        let lights_one_by_one =
+            self.bvh() && !self.instances && self.grouped_light_kinds().next().is_none();
         self.strategy == Strategy::NeeMis
-            && self.light_environment
-            && self.light_kinds.is_empty()
             && !self.masked
+            && (environment_alone || lights_one_by_one)
     }
 
-    /// Whether the kernel traces shadow rays through `occluded`: the
-    /// environment's (`visibility_shadow_rays`), and the point and spot
-    /// lights', unless masked surfaces make them sum transparencies.
+    /// Whether the kernel traces shadow rays through `occluded`: nee-mis's
+    /// (`shadow_rays_find_lights_first`), and the point and spot lights',
+    /// unless masked surfaces make them sum transparencies.
     pub fn traces_occlusion(&self) -> bool {
-        self.aovs.is_empty() && !self.masked && (self.delta_lights || self.visibility_shadow_rays())
+        self.aovs.is_empty()
+            && !self.masked
+            && (self.delta_lights || self.shadow_rays_find_lights_first())
     }
 
     /// Whether the kernel evaluates BSDFs (`bsdf_eval` and its kin): light
@@ -958,7 +967,7 @@ impl KernelConfig {
             ("OPACITY_TEXTURES", self.opacity_textures),
             ("ENVIRONMENT", self.environment),
             ("LIGHT_ENVIRONMENT", self.light_environment),
-            ("SHADOW_VISIBILITY", self.visibility_shadow_rays()),
+            ("SHADOW_LIGHTS_FIRST", self.shadow_rays_find_lights_first()),
             ("DELTA_LIGHTS", self.delta_lights),
             (
                 "DELTA_LIGHTS_PICK",
@@ -2431,40 +2440,61 @@ pub(crate) mod tests {
         assert!(!smooth_only.contains("_sample("), "{smooth_only}");
     }
 
-    /// nee-mis's shadow rays ask only whether they escape (`occluded`) where
-    /// the environment is the only light: where a surface emits, or lets them
-    /// through, they need the closest hit.
+    /// nee-mis's shadow rays find the nearest light and then ask `occluded`
+    /// where the environment is the only light, or where a BVH holds the
+    /// surfaces and the lights are listed one by one; not through masks, a
+    /// mesh's emitting faces (in groups), instances or a baked scene.
     #[test]
-    fn shadow_rays_ask_only_visibility_under_the_environment_alone() {
-        // Through a BVH (the walk that stops at the first hit), with no point
-        // lights (whose shadow rays ask `occluded` whatever the strategy).
-        let general = KernelConfig {
-            bvh_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+    fn shadow_rays_find_lights_first_where_occluded_walks_a_bvh() {
+        // With no point lights (whose shadow rays ask `occluded` whatever the strategy).
+        let baked = KernelConfig {
             delta_lights: false,
             masked: false,
             opacity_textures: false,
             ..KernelConfig::general(Strategy::NeeMis, AccumulatorKind::Buffer)
         };
-        let environment_alone = KernelConfig {
-            light_kinds: KindSet::default(),
-            ..general.clone()
-        };
-        let visibility = |config: &KernelConfig| {
-            let flag = config.flags().contains("SHADOW_VISIBILITY");
-            assert_eq!(flag, config.source().unwrap().contains("fn occluded("));
+        let lights_first = |config: &KernelConfig| {
+            let flag = config.flags().contains("SHADOW_LIGHTS_FIRST");
+            let source = config.source().unwrap();
+            assert_eq!(flag, source.contains("fn occluded("));
+            assert_eq!(flag, source.contains("fn intersect_shadow_ray("));
             flag
         };
-        assert!(!general.light_kinds.is_empty());
-        assert!(!visibility(&general));
-        assert!(visibility(&environment_alone));
+        assert!(!baked.bvh() && !baked.light_kinds.is_empty());
+        assert!(!lights_first(&baked));
+        let environment_alone = KernelConfig {
+            light_kinds: KindSet::default(),
+            ..baked.clone()
+        };
+        assert!(lights_first(&environment_alone));
         validate(&environment_alone);
-        assert!(!visibility(&KernelConfig {
-            masked: true,
-            ..environment_alone.clone()
+        let one_by_one: KindSet = (PRIMITIVE_KINDS.iter().enumerate())
+            .filter(|(_, kind)| kind.light_density && !kind.grouped_lights)
+            .map(|(k, _)| k)
+            .collect();
+        let bvh = KernelConfig {
+            bvh_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+            light_kinds: one_by_one,
+            instances: false,
+            ..baked.clone()
+        };
+        assert!(lights_first(&bvh));
+        validate(&bvh);
+        assert!(!lights_first(&KernelConfig {
+            light_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
+            ..bvh.clone()
         }));
-        assert!(!visibility(&KernelConfig {
+        assert!(!lights_first(&KernelConfig {
+            instances: true,
+            ..bvh.clone()
+        }));
+        assert!(!lights_first(&KernelConfig {
+            masked: true,
+            ..bvh.clone()
+        }));
+        assert!(!lights_first(&KernelConfig {
             strategy: Strategy::Mixture,
-            ..environment_alone
+            ..bvh
         }));
     }
 
