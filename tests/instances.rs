@@ -6,14 +6,15 @@
 mod common;
 
 use pathmix::accel::WideBvh;
+use pathmix::gpu::GpuContext;
 use pathmix::kinds::PRIMITIVE_KINDS;
 use pathmix::pack::SceneData;
-use pathmix::scene::{Reconstruction, Sampler, Scene};
+use pathmix::scene::{Reconstruction, Sampler, Scene, Strategy};
 use std::fmt::Write;
 use std::path::Path;
 use std::process::Command;
 
-/// A floor under a quad light, and the objects `objects` (TOML).
+/// A floor under a quad light and a point light, and the objects `objects` (TOML).
 fn scene_text(objects: &str) -> String {
     format!(
         r#"[camera]
@@ -58,6 +59,11 @@ q = [-1, 4, -1]
 u = [2, 0, 0]
 v = [0, 0, 2]
 material = "lamp"
+
+[[lights]]
+type = "point"
+position = [2.5, 2, -1.5]
+intensity = [3, 3, 3]
 
 {objects}"#
     )
@@ -140,16 +146,24 @@ fn flat() -> String {
 /// The instanced scene and the same copies written out flat agree within
 /// their noise: the image mean and every 12x12 block, per channel (within 4.5
 /// standard errors of the difference); the scene with one copy left out does
-/// not, so the check sees each copy.
+/// not, so the check sees each copy. Under the mixture and under nee-mis, whose
+/// shadow rays ask `occluded` through the instances (the point light's under both).
 #[test]
 fn instances_render_as_their_copies_written_out_flat() {
     let Some(ctx) = common::gpu() else {
         return;
     };
+    for strategy in [Strategy::Mixture, Strategy::NeeMis] {
+        instances_agree_with_flat_copies(ctx, strategy);
+    }
+}
+
+fn instances_agree_with_flat_copies(ctx: &GpuContext, strategy: Strategy) {
     let render = |text: &str| {
         let mut scene = Scene::parse(text, "test.toml").unwrap();
         scene.render.sampler = Sampler::Independent;
         scene.render.reconstruction = Some(Reconstruction::Importance);
+        scene.render.strategy = strategy;
         let acc = common::render(ctx, &scene, &common::with_variance());
         (acc.mean(), acc.standard_error().unwrap())
     };
@@ -188,11 +202,8 @@ fn instances_render_as_their_copies_written_out_flat() {
         Ok(())
     };
     let flat_scene = flat();
-    assert!(
-        agree(&render(&flat_scene)).is_ok(),
-        "{:?}",
-        agree(&render(&flat_scene))
-    );
+    let flat = agree(&render(&flat_scene));
+    assert!(flat.is_ok(), "{strategy}: {flat:?}");
     // Without the second ball the flat scene differs.
     let (last_group, last_transform) = COPIES[COPIES.len() - 1];
     let (_, ball) = groups()
@@ -202,7 +213,7 @@ fn instances_render_as_their_copies_written_out_flat() {
     let without = flat_scene.replacen(&format!("[[objects]]\n{ball}{last_transform}\n"), "", 1);
     assert_ne!(without, flat_scene);
     let missing = agree(&render(&without));
-    assert!(missing.is_err(), "{missing:?}");
+    assert!(missing.is_err(), "{strategy}: {missing:?}");
 }
 
 /// The device arrays of `copies` instances of the Stanford bunny (on a grid,

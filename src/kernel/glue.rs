@@ -460,7 +460,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         // The large primitives first: the BVH then starts from their closest hit.
         large_primitive_tests(out, config, &test);
         let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
-        bvh_traversal(out, config, &bvh_kinds, "hit.t", "", test);
+        bvh_traversal(out, config, &bvh_kinds, &CLOSEST_HIT, test);
     } else {
         for &k in &kinds {
             let array = PRIMITIVE_KINDS[k].array;
@@ -826,31 +826,31 @@ fn large_primitive_tests(
 
 /// `occluded(ray, t_max)`: whether the ray hits anything nearer than `t_max`,
 /// for the shadow rays that need only that (`KernelConfig::traces_occlusion`).
-/// Through the BVH the walk ends at the first hit it finds and computes nothing
-/// of it; a baked or listed scene's loops, which the driver folds, and an
-/// instanced scene's ask the closest hit.
+/// Through the BVH (and the instances' groups) the walk ends at the first hit
+/// it finds and computes nothing of it; a baked or listed scene's loops, which
+/// the driver folds, ask the closest hit.
 fn occlusion(out: &mut String, config: &KernelConfig) {
     out.push_str("fn occluded(ray: Ray, t_max: f32) -> bool {\n");
-    if !config.bvh() || config.instances {
+    if !config.bvh() {
         out.push_str("    return intersect_scene(ray).t < t_max;\n}\n");
         return;
     }
     let test = |k: usize, indent: &str, ray: &str, _instance: &str| {
         let name = PRIMITIVE_KINDS[k].name;
-        format!("{indent}blocked = blocked || {name}_hit_t(primitive, {ray}, t_max) > 0.0;\n")
+        format!("{indent}blocked = blocked || {name}_hit_t(primitive, {ray}, t_bound) > 0.0;\n")
     };
-    out.push_str("    var blocked = false;\n");
+    out.push_str("    var blocked = false;\n    var t_bound = t_max;\n");
     large_primitive_tests(out, config, &test);
     let bvh_kinds: Vec<usize> = config.bvh_kinds.iter().collect();
     out.push_str("    if blocked {\n        return true;\n    }\n");
-    bvh_traversal(
-        out,
-        config,
-        &bvh_kinds,
-        "t_max",
-        "        if blocked {\n            break;\n        }\n",
-        test,
-    );
+    let stop = "        if blocked {\n            break;\n        }\n";
+    let bound = WalkBound {
+        t: "t_bound",
+        after_leaf: stop,
+        enter_instance: "t_bound = t_max * object.scale;",
+        leave_instance: "t_bound = t_max;\n                    if blocked {\n                        break;\n                    }",
+    };
+    bvh_traversal(out, config, &bvh_kinds, &bound, test);
     out.push_str("    return blocked;\n}\n");
 }
 
@@ -899,20 +899,38 @@ fn shadow_intersection(out: &mut String, config: &KernelConfig) {
     );
 }
 
+/// Where a walk keeps its bound on the distance and what it does after a leaf
+/// and around an instance's group (`object`: the ray there and its scale).
+struct WalkBound {
+    /// A variable: the closest hit's `hit.t`, or the bound `occluded` asks.
+    t: &'static str,
+    after_leaf: &'static str,
+    /// Into the group's space, where the bound is scaled, and back out.
+    enter_instance: &'static str,
+    leave_instance: &'static str,
+}
+
+/// The closest hit's bound: the hit's distance, scaled into an instance's
+/// group and back unless the closest hit is there.
+const CLOSEST_HIT: WalkBound = WalkBound {
+    t: "hit.t",
+    after_leaf: "",
+    enter_instance: "let t_world = hit.t;\n                    hit.t = t_world * object.scale;",
+    leave_instance: "hit.t = select(t_world, hit.t / object.scale, hit_instance == instance_index);",
+};
+
 /// A walk of the scene's BVH (`bvh_nodes`) over the boxes the ray enters
-/// before `t_max` (a WGSL expression: the closest hit's `hit.t`): a leaf is a
-/// range of one kind's array, tested by `test` (a kind, an indent, the ray and
-/// the instance the primitive is in), then `after_leaf` runs; one switch per
-/// leaf, none with one kind.
-/// With instances (closest hits only) a leaf may be a range of instances (`accel::instances`):
+/// before `bound.t`: a leaf is a range of one kind's array, tested by `test` (a
+/// kind, an indent, the ray and the instance the primitive is in), then
+/// `bound.after_leaf` runs; one switch per leaf, none with one kind.
+/// With instances a leaf may be a range of instances (`accel::instances`):
 /// each carries the ray into its group's space and walks the group's BVH
 /// there (its own stack), distances scaled to that space's.
 fn bvh_traversal(
     out: &mut String,
     config: &KernelConfig,
     kinds: &[usize],
-    t_max: &str,
-    after_leaf: &str,
+    bound: &WalkBound,
     test: impl Fn(usize, &str, &str, &str) -> String,
 ) {
     // A profiling kernel counts the walk's node visits and primitive tests
@@ -959,32 +977,32 @@ fn bvh_traversal(
             nodes: "bvh_nodes",
             memory: NodeMemory::of(config, ArraySource::BvhNodes),
             origin: "object.ray.origin",
-            t_max: "hit.t",
+            t_max: bound.t,
             root: "instance.root",
             stack: "group_stack",
         };
         let mut group = String::new();
-        let leaf = leaves("object.ray", "instance_index", None);
+        let leaf = leaves("object.ray", "instance_index", None) + bound.after_leaf;
         wide_bvh_walk(&mut group, &walk, config.instance_stack, &visit, &leaf);
         format!(
             "                for (var instance_index = link.x; instance_index < end; instance_index += 1u) {{
                     let instance = instances_at(instance_index);
                     let object = instance_ray(instance, ray);
-                    let t_world = hit.t;
-                    hit.t = t_world * object.scale;
+                    {}
                     let inv_dir = 1.0 / object.ray.dir;
-{group}                    hit.t = select(t_world, hit.t / object.scale, hit_instance == instance_index);
+{group}                    {}
                 }}
-"
+",
+            bound.enter_instance, bound.leave_instance
         )
     });
-    let leaf = leaves("ray", "NO_INSTANCE", instances.as_deref()) + after_leaf;
+    let leaf = leaves("ray", "NO_INSTANCE", instances.as_deref()) + bound.after_leaf;
     out.push_str("    let inv_dir = 1.0 / ray.dir;\n");
     let walk = WideWalk {
         nodes: "bvh_nodes",
         memory: NodeMemory::of(config, ArraySource::BvhNodes),
         origin: "ray.origin",
-        t_max,
+        t_max: bound.t,
         root: "0u",
         stack: "stack",
     };

@@ -855,14 +855,12 @@ impl KernelConfig {
     /// is nearer, its walk ending at the first hit it finds. Every emitting
     /// surface is in the light density, and under nee-mis nothing else is, so
     /// that is the closest hit's emitter or none. Where the environment is the
-    /// only light (no light to test), and where `occluded` walks a BVH (not
-    /// through instances, which it does not walk) and the lights are kinds
-    /// listed one by one (not a mesh's faces, held in groups); not where
-    /// surfaces let shadow rays through.
+    /// only light (no light to test), and where `occluded` walks a BVH and
+    /// the lights are kinds listed one by one (not a mesh's faces, held in
+    /// groups); not where surfaces let shadow rays through.
     pub fn shadow_rays_find_lights_first(&self) -> bool {
         let environment_alone = self.light_environment && self.light_kinds.is_empty();
-        let lights_one_by_one =
-            self.bvh() && !self.instances && self.grouped_light_kinds().next().is_none();
+        let lights_one_by_one = self.bvh() && self.grouped_light_kinds().next().is_none();
         self.strategy == Strategy::NeeMis
             && !self.masked
             && (environment_alone || lights_one_by_one)
@@ -2442,8 +2440,8 @@ pub(crate) mod tests {
 
     /// nee-mis's shadow rays find the nearest light and then ask `occluded`
     /// where the environment is the only light, or where a BVH holds the
-    /// surfaces and the lights are listed one by one; not through masks, a
-    /// mesh's emitting faces (in groups), instances or a baked scene.
+    /// surfaces and the lights are listed one by one (with instances too);
+    /// not through masks, a mesh's emitting faces (in groups) or a baked scene.
     #[test]
     fn shadow_rays_find_lights_first_where_occluded_walks_a_bvh() {
         // With no point lights (whose shadow rays ask `occluded` whatever the strategy).
@@ -2484,10 +2482,12 @@ pub(crate) mod tests {
             light_kinds: KindSet::all(PRIMITIVE_KINDS.len()),
             ..bvh.clone()
         }));
-        assert!(!lights_first(&KernelConfig {
+        let instanced = KernelConfig {
             instances: true,
             ..bvh.clone()
-        }));
+        };
+        assert!(lights_first(&instanced));
+        validate(&instanced);
         assert!(!lights_first(&KernelConfig {
             masked: true,
             ..bvh.clone()
