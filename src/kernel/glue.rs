@@ -854,12 +854,13 @@ fn occlusion(out: &mut String, config: &KernelConfig) {
     out.push_str("    return blocked;\n}\n");
 }
 
-/// `intersect_shadow_ray(ray)`: `intersect_scene`'s hit for a next-event shadow
-/// ray, found for less (`KernelConfig::shadow_rays_find_lights_first`): the
-/// nearest light, each tested in turn, then whether anything is nearer
-/// (`occluded`). Every emitter is a light, so a nearer surface emits nothing
-/// and hides the light: the ray then ends at a hit at 0 that faces nowhere.
-/// A light's hit is the walk's (the same primitive's bytes, the same tests).
+/// `intersect_shadow_ray(ray)`: what a next-event shadow ray reads of
+/// `intersect_scene`'s hit (its distance, material and normal), found for less
+/// (`KernelConfig::shadow_rays_find_lights_first`): the nearest light, each
+/// tested in turn, then whether anything is nearer (`occluded`). Every emitter
+/// is a light, so a nearer surface emits nothing and hides the light: the ray
+/// then ends at a hit at 0 that faces nowhere. A light's hit is the walk's (the
+/// same primitive's bytes, the same tests).
 fn shadow_intersection(out: &mut String, config: &KernelConfig) {
     out.push_str("fn intersect_shadow_ray(ray: Ray) -> Hit {\n    var hit = no_hit();\n");
     for k in config.light_kinds.iter() {

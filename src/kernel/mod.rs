@@ -867,8 +867,8 @@ impl KernelConfig {
     }
 
     /// Whether the kernel traces shadow rays through `occluded`: nee-mis's
-    /// (`shadow_rays_find_lights_first`), and the point and spot lights',
-    /// unless masked surfaces make them sum transparencies.
+    /// (`shadow_rays_find_lights_first`), and the point, spot and directional
+    /// lights', unless masked surfaces make them sum transparencies.
     pub fn traces_occlusion(&self) -> bool {
         self.aovs.is_empty()
             && !self.masked
