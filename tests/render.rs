@@ -326,9 +326,8 @@ fn lit_by_environment_alone(mut scene: Scene) -> Scene {
     scene
 }
 
-/// `cornell.toml`, small, lit also by an emitting sphere, disk and cylinder,
-/// a cylinder's back and a disk's inside the room, behind its boxes, which hide
-/// them from some of its points, and in front of one another.
+/// `cornell.toml`, small, lit also by an emitting sphere, disk (low by the back
+/// wall, facing it) and cylinder: every kind of light listed one by one.
 fn lights_of_every_kind() -> Scene {
     let lights = r#"
 [materials.warm]
