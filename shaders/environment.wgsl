@@ -1,11 +1,11 @@
 // The environment map (`environment::EnvironmentTables`, conventions in
 // src/scene/envmap.rs): the radiance an escaping ray finds, and, as one object
 // of the light density, sampling a direction and its density. The density is
-// constant over each texel's cell (the directions nearest its centre), in
-// proportion to the mean over the cell of the bilinear radiance, which makes it
-// positive wherever the radiance is: nee-mis and mixture stay unbiased, and the
-// density's mismatch with the radiance inside a cell costs only variance. The
-// cell is chosen hierarchically, so that stratified samples stay stratified.
+// the texels' luminance interpolated bilinearly in (phi, cos theta) between
+// their centres, over its integral: positive exactly where the radiance is (so
+// nee-mis and mixture stay unbiased) and continuous. The cell between four
+// centres is chosen hierarchically, so that stratified samples stay
+// stratified.
 
 // Mirrors `environment::EnvironmentInfo`.
 struct EnvironmentInfo {
@@ -22,61 +22,76 @@ fn environment_local(info: EnvironmentInfo, dir: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(info.to_local_x, dir), dot(info.to_local_y, dir), dot(info.to_local_z, dir));
 }
 
+// The columns of texel centres around the direction `d` (map space), and how
+// far from the left one toward the right one it lies.
+struct EnvironmentColumns {
+    left: u32,
+    right: u32,
+    t: f32,
+}
+
+fn environment_columns(width: u32, d: vec3<f32>) -> EnvironmentColumns {
+    var u = atan2(d.x, -d.z) * (0.5 * INV_PI) - 0.5 / f32(width);
+    u -= floor(u);
+    let left = min(u32(u * f32(width)), width - 1u);
+    let right = select(left + 1u, 0u, left + 1u == width);
+    return EnvironmentColumns(left, right, u * f32(width) - f32(left));
+}
+
 // Mitsuba's lookup: bilinear between texel centres (column x on u = (x + 1/2) / W,
 // row y on v = y / (H - 1)), the columns periodic.
 fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
     let info = environment_info_at(0u);
     let d = environment_local(info, dir);
-    var u = atan2(d.x, -d.z) * (0.5 * INV_PI) - 0.5 / f32(info.width);
-    u -= floor(u);
+    let columns = environment_columns(info.width, d);
     // Not acos(d.y): lavapipe's is off by 1e-4, which shifts the lookup.
-    let v = atan2(length(d.xz), d.y) * INV_PI;
-    let p = vec2<f32>(u * f32(info.width), v * f32(info.height - 1u));
-    let x0 = min(u32(p.x), info.width - 1u);
-    let y0 = min(u32(p.y), max(info.height, 2u) - 2u);
-    let t = p - vec2<f32>(f32(x0), f32(y0));
-    let x1 = select(x0 + 1u, 0u, x0 + 1u == info.width);
+    let v = atan2(length(d.xz), d.y) * INV_PI * f32(info.height - 1u);
+    let y0 = min(u32(v), max(info.height, 2u) - 2u);
     let y1 = min(y0 + 1u, info.height - 1u);
-    let top = mix(environment_texels_at(y0 * info.width + x0).xyz, environment_texels_at(y0 * info.width + x1).xyz, t.x);
-    let bottom = mix(environment_texels_at(y1 * info.width + x0).xyz, environment_texels_at(y1 * info.width + x1).xyz, t.x);
-    return mix(top, bottom, t.y);
+    let top = mix(environment_texels_at(y0 * info.width + columns.left).xyz, environment_texels_at(y0 * info.width + columns.right).xyz, columns.t);
+    let bottom = mix(environment_texels_at(y1 * info.width + columns.left).xyz, environment_texels_at(y1 * info.width + columns.right).xyz, columns.t);
+    return mix(top, bottom, v - f32(y0));
 }
 
 #if LIGHT_ENVIRONMENT
-// The v of row y's upper edge (src/scene/envmap.rs `row_edge`).
-fn environment_row_edge(y: u32, height: u32) -> f32 {
-    if y == 0u {
-        return 0.0;
-    }
-    if y >= height {
-        return 1.0;
-    }
-    return (f32(y) - 0.5) / f32(height - 1u);
+// Rows of cells between the texel rows (`environment::cell_rows`).
+fn environment_cell_rows(height: u32) -> u32 {
+    return max(height, 2u) - 1u;
 }
 
-// The cell of the sampling density a world direction falls in: its nearest
-// texel centre's.
-fn environment_texel(dir: vec3<f32>) -> vec2<u32> {
-    let info = environment_info_at(0u);
-    let d = environment_local(info, dir);
-    let u = atan2(d.x, -d.z) * (0.5 * INV_PI);
-    let x = min(u32((u - floor(u)) * f32(info.width)), info.width - 1u);
-    let cos_theta = d.y / length(d);
-    let v = acos(clamp(cos_theta, -1.0, 1.0)) * INV_PI;
-    var y = min(u32(v * f32(info.height - 1u) + 0.5), info.height - 1u);
-    // acos may be off by 1e-4 (lavapipe): the row is settled against the cosines
-    // of its edges, computed as the sampler computes them.
-    if y > 0u && cos_theta > cos(PI * environment_row_edge(y, info.height)) {
-        y -= 1u;
-    } else if y + 1u < info.height && cos_theta <= cos(PI * environment_row_edge(y + 1u, info.height)) {
-        y += 1u;
-    }
-    return vec2<u32>(x, y);
+// 1 - cos theta and 1 + cos theta at the texel row `y` of `rows` + 1, each
+// without cancellation where it is small.
+fn environment_row_versines(y: u32, rows: u32) -> vec2<f32> {
+    let half_theta = 0.5 * PI * f32(y) / f32(rows);
+    let s = sin(half_theta);
+    let c = cos(half_theta);
+    return 2.0 * vec2<f32>(s * s, c * c);
 }
 
-// cos(pi a) - cos(pi b), without cancellation at the poles (`environment::cos_difference`).
-fn environment_cos_difference(a: f32, b: f32) -> f32 {
-    return 2.0 * sin(0.5 * PI * (a + b)) * sin(0.5 * PI * (b - a));
+// Where within the cells of row `y` (0 at its upper edge, 1 at its lower one)
+// a direction lies, from its 1 - cos theta and 1 + cos theta. Northern rows
+// measure from the north pole and southern rows from the south pole, so that
+// rows near either pole keep their precision.
+fn environment_row_fraction(y: u32, rows: u32, versines: vec2<f32>) -> f32 {
+    let upper = environment_row_versines(y, rows);
+    let lower = environment_row_versines(y + 1u, rows);
+    if 2u * y + 1u <= rows {
+        return (versines.x - upper.x) / (lower.x - upper.x);
+    }
+    return (upper.y - versines.y) / (upper.y - lower.y);
+}
+
+// The inverse of `environment_row_fraction`: cos theta and sin theta at the
+// fraction `t` of row `y`.
+fn environment_row_angle(y: u32, rows: u32, t: f32) -> vec2<f32> {
+    let upper = environment_row_versines(y, rows);
+    let lower = environment_row_versines(y + 1u, rows);
+    if 2u * y + 1u <= rows {
+        let a = mix(upper.x, lower.x, t);
+        return vec2<f32>(1.0 - a, sqrt(max(0.0, a * (2.0 - a))));
+    }
+    let b = mix(upper.y, lower.y, t);
+    return vec2<f32>(b - 1.0, sqrt(max(0.0, b * (2.0 - b))));
 }
 
 // Nodes along an axis of `n` cells on level `level` of the pyramid
@@ -102,40 +117,82 @@ fn environment_choose(u: f32, a: f32, b: f32) -> EnvironmentChoice {
     return EnvironmentChoice(second, clamp(rescaled, 0.0, ENVIRONMENT_U_MAX));
 }
 
+// Of a density linear over [0, 1] from `a` to `b`, the point where its CDF is
+// `u` (pbrt-v4's `SampleLinear`, free of cancellation); `u` itself where both
+// are 0.
+fn environment_sample_linear(u: f32, a: f32, b: f32) -> f32 {
+    // Scaled to a largest end of 1, so that the squares neither overflow nor vanish.
+    let scale = max(max(a, b), 1e-30);
+    let a1 = a / scale;
+    let b1 = b / scale;
+    let denominator = a1 + sqrt(mix(a1 * a1, b1 * b1, u));
+    return select(u, clamp(u * (a1 + b1) / denominator, 0.0, 1.0), denominator > 0.0);
+}
+
+// The densities at the four corners of the cell (column x, row y): upper left,
+// upper right, lower left, lower right.
+fn environment_corners(info: EnvironmentInfo, left: u32, right: u32, y: u32) -> vec4<f32> {
+    let upper = min(y, info.height - 1u) * info.width;
+    let lower = min(y + 1u, info.height - 1u) * info.width;
+    return vec4<f32>(
+        environment_texels_at(upper + left).w,
+        environment_texels_at(upper + right).w,
+        environment_texels_at(lower + left).w,
+        environment_texels_at(lower + right).w,
+    );
+}
+
 // A direction drawn from the map's density: a cell by descending the pyramid of
 // the cells' probabilities (`environment::EnvironmentTables::pyramid`), a row
-// then a column of each node's 2 x 2 children, then uniformly in (cos theta,
-// phi) within the cell (what is left of the numbers after the choices).
+// then a column of each node's 2 x 2 children; then within the cell, with what
+// is left of the numbers after the choices, cos theta from the bilinear
+// density's marginal and phi from its conditional.
 fn environment_sample(u_in: vec2<f32>) -> vec3<f32> {
     let info = environment_info_at(0u);
+    let rows = environment_cell_rows(info.height);
     var u = u_in;
     var cell = vec2<u32>(0u);
     var level_start = 0u;
     for (var level = info.levels; level > 0u; level--) {
         let width = environment_pyramid_size(info.width, level);
         let m = environment_pyramid_at(level_start + cell.y * width + cell.x);
-        level_start += width * environment_pyramid_size(info.height, level);
+        level_start += width * environment_pyramid_size(rows, level);
         let row = environment_choose(u.y, m.x + m.y, m.z + m.w);
         let column = environment_choose(u.x, select(m.x, m.z, row.second), select(m.y, m.w, row.second));
         u = vec2<f32>(column.u, row.u);
         cell = 2u * cell + vec2<u32>(select(0u, 1u, column.second), select(0u, 1u, row.second));
     }
-    let v_top = environment_row_edge(cell.y, info.height);
-    let cos_theta = cos(PI * v_top) - u.y * environment_cos_difference(v_top, environment_row_edge(cell.y + 1u, info.height));
-    let sin_theta = sqrt(max(0.0, (1.0 - cos_theta) * (1.0 + cos_theta)));
-    let phi = 2.0 * PI * (f32(cell.x) + u.x) / f32(info.width);
-    let local = vec3<f32>(sin(phi) * sin_theta, cos_theta, -cos(phi) * sin_theta);
+    let right = select(cell.x + 1u, 0u, cell.x + 1u == info.width);
+    let c = environment_corners(info, cell.x, right, cell.y);
+    let t_row = environment_sample_linear(u.y, c.x + c.y, c.z + c.w);
+    let t_column = environment_sample_linear(u.x, mix(c.x, c.z, t_row), mix(c.y, c.w, t_row));
+    let angle = environment_row_angle(cell.y, rows, t_row);
+    let phi = 2.0 * PI * (f32(cell.x) + 0.5 + t_column) / f32(info.width);
+    let local = vec3<f32>(sin(phi) * angle.y, angle.x, -cos(phi) * angle.y);
     // Map space to world: the transpose of the rows kept.
     return local.x * info.to_local_x + local.y * info.to_local_y + local.z * info.to_local_z;
 }
 
-// The solid-angle density of `environment_sample` at `dir`: the cell's
-// probability over its solid angle.
+// The solid-angle density of `environment_sample` at `dir`: the corners'
+// densities interpolated bilinearly in (phi, cos theta).
 fn environment_pdf(dir: vec3<f32>) -> f32 {
     let info = environment_info_at(0u);
-    let texel = environment_texel(dir);
-    let probability = environment_texels_at(texel.y * info.width + texel.x).w;
-    let solid_angle = 2.0 * PI / f32(info.width) * environment_cos_difference(environment_row_edge(texel.y, info.height), environment_row_edge(texel.y + 1u, info.height));
-    return probability / solid_angle;
+    let rows = environment_cell_rows(info.height);
+    let d = environment_local(info, dir);
+    let columns = environment_columns(info.width, d);
+    let rho2 = dot(d.xz, d.xz);
+    let norm = sqrt(rho2 + d.y * d.y);
+    // 1 - cos theta and 1 + cos theta, the small one of the two from sin^2 theta.
+    let versines = select(
+        vec2<f32>(1.0 - d.y / norm, rho2 / (norm * (norm - d.y))),
+        vec2<f32>(rho2 / (norm * (norm + d.y)), 1.0 + d.y / norm),
+        d.y > 0.0,
+    );
+    // The row from theta: a direction within rounding of a row's edge may fall
+    // in the neighbour's, where the continuous density is the same to rounding.
+    let y = min(u32(atan2(sqrt(rho2), d.y) * INV_PI * f32(rows)), rows - 1u);
+    let t_row = clamp(environment_row_fraction(y, rows, versines), 0.0, 1.0);
+    let c = environment_corners(info, columns.left, columns.right, y);
+    return mix(mix(c.x, c.y, columns.t), mix(c.z, c.w, columns.t), t_row);
 }
 #endif

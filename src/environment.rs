@@ -1,24 +1,30 @@
 //! The environment map as the kernel reads it (`shaders/environment.wgsl`): its
-//! texels, and the piecewise-constant density over its cells (each texel's: the
-//! directions nearest its centre) that the light density samples. A cell's mass
-//! is the mean luminance of the bilinear lookup over it times its solid angle,
-//! and a direction is drawn uniformly in `(cos theta, phi)` within its cell: the
-//! density is positive wherever the radiance is, and a constant map is sampled
-//! uniformly over the sphere.
+//! texels, and the density over the sphere that the light density samples. The
+//! density is the luminance of the texels, interpolated bilinearly in `(phi,
+//! cos theta)` between the texel centres (the lookup interpolates the radiance
+//! bilinearly in `(phi, theta)` between the same centres), over its integral.
+//! So it is proportional to the luminance of the radiance at every texel centre
+//! and near it, positive exactly where the radiance is, continuous, and a
+//! constant map is sampled uniformly over the sphere. Mitsuba's `envmap`
+//! interpolates its density bilinearly too, in `(phi, theta)` with each texel
+//! row weighed by its `sin theta`, so that its polar rows weigh nothing.
 //!
-//! The cell is chosen by descending a pyramid of the masses (Mitsuba's
-//! `Hierarchical2D`, as its `envmap` samples): at each level the sample picks
-//! one of a node's 2 x 2 children, a row then a column, in proportion to their
-//! masses, and is rescaled within it. Nearby samples stay together down to
-//! the cell, so a stratified (Sobol) set of samples stays stratified over the
-//! sphere; a marginal CDF over rows and a conditional one within each row
-//! (pbrt-v4's `PiecewiseConstant2D`) scatter a square of samples over the
-//! different columns of every row it spans: on the teapot under Mitsuba's
-//! museum map they had 1.26x the pyramid's noise at equal samples.
+//! The cells lie between texel centres: `width` columns (the last one wraps
+//! around to the first centre) by `height - 1` rows (one for a map one texel
+//! high). A cell is chosen by descending a pyramid of the cells' masses
+//! (Mitsuba's `Hierarchical2D`, as its `envmap` samples): at each level the
+//! sample picks one of a node's 2 x 2 children, a row then a column, in
+//! proportion to their masses, and is rescaled within it. Nearby samples stay
+//! together down to the cell, so a stratified (Sobol) set of samples stays
+//! stratified over the sphere; a marginal CDF over rows and a conditional one
+//! within each row (pbrt-v4's `PiecewiseConstant2D`) scatter a square of
+//! samples over the different columns of every row it spans: on the teapot
+//! under Mitsuba's museum map they had 1.26x the pyramid's noise at equal
+//! samples. Within the cell, `cos theta` is drawn from the bilinear density's
+//! marginal and `phi` from its conditional, both linear.
 
 use crate::abi::gpu_struct;
 use crate::scene::EnvironmentMap;
-use crate::scene::envmap::row_edge;
 use crate::stats::luminance_f64;
 
 gpu_struct! {
@@ -39,13 +45,13 @@ gpu_struct! {
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvironmentTables {
     pub info: EnvironmentInfo,
-    /// Per texel, row-major: the scaled radiance (xyz) and its cell's
-    /// probability (w; they sum to 1).
+    /// Per texel, row-major: the scaled radiance (xyz) and the density (per
+    /// unit solid angle) at its centre (w), which the kernel interpolates.
     pub texels: Vec<[f32; 4]>,
     /// The nodes of the pyramid over the cells' probabilities, the top level
     /// (one node) first and then each level below it, row-major: a node of
-    /// level `k` (`pyramid_size(width, k)` by `pyramid_size(height, k)`) holds
-    /// the masses of its children on level `k - 1` (level 0: the cells), in
+    /// level `k` (`pyramid_size(width, k)` by `pyramid_size(rows, k)`, `rows`
+    /// being `cell_rows(height)`) holds the masses of its children on level `k - 1` (level 0: the cells), in
     /// the order (2x, 2y), (2x + 1, 2y), (2x, 2y + 1), (2x + 1, 2y + 1); a
     /// child past the edge has none.
     pub pyramid: Vec<[f32; 4]>,
@@ -95,39 +101,33 @@ fn pyramid(masses: &[f32], width: u32, height: u32) -> Vec<[f32; 4]> {
     levels.into_iter().rev().flatten().collect()
 }
 
-/// The mean over each texel's cell of `values` interpolated bilinearly between
-/// texel centres, as the kernel looks the radiance up (columns periodic; the
-/// polar rows' cells reach only toward the equator): per axis 3/4 of the
-/// texel and 1/8 of each neighbour, or 3/4 and 1/4 at a pole. Positive wherever
-/// the interpolation is, over the cell.
-fn cell_means(values: &[f64], width: usize, height: usize) -> Vec<f64> {
-    let across: Vec<f64> = (0..width * height)
-        .map(|i| {
-            let (x, row) = (i % width, i - i % width);
-            let left = row + (x + width - 1) % width;
-            let right = row + (x + 1) % width;
-            0.75 * values[i] + 0.125 * (values[left] + values[right])
-        })
-        .collect();
-    (0..width * height)
-        .map(|i| {
-            let y = i / width;
-            let up = |k: usize| across[i - k * width];
-            let down = |k: usize| across[i + k * width];
-            match (y, height) {
-                (_, 1) => across[i],
-                (0, _) => 0.75 * across[i] + 0.25 * down(1),
-                (y, h) if y == h - 1 => 0.75 * across[i] + 0.25 * up(1),
-                _ => 0.75 * across[i] + 0.125 * (up(1) + down(1)),
-            }
-        })
-        .collect()
-}
-
 /// `cos(pi a) - cos(pi b)` for `a <= b`, without cancellation near the poles.
-pub fn cos_difference(a: f64, b: f64) -> f64 {
+fn cos_difference(a: f64, b: f64) -> f64 {
     let pi = std::f64::consts::PI;
     2.0 * (pi * (a + b) / 2.0).sin() * (pi * (b - a) / 2.0).sin()
+}
+
+/// Rows of cells between the texel rows of a map `height` high: one fewer,
+/// or one over the whole sphere for a single row.
+pub fn cell_rows(height: u32) -> u32 {
+    height.max(2) - 1
+}
+
+/// Each cell's mass, row-major: the integral of the interpolated luminance
+/// `lum` over it, in units of `2 pi / width` (the cells' common width in
+/// `phi`), which is the mean of its four corners times its span of `cos theta`.
+fn cell_masses(lum: &[f64], width: usize, height: usize) -> Vec<f64> {
+    let rows = cell_rows(height as u32) as usize;
+    let corner = |x: usize, y: usize| lum[y.min(height - 1) * width + x % width];
+    (0..width * rows)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let corners =
+                (corner(x, y) + corner(x + 1, y)) + (corner(x, y + 1) + corner(x + 1, y + 1));
+            let span = cos_difference(y as f64 / rows as f64, (y + 1) as f64 / rows as f64);
+            corners / 4.0 * span
+        })
+        .collect()
 }
 
 impl EnvironmentTables {
@@ -135,31 +135,31 @@ impl EnvironmentTables {
         let (width, height) = (map.width as usize, map.height as usize);
         // The rows of the world-to-map rotation are the columns of `to_world`.
         let to_local = map.to_world;
-        let lum: Vec<f64> = map
+        let mut lum: Vec<f64> = map
             .texels
             .iter()
             .map(|&t| luminance_f64(t.map(f64::from)))
             .collect();
-        let solid_angle = |y: usize| {
-            cos_difference(
-                row_edge(y as u32, map.height),
-                row_edge(y as u32 + 1, map.height),
-            )
-        };
-        let mut masses: Vec<f64> = (cell_means(&lum, width, height).iter().enumerate())
-            .map(|(i, mean)| mean * solid_angle(i / width))
-            .collect();
-        // A black map: uniform over the sphere (by solid angle), never weighed anyway.
-        if masses.iter().all(|&m| m == 0.0) {
-            masses = (0..width * height)
-                .map(|i| solid_angle(i / width))
-                .collect();
+        // A black map: uniform over the sphere, never weighed anyway.
+        if lum.iter().all(|&l| l == 0.0) {
+            lum.fill(1.0);
         }
+        let masses = cell_masses(&lum, width, height);
         let total: f64 = masses.iter().sum();
         let probabilities: Vec<f32> = masses.iter().map(|m| (m / total) as f32).collect();
-        let texels = (map.texels.iter().zip(&probabilities))
-            .map(|(t, &p)| [t[0] * map.scale, t[1] * map.scale, t[2] * map.scale, p])
+        let integral = total * 2.0 * std::f64::consts::PI / width as f64;
+        let texels = (map.texels.iter().zip(&lum))
+            .map(|(t, l)| {
+                let density = (l / integral) as f32;
+                [
+                    t[0] * map.scale,
+                    t[1] * map.scale,
+                    t[2] * map.scale,
+                    density,
+                ]
+            })
             .collect();
+        let rows = cell_rows(map.height);
         EnvironmentTables {
             info: EnvironmentInfo {
                 to_local_x: to_local.x_axis.to_array(),
@@ -167,10 +167,10 @@ impl EnvironmentTables {
                 to_local_y: to_local.y_axis.to_array(),
                 height: map.height,
                 to_local_z: to_local.z_axis.to_array(),
-                levels: pyramid_levels(map.width, map.height),
+                levels: pyramid_levels(map.width, rows),
             },
             texels,
-            pyramid: pyramid(&probabilities, map.width, map.height),
+            pyramid: pyramid(&probabilities, map.width, rows),
         }
     }
 }
@@ -180,18 +180,28 @@ mod tests {
     use super::*;
 
     #[test]
-    fn cell_means_weigh_the_neighbours_the_bilinear_lookup_reaches() {
-        // One hot texel of a 4 x 3 map: its cell 3/4 x 3/4, the sides 1/8, the
-        // row below (a pole's cell reaches one way) 1/8 of 3/4 across.
-        let mut values = vec![0.0; 12];
-        values[5] = 64.0;
-        let means = cell_means(&values, 4, 3);
-        assert_eq!(means[5], 36.0);
-        assert_eq!((means[4], means[6], means[7]), (6.0, 6.0, 0.0));
-        assert_eq!((means[1], means[9]), (0.25 * 48.0, 0.25 * 48.0));
-        assert_eq!(cell_means(&[2.0], 1, 1), vec![2.0]);
-        // A constant map stays constant.
-        assert!(cell_means(&[1.5; 12], 4, 3).iter().all(|&m| m == 1.5));
+    fn cell_masses_integrate_the_interpolated_luminance() {
+        // One hot texel of a 4 x 3 map (2 rows of cells, each 1 of cos theta
+        // high): a quarter of it in each of the four cells it is a corner of.
+        let mut lum = vec![0.0; 12];
+        lum[5] = 64.0;
+        let masses = cell_masses(&lum, 4, 3);
+        assert_eq!(masses.len(), 8);
+        let hot = [0, 1, 4, 5].map(|i| masses[i]);
+        for m in hot {
+            assert!((m - 16.0).abs() < 1e-12, "{masses:?}");
+        }
+        assert_eq!(masses.iter().filter(|&&m| m == 0.0).count(), 4);
+        // The last column's cells wrap around to the first column.
+        lum[5] = 0.0;
+        lum[4] = 8.0;
+        let masses = cell_masses(&lum, 4, 3);
+        assert!((masses[3] - 2.0).abs() < 1e-12 && masses[0] > 0.0 && masses[1] == 0.0);
+        // A constant map: each cell its span of cos theta, 2 in all per column.
+        let masses = cell_masses(&[1.5; 12], 4, 3);
+        assert!(masses.iter().all(|&m| (m - 1.5).abs() < 1e-12));
+        // One row: one cell over the sphere.
+        assert_eq!(cell_masses(&[2.0], 1, 1), vec![4.0]);
     }
 
     #[test]

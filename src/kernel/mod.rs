@@ -296,8 +296,8 @@ impl ArraySource {
 pub enum EnvironmentPart {
     Info,
     Texels,
-    /// The pyramid of the cells' probabilities: only where the light density
-    /// samples the map.
+    /// The pyramid of the cells' probabilities (the cells between texel
+    /// centres): only where the light density samples the map.
     Pyramid,
 }
 

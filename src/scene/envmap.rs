@@ -58,34 +58,7 @@ impl EnvironmentMap {
     }
 }
 
-/// The `v` of the upper edge of row `y` (0 at the pole `v = 0`): rows are centred
-/// on `y / (H - 1)`, so inner edges fall halfway between centres and the polar
-/// rows are half as tall. A map one texel high is one row over the whole sphere.
-pub fn row_edge(y: u32, height: u32) -> f64 {
-    if y == 0 {
-        0.0
-    } else if y >= height {
-        1.0
-    } else {
-        (y as f64 - 0.5) / (height - 1) as f64
-    }
-}
-
 /// Reads the map `path` (`output::read_linear_image`).
 pub fn load_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
     output::read_linear_image(path, "environment map")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn row_edges_centre_the_rows_on_mitsubas_grid() {
-        assert_eq!(row_edge(0, 5), 0.0);
-        assert_eq!(row_edge(1, 5), 0.125);
-        assert_eq!(row_edge(4, 5), 0.875);
-        assert_eq!(row_edge(5, 5), 1.0);
-        assert_eq!((row_edge(0, 1), row_edge(1, 1)), (0.0, 1.0));
-    }
 }
