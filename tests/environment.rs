@@ -535,8 +535,9 @@ fn chi_square_deviate(observed: &[f64], expected: &[f64]) -> f64 {
 /// density integrates to 1 over the sphere and is, at every sub-cell's centre
 /// and every sample's direction, the tables' bilinear density computed in f64;
 /// and no sample lands where the density is 0. Maps: smooth with a black row
-/// and black texels, turned; a 1e6 sun; one texel; a black map; bright poles
-/// over a black band next to them.
+/// and black texels, turned; a 1e6 sun; one texel; a black map; a sun next
+/// to the pole of a 2048-row map (rows 1e-3 of a degree of cos theta tall
+/// there); bright poles over a black band next to them.
 #[test]
 fn sampler_matches_its_density() {
     let ctx = gpu_or_skip!();
@@ -561,6 +562,12 @@ fn sampler_matches_its_density() {
         ),
         ("one texel", map(1, 1, turned, |_, _| [2.0, 1.0, 0.5])),
         ("black", map(4, 4, glam::Mat3::IDENTITY, |_, _| [0.0; 3])),
+        (
+            "a sun next to the pole of a tall map",
+            map(8, 2048, glam::Mat3::IDENTITY, |x, y| {
+                if (x, y) == (3, 1) { [1e4; 3] } else { [1.0; 3] }
+            }),
+        ),
         (
             "bright poles beside black rows",
             map(8, 64, glam::Mat3::IDENTITY, |x, y| match y {
