@@ -129,8 +129,8 @@ fn environment_sample_linear(u: f32, a: f32, b: f32) -> f32 {
     return select(u, clamp(u * (a1 + b1) / denominator, 0.0, 1.0), denominator > 0.0);
 }
 
-// The densities at the four corners of the cell (column x, row y): upper left,
-// upper right, lower left, lower right.
+// The densities at the corners of the cell in row `y` between the texel
+// columns `left` and `right`: upper left, upper right, lower left, lower right.
 fn environment_corners(info: EnvironmentInfo, left: u32, right: u32, y: u32) -> vec4<f32> {
     let upper = min(y, info.height - 1u) * info.width;
     let lower = min(y + 1u, info.height - 1u) * info.width;

@@ -51,9 +51,9 @@ pub struct EnvironmentTables {
     /// The nodes of the pyramid over the cells' probabilities, the top level
     /// (one node) first and then each level below it, row-major: a node of
     /// level `k` (`pyramid_size(width, k)` by `pyramid_size(rows, k)`, `rows`
-    /// being `cell_rows(height)`) holds the masses of its children on level `k - 1` (level 0: the cells), in
-    /// the order (2x, 2y), (2x + 1, 2y), (2x, 2y + 1), (2x + 1, 2y + 1); a
-    /// child past the edge has none.
+    /// being `cell_rows(height)`) holds the masses of its children on level
+    /// `k - 1` (level 0: the cells), in the order (2x, 2y), (2x + 1, 2y), (2x,
+    /// 2y + 1), (2x + 1, 2y + 1); a child past the edge has none.
     pub pyramid: Vec<[f32; 4]>,
 }
 
