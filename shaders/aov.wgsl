@@ -44,7 +44,8 @@ fn first_hit_aovs(ray: Ray) -> array<vec3<f32>, AOV_SLOTS> {
 #if AOV_MATERIAL
     // The material the hit scatters by, as the path kernel resolves it.
     let front_face = dot(ray.dir, hit.normal) < 0.0;
-    let scattering = hit_material(materials_at(hit.material), front_face, hit);
+    let side = material_side(hit, ray.dir, front_face);
+    let scattering = hit_material(materials_at(hit.material), side, hit);
     let material = scattering.material;
 #if BUMP_MAPS
     let shading_normal = bumped_normal(material, hit, -ray.dir);
@@ -56,11 +57,11 @@ fn first_hit_aovs(ray: Ray) -> array<vec3<f32>, AOV_SLOTS> {
 #endif
 #if AOV_ALBEDO
     let frame = Frame(
-        select(-shading_normal, shading_normal, front_face),
+        select(-shading_normal, shading_normal, side),
         scattering.front_face,
         select(-hit.normal, hit.normal, front_face),
 #if BUMP_MAPS
-        select(-hit.shading_normal, hit.shading_normal, front_face),
+        select(-hit.shading_normal, hit.shading_normal, side),
         bump_alpha2(shading_normal, hit.shading_normal),
 #endif
     );

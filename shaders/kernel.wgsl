@@ -176,7 +176,8 @@ fn render(
             // it scatters by may be one it nests (materials.wgsl).
             let front_face = dot(ray.dir, hit.normal) < 0.0;
             let found = materials_at(hit.material);
-            let scattering = hit_material(found, front_face, hit);
+            let side = material_side(hit, ray.dir, front_face);
+            let scattering = hit_material(found, side, hit);
             let material = scattering.material;
 #if MASK
             let transparency = material_transparency(found, hit);
@@ -234,11 +235,11 @@ fn render(
                 let shading_normal = hit.shading_normal;
 #endif
                 let frame = Frame(
-                    select(-shading_normal, shading_normal, front_face),
+                    select(-shading_normal, shading_normal, side),
                     scattering.front_face,
                     select(-hit.normal, hit.normal, front_face),
 #if BUMP_MAPS
-                    select(-hit.shading_normal, hit.shading_normal, front_face),
+                    select(-hit.shading_normal, hit.shading_normal, side),
                     bump_alpha2(shading_normal, hit.shading_normal),
 #endif
                 );

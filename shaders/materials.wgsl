@@ -49,8 +49,9 @@ fn material_emitted_luminance(index: u32) -> f32 {
 
 // Where a BSDF is evaluated: `n` is the normal the BSDF uses (the shading
 // normal: interpolated on smooth meshes, else the geometric one) and `ng` the
-// geometric normal, both turned to the side of `wo`; `front_face` says whether
-// that is the outward side.
+// geometric normal, both turned to the side of `wo` (`n` to the side of the
+// shading normal's plane under SIDES_BY_SHADING_NORMAL); `front_face` says
+// whether `n`'s is the outward side (`material_side`).
 struct Frame {
     n: vec3<f32>,
     front_face: bool,
@@ -99,6 +100,19 @@ fn bsdf_absorbed() -> BsdfSample {
     return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
 }
 
+// The side of the surface `hit` that a ray along `dir` meets, as its material
+// sees it (true: the side its normals face): the geometric normal's
+// (`front_face`), or under SIDES_BY_SHADING_NORMAL the shading normal's, as
+// Mitsuba's BSDFs tell a smooth surface's sides. Emission keeps the geometric
+// side, which shadow rays test too.
+fn material_side(hit: Hit, dir: vec3<f32>, front_face: bool) -> bool {
+#if SIDES_BY_SHADING_NORMAL
+    return dot(dir, hit.shading_normal) < 0.0;
+#else
+    return front_face;
+#endif
+}
+
 #if SHADING_NORMALS
 // With a shading normal, a direction can be on one side of `n` and the other of
 // the true surface: reflected light would leak through it (or transmitted light
@@ -106,7 +120,12 @@ fn bsdf_absorbed() -> BsdfSample {
 // (reflection only where wo and wi are on one side of the geometric normal).
 // The density is left as it is: it stays the density the sampling draws with.
 fn bsdf_leaks(frame: Frame, wi: vec3<f32>) -> bool {
+#if SIDES_BY_SHADING_NORMAL
+    // Mitsuba's BSDFs make no such check.
+    return false;
+#else
     return (dot(wi, frame.n) > 0.0) != (dot(wi, frame.ng) > 0.0);
+#endif
 }
 
 fn bsdf_sample_checked(frame: Frame, s: BsdfSample) -> BsdfSample {

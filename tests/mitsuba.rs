@@ -246,6 +246,37 @@ fn cylinders_match_mitsuba() {
     }
 }
 
+/// Mitsuba 3.9.1 (`llvm_ad_rgb`, `path`, max_depth 6, independent sampler, box
+/// filter) of `tests/data/smooth-silhouettes.xml` at 64x64 and 32768 spp, rendered
+/// once by `scripts/check-mitsuba-xml.py --write-reference`.
+const SMOOTH_SILHOUETTES_REFERENCE: &str = "tests/data/smooth-silhouettes-mitsuba-64.exr";
+const SMOOTH_SILHOUETTES_REFERENCE_SPP: f64 = 32768.0;
+
+/// Coarse smooth meshes, one two-sided and one one-sided, agree with Mitsuba's
+/// image, whose BSDFs tell a surface's sides by its shading normal (Mitsuba files
+/// set `render.sides_by_shading_normal`); with the sides told by the geometric
+/// normal (and no light through the surface), they do not.
+#[test]
+fn smooth_silhouettes_match_mitsuba() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let reference = read_exr(&repo(SMOOTH_SILHOUETTES_REFERENCE)).unwrap();
+    let scene = test_scene("smooth-silhouettes.xml");
+    assert!(scene.render.sides_by_shading_normal);
+    assert_agrees(
+        "smooth-silhouettes.xml",
+        &scene,
+        &reference,
+        SMOOTH_SILHOUETTES_REFERENCE_SPP,
+    );
+    let mut geometric = scene.clone();
+    geometric.render.sides_by_shading_normal = false;
+    let result = against_reference(&geometric, &reference, SMOOTH_SILHOUETTES_REFERENCE_SPP);
+    eprintln!("sides by the geometric normal: {result:?}");
+    assert!(result.is_err(), "{result:?}");
+}
+
 /// Mitsuba 3.9.1 (`llvm_ad_rgb`, `volpath` in place of the file's `path`, whose
 /// shadow rays find no light through a mask; max_depth 6, independent sampler, box
 /// filter) of `tests/data/checker-mask-blend.xml` at 64x64 and 32768 spp (eight

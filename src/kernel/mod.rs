@@ -64,6 +64,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "BVH",
     "INSTANCES",
     "SHADING_NORMALS",
+    "SIDES_BY_SHADING_NORMAL",
     "ONE_SIDED",
     "MASK",
     "OPACITY_TEXTURES",
@@ -424,6 +425,9 @@ pub struct KernelConfig {
     pub aovs: Vec<AovKind>,
     /// Some material of the scene is one-sided (black from behind).
     pub one_sided: bool,
+    /// The side of a smooth surface a ray meets is the shading normal's
+    /// (`RenderSettings::sides_by_shading_normal`), where some surface is smooth.
+    pub sides_by_shading_normal: bool,
     /// Some material of the scene is masked (`Material::opacity` below 1): rays
     /// pass through it by chance and shadow rays by its transparency.
     pub masked: bool,
@@ -678,6 +682,8 @@ impl KernelConfig {
             camera,
             aovs: Vec::new(),
             one_sided: data.has_one_sided_materials(),
+            sides_by_shading_normal: settings.sides_by_shading_normal
+                && !data.geometry.normal_kinds().is_empty(),
             masked: data.has_masked_materials(),
             opacity_textures: data.has_opacity_textures(),
             environment,
@@ -762,6 +768,7 @@ impl KernelConfig {
             camera: CameraModel::Pinhole,
             aovs: Vec::new(),
             one_sided: true,
+            sides_by_shading_normal: false,
             masked: true,
             opacity_textures: true,
             environment: true,
@@ -960,6 +967,7 @@ impl KernelConfig {
             ("BVH", self.bvh()),
             ("INSTANCES", self.instances),
             ("SHADING_NORMALS", self.shading_normals()),
+            ("SIDES_BY_SHADING_NORMAL", self.sides_by_shading_normal),
             ("ONE_SIDED", self.one_sided),
             ("MASK", self.masked),
             ("OPACITY_TEXTURES", self.opacity_textures),
@@ -1783,6 +1791,7 @@ pub(crate) mod tests {
             adaptive_metric: None,
             reconstruction: None,
             aovs: Vec::new(),
+            sides_by_shading_normal: false,
         };
         for strategy in Strategy::ALL {
             for storage in [

@@ -2507,6 +2507,8 @@ impl<'a> Builder<'a> {
     fn integrator_settings(&mut self) -> Result<Table> {
         let mut render = Table::new();
         render.insert("strategy".into(), Value::String("nee-mis".into()));
+        // Mitsuba's BSDFs tell a smooth surface's sides by its shading frame.
+        render.insert("sides_by_shading_normal".into(), Value::Boolean(true));
         let integrator = match self.integrator {
             Some(e) if e.ty() == "aov" => {
                 let (aovs, nested) = self.aov_integrator(e)?;

@@ -278,6 +278,10 @@ pub struct RenderSettings {
     pub reconstruction: Option<Reconstruction>,
     /// The AOVs written beside the image (`kinds::aov`), in the order asked.
     pub aovs: Vec<Aov>,
+    /// Which side of a smooth surface a ray meets is decided by the shading
+    /// normal, as Mitsuba decides it (its files set this), rather than by the
+    /// geometric one with no light through the surface (the default).
+    pub sides_by_shading_normal: bool,
 }
 
 impl RenderSettings {

@@ -106,6 +106,7 @@ pub(super) const RENDER_KEYS: &[&str] = &[
     "adaptive_metric",
     "reconstruction",
     "aovs",
+    "sides_by_shading_normal",
 ];
 // ---------------------------------------------------------------------------------
 // Entry points
@@ -427,6 +428,7 @@ fn default_render() -> RenderSettings {
         adaptive_metric: None,
         reconstruction: None,
         aovs: Vec::new(),
+        sides_by_shading_normal: false,
     }
 }
 
@@ -493,6 +495,9 @@ fn parse_render(t: &ParamTable) -> Result<RenderSettings> {
         )?
         .or(d.reconstruction),
         aovs: parse_render_aovs(t)?,
+        sides_by_shading_normal: t
+            .boolean("sides_by_shading_normal")?
+            .unwrap_or(d.sides_by_shading_normal),
     })
 }
 
@@ -2174,6 +2179,14 @@ material = "white"
             (s.render.seed, s.render.max_depth, s.render.strategy),
             (u32::MAX, 0, Strategy::Light)
         );
+        assert!(
+            !s.render.sides_by_shading_normal,
+            "geometric sides by default"
+        );
+        let s = parse(&BASE.replace("light_weight = 0.5", "sides_by_shading_normal = true"));
+        assert!(s.render.sides_by_shading_normal);
+        let e = error("light_weight = 0.5", "sides_by_shading_normal = 1");
+        assert_error(&e, "render.sides_by_shading_normal", &["boolean"]);
     }
 
     #[test]

@@ -151,6 +151,8 @@ impl SceneIdentity {
             reconstruction: _,
             // Written beside the image, from a pass of their own.
             aovs: _,
+            // Hashed only where set, so that other scenes keep their hash.
+            sides_by_shading_normal,
         } = render;
         let rr_depth = render.roulette_depth();
         let splats = render.reconstruction_with(camera.filter) == Reconstruction::Splat;
@@ -175,9 +177,10 @@ impl SceneIdentity {
             },
             // A tuple encodes as its elements one after another, so the
             // splatting run's encoding is the others' followed by `Splat`.
-            settings_hash: match splats {
-                false => encoding_hash(&settings),
-                true => encoding_hash(&(settings, Reconstruction::Splat)),
+            settings_hash: match (splats, sides_by_shading_normal) {
+                (false, false) => encoding_hash(&settings),
+                (true, false) => encoding_hash(&(settings, Reconstruction::Splat)),
+                (_, true) => encoding_hash(&(settings, splats, "sides_by_shading_normal")),
             },
             width: camera.width,
             height: camera.height,
@@ -1314,6 +1317,7 @@ mod tests {
                 // Its hash from before splatting was a choice (`SceneIdentity::of`).
                 reconstruction: Some(Reconstruction::Importance),
                 aovs: Vec::new(),
+                sides_by_shading_normal: false,
             },
             materials: vec![
                 Material {
