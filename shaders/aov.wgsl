@@ -56,15 +56,7 @@ fn first_hit_aovs(ray: Ray) -> array<vec3<f32>, AOV_SLOTS> {
     values[AOV_SLOT_SH_NORMAL] = shading_normal;
 #endif
 #if AOV_ALBEDO
-    let frame = Frame(
-        select(-shading_normal, shading_normal, side),
-        scattering.front_face,
-        select(-hit.normal, hit.normal, front_face),
-#if BUMP_MAPS
-        select(-hit.shading_normal, hit.shading_normal, side),
-        bump_alpha2(shading_normal, hit.shading_normal),
-#endif
-    );
+    let frame = hit_frame(hit, shading_normal, front_face, side, scattering.front_face);
     values[AOV_SLOT_ALBEDO] = diffuse_reflectance(material, frame, -ray.dir);
 #endif
 #endif

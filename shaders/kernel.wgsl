@@ -234,15 +234,7 @@ fn render(
 #else
                 let shading_normal = hit.shading_normal;
 #endif
-                let frame = Frame(
-                    select(-shading_normal, shading_normal, side),
-                    scattering.front_face,
-                    select(-hit.normal, hit.normal, front_face),
-#if BUMP_MAPS
-                    select(-hit.shading_normal, hit.shading_normal, side),
-                    bump_alpha2(shading_normal, hit.shading_normal),
-#endif
-                );
+                let frame = hit_frame(hit, shading_normal, front_face, side, scattering.front_face);
 #if DELTA_LIGHTS
                 // No strategy's sampled direction finds a point or spot light: every
                 // strategy estimates them by these shadow rays.

@@ -113,6 +113,21 @@ fn material_side(hit: Hit, dir: vec3<f32>, front_face: bool) -> bool {
 #endif
 }
 
+// The frame a BSDF at `hit` is evaluated in: `shading_normal` (bumped, where a
+// bump map applies) turned to the material's `side` (`material_side`), the
+// geometric normal to the surface's `front_face`.
+fn hit_frame(hit: Hit, shading_normal: vec3<f32>, front_face: bool, side: bool, material_front_face: bool) -> Frame {
+    return Frame(
+        select(-shading_normal, shading_normal, side),
+        material_front_face,
+        select(-hit.normal, hit.normal, front_face),
+#if BUMP_MAPS
+        select(-hit.shading_normal, hit.shading_normal, side),
+        bump_alpha2(shading_normal, hit.shading_normal),
+#endif
+    );
+}
+
 #if SHADING_NORMALS
 // With a shading normal, a direction can be on one side of `n` and the other of
 // the true surface: reflected light would leak through it (or transmitted light
