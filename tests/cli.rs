@@ -145,6 +145,43 @@ fn renders_png_and_exr_and_reports_speed() {
 }
 
 #[test]
+fn output_named_exr_is_the_linear_image() {
+    // Two EXRs asked for are refused before anything runs.
+    let output = pathmix(&[
+        "render",
+        &scene("cornell-boxes.toml"),
+        "-o",
+        "a.exr",
+        "--exr",
+        "b.exr",
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("-o a.exr and --exr b.exr"),
+        "{}",
+        stderr(&output)
+    );
+    if common::gpu().is_none() {
+        return;
+    }
+    let dir = common::TempDir::new("cli", "output-exr");
+    let exr = dir.join("box.exr");
+    let output = Command::new(env!("CARGO_BIN_EXE_pathmix"))
+        .current_dir(&*dir)
+        .args(["render", &scene("cornell-boxes.toml"), "--spp", "2"])
+        .args([
+            "--width", "24", "--height", "16", "--quiet", "-o", "box.exr",
+        ])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let linear = pathmix::output::read_exr(&exr).unwrap();
+    assert_eq!((linear.width, linear.height), (24, 16));
+    // Not also the default out.png.
+    assert!(!dir.join("out.png").exists());
+}
+
+#[test]
 fn light_strategy_warns_that_it_is_biased() {
     if common::gpu().is_none() {
         return;

@@ -545,8 +545,18 @@ fn shards_from_the_deploy_scripts_merge_to_one_run() {
     let single = pathmix::output::read_exr(&one).unwrap();
     assert_close(&merged, &single, 1e-6);
 
-    // Gaps are listed, overlaps and other scenes refused.
     let part = |i: u32| p(&parts.join(format!("part-{i}.exr"))).to_string();
+    // `-o NAME.exr` writes the linear image.
+    let as_exr = dir.join("merged-o.exr");
+    let all: Vec<String> = (0..4).map(part).collect();
+    let mut args = vec!["merge"];
+    args.extend(all.iter().map(String::as_str));
+    args.extend(["-o", p(&as_exr)]);
+    let output = pathmix(&args);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    assert_eq!(pathmix::output::read_exr(&as_exr).unwrap(), merged);
+
+    // Gaps are listed, overlaps and other scenes refused.
     let output = pathmix(&["merge", &part(0), &part(3), "-o", p(&dir.join("gap.png"))]);
     assert!(output.status.success(), "{}", text(&output.stderr));
     assert!(

@@ -14,7 +14,8 @@ pub struct MergeArgs {
     /// sample ranges; gaps between ranges are listed, not refused.
     #[arg(required = true, value_name = "PART.exr")]
     pub parts: Vec<PathBuf>,
-    /// Output image: 8-bit sRGB PNG of the merged mean.
+    /// Output image: 8-bit sRGB PNG of the merged mean, or with a `.exr` name the
+    /// linear float RGB OpenEXR instead (as --exr).
     #[arg(short, long, default_value = "out.png")]
     pub output: PathBuf,
     /// Also write the merged mean radiance as linear float RGB OpenEXR.
@@ -47,8 +48,11 @@ pub fn merge(args: MergeArgs) -> Result<(), Failure> {
     if let Some(collision) = paths::collision(&uses) {
         return Err(Failure::input(collision));
     }
-    output::check_output_path(&args.output, ImageFormat::Png).map_err(Failure::input)?;
-    for exr in [&args.exr, &args.variance].into_iter().flatten() {
+    let (png, exr) = super::image_outputs(Some(args.output.clone()), args.exr.clone())?;
+    if let Some(png) = &png {
+        output::check_output_path(png, ImageFormat::Png).map_err(Failure::input)?;
+    }
+    for exr in [&exr, &args.variance].into_iter().flatten() {
         output::check_output_path(exr, ImageFormat::Exr).map_err(Failure::input)?;
     }
     let mut parts = Vec::new();
@@ -80,8 +84,10 @@ pub fn merge(args: MergeArgs) -> Result<(), Failure> {
         })?),
     };
     let mean = acc.mean();
-    output::write_png(&args.output, &mean, 0.0).map_err(Failure::runtime)?;
-    if let Some(exr) = &args.exr {
+    if let Some(png) = &png {
+        output::write_png(png, &mean, 0.0).map_err(Failure::runtime)?;
+    }
+    if let Some(exr) = &exr {
         output::write_exr(exr, &mean, &[]).map_err(Failure::runtime)?;
     }
     if let (Some(path), Some(error)) = (&args.variance, &error) {
@@ -101,13 +107,9 @@ pub fn merge(args: MergeArgs) -> Result<(), Failure> {
             merged.discarded
         );
     }
-    for path in [
-        Some(&args.output),
-        args.exr.as_ref(),
-        args.variance.as_ref(),
-    ]
-    .into_iter()
-    .flatten()
+    for path in [png.as_ref(), exr.as_ref(), args.variance.as_ref()]
+        .into_iter()
+        .flatten()
     {
         println!("wrote {}", path.display());
     }

@@ -12,9 +12,10 @@ mod signals;
 
 use clap::{Parser, Subcommand};
 use pathmix::gpu::{GpuContext, GpuError};
+use pathmix::output::ImageFormat;
 use pathmix::scene::mitsuba::Define;
 use pathmix::scene::{OverrideError, Scene};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser, Debug)]
@@ -48,6 +49,27 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Write a Mitsuba 3 XML scene as the pathmix TOML scene it renders as.
     Convert(convert::ConvertArgs),
+}
+
+/// The PNG and EXR outputs that `-o FILE` and `--exr FILE` ask for: `-o NAME.exr`
+/// writes the linear EXR instead of the PNG, as Mitsuba's and pbrt's outputs
+/// follow their extension. Refused where `--exr` names a second EXR.
+fn image_outputs(
+    output: Option<PathBuf>,
+    exr: Option<PathBuf>,
+) -> Result<(Option<PathBuf>, Option<PathBuf>), Failure> {
+    let names_exr =
+        |path: &PathBuf| ImageFormat::from_path(path).is_ok_and(|f| f == ImageFormat::Exr);
+    match (output, exr) {
+        (Some(output), Some(exr)) if names_exr(&output) => Err(Failure::input(format!(
+            "-o {} and --exr {} both ask for the linear EXR image: give one of them \
+             (-o FILE.png for the 8-bit PNG)",
+            output.display(),
+            exr.display()
+        ))),
+        (Some(output), None) if names_exr(&output) => Ok((None, Some(output))),
+        (output, exr) => Ok((output, exr)),
+    }
 }
 
 /// A failed command: what to tell the user, and the exit code.

@@ -30,8 +30,9 @@ pub struct RenderArgs {
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub define: Vec<Define>,
     /// Output image: 8-bit sRGB PNG (linear radiance clamped to [0, 1], then the sRGB
-    /// curve). Default: out.png, except with --partial (no PNG unless asked) and
-    /// with --resume (the checkpoint's recorded outputs).
+    /// curve), or with a `.exr` name the linear float RGB OpenEXR instead (as --exr).
+    /// Default: out.png, except with --partial (no PNG unless asked) and with
+    /// --resume (the checkpoint's recorded outputs).
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
     /// Also write the mean radiance as linear float RGB OpenEXR.
@@ -441,8 +442,9 @@ fn failure(e: SessionError) -> Failure {
 }
 
 /// What the flags ask for.
-fn request(args: &RenderArgs) -> Request {
-    Request {
+fn request(args: &RenderArgs) -> Result<Request, Failure> {
+    let (png, exr) = super::image_outputs(args.output.clone(), args.exr.clone())?;
+    Ok(Request {
         scene: args.scene.clone(),
         defines: args.define.clone(),
         overrides: SceneOverrides {
@@ -468,10 +470,12 @@ fn request(args: &RenderArgs) -> Request {
         outputs: Outputs {
             // A new whole render writes out.png unless told otherwise; a resume
             // writes the recorded outputs.
-            png: args.output.clone().or_else(|| {
-                (args.resume.is_none() && args.partial.is_none()).then(|| PathBuf::from("out.png"))
+            png: png.or_else(|| {
+                let asked =
+                    args.output.is_some() || args.resume.is_some() || args.partial.is_some();
+                (!asked).then(|| PathBuf::from("out.png"))
             }),
-            exr: args.exr.clone(),
+            exr,
             variance: args.variance.clone(),
             sample_counts: args.sample_counts.clone(),
             partial: args.partial.clone(),
@@ -488,7 +492,7 @@ fn request(args: &RenderArgs) -> Request {
             array_memory: args.array_memory.map(ArrayMemory::from),
             ..Default::default()
         },
-    }
+    })
 }
 
 pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
@@ -499,7 +503,7 @@ pub fn render(args: RenderArgs, process_start: Instant) -> Result<(), Failure> {
             )));
         }
     }
-    let mut session = Session::plan(&request(&args)).map_err(failure)?;
+    let mut session = Session::plan(&request(&args)?).map_err(failure)?;
     super::print_approximations(&session.scene_path, &session.approximations);
     for warning in &session.warnings {
         eprintln!("pathmix: warning: {warning}");
