@@ -13,6 +13,12 @@ struct CameraRay {
 
 fn camera_ray(pixel: vec2<u32>) -> CameraRay {
 #if FILTER_OFFSET
+#if SPLAT
+    // An adaptive kernel splats its uniform rounds and draws offsets in the others.
+    if params.splatting != 0u {
+        return jittered_camera_ray(pixel);
+    }
+#endif
     // The scene's filter (`shaders/filter.wgsl`).
     let offset = filter_offset(sample_2d());
     let to_film = params.to_pixel00
@@ -20,14 +26,18 @@ fn camera_ray(pixel: vec2<u32>) -> CameraRay {
         + (f32(pixel.y) + offset.y) * params.delta_v;
     return CameraRay(camera_ray_through(to_film), offset.z, offset.xy + 0.5);
 #else
-    // Box filter, or splatting (which weighs the sample into every pixel its
-    // filter reaches, splat.wgsl): a uniformly jittered point of the pixel.
+    return jittered_camera_ray(pixel);
+#endif
+}
+
+// Box filter, or splatting (which weighs the sample into every pixel its filter
+// reaches, splat.wgsl): a uniformly jittered point of the pixel.
+fn jittered_camera_ray(pixel: vec2<u32>) -> CameraRay {
     let jitter = sample_2d();
     let to_film = params.to_pixel00
         + (f32(pixel.x) + jitter.x - 0.5) * params.delta_u
         + (f32(pixel.y) + jitter.y - 0.5) * params.delta_v;
     return CameraRay(camera_ray_through(to_film), 1.0, jitter);
-#endif
 }
 
 // The ray through the point `to_film` of the image plane (from the eye, which

@@ -44,7 +44,9 @@ struct Params {
     // under THIN_LENS: `camera_ray`).
     lens_radius: f32,
     focus_distance: f32,
-    _pad2: u32,
+    // An adaptive kernel that splats: 1 where this dispatch's samples go to the
+    // splatting pass (a uniform round), 0 where they are summed in their pixel.
+    splatting: u32,
 }
 
 // Mirrors `gpu::layout::Counters`.

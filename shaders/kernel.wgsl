@@ -104,9 +104,11 @@ fn render(
 
 #if SPLAT
     // Each sample goes to the splatting pass, which adds it to the sums of
-    // every pixel its filter reaches (splat.wgsl).
+    // every pixel its filter reaches (splat.wgsl); an adaptive kernel's only
+    // in its uniform rounds (`params.splatting`).
     let image_pixels = params.width * params.height;
-#else
+#endif
+#if KERNEL_SUMS
     var radiance_sum = load_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, reset);
 #if VARIANCE
     var squares_sum = load_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, reset);
@@ -358,9 +360,19 @@ fn render(
                 radiance = vec3<f32>(0.0);
             }
 #if SPLAT
+#if ADAPTIVE
+            if params.splatting != 0u {
+#endif
             splat_samples[samples_done * image_pixels + pixel_index] =
                 SplatSample(radiance.x, radiance.y, radiance.z, camera.position.x, camera.position.y);
-#else
+#if ADAPTIVE
+            }
+#endif
+#endif
+#if KERNEL_SUMS
+#if SPLAT
+            if params.splatting == 0u {
+#endif
             compensated_add(&radiance_sum, radiance);
 #if VARIANCE
 #if ADAPTIVE
@@ -384,6 +396,9 @@ fn render(
                     compensated_add(&replicate_sum, radiance);
                     replicate_sums[r] = replicate_sum;
                 }
+            }
+#endif
+#if SPLAT
             }
 #endif
 #endif
@@ -416,7 +431,13 @@ fn render(
     if before > 0xffffffffu - segments {
         atomicAdd(&counters.segments_high, 1u);
     }
-#if !SPLAT
+#if KERNEL_SUMS
+#if SPLAT
+    // A splatting round's sums are the splatting pass's to write.
+    if params.splatting != 0u {
+        return;
+    }
+#endif
     store_sum(pixel, LAYER_SUM, LAYER_SUM_COMPENSATION, radiance_sum);
 #if VARIANCE
     store_sum(pixel, LAYER_SQUARES, LAYER_SQUARES_COMPENSATION, squares_sum);

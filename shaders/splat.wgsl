@@ -79,9 +79,16 @@ fn add_total(sums: ptr<function, PixelSums>, weighted: vec3<f32>, sample: u32) {
     compensated_add(&radiance, total);
     (*sums).radiance = radiance;
 #if VARIANCE
+#if ADAPTIVE
+    // Adaptive sampling decides from replicate 0's squares alone (kernel.wgsl).
+    if sample % REPLICATES == 0u {
+#endif
     var squares = (*sums).squares;
     compensated_add(&squares, total * total);
     (*sums).squares = squares;
+#if ADAPTIVE
+    }
+#endif
 #endif
 #if REPLICATE_SUMS
     let replicate = sample % REPLICATES;

@@ -141,7 +141,10 @@ gpu_struct! {
         pub lens_radius: f32,
         /// The thin lens's distance to the plane in focus (unread for a pinhole).
         pub focus_distance: f32,
-        pub _pad2: u32,
+        /// Adaptive sampling with a splatting filter: 1 where this dispatch's
+        /// samples go to the splatting pass (a uniform round), 0 where they are
+        /// added to their pixel's sums with drawn offsets (`kernel.wgsl`).
+        pub splatting: u32,
     }
 }
 

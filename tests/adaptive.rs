@@ -4,8 +4,9 @@
 
 mod common;
 
+use pathmix::gpu::GpuContext;
 use pathmix::render::{self, AccumulatorState, RenderOptions, Renderer, StopReason, StopRule};
-use pathmix::scene::{AdaptiveMetric, Reconstruction, Sampler, Scene, SceneOverrides};
+use pathmix::scene::{AdaptiveMetric, Filter, Reconstruction, Sampler, Scene, SceneOverrides};
 use pathmix::session::checkpoint;
 use pathmix::stats::Accumulation;
 
@@ -128,19 +129,37 @@ fn adaptive_sampling_is_unbiased_on_the_white_furnace() {
     check(&acc, "rounds");
 }
 
+/// The Cornell boxes at `size`² under Mitsuba's Gaussian filter: an adaptive
+/// run's uniform rounds splat, its other rounds draw offsets.
+fn gaussian_cornell_boxes(size: u32) -> Scene {
+    let mut scene = common::small_cornell_boxes(size, Sampler::Sobol);
+    scene.camera.filter = Filter::Gaussian { stddev: 0.5 };
+    scene
+}
+
 /// The rule on a scene with real structure (the Cornell boxes, 48x48,
 /// depth 8): the adaptive image at 64 spp against a uniform reference at 1024
 /// (16x): the image's mean and every 16x16 block's within 3 combined standard
 /// errors, both as chosen (uniform after the pilot: the noise is even) and with
-/// the rounds forced (the counts then differ widely: the rounds did choose).
+/// the rounds forced (the counts then differ widely: the rounds did choose);
+/// with the box filter, and with the Gaussian (a splatted pilot, then rounds
+/// drawing offsets).
 #[test]
 fn adaptive_sampling_agrees_with_a_16x_reference() {
     let ctx = gpu_or_skip!();
-    let scene = common::small_cornell_boxes(48, Sampler::Sobol);
-    let mut uniform = Renderer::new(ctx, &scene, &common::with_variance()).unwrap();
+    for scene in [
+        common::small_cornell_boxes(48, Sampler::Sobol),
+        gaussian_cornell_boxes(48),
+    ] {
+        agrees_with_a_16x_reference(ctx, &scene);
+    }
+}
+
+fn agrees_with_a_16x_reference(ctx: &GpuContext, scene: &Scene) {
+    let mut uniform = Renderer::new(ctx, scene, &common::with_variance()).unwrap();
     let reference = run_to(&mut uniform, 1024);
     for (options, uniform_after_pilot) in [(adaptive(), true), (rounds(), false)] {
-        let mut renderer = Renderer::new(ctx, &scene, &options).unwrap();
+        let mut renderer = Renderer::new(ctx, scene, &options).unwrap();
         let acc = run_to(&mut renderer, 64);
         assert_eq!(went_uniform(&renderer), uniform_after_pilot);
         let most = *renderer.sample_counts().unwrap().iter().max().unwrap();
@@ -159,6 +178,31 @@ fn adaptive_sampling_agrees_with_a_16x_reference() {
             );
         }
     }
+}
+
+/// Under a filter wider than a pixel, an adaptive run that goes on uniformly
+/// splats every sample, as a uniform run does: the same sums bit for bit. The
+/// squares are replicate 0's alone (the rounds must not read the others): about
+/// a quarter of the uniform run's.
+#[test]
+fn an_adaptive_run_that_goes_uniform_splats_as_the_uniform_run() {
+    let ctx = gpu_or_skip!();
+    let scene = gaussian_cornell_boxes(48);
+    let mut uniform = Renderer::new(ctx, &scene, &common::with_variance()).unwrap();
+    let reference = run_to(&mut uniform, 48);
+    let mut adaptive_renderer = Renderer::new(ctx, &scene, &adaptive()).unwrap();
+    let acc = run_to(&mut adaptive_renderer, 48);
+    assert!(went_uniform(&adaptive_renderer));
+    assert_eq!(acc.sum, reference.sum);
+    assert_eq!(acc.replicates, reference.replicates);
+    let total = |squares: &Option<Vec<[f64; 3]>>| -> f64 {
+        squares.as_ref().unwrap().iter().flatten().sum()
+    };
+    let share = total(&acc.sum_sq) / total(&reference.sum_sq);
+    assert!(
+        (0.2..0.3).contains(&share),
+        "replicate 0's squares are {share} of all"
+    );
 }
 
 /// Where every pixel is alike (the furnace without Russian roulette, sampled by
@@ -208,24 +252,32 @@ fn bits(state: &AccumulatorState) -> Vec<[u32; 4]> {
 /// Stopped mid-run (mid-round too), saved through the checkpoint format, loaded
 /// into a new renderer and run on: the same sums, counts, rounds and pilot's
 /// choice as the uninterrupted run, bit for bit; both after the rounds (forced)
-/// and after a uniform continuation (the Cornell boxes' choice).
+/// and after a uniform continuation (the Cornell boxes' choice); with the box
+/// filter, and with the Gaussian (whose uniform rounds splat).
 #[test]
 fn resumed_adaptive_run_equals_the_uninterrupted_one() {
     let ctx = gpu_or_skip!();
-    let scene: Scene = common::small_cornell_boxes(64, Sampler::Sobol);
-    for (adaptive, uniform_after_pilot) in [(rounds(), false), (adaptive(), true)] {
+    let box_filter: Scene = common::small_cornell_boxes(64, Sampler::Sobol);
+    let gaussian = gaussian_cornell_boxes(64);
+    let runs = [
+        (&box_filter, rounds(), false),
+        (&box_filter, adaptive(), true),
+        (&gaussian, rounds(), false),
+        (&gaussian, adaptive(), true),
+    ];
+    for (scene, adaptive, uniform_after_pilot) in runs {
         let options = RenderOptions {
             // Short submissions: rounds take several, and the stop falls inside one.
             submission_seconds: 0.001,
             ..adaptive
         };
-        let mut whole = Renderer::new(ctx, &scene, &options).unwrap();
+        let mut whole = Renderer::new(ctx, scene, &options).unwrap();
         run_to(&mut whole, 96);
         assert_eq!(went_uniform(&whole), uniform_after_pilot);
         let whole_image = whole.accumulation().mean();
         let whole = whole.export_state();
 
-        let mut first = Renderer::new(ctx, &scene, &options).unwrap();
+        let mut first = Renderer::new(ctx, scene, &options).unwrap();
         let mut stopped_mid_round = false;
         while first.samples() < 96 && !(first.samples() >= 40 && stopped_mid_round) {
             first.advance(96 - first.samples());
@@ -240,13 +292,13 @@ fn resumed_adaptive_run_equals_the_uninterrupted_one() {
             pathmix_version: env!("CARGO_PKG_VERSION").into(),
             scene_path: "cornell-boxes.toml".into(),
             overrides: SceneOverrides::default(),
-            identity: checkpoint::SceneIdentity::of(&scene),
+            identity: checkpoint::SceneIdentity::of(scene),
             discarded: 0,
             run: Default::default(),
             state,
         };
         let loaded = checkpoint::from_bytes(&checkpoint::to_bytes(&saved)).unwrap();
-        let mut resumed = Renderer::new(ctx, &scene, &options).unwrap();
+        let mut resumed = Renderer::new(ctx, scene, &options).unwrap();
         resumed.import_state(&loaded.state).unwrap();
         run_to(&mut resumed, 96);
         assert_eq!(resumed.accumulation().mean(), whole_image);
@@ -256,10 +308,10 @@ fn resumed_adaptive_run_equals_the_uninterrupted_one() {
         assert!(bits(&resumed) == bits(&whole), "the sums differ");
 
         // A uniform renderer refuses the adaptive state, and shards are refused.
-        let mut uniform = Renderer::new(ctx, &scene, &common::with_variance()).unwrap();
+        let mut uniform = Renderer::new(ctx, scene, &common::with_variance()).unwrap();
         let refused = uniform.import_state(&loaded.state).unwrap_err();
         assert!(refused.to_string().contains("adaptive"), "{refused}");
-        let mut shard = Renderer::new(ctx, &scene, &options).unwrap();
+        let mut shard = Renderer::new(ctx, scene, &options).unwrap();
         let refused = shard.set_first_sample(64).unwrap_err();
         assert!(refused.to_string().contains("shards"), "{refused}");
     }

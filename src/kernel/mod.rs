@@ -81,6 +81,7 @@ const FEATURE_FLAGS: &[&str] = &[
     "THIN_LENS",
     "ORTHOGRAPHIC",
     "SPLAT",
+    "KERNEL_SUMS",
     "PROFILE",
     "AOV_MATERIAL",
 ];
@@ -917,12 +918,17 @@ impl KernelConfig {
     }
 
     /// The pixel filter and how samples are made pixels of, for a run's header:
-    /// "box filter", "gaussian filter, splatted" or "tent filter, offsets drawn".
+    /// "box filter", "gaussian filter, splatted" or "tent filter, offsets drawn"
+    /// (an adaptive run: "splatted in uniform rounds, offsets drawn in others").
     pub fn describe_filter(&self) -> String {
-        match (self.filter, self.splat) {
-            (Filter::Box, _) => "box filter".into(),
-            (filter, true) => format!("{} filter, splatted", filter.name()),
-            (filter, false) => format!("{} filter, offsets drawn", filter.name()),
+        match (self.filter, self.splat, self.adaptive) {
+            (Filter::Box, _, _) => "box filter".into(),
+            (filter, true, true) => format!(
+                "{} filter, splatted in uniform rounds, offsets drawn in others",
+                filter.name()
+            ),
+            (filter, true, false) => format!("{} filter, splatted", filter.name()),
+            (filter, false, _) => format!("{} filter, offsets drawn", filter.name()),
         }
     }
 
@@ -990,6 +996,8 @@ impl KernelConfig {
             ("THIN_LENS", self.camera == CameraModel::ThinLens),
             ("ORTHOGRAPHIC", self.camera == CameraModel::Orthographic),
             ("SPLAT", self.splat),
+            // The kernel adds samples to their pixel's sums.
+            ("KERNEL_SUMS", self.draws_offsets()),
             ("PROFILE", self.profile),
             (
                 "AOV_MATERIAL",
@@ -1002,14 +1010,21 @@ impl KernelConfig {
             }
         }
         flags.extend(self.aovs.iter().map(|kind| kind.flag()));
-        // A splatting kernel draws no offsets; its pass evaluates the filter.
+        // A splatting kernel's pass evaluates the filter.
         let filter_flags = self.filter.flags().iter();
         flags.extend(
             filter_flags
-                .filter(|&&flag| !(self.splat && flag == "FILTER_OFFSET"))
+                .filter(|&&flag| self.draws_offsets() || flag != "FILTER_OFFSET")
                 .map(|flag| flag.to_string()),
         );
         flags
+    }
+
+    /// Whether the kernel draws its camera rays' offsets from the filter and
+    /// adds each sample to its own pixel's sums: a kernel that does not splat,
+    /// and an adaptive one in the rounds it does not splat (`Params::splatting`).
+    fn draws_offsets(&self) -> bool {
+        !self.splat || self.adaptive
     }
 
     /// The modules in composition order; `constants`, `scene` and `bsdf` are
@@ -1046,7 +1061,7 @@ impl KernelConfig {
         modules.push(STRATEGY);
         modules.push(self.accumulate_module());
         modules.push(SUMS);
-        if !self.splat {
+        if self.draws_offsets() {
             modules.extend(self.filter_modules());
         }
         modules.push(CAMERA);
@@ -1107,7 +1122,10 @@ impl KernelConfig {
             source: glue::splat_window(self.filter).into(),
         });
         modules.push(SPLAT);
-        self.compose(&modules)
+        // The pass evaluates the filter; an adaptive kernel's offsets are its own.
+        let mut flags = self.flags();
+        flags.remove("FILTER_OFFSET");
+        self.compose_with_flags(&modules, flags)
     }
 
     /// The pixel filter's sampler and, for a tabulated filter, its table;
@@ -1175,7 +1193,14 @@ impl KernelConfig {
     }
 
     fn compose(&self, modules: &[ShaderModule]) -> Result<String, ComposeError> {
-        let flags = self.flags();
+        self.compose_with_flags(modules, self.flags())
+    }
+
+    fn compose_with_flags(
+        &self,
+        modules: &[ShaderModule],
+        flags: BTreeSet<String>,
+    ) -> Result<String, ComposeError> {
         let flags: BTreeSet<&str> = flags.iter().map(String::as_str).collect();
         let known = known_flags();
         let known: Vec<&str> = known.iter().map(String::as_str).collect();
@@ -1459,7 +1484,7 @@ impl KernelConfig {
             ("LIGHT_WEIGHT", self.light_weight as f64),
             ("RR_DEPTH", self.rr_depth.unwrap_or(u32::MAX) as f64),
         ];
-        if !self.splat {
+        if self.draws_offsets() {
             constants.extend(self.filter.constants());
         }
         constants

@@ -660,16 +660,24 @@ impl<'a> Renderer<'a> {
     /// A splatting kernel's pass over the `samples` per pixel just traced
     /// (`shaders/splat.wgsl`); nothing for other kernels.
     fn splat(&self, samples: u32) {
+        let start = self.first_sample.saturating_add(self.samples);
+        self.splat_from(start, samples, self.samples == 0);
+    }
+
+    /// The splatting pass over the samples of indices `sample_start..` just
+    /// traced into the splatting buffer (from its start), `reset` where they
+    /// are the first of the sums.
+    fn splat_from(&self, sample_start: u32, samples: u32, reset: bool) {
         let Some(pipeline) = &self.kernel.splat_pipeline else {
             return;
         };
         let (width, height) = self.size();
         let params = Params {
-            sample_start: self.first_sample.saturating_add(self.samples),
+            sample_start,
             sample_count: samples,
             // One invocation per column of `SPLAT_STRIP_ROWS` pixels.
             tile_size: [width, height.div_ceil(SPLAT_STRIP_ROWS)],
-            reset: (self.samples == 0) as u32,
+            reset: reset as u32,
             ..self.params
         };
         self.submit_pass(pipeline, params);
@@ -745,25 +753,40 @@ impl<'a> Renderer<'a> {
             .saturating_sub(shape_samples.min(by_limit) % REPLICATES)
             .max(REPLICATES)
             .min(left);
+        // A round of every pixel at one count splats as a uniform run does
+        // (the pilot, and a uniform continuation): each dispatch's samples fill
+        // the splatting buffer from its start, and its pass follows.
+        let splat_limit = (self.splat_samples.as_ref())
+            .filter(|_| adaptive.round_is_uniform())
+            .map(|&(_, limit)| limit);
+        let first_sample = adaptive.round.first().map_or(0, |&[_, count]| count) + round_done;
+        let chunk = self
+            .max_samples_per_dispatch
+            .min(splat_limit.unwrap_or(u32::MAX));
         let started = Instant::now();
-        let mut row = 0;
-        while row < list_rows {
-            let tile_rows = rows.min(list_rows - row);
-            let mut done = 0;
-            while done < samples {
-                let count = (samples - done).min(self.max_samples_per_dispatch);
+        let mut done = 0;
+        while done < samples {
+            let count = (samples - done).min(chunk);
+            let mut row = 0;
+            while row < list_rows {
+                let tile_rows = rows.min(list_rows - row);
                 let params = Params {
                     sample_start: round_done + done,
                     sample_count: count,
                     tile_origin: [0, row],
                     tile_size: [width, tile_rows],
                     active_count: entries,
+                    splatting: splat_limit.is_some() as u32,
                     ..self.params
                 };
                 self.submit(params);
-                done += count;
+                row += tile_rows;
             }
-            row += tile_rows;
+            if splat_limit.is_some() {
+                let start = first_sample + done;
+                self.splat_from(start, count, start == 0);
+            }
+            done += count;
         }
         self.wait();
         let adaptive = self.adaptive.as_mut().expect("an adaptive renderer");
@@ -1097,6 +1120,14 @@ impl AdaptiveRun {
     fn rounds_next(&self) -> bool {
         self.choice.map_or(self.pilot_done(), |c| !c.uniform)
     }
+
+    /// Whether the round samples every pixel from one count, as a uniform run
+    /// does: then it can splat (the pilot, and a uniform continuation).
+    fn round_is_uniform(&self) -> bool {
+        let start = self.round.first().map(|&[_, count]| count);
+        self.round.len() == self.counts.len()
+            && self.round.iter().all(|&[_, count]| Some(count) == start)
+    }
 }
 
 /// What a run's kernel is: the packed scene, the kernel configuration, and what
@@ -1206,7 +1237,7 @@ pub fn plan_kernel(
         variance: config.variance || options.adaptive,
         adaptive: options.adaptive,
         replicates: options.sampler_replicates || config.variance || options.adaptive,
-        splat: choose_splat(ctx, scene, options, &mut warnings),
+        splat: choose_splat(ctx, scene, &mut warnings),
         profile: options.profile,
         ..config
     };
@@ -1226,30 +1257,22 @@ pub fn plan_kernel(
 
 /// Whether the run splats its samples (`Reconstruction::Splat`): by default
 /// wherever the filter is wider than a pixel (splatting with the box filter is
-/// filter importance sampling), unless the run is adaptive, whose pixels'
-/// sample counts differ, or the image is too large for it; a note where it
-/// would and cannot (drawn offsets cost 2-3x the relMSE at equal samples).
-fn choose_splat(
-    ctx: &GpuContext,
-    scene: &Scene,
-    options: &RenderOptions,
-    warnings: &mut Vec<String>,
-) -> bool {
+/// filter importance sampling), unless the image is too large for it; a note
+/// where it would and cannot (drawn offsets cost 2-3x the relMSE at equal
+/// samples). An adaptive run splats its uniform rounds alone: the others'
+/// pixels take different numbers of samples, so they draw offsets.
+fn choose_splat(ctx: &GpuContext, scene: &Scene, warnings: &mut Vec<String>) -> bool {
     let filter = scene.camera.filter;
     if scene.render.reconstruction_with(filter) == Reconstruction::Importance {
         return false;
     }
     let (width, height) = (scene.camera.width, scene.camera.height);
-    let reason = if options.adaptive {
-        "adaptive sampling's pixels take different numbers of samples (drawn offsets \
-         measured 2-3x the relMSE of splatting at equal samples: a uniform run may render better)"
-    } else if splat_samples_per_submission(ctx, filter, width, height).is_none() {
-        "one sample of every pixel is more than the device can hold in one buffer"
-    } else {
+    if splat_samples_per_submission(ctx, filter, width, height).is_some() {
         return true;
-    };
+    }
     warnings.push(format!(
-        "the {} filter is applied by importance sampling, not splatting: {reason}",
+        "the {} filter is applied by importance sampling, not splatting: one sample of \
+         every pixel is more than the device can hold in one buffer",
         filter.name()
     ));
     false
