@@ -759,7 +759,7 @@ impl<'a> Renderer<'a> {
         let splat_limit = (self.splat_samples.as_ref())
             .filter(|_| adaptive.round_is_uniform())
             .map(|&(_, limit)| limit);
-        let first_sample = adaptive.round.first().map_or(0, |&[_, count]| count) + round_done;
+        let submission_start = adaptive.round.first().map_or(0, |&[_, count]| count) + round_done;
         let chunk = self
             .max_samples_per_dispatch
             .min(splat_limit.unwrap_or(u32::MAX));
@@ -783,7 +783,7 @@ impl<'a> Renderer<'a> {
                 row += tile_rows;
             }
             if splat_limit.is_some() {
-                let start = first_sample + done;
+                let start = submission_start + done;
                 self.splat_from(start, count, start == 0);
             }
             done += count;
