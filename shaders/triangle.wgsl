@@ -68,6 +68,29 @@ fn triangle_hit_t(tri: Triangle, ray: Ray, t_max: f32) -> f32 {
     return select(-1.0, t, inside);
 }
 
+// The test of a triangle compiled into the kernel (a baked scene's, or one of
+// the largest beside the BVH), which every ray runs: the ray meets the
+// triangle's plane, and the point's barycentric coordinates are its
+// projections on two axes, all folded to constants (as the quad's test). A
+// third of the watertight test's arithmetic, which spends most of it on the
+// ray's frame (docs/benchmarks.md). Not watertight: a ray within rounding of
+// an edge two of them share may pass between them, as it may between
+// Mitsuba's triangles (Moller-Trumbore).
+fn triangle_constant_hit_t(tri: Triangle, ray: Ray, t_max: f32) -> f32 {
+    let e1 = tri.p1 - tri.p0;
+    let e2 = tri.p2 - tri.p0;
+    let n = cross(e1, e2);
+    let inv_n2 = 1.0 / dot(n, n);
+    let t = (dot(n, tri.p0) - dot(n, ray.origin)) / dot(n, ray.dir);
+    let planar = ray.origin + t * ray.dir - tri.p0;
+    let b1 = dot(planar, cross(e2, n) * inv_n2);
+    let b2 = dot(planar, cross(n, e1) * inv_n2);
+    // A degenerate triangle's coordinates are NaN, and a ray along the plane's
+    // distance infinite or NaN: each fails a comparison.
+    let inside = (t > 0.0) & (t < t_max) & (b1 >= 0.0) & (b2 >= 0.0) & (b1 + b2 <= 1.0);
+    return select(-1.0, t, inside);
+}
+
 // The closest hit keeps the face normal.
 fn triangle_hit_keep(tri: Triangle) -> vec4<f32> {
     return vec4<f32>(normalize(triangle_cross(tri)), 0.0);

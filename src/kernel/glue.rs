@@ -421,9 +421,10 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
     if config.instances {
         out.push_str("    var hit_instance = NO_INSTANCE;\n");
     }
-    // The test of `primitive`, a kind-`k` element in scope, along `ray`; with
-    // instances, `instance` is the one whose group holds it (`NO_INSTANCE`: none).
-    let test = |k: usize, indent: &str, ray: &str, instance: &str| {
+    // The test `hit_t` of `primitive`, a kind-`k` element in scope, along `ray`;
+    // with instances, `instance` is the one whose group holds it (`NO_INSTANCE`:
+    // none).
+    let test = |k: usize, hit_t: &str, indent: &str, ray: &str, instance: &str| {
         let name = PRIMITIVE_KINDS[k].name;
         let mut tag = if several {
             format!("{indent}    hit_kind = {k}u;\n")
@@ -448,7 +449,7 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
             false => format!("{indent}    hit_keep = {name}_hit_keep(primitive);\n"),
         };
         format!(
-            "{indent}let t = {name}_hit_t(primitive, {ray}, hit.t);
+            "{indent}let t = {hit_t}(primitive, {ray}, hit.t);
 {indent}if t > 0.0 {{
 {indent}    hit.t = t;
 {indent}    hit.material = primitive.material;
@@ -463,11 +464,13 @@ fn closest_hit(out: &mut String, config: &KernelConfig) {
         bvh_traversal(out, config, &bvh_kinds, &CLOSEST_HIT, test);
     } else {
         for &k in &kinds {
-            let array = PRIMITIVE_KINDS[k].array;
+            let kind = PRIMITIVE_KINDS[k];
+            let array = kind.array;
+            let hit_t = kind.hit_t(config.compiles_in(ArraySource::Primitives(k)));
             write!(
                 out,
                 "#for_each primitive in {array}\n{}#end_for\n",
-                test(k, "    ", "ray", "NO_INSTANCE")
+                test(k, &hit_t, "    ", "ray", "NO_INSTANCE")
             )
             .unwrap();
         }
@@ -804,12 +807,13 @@ fn wide_bvh_walk(out: &mut String, walk: &WideWalk, stack_size: u32, visit: &str
     .unwrap();
 }
 
-/// `test` (a kind, an indent, the ray and the instance) run on each of the
-/// large primitives compiled in beside the BVH.
+/// `test` (a kind, its test's function, an indent, the ray and the instance)
+/// run on each of the large primitives compiled in beside the BVH, by their
+/// kind's test of constants (`PrimitiveKind::hit_t`), as a baked scene's.
 fn large_primitive_tests(
     out: &mut String,
     config: &KernelConfig,
-    test: &impl Fn(usize, &str, &str, &str) -> String,
+    test: &impl Fn(usize, &str, &str, &str, &str) -> String,
 ) {
     for array in config.scene_arrays() {
         if let ArraySource::Large(k) = array.source {
@@ -817,7 +821,13 @@ fn large_primitive_tests(
                 out,
                 "#for_each primitive in {}\n{}#end_for\n",
                 array.name,
-                test(k, "    ", "ray", "NO_INSTANCE")
+                test(
+                    k,
+                    &PRIMITIVE_KINDS[k].hit_t(true),
+                    "    ",
+                    "ray",
+                    "NO_INSTANCE"
+                )
             )
             .unwrap();
         }
@@ -835,9 +845,8 @@ fn occlusion(out: &mut String, config: &KernelConfig) {
         out.push_str("    return intersect_scene(ray).t < t_max;\n}\n");
         return;
     }
-    let test = |k: usize, indent: &str, ray: &str, _instance: &str| {
-        let name = PRIMITIVE_KINDS[k].name;
-        format!("{indent}blocked = blocked || {name}_hit_t(primitive, {ray}, t_bound) > 0.0;\n")
+    let test = |_k: usize, hit_t: &str, indent: &str, ray: &str, _instance: &str| {
+        format!("{indent}blocked = blocked || {hit_t}(primitive, {ray}, t_bound) > 0.0;\n")
     };
     out.push_str("    var blocked = false;\n    var t_bound = t_max;\n");
     large_primitive_tests(out, config, &test);
@@ -932,7 +941,7 @@ fn bvh_traversal(
     config: &KernelConfig,
     kinds: &[usize],
     bound: &WalkBound,
-    test: impl Fn(usize, &str, &str, &str) -> String,
+    test: impl Fn(usize, &str, &str, &str, &str) -> String,
 ) {
     // A profiling kernel counts the walk's node visits and primitive tests
     // toward the closest hit's stages or the shadow ray's (`profile_walk`).
@@ -941,11 +950,18 @@ fn bvh_traversal(
         false => String::new(),
     };
     let range = |k: usize, indent: &str, ray: &str, instance: &str| {
-        let array = PRIMITIVE_KINDS[k].array;
+        let kind = PRIMITIVE_KINDS[k];
         format!(
-            "{indent}for (var primitive_index = link.x; primitive_index < end; primitive_index += 1u) {{\n{}{indent}    let primitive = {array}_at(primitive_index);\n{}{indent}}}\n",
+            "{indent}for (var primitive_index = link.x; primitive_index < end; primitive_index += 1u) {{\n{}{indent}    let primitive = {}_at(primitive_index);\n{}{indent}}}\n",
             hook("profile_walk + 1u", &format!("{indent}    ")),
-            test(k, &format!("{indent}    "), ray, instance)
+            kind.array,
+            test(
+                k,
+                &kind.hit_t(false),
+                &format!("{indent}    "),
+                ray,
+                instance
+            )
         )
     };
     // A leaf's ranges by its kind.

@@ -162,6 +162,7 @@ pub const CYLINDER: PrimitiveKind = PrimitiveKind {
     reprojects_hit_point: true,
     keeps_primitive: true,
     light_importance: false,
+    constant_test: false,
     object: Some(ObjectType {
         keys: &["p0", "p1", "radius", "flip_normals"],
         parse,

@@ -129,6 +129,7 @@ pub const DISK: PrimitiveKind = PrimitiveKind {
     reprojects_hit_point: false,
     keeps_primitive: false,
     light_importance: true,
+    constant_test: false,
     object: Some(ObjectType {
         keys: &["center", "u", "v"],
         parse,

@@ -273,6 +273,11 @@ pub struct PrimitiveKind {
     /// light `origin`). Next-event estimation under `nee-mis` picks such lights
     /// mostly in proportion to it (`KernelConfig::spatial_light_selection`).
     pub light_importance: bool,
+    /// Its module defines `fn NAME_constant_hit_t(p: S, ray: Ray, t_max: f32) ->
+    /// f32`, the test of a primitive compiled into the kernel (a baked scene's,
+    /// or one of the largest beside a BVH, `accel::MAX_LARGE`), which every ray
+    /// runs: cheaper than `NAME_hit_t` once the primitive's constants fold.
+    pub constant_test: bool,
     /// How scene files name one shape of this kind, if they do.
     pub(crate) object: Option<ObjectType>,
 }
@@ -307,6 +312,15 @@ impl PrimitiveKind {
 
     pub fn normals_flag(&self) -> String {
         self.normals_array().to_uppercase()
+    }
+
+    /// The kernel's test of a primitive of this kind: `NAME_hit_t`, or where the
+    /// primitive is compiled in, its test of constants if it has one.
+    pub fn hit_t(&self, compiled_in: bool) -> String {
+        match compiled_in && self.constant_test {
+            true => format!("{}_constant_hit_t", self.name),
+            false => format!("{}_hit_t", self.name),
+        }
     }
 
     /// The byte offset of the `light` field of a kind with `grouped_lights`.

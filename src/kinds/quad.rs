@@ -169,6 +169,7 @@ pub const QUAD: PrimitiveKind = PrimitiveKind {
     reprojects_hit_point: false,
     keeps_primitive: false,
     light_importance: true,
+    constant_test: false,
     object: Some(ObjectType {
         keys: &["q", "u", "v"],
         parse,

@@ -142,6 +142,7 @@ pub const SPHERE: PrimitiveKind = PrimitiveKind {
     reprojects_hit_point: true,
     keeps_primitive: false,
     light_importance: true,
+    constant_test: false,
     object: Some(ObjectType {
         keys: &["center", "radius"],
         parse,

@@ -119,6 +119,7 @@ pub const TRIANGLE: PrimitiveKind = PrimitiveKind {
     reprojects_hit_point: false,
     keeps_primitive: false,
     light_importance: false,
+    constant_test: true,
     object: None,
 };
 
