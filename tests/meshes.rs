@@ -49,7 +49,7 @@ fn furnace_mesh(name: &str, strategy: Strategy, spp: u32, max_depth: u32, inside
 /// stays inside sees exactly the analytic value; a ray slipping through an edge
 /// or a corner shared by two triangles would escape to the black background
 /// (the test through the BVH and from buffers is watertight; baked, the walls
-/// are tested at their planes, which the camera's rays do not slip between).
+/// are tested at their planes, and none of this image's rays slips between).
 #[test]
 fn mesh_furnace_bsdf_is_exact() {
     let ctx = gpu_or_skip!();
