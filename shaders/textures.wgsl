@@ -18,26 +18,23 @@ struct TextureInfo {
     _pad1: u32,
 }
 
-// Texel index `i` of a row or column `n` long, wrapped into [0, n).
-fn texture_wrap(i: i32, n: i32, wrap: u32) -> i32 {
-    switch wrap {
-        case TEXTURE_WRAP_CLAMP: {
-            return clamp(i, 0, n - 1);
-        }
-        case TEXTURE_WRAP_MIRROR: {
-            let p = ((i % (2 * n)) + 2 * n) % (2 * n);
-            return select(p, 2 * n - 1 - p, p >= n);
-        }
-        default: {
-            return ((i % n) + n) % n;
-        }
-    }
+// Texel indices `i` and `i + 1` of a row or column `n` long, each wrapped into
+// [0, n). One integer division for both: lavapipe divides lane by lane.
+fn texture_wrap_pair(i: i32, n: i32, wrap: u32) -> vec2<i32> {
+    // Repeat and mirror are periodic, a mirror's period two images long.
+    let mirror = wrap == TEXTURE_WRAP_MIRROR;
+    let period = select(n, 2 * n, mirror);
+    let r = i % period;
+    let first = select(r, r + period, r < 0);
+    let periodic = vec2<i32>(first, select(first + 1, 0, first + 1 == period));
+    let folded = select(periodic, vec2<i32>(period - 1) - periodic, vec2<bool>(mirror) & (periodic >= vec2<i32>(n)));
+    let clamped = clamp(vec2<i32>(i, i + 1), vec2<i32>(0), vec2<i32>(n - 1));
+    return select(folded, clamped, wrap == TEXTURE_WRAP_CLAMP);
 }
 
+// The texel at column `x` and row `y`, both within the image.
 fn texture_texel(t: TextureInfo, x: i32, y: i32) -> vec3<f32> {
-    let tx = u32(texture_wrap(x, i32(t.width), t.wrap));
-    let ty = u32(texture_wrap(y, i32(t.height), t.wrap));
-    let i = t.offset + 3u * (ty * t.width + tx);
+    let i = t.offset + 3u * (u32(y) * t.width + u32(x));
     return vec3<f32>(texture_texels_at(i), texture_texels_at(i + 1u), texture_texels_at(i + 2u));
 }
 
@@ -55,17 +52,18 @@ fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {
     // clamping keeps the integer conversion defined.
     let size = vec2<f32>(f32(t.width), f32(t.height));
     let p = clamp(uv * size, vec2<f32>(-1.0e9), vec2<f32>(1.0e9));
-    if t.nearest != 0u {
-        let q = vec2<i32>(floor(p));
-        return texture_texel(t, q.x, q.y);
-    }
-    let c = p - 0.5;
+    // The nearest texel is the first of the four a bilinear lookup about p
+    // itself reads: one path for both, which lavapipe would run both of.
+    let nearest = t.nearest != 0u;
+    let c = select(p - 0.5, p, nearest);
     let c0 = floor(c);
     let f = c - c0;
-    let q = vec2<i32>(c0);
-    let top = (1.0 - f.x) * texture_texel(t, q.x, q.y) + f.x * texture_texel(t, q.x + 1, q.y);
-    let bottom = (1.0 - f.x) * texture_texel(t, q.x, q.y + 1) + f.x * texture_texel(t, q.x + 1, q.y + 1);
-    return (1.0 - f.y) * top + f.y * bottom;
+    let xs = texture_wrap_pair(i32(c0.x), i32(t.width), t.wrap);
+    let ys = texture_wrap_pair(i32(c0.y), i32(t.height), t.wrap);
+    let texel00 = texture_texel(t, xs.x, ys.x);
+    let top = (1.0 - f.x) * texel00 + f.x * texture_texel(t, xs.y, ys.x);
+    let bottom = (1.0 - f.x) * texture_texel(t, xs.x, ys.y) + f.x * texture_texel(t, xs.y, ys.y);
+    return select((1.0 - f.y) * top + f.y * bottom, texel00, nearest);
 }
 
 // Texture `index` at `surface_uv` as one number (a material's textured number,
@@ -136,11 +134,12 @@ fn texture_gradient(t: TextureInfo, surface_uv: vec2<f32>) -> vec2<f32> {
     let c = clamp(uv * size, vec2<f32>(-1.0e9), vec2<f32>(1.0e9)) - 0.5;
     let c0 = floor(c);
     let f = c - c0;
-    let q = vec2<i32>(c0);
-    let f00 = texture_luminance(texture_texel(t, q.x, q.y));
-    let f10 = texture_luminance(texture_texel(t, q.x + 1, q.y));
-    let f01 = texture_luminance(texture_texel(t, q.x, q.y + 1));
-    let f11 = texture_luminance(texture_texel(t, q.x + 1, q.y + 1));
+    let xs = texture_wrap_pair(i32(c0.x), i32(t.width), t.wrap);
+    let ys = texture_wrap_pair(i32(c0.y), i32(t.height), t.wrap);
+    let f00 = texture_luminance(texture_texel(t, xs.x, ys.x));
+    let f10 = texture_luminance(texture_texel(t, xs.y, ys.x));
+    let f01 = texture_luminance(texture_texel(t, xs.x, ys.y));
+    let f11 = texture_luminance(texture_texel(t, xs.y, ys.y));
     // Along the texture's own u' and v' ...
     let d = size * vec2<f32>(mix(f10 - f00, f11 - f01, f.y), mix(f01 - f00, f11 - f10, f.x));
     // ... and so along the surface's: d/du = d/du' du'/du + d/dv' dv'/du.
