@@ -15,7 +15,7 @@ struct TextureInfo {
     offset: u32,
     nearest: u32,
     bump_scale: f32,
-    _pad1: u32,
+    texel_format: u32,
 }
 
 // Texel indices `i` and `i + 1` of a row or column `n` long, each wrapped into
@@ -32,10 +32,40 @@ fn texture_wrap_pair(i: i32, n: i32, wrap: u32) -> vec2<i32> {
     return select(folded, clamped, wrap == TEXTURE_WRAP_CLAMP);
 }
 
-// The texel at column `x` and row `y`, both within the image.
+#if BYTE_TEXELS
+// What each 8-bit code stands for (`kinds::texel_byte_values`: sRGB-decoded,
+// then raw), in private memory, which lavapipe reads at a computed index in
+// about 1.4 cycles a lane; a constant array so read was 75 times slower.
+var<private> texel_byte_values: array<f32, 512> = TEXEL_BYTE_VALUES;
+#endif
+
+// The texel at column `x` and row `y`, both within the image: three floats,
+// or a word of 8-bit codes (`kinds::TexelFormat`).
 fn texture_texel(t: TextureInfo, x: i32, y: i32) -> vec3<f32> {
-    let i = t.offset + 3u * (u32(y) * t.width + u32(x));
-    return vec3<f32>(texture_texels_at(i), texture_texels_at(i + 1u), texture_texels_at(i + 2u));
+    let texel = u32(y) * t.width + u32(x);
+#if FLOAT_TEXELS
+    let i = t.offset + 3u * texel;
+    let floats = bitcast<vec3<f32>>(vec3<u32>(texture_texels_at(i), texture_texels_at(i + 1u), texture_texels_at(i + 2u)));
+#if !BYTE_TEXELS
+    return floats;
+#endif
+#endif
+#if BYTE_TEXELS
+    let codes = (vec3<u32>(texture_texels_at(t.offset + texel)) >> vec3<u32>(0u, 8u, 16u)) & vec3<u32>(0xffu);
+    let table = select(0u, 256u, t.texel_format == TEXELS_RAW8) + codes;
+    let bytes = vec3<f32>(texel_byte_values[table.x], texel_byte_values[table.y], texel_byte_values[table.z]);
+#if FLOAT_TEXELS
+    return select(bytes, floats, t.texel_format == TEXELS_FLOAT);
+#else
+    return bytes;
+#endif
+#endif
+#if !FLOAT_TEXELS
+#if !BYTE_TEXELS
+    // Checkerboards alone: no bitmap to read.
+    return vec3<f32>(0.0);
+#endif
+#endif
 }
 
 fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {

@@ -28,7 +28,10 @@ pub struct SceneData {
     pub lights: Vec<PackedArray>,
     /// The materials' textures (`kinds::TextureTables`); empty without.
     pub textures: Vec<TextureInfo>,
-    pub texture_texels: Vec<f32>,
+    /// Their bitmaps' texels, in words, and the formats they use, a bit each
+    /// (`kinds::TextureTables`).
+    pub texture_texels: Vec<u32>,
+    pub texel_formats: u32,
     /// Per kind with grouped lights: each light's group and area, as `lights`.
     pub light_members: Vec<Vec<(u32, f32)>>,
     /// Per kind with grouped lights that has some: their groups, alias tables
@@ -57,6 +60,7 @@ impl Default for SceneData {
             lights: vec![PackedArray::default(); PRIMITIVE_KINDS.len()],
             textures: Vec::new(),
             texture_texels: Vec::new(),
+            texel_formats: 0,
             light_members: vec![Vec::new(); PRIMITIVE_KINDS.len()],
             light_tables: vec![None; PRIMITIVE_KINDS.len()],
             bvh: None,
@@ -121,6 +125,7 @@ impl SceneData {
             material_tables: material_tables.values,
             textures: textures.infos,
             texture_texels: textures.texels,
+            texel_formats: textures.texel_formats,
             environment: scene
                 .environment
                 .as_ref()

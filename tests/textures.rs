@@ -359,6 +359,16 @@ fn bilinear_lookups_weigh_the_four_nearest_texels() {
     eprintln!("bilinear: worst pixel error {worst}");
 }
 
+/// An 8-bit code's linear value (IEC 61966-2-1), in f64.
+fn srgb(code: u8) -> f64 {
+    let c = code as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// 8-bit images are sRGB-decoded (IEC 61966-2-1, computed here in f64), or
 /// taken as code / 255 with `raw = true`; a JPEG of one flat colour decodes
 /// to that colour (within a code of JPEG's rounding).
@@ -374,14 +384,6 @@ fn eight_bit_images_decode_from_srgb() {
     image::RgbImage::from_pixel(8, 8, image::Rgb([128, 128, 128]))
         .save(dir.join("flat.jpg"))
         .unwrap();
-    let srgb = |c: u8| {
-        let c = c as f64 / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
     let (q, u, v) = ([-1.0, -1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
     let shape = quad_uv(DVec3::from(q), DVec3::from(u), DVec3::from(v));
     let view = ([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
@@ -437,6 +439,59 @@ fn eight_bit_images_decode_from_srgb() {
                 "{pixel:?}"
             );
         }
+    }
+}
+
+/// An 8-bit image's texels are read as its codes and decoded in the kernel
+/// (`kinds::TexelFormat`): the render is the same, bit for bit, as that of an
+/// EXR holding the floats the host decodes them to (sRGB in f64 rounded to
+/// f32, or code / 255), bilinearly filtered and mirrored, with each of the 256
+/// codes in each channel. Beside a second quad with a float texture, the kernel
+/// reads both formats.
+#[test]
+fn eight_bit_texels_decode_to_the_hosts_floats() {
+    let Some(ctx) = common::gpu() else {
+        return;
+    };
+    let dir = common::TempDir::new("textures", "bytes");
+    let code = |x: u32, y: u32, channel: u32| ((16 * y + x) * (2 * channel + 1) % 256) as u8;
+    let image =
+        image::RgbImage::from_fn(16, 16, |x, y| image::Rgb([0, 1, 2].map(|c| code(x, y, c))));
+    image.save(dir.join("codes.png")).unwrap();
+    common::write_exr(&dir.join("other.exr"), 4, 4, distinct);
+    let render = |file: &str, raw: bool| {
+        let body = format!(
+            "[materials.m]\ntype = \"lambertian\"\nalbedo = {{ type = \"bitmap\", file = \"{file}\", raw = {raw}, wrap_mode = \"mirror\", to_uv = {{ scale = 1.5, translate = [-0.2, -0.3] }} }}\n\
+             [materials.other]\ntype = \"lambertian\"\nalbedo = {{ type = \"bitmap\", file = \"other.exr\" }}\n\
+             [[objects]]\ntype = \"quad\"\nq = [-1.0, -1.0, 0.0]\nu = [1.5, 0.0, 0.0]\nv = [0.0, 2.0, 0.0]\nmaterial = \"m\"\n\
+             [[objects]]\ntype = \"quad\"\nq = [0.6, -1.0, 0.0]\nu = [0.4, 0.0, 0.0]\nv = [0.0, 2.0, 0.0]\nmaterial = \"other\"\n"
+        );
+        let s = scene(
+            &dir,
+            &body,
+            ([0.0, 0.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+            48,
+            4,
+        );
+        common::render(ctx, &s, &RenderOptions::default())
+            .mean()
+            .pixels
+    };
+    for raw in [false, true] {
+        let decode = |c: u8| {
+            if raw {
+                c as f32 / 255.0
+            } else {
+                srgb(c) as f32
+            }
+        };
+        let twin = format!("twin-{raw}.exr");
+        common::write_exr(&dir.join(&twin), 16, 16, |x, y| {
+            [0, 1, 2].map(|c| decode(code(x as u32, y as u32, c)))
+        });
+        let (bytes, floats) = (render("codes.png", raw), render(&twin, raw));
+        assert!(bytes.iter().any(|p| p[0] != 1.0), "the quads are in view");
+        assert_eq!(bytes, floats, "raw {raw}");
     }
 }
 

@@ -17,7 +17,7 @@ use crate::kinds::{
     ErasedLayout, FILTER_TABLE_BINS, Filter, FilterTable, Lobe, MASK_RAY_HITS, MATERIAL_BUMP_SHIFT,
     MATERIAL_KINDS, MATERIAL_NESTING, MATERIAL_NUMBER_SLOTS, MATERIAL_TEXTURE_BITS,
     MATERIAL_TEXTURE_SHIFT, MATERIAL_TRANSPARENCY_MAX, MATERIAL_TRANSPARENCY_SHIFT, NO_LIGHT,
-    PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, texture_constants,
+    PRIMITIVE_KINDS, PrimitiveKind, ROUGH_TRANSMITTANCE_RES, texel_byte_values, texture_constants,
 };
 use crate::pack::SceneData;
 use crate::shader::element_constant;
@@ -82,6 +82,12 @@ pub fn shared_constants() -> String {
         out,
         "const LUMINANCE: vec3<f32> = {};",
         LUMINANCE.wgsl_value()
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "const TEXEL_BYTE_VALUES: array<f32, 512> = {};",
+        texel_byte_values().wgsl_value()
     )
     .unwrap();
     out

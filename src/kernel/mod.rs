@@ -15,7 +15,7 @@ use crate::accel::{self, PackedInstance, WideBvh, WideBvhNode};
 use crate::environment::EnvironmentInfo;
 use crate::kinds::{
     ErasedLayout, FILTER_FLAGS, FILTER_MODULE, KindSet, MATERIAL_BUMP_SHIFT, MATERIAL_KINDS,
-    PRIMITIVE_KINDS, PackedArray, TextureInfo,
+    PRIMITIVE_KINDS, PackedArray, TexelFormat, TextureInfo,
 };
 use crate::lights::{DeltaLight, LightGroup, LightPick, LightRef};
 use crate::pack::SceneData;
@@ -75,6 +75,8 @@ const FEATURE_FLAGS: &[&str] = &[
     "DELTA_LIGHTS_PICK",
     "DIRECTIONAL_LIGHTS",
     "TEXTURES",
+    "FLOAT_TEXELS",
+    "BYTE_TEXELS",
     "BUMP_MAPS",
     "TEXTURED_NUMBERS",
     "NESTED_MATERIALS",
@@ -235,7 +237,8 @@ impl ArraySource {
                 None,
                 ArraySource::Environment(EnvironmentPart::Texels | EnvironmentPart::Pyramid),
             ) => ("vec4<f32>", 16),
-            (None, ArraySource::MaterialTables | ArraySource::TextureTexels) => ("f32", 4),
+            (None, ArraySource::MaterialTables) => ("f32", 4),
+            (None, ArraySource::TextureTexels) => ("u32", 4),
             (None, other) => unreachable!("{other:?} has a host struct"),
         }
     }
@@ -454,6 +457,10 @@ pub struct KernelConfig {
     pub delta_light_pick: bool,
     /// Some material has a texture: hits carry texture coordinates.
     pub textures: bool,
+    /// Some bitmap's texels are floats (`kinds::TexelFormat::Float`).
+    pub float_texels: bool,
+    /// Some bitmap's texels are 8-bit codes, decoded by `TEXEL_BYTE_VALUES`.
+    pub byte_texels: bool,
     /// Some material has a bump or normal map (`kinds::Bump`; implies
     /// `textures`): hits carry their tangents along u and v, the shading
     /// normal is perturbed, and the leak check of shading normals applies.
@@ -702,6 +709,8 @@ impl KernelConfig {
             directional_lights: data.delta_lights.iter().any(|l| l.infinite != 0.0),
             delta_light_pick: data.delta_lights.len() > Self::MAX_DELTA_SHADOW_RAYS,
             textures: !data.textures.is_empty(),
+            float_texels: data.texel_formats & (1 << TexelFormat::Float as u32) != 0,
+            byte_texels: data.texel_formats & !(1 << TexelFormat::Float as u32) != 0,
             bump_maps: data
                 .materials
                 .iter()
@@ -779,6 +788,8 @@ impl KernelConfig {
             directional_lights: true,
             delta_light_pick: false,
             textures: true,
+            float_texels: true,
+            byte_texels: true,
             bump_maps: true,
             textured_numbers: true,
             grouped_density: GroupedDensity::Walk,
@@ -990,6 +1001,8 @@ impl KernelConfig {
                 self.delta_lights && self.directional_lights,
             ),
             ("TEXTURES", self.textures),
+            ("FLOAT_TEXELS", self.textures && self.float_texels),
+            ("BYTE_TEXELS", self.textures && self.byte_texels),
             ("BUMP_MAPS", self.bump_maps),
             ("TEXTURED_NUMBERS", self.textured_numbers),
             ("NESTED_MATERIALS", self.nested_materials()),
@@ -1241,6 +1254,8 @@ impl KernelConfig {
             environment: false,
             light_environment: false,
             textures: false,
+            float_texels: false,
+            byte_texels: false,
             bump_maps: false,
             textured_numbers: false,
             opacity_textures: false,
@@ -2414,6 +2429,8 @@ pub(crate) mod tests {
             delta_lights: false,
             directional_lights: false,
             textures: false,
+            float_texels: false,
+            byte_texels: false,
             bump_maps: false,
             textured_numbers: false,
             opacity_textures: false,
@@ -2579,6 +2596,11 @@ pub(crate) mod tests {
         for (name, rust) in expected {
             assert_eq!(value(name), Some(rust), "{name}");
         }
+        let byte_values = crate::kinds::texel_byte_values().map(f32::to_bits);
+        assert_eq!(
+            named_constant(&module, "TEXEL_BYTE_VALUES").as_deref(),
+            Some(&byte_values[..])
+        );
         let entry = &module.entry_points[0];
         assert_eq!(entry.name, ENTRY_POINT);
         assert_eq!(

@@ -81,8 +81,8 @@ pub use sphere::{PackedSphere, Sphere};
 pub(crate) use texture::TEXTURE_KINDS;
 pub use texture::{
     Bitmap, Checkerboard, MATERIAL_BUMP_SHIFT, MATERIAL_TEXTURE_BITS, MATERIAL_TEXTURE_SHIFT,
-    MAX_TEXTURES, Texture, TextureFilter, TextureInfo, TextureKind, TextureTables, UvTransform,
-    WrapMode, serialize_texels, texture_constants,
+    MAX_TEXTURES, TexelFormat, Texture, TextureFilter, TextureInfo, TextureKind, TextureTables,
+    UvTransform, WrapMode, serialize_texels, texel_byte_values, texture_constants,
 };
 pub use triangle::{PackedTriangle, Triangle, TriangleNormals, TriangleUvs};
 

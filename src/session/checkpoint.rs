@@ -1328,6 +1328,7 @@ mod tests {
                             width: 2,
                             height: 1,
                             texels: Arc::new(vec![[0.25, 0.5, 0.75], [1.0, 0.0, 0.125]]),
+                            codes: None,
                             raw: false,
                             wrap: WrapMode::Repeat,
                             filter: TextureFilter::Bilinear,

@@ -10,7 +10,8 @@
 //!   (8- or 16-bit, sRGB-decoded to linear unless `raw = true`), or `.exr` /
 //!   `.hdr` (linear; texels finite and >= 0, values above 1 taken as they are,
 //!   as Mitsuba takes them, up to 1e6: `MAX_TEXEL_VALUE`). At most
-//!   `MAX_TEXTURE_TEXELS` texels.
+//!   `MAX_TEXTURE_WORDS` / 3 texels, or as many as `MAX_TEXTURE_WORDS` of an
+//!   8-bit image.
 //! - `filter_type`: `"bilinear"` (the default: between the four nearest texel
 //!   centres) or `"nearest"`.
 //! - `wrap_mode`: `"repeat"` (the default), `"mirror"` or `"clamp"`: how the
@@ -19,9 +20,12 @@
 //! - `to_uv` as every texture.
 //!
 //! Bitmaps of one file read the same way share their texels in the kernel's
-//! texel array. Its mean is the texels' average. Where a material's number is
-//! a bitmap, it reads the texels' luminance, as Mitsuba's `eval_1`. Mitsuba's `bitmap` becomes
-//! one; it is the texture bump and normal maps take (`kinds::Bump`).
+//! texel array. An 8-bit image's texels stay its codes there, a word each, which
+//! the kernel decodes by the host's own table (`texel_byte_values`): a third of
+//! the memory of three floats, the same values. Its mean is the texels'
+//! average. Where a material's number is a bitmap, it reads the texels'
+//! luminance, as Mitsuba's `eval_1`. Mitsuba's `bitmap` becomes one; it is the
+//! texture bump and normal maps take (`kinds::Bump`).
 
 use super::{
     TextureInfo, TextureKind, TextureModel, TextureTables, TextureValue, serialize_texels,
@@ -42,8 +46,43 @@ pub(super) const BITMAP: TextureModel = TextureModel {
 };
 
 /// Textures in device memory: one storage binding holds every texel (three
-/// floats each), and wgpu's default limit on a binding, lavapipe's too, is 128 MiB.
-const MAX_TEXTURE_TEXELS: u64 = (128 << 20) / 12;
+/// floats each, or one word of an 8-bit image's codes), and wgpu's default
+/// limit on a binding, lavapipe's too, is 128 MiB.
+const MAX_TEXTURE_WORDS: u64 = (128 << 20) / 4;
+
+/// How the kernel reads a bitmap's texels (`TextureInfo::texel_format`, its
+/// discriminant; `texture_constants`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexelFormat {
+    /// Three floats, linear.
+    Float = 0,
+    /// One word of 8-bit codes (red in the lowest byte), sRGB-decoded.
+    Srgb8 = 1,
+    /// The same, each code / 255.
+    Raw8 = 2,
+}
+
+impl TexelFormat {
+    pub const ALL: [TexelFormat; 3] = [TexelFormat::Float, TexelFormat::Srgb8, TexelFormat::Raw8];
+
+    pub fn constant(self) -> &'static str {
+        match self {
+            TexelFormat::Float => "TEXELS_FLOAT",
+            TexelFormat::Srgb8 => "TEXELS_SRGB8",
+            TexelFormat::Raw8 => "TEXELS_RAW8",
+        }
+    }
+}
+
+/// What each 8-bit code stands for: sRGB-decoded at `code`, raw at `256 +
+/// code`. The host decodes 8-bit images by it, and the kernel the codes it
+/// reads (`TEXEL_BYTE_VALUES`), so both see the same texels.
+pub fn texel_byte_values() -> [f32; 512] {
+    std::array::from_fn(|i| match i < 256 {
+        true => srgb_to_linear(i as u8),
+        false => (i - 256) as f32 / 255.0,
+    })
+}
 
 /// Its discriminant is `TextureInfo::wrap` (`texture_constants`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
@@ -112,6 +151,10 @@ pub struct Bitmap {
     pub height: u32,
     #[serde(serialize_with = "serialize_texels")]
     pub texels: Arc<Vec<[f32; 3]>>,
+    /// An 8-bit image's codes, a word a texel (red in the lowest byte): what
+    /// the kernel reads, `texels` decoded.
+    #[serde(skip)]
+    pub codes: Option<Arc<Vec<u32>>>,
     /// The file's values as they are, without the sRGB decoding.
     pub raw: bool,
     pub wrap: WrapMode,
@@ -150,15 +193,21 @@ fn parse(s: &ParamTable) -> Result<TextureKind> {
     )?
     .unwrap_or(TextureFilter::Bilinear);
     let path = s.input(file);
-    let (width, height, texels) = load_image(&path, raw).map_err(|m| s.err(s.at("file"), m))?;
-    if width as u64 * height as u64 > MAX_TEXTURE_TEXELS {
+    let (width, height, texels, codes) =
+        load_image(&path, raw).map_err(|m| s.err(s.at("file"), m))?;
+    let (words_a_texel, images) = match codes {
+        Some(_) => (1, "8-bit images"),
+        None => (3, "16-bit and float images"),
+    };
+    if width as u64 * height as u64 * words_a_texel > MAX_TEXTURE_WORDS {
         return Err(s.err(
             s.at("file"),
             format!(
                 "{}: {width}x{height} texels do not fit the 128 MiB storage binding \
-                 that holds a scene's textures (at most {MAX_TEXTURE_TEXELS} texels): \
-                 scale the image down",
-                path.display()
+                 that holds a scene's textures (at most {} texels of {images}): scale \
+                 the image down",
+                path.display(),
+                MAX_TEXTURE_WORDS / words_a_texel,
             ),
         ));
     }
@@ -167,6 +216,7 @@ fn parse(s: &ParamTable) -> Result<TextureKind> {
         width,
         height,
         texels: Arc::new(texels),
+        codes: codes.map(Arc::new),
         raw,
         wrap,
         filter,
@@ -224,11 +274,23 @@ impl TextureValue for Bitmap {
             Some(&(_, offset)) => offset,
             None => {
                 let offset = tables.texels.len() as u32;
-                tables.texels.extend(self.texels.iter().flatten());
+                match &self.codes {
+                    Some(codes) => tables.texels.extend(codes.iter()),
+                    None => tables
+                        .texels
+                        .extend(self.texels.iter().flatten().map(|c| c.to_bits())),
+                }
                 tables.bitmaps.push((key, offset));
                 offset
             }
         };
+        let format = match (&self.codes, self.raw) {
+            (None, _) => TexelFormat::Float,
+            (Some(_), false) => TexelFormat::Srgb8,
+            (Some(_), true) => TexelFormat::Raw8,
+        };
+        info.texel_format = format as u32;
+        tables.texel_formats |= 1 << format as u32;
         info.wrap = self.wrap as u32;
         info.width = self.width;
         info.height = self.height;
@@ -256,11 +318,15 @@ fn srgb_to_linear(code: u8) -> f32 {
     linear as f32
 }
 
+/// A decoded image: its size, linear texels and, of an 8-bit image, its codes
+/// (`Bitmap::codes`).
+type Image = (u32, u32, Vec<[f32; 3]>, Option<Vec<u32>>);
+
 /// Reads a texture image: `.exr` and `.hdr` through `output::read_linear_image`
 /// (linear), `.png`, `.jpg`/`.jpeg` as 8- or 16-bit RGB, sRGB-decoded unless
 /// `raw` (16-bit PNGs too, as Mitsuba treats them); no texel above
 /// [`MAX_TEXEL_VALUE`]. The error names the file.
-fn load_image(path: &Path, raw: bool) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), String> {
+fn load_image(path: &Path, raw: bool) -> std::result::Result<Image, String> {
     let shown = path.display();
     let extension = path
         .extension()
@@ -278,7 +344,7 @@ fn load_image(path: &Path, raw: bool) -> std::result::Result<(u32, u32, Vec<[f32
                      most {MAX_TEXEL_VALUE:e} (they scale the light a surface reflects)"
                 ));
             }
-            Ok((width, height, texels))
+            Ok((width, height, texels, None))
         }
         "png" | "jpg" | "jpeg" => {
             let image = output::open_image(path)
@@ -294,7 +360,7 @@ fn load_image(path: &Path, raw: bool) -> std::result::Result<(u32, u32, Vec<[f32
                     "{shown}: the image has no texels ({width}x{height})"
                 ));
             }
-            let texels = match image {
+            Ok(match image {
                 image::DynamicImage::ImageLuma16(_)
                 | image::DynamicImage::ImageLumaA16(_)
                 | image::DynamicImage::ImageRgb16(_)
@@ -309,30 +375,27 @@ fn load_image(path: &Path, raw: bool) -> std::result::Result<(u32, u32, Vec<[f32
                             ((v + 0.055) / 1.055).powf(2.4)
                         }
                     };
-                    image
+                    let texels = image
                         .into_rgb16()
                         .pixels()
                         .map(|p| p.0.map(decode))
-                        .collect()
+                        .collect();
+                    (width, height, texels, None)
                 }
                 _ => {
-                    let table: Vec<f32> = (0..=255u8)
-                        .map(|c| {
-                            if raw {
-                                c as f32 / 255.0
-                            } else {
-                                srgb_to_linear(c)
-                            }
-                        })
-                        .collect();
-                    image
-                        .into_rgb8()
+                    let values = texel_byte_values();
+                    let table = &values[if raw { 256 } else { 0 }..][..256];
+                    let image = image.into_rgb8();
+                    let texels = image
                         .pixels()
                         .map(|p| p.0.map(|c| table[c as usize]))
-                        .collect()
+                        .collect();
+                    let codes = image
+                        .pixels()
+                        .map(|p| u32::from_le_bytes([p[0], p[1], p[2], 0]));
+                    (width, height, texels, Some(codes.collect()))
                 }
-            };
-            Ok((width, height, texels))
+            })
         }
         _ => Err(format!(
             "{shown}: unknown texture image format {extension:?} (supported: .png, .jpg, .jpeg, .exr, .hdr)"
@@ -363,6 +426,7 @@ mod tests {
                 width: 2,
                 height: 2,
                 texels: Arc::new(texels),
+                codes: None,
                 raw: false,
                 wrap,
                 filter: TextureFilter::Bilinear,

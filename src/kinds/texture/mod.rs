@@ -26,7 +26,7 @@
 mod bitmap;
 mod checkerboard;
 
-pub use bitmap::{Bitmap, TextureFilter, WrapMode};
+pub use bitmap::{Bitmap, TexelFormat, TextureFilter, WrapMode, texel_byte_values};
 pub use checkerboard::Checkerboard;
 
 use super::params::{ParamTable, Result, check_finite, list, number, unknown_name};
@@ -271,8 +271,9 @@ pub const MATERIAL_BUMP_SHIFT: u32 = MATERIAL_TEXTURE_SHIFT + MATERIAL_TEXTURE_B
 /// index + 1 fits [`MATERIAL_TEXTURE_BITS`].
 pub const MAX_TEXTURES: usize = (1 << MATERIAL_TEXTURE_BITS) - 1;
 
-/// The constants `TextureInfo::kind` and `wrap` take, shared with WGSL: each
-/// kind's id as `TEXTURE_NAME` (its place in `texture_kinds!`), and the wrap modes.
+/// The constants `TextureInfo::kind`, `wrap` and `texel_format` take, shared
+/// with WGSL: each kind's id as `TEXTURE_NAME` (its place in `texture_kinds!`),
+/// the wrap modes and the texel formats.
 pub fn texture_constants() -> Vec<(String, u32)> {
     let kinds = (TEXTURE_KINDS.iter().enumerate())
         .map(|(id, kind)| (format!("TEXTURE_{}", kind.name.to_uppercase()), id as u32));
@@ -282,14 +283,15 @@ pub fn texture_constants() -> Vec<(String, u32)> {
             wrap as u32,
         )
     });
-    kinds.chain(wraps).collect()
+    let formats = (TexelFormat::ALL.into_iter()).map(|f| (f.constant().to_string(), f as u32));
+    kinds.chain(wraps).chain(formats).collect()
 }
 
 gpu_struct! {
     /// One texture: its `to_uv` rows, and the checkerboard's colours or the
-    /// bitmap's size and first texel (an index into the texel array, three
-    /// floats a texel, row-major from the top row). `bump_scale`: a bump
-    /// map's `scale` (`kinds::Bump`), 0 for other textures.
+    /// bitmap's size, first texel (an index into the texel words, row-major
+    /// from the top row) and how its texels are stored (`TexelFormat`).
+    /// `bump_scale`: a bump map's `scale` (`kinds::Bump`), 0 for other textures.
     pub struct TextureInfo {
         pub to_uv_u: [f32; 3],
         pub kind: u32,
@@ -302,7 +304,7 @@ gpu_struct! {
         pub offset: u32,
         pub nearest: u32,
         pub bump_scale: f32,
-        pub _pad1: u32,
+        pub texel_format: u32,
     }
 }
 
@@ -311,7 +313,10 @@ gpu_struct! {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TextureTables {
     pub infos: Vec<TextureInfo>,
-    pub texels: Vec<f32>,
+    /// The bitmaps' texels, in words (`TexelFormat`).
+    pub texels: Vec<u32>,
+    /// The texel formats they use, a bit each (`1 << TexelFormat`).
+    pub texel_formats: u32,
     /// The bitmaps packed so far (file, raw) and their texels' offsets.
     bitmaps: Vec<((String, bool), u32)>,
 }
