@@ -65,6 +65,7 @@ pub enum TexelFormat {
 impl TexelFormat {
     pub const ALL: [TexelFormat; 3] = [TexelFormat::Float, TexelFormat::Srgb8, TexelFormat::Raw8];
 
+    /// Its WGSL constant's name.
     pub fn constant(self) -> &'static str {
         match self {
             TexelFormat::Float => "TEXELS_FLOAT",
