@@ -68,6 +68,27 @@ fn texture_texel(t: TextureInfo, x: i32, y: i32) -> vec3<f32> {
 #endif
 }
 
+// The four texels about texel coordinates `c0` (integers: the lower corner),
+// wrapped: columns x0 and x0 + 1 of rows y0 and y0 + 1, as a bilinear lookup
+// and its gradient read them.
+struct TexelQuad {
+    t00: vec3<f32>,
+    t10: vec3<f32>,
+    t01: vec3<f32>,
+    t11: vec3<f32>,
+}
+
+fn texture_quad(t: TextureInfo, c0: vec2<f32>) -> TexelQuad {
+    let xs = texture_wrap_pair(i32(c0.x), i32(t.width), t.wrap);
+    let ys = texture_wrap_pair(i32(c0.y), i32(t.height), t.wrap);
+    return TexelQuad(
+        texture_texel(t, xs.x, ys.x),
+        texture_texel(t, xs.y, ys.x),
+        texture_texel(t, xs.x, ys.y),
+        texture_texel(t, xs.y, ys.y),
+    );
+}
+
 fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {
 #if PROFILE
     profile(STAGE_TEXTURES);
@@ -88,12 +109,10 @@ fn texture_eval(index: u32, surface_uv: vec2<f32>) -> vec3<f32> {
     let c = select(p - 0.5, p, nearest);
     let c0 = floor(c);
     let f = c - c0;
-    let xs = texture_wrap_pair(i32(c0.x), i32(t.width), t.wrap);
-    let ys = texture_wrap_pair(i32(c0.y), i32(t.height), t.wrap);
-    let texel00 = texture_texel(t, xs.x, ys.x);
-    let top = (1.0 - f.x) * texel00 + f.x * texture_texel(t, xs.y, ys.x);
-    let bottom = (1.0 - f.x) * texture_texel(t, xs.x, ys.y) + f.x * texture_texel(t, xs.y, ys.y);
-    return select((1.0 - f.y) * top + f.y * bottom, texel00, nearest);
+    let q = texture_quad(t, c0);
+    let top = (1.0 - f.x) * q.t00 + f.x * q.t10;
+    let bottom = (1.0 - f.x) * q.t01 + f.x * q.t11;
+    return select((1.0 - f.y) * top + f.y * bottom, q.t00, nearest);
 }
 
 // Texture `index` at `surface_uv` as one number (a material's textured number,
@@ -164,12 +183,11 @@ fn texture_gradient(t: TextureInfo, surface_uv: vec2<f32>) -> vec2<f32> {
     let c = clamp(uv * size, vec2<f32>(-1.0e9), vec2<f32>(1.0e9)) - 0.5;
     let c0 = floor(c);
     let f = c - c0;
-    let xs = texture_wrap_pair(i32(c0.x), i32(t.width), t.wrap);
-    let ys = texture_wrap_pair(i32(c0.y), i32(t.height), t.wrap);
-    let f00 = texture_luminance(texture_texel(t, xs.x, ys.x));
-    let f10 = texture_luminance(texture_texel(t, xs.y, ys.x));
-    let f01 = texture_luminance(texture_texel(t, xs.x, ys.y));
-    let f11 = texture_luminance(texture_texel(t, xs.y, ys.y));
+    let q = texture_quad(t, c0);
+    let f00 = texture_luminance(q.t00);
+    let f10 = texture_luminance(q.t10);
+    let f01 = texture_luminance(q.t01);
+    let f11 = texture_luminance(q.t11);
     // Along the texture's own u' and v' ...
     let d = size * vec2<f32>(mix(f10 - f00, f11 - f01, f.y), mix(f01 - f00, f11 - f10, f.x));
     // ... and so along the surface's: d/du = d/du' du'/du + d/dv' dv'/du.
