@@ -169,7 +169,7 @@ impl GpuContext {
         Ok(kernel)
     }
 
-    /// "name (backend, device type)".
+    /// "name (backend, device type, driver version)".
     pub fn describe(&self) -> String {
         describe(&self.info)
     }
@@ -194,6 +194,37 @@ fn cpu_driver_avx512() -> bool {
         && std::env::var_os("GALLIUM_NOSSE").is_none()
 }
 
+/// The adapter, with its driver's version where the driver reports one: the
+/// same CPU runs a kernel in 0.74-1.17x the time under two Mesa releases
+/// (docs/benchmarks.md), so a figure names both.
 fn describe(info: &wgpu::AdapterInfo) -> String {
-    format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type)
+    let driver = match info.driver_info.as_str() {
+        "" => String::new(),
+        version => format!(", {version}"),
+    };
+    format!(
+        "{} ({:?}, {:?}{driver})",
+        info.name, info.backend, info.device_type
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::describe;
+
+    #[test]
+    fn the_description_names_the_drivers_version() {
+        let mut info = wgpu::AdapterInfo::new(wgpu::DeviceType::Cpu, wgpu::Backend::Vulkan);
+        info.name = "llvmpipe (LLVM 15.0.6, 256 bits)".into();
+        info.driver_info = "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)".into();
+        assert_eq!(
+            describe(&info),
+            "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6))"
+        );
+        info.driver_info.clear();
+        assert_eq!(
+            describe(&info),
+            "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)"
+        );
+    }
 }
