@@ -76,8 +76,10 @@ def pathmix(binary, scene, params, spp, seed, size, extra, out_dir):
     if run.returncode != 0:
         sys.exit(f"pathmix failed ({run.returncode}):\n{run.stderr}")
     seconds = float(re.search(r"in ([0-9.]+) s: ", run.stdout + run.stderr).group(1))
+    # The adapter line names the driver's version, which moves pathmix's time
+    # (docs/benchmarks.md, Mesa's lavapipe: 22.3 against 25.0).
     notes = [line for line in (run.stdout + run.stderr).splitlines()
-             if "warning" in line or line.startswith("adaptive:")]
+             if "warning" in line or line.startswith(("adaptive:", "adapter:"))]
     return np.array(mi.Bitmap(exr), dtype=np.float64)[..., :3], seconds, whole, notes
 
 
